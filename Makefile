@@ -1,0 +1,112 @@
+# sphice: operational SPH sea-ice forecast service.
+#
+# Layers (enforced by `make layers`, part of `make check`):
+#   src/core     numerical core: no I/O, no logging, no allocation in a step
+#   src/util     small service-independent helpers (errors, time, atomic files)
+#   src/io       NetCDF, downloads, rasters, products (uses core + util)
+#   src/service  configuration, forecast engine, scheduler, daemon, status
+#   src/main.c   the `sphice` program on top
+#
+# Every *.c under src/{core,util,io,service} goes into build/libsphice.a;
+# every tests/test_*.c is its own test program; every bench/bench_*.c its
+# own benchmark; every tools/*.c its own tool. Adding a file needs no edit here.
+
+PREFIX  ?= /usr/local
+DESTDIR ?=
+CC      ?= cc
+PKGS    := netcdf libcurl libcjson gsl proj udunits libmicrohttpd sqlite3 cairo libsystemd libcrypto
+PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
+PKG_LIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
+OPT     ?= -O2
+CFLAGS  ?= $(OPT) -g
+WARN    := -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes \
+           -Wno-unused-parameter -Wvla -Wformat=2
+ALL_CFLAGS = -std=c11 -D_GNU_SOURCE -fopenmp $(WARN) -Iinclude $(PKG_CFLAGS) $(CFLAGS) \
+             -DSPHICE_VERSION='"$(VERSION)"' -DSPHICE_GIT='"$(GITREV)"'
+LDLIBS  := $(PKG_LIBS) -lgsl -lgslcblas -lm -fopenmp -lpthread
+VERSION := 0.1.0
+GITREV  := $(shell git rev-parse --short=12 HEAD 2>/dev/null || echo unknown)
+
+BUILD   ?= build
+LIB_SRC := $(wildcard src/util/*.c src/core/*.c src/io/*.c src/service/*.c)
+LIB_OBJ := $(LIB_SRC:%.c=$(BUILD)/%.o)
+TEST_SRC := $(wildcard tests/test_*.c)
+TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
+BENCH_SRC := $(wildcard bench/bench_*.c)
+BENCH_BIN := $(BENCH_SRC:bench/%.c=$(BUILD)/bench/%)
+TOOL_SRC := $(wildcard tools/*.c)
+TOOL_BIN := $(TOOL_SRC:tools/%.c=$(BUILD)/tools/%)
+
+.PHONY: all deps check check-long sanitize valgrind layers demo bench clean install tests tools
+all: $(BUILD)/sphice tools
+
+deps:
+	tools/install-deps.sh
+
+$(BUILD)/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(ALL_CFLAGS) -MMD -MP -c $< -o $@
+
+$(BUILD)/libsphice.a: $(LIB_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+
+$(BUILD)/sphice: $(BUILD)/src/main.o $(BUILD)/libsphice.a
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(LDLIBS)
+
+$(BUILD)/tests/%: $(BUILD)/tests/%.o $(BUILD)/libsphice.a
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(LDLIBS)
+
+$(BUILD)/bench/%: $(BUILD)/bench/%.o $(BUILD)/libsphice.a
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(LDLIBS)
+
+$(BUILD)/tools/%: $(BUILD)/tools/%.o $(BUILD)/libsphice.a
+	$(CC) $(ALL_CFLAGS) -o $@ $^ $(LDLIBS)
+
+tests: $(TEST_BIN) $(BUILD)/sphice
+tools: $(TOOL_BIN)
+
+# The core must never include I/O or service headers, nor do I/O itself.
+layers:
+	@bad=$$(grep -nE '#include *"(io|service|util)/|#include *<(stdio|netcdf|curl/curl|cjson/cJSON|sqlite3|microhttpd|cairo)\.h>' src/core/*.c include/core/*.h || true); \
+	if [ -n "$$bad" ]; then echo "layers: core includes I/O or service headers:"; echo "$$bad"; exit 1; fi; \
+	bad=$$(grep -nE '#include *"service/' src/io/*.c src/util/*.c include/io/*.h include/util/*.h 2>/dev/null || true); \
+	if [ -n "$$bad" ]; then echo "layers: io/util include service headers:"; echo "$$bad"; exit 1; fi; \
+	echo "layers: ok"
+
+# The test suite: every test program, then the summary line.
+check: layers all tests
+	@BUILD=$(BUILD) sh tests/run.sh $(TEST_BIN)
+
+# Long validations (year-long columns, steady states at full resolution).
+check-long: all tests
+	@SPHICE_LONG=1 BUILD=$(BUILD) sh tests/run.sh $(TEST_BIN)
+
+# AddressSanitizer + UndefinedBehaviorSanitizer build of the whole suite.
+sanitize:
+	$(MAKE) BUILD=build-asan OPT=-O1 \
+	  CFLAGS="-O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all" \
+	  LDLIBS="$(LDLIBS) -fsanitize=address,undefined" check
+
+# valgrind memcheck over the test programs (reduced sizes via SPHICE_QUICK).
+valgrind: all tests
+	@SPHICE_QUICK=1 SPHICE_VALGRIND=1 BUILD=$(BUILD) sh tests/run.sh $(TEST_BIN)
+
+demo: all
+	sh tools/demo.sh
+
+bench: all $(BENCH_BIN)
+	sh bench/run.sh
+
+install: all
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/sphice $(DESTDIR)/etc/sphice \
+	           $(DESTDIR)$(PREFIX)/lib/systemd/system
+	install -m 755 $(BUILD)/sphice $(DESTDIR)$(PREFIX)/bin/sphice
+	install -m 644 etc/*.json $(DESTDIR)/etc/sphice/
+	for u in systemd/*.service systemd/*.timer; do [ -f "$$u" ] && \
+	  sed 's#@PREFIX@#$(PREFIX)#g' "$$u" > $(DESTDIR)$(PREFIX)/lib/systemd/system/$$(basename $$u); done; true
+
+clean:
+	rm -rf build build-asan
+
+-include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

@@ -1,0 +1,152 @@
+/* The SPH sea-ice model: parameters and the step-from-outside driver API
+ * (create / set up / step / check / free). No I/O, no logging, and no
+ * allocation inside a step: all workspace is allocated by sph_model_create.
+ *
+ * Momentum (PHYSICS.md eq. 2, per unit area):
+ *   M dV/dt = -M f k x V + A (tau_a + tau_w) - M g grad(xi) + div(hbar sigma)
+ * Drag is scaled by concentration A (as CICE) so that with M = rho_i A h_i
+ * the free drift of loose ice depends on the ice's own thickness h_i.
+ */
+#ifndef SPHICE_CORE_MODEL_H
+#define SPHICE_CORE_MODEL_H
+
+#include <stddef.h>
+#include "core/particles.h"
+#include "core/status.h"
+#include "core/thermo.h"
+
+typedef enum { SPH_KERNEL_GAUSSIAN = 0, SPH_KERNEL_WENDLAND_C2, SPH_KERNEL_CUBIC_SPLINE } sph_kernel_kind;
+
+typedef enum {
+    SPH_SOLVER_EXPLICIT = 0, /* sub-stepped to its own stability limit */
+    SPH_SOLVER_MEVP,         /* modified / adaptive EVP */
+    SPH_SOLVER_IMPLICIT      /* Picard with GSL sparse GMRES */
+} sph_solver_kind;
+
+typedef enum {
+    SPH_RHEOLOGY_VP = 0,     /* Hibler viscous-plastic */
+    SPH_RHEOLOGY_COLLISION   /* Shen, Hibler & Lepparanta (1987) */
+} sph_rheology_kind;
+
+typedef enum {
+    SPH_PRESSURE_SEED = 0,   /* P = P0 exp(-C(1-A)), integrated hbar P */
+    SPH_PRESSURE_HIBLER      /* P = P* hbar exp(-C(1-A)) */
+} sph_pressure_form;
+
+typedef enum {
+    SPH_PHYSICS_AUTO = 0,    /* per particle: free drift where loose, rheology where packed */
+    SPH_PHYSICS_FULL,        /* rheology everywhere */
+    SPH_PHYSICS_FREE_DRIFT   /* internal stress off */
+} sph_physics_mode;
+
+typedef enum { SPH_UNSTABLE_SUBSTEP = 0, SPH_UNSTABLE_REFUSE } sph_unstable_policy;
+
+typedef struct sph_params {
+    /* numerics */
+    double dt;                  /* dynamic step, s (seed: 60) */
+    sph_kernel_kind kernel;
+    double kernel_radius;       /* support radius in units of h (Gaussian truncation; seed box 4h -> 2) */
+    int variable_sml;           /* seed eq. 10 variable smoothing length */
+    double sml_factor;          /* h0 = sml_factor * initial spacing */
+    sph_solver_kind solver;
+    sph_unstable_policy unstable; /* explicit solver beyond its limit */
+    int evp_iterations;         /* mEVP sub-iterations per step */
+    int evp_adaptive;           /* aEVP: local alpha = beta from the stability bound */
+    double evp_alpha, evp_beta; /* fixed mEVP parameters */
+    int implicit_max_picard;    /* Picard iterations */
+    double implicit_tol;        /* relative residual */
+    int max_substeps;           /* explicit solver sub-step cap per dynamic step */
+    /* rheology */
+    sph_physics_mode physics;
+    sph_rheology_kind rheology;
+    sph_pressure_form pressure_form;
+    double P0;                  /* N/m^2: seed 1.0e4; Hibler P* 2.75e4 */
+    double C;                   /* concentration parameter, 20 */
+    double ecc;                 /* ellipse ratio e, 2 */
+    double zeta_max_factor;     /* zeta_max = factor * P, 2.5e8 s */
+    double delta_min;           /* s^-1, 2e-9 */
+    int replacement_pressure;   /* Hibler/Kreyscher replacement pressure */
+    double auto_tolerance;      /* auto: free drift where exp(-C(1-A)) < tol */
+    /* collision rheology (Shen, Hibler & Lepparanta 1987) */
+    double coll_restitution;    /* e_r */
+    double coll_floe_diameter;  /* d = D, m */
+    double coll_max_conc;       /* C0 */
+    double coll_fluct_ratio;    /* v' = ratio * |local velocity deviation| */
+    /* momentum */
+    double rho_i, rho_a, rho_w; /* kg/m^3 */
+    double Ca, Cw;              /* drag coefficients */
+    double turn_air, turn_water;/* turning angles, degrees (+ to the right in the NH) */
+    double gravity;             /* m/s^2 */
+    int coriolis;               /* 0 disables (channel tests) */
+    /* health */
+    double speed_limit;         /* m/s: above is a fatal blow-up */
+    double mass_tolerance;      /* relative mass change per step no source explains */
+    /* thermodynamics */
+    double thermo_dt;           /* s (seed: 600); 0 = off */
+    sph_thermo_params thermo;
+} sph_params;
+
+void sph_params_default(sph_params *p);
+/* Range-checks every parameter. On failure returns SPH_STEP_FATAL and
+ * names the parameter and its allowed range in *name, *lo, *hi. */
+int sph_params_check(const sph_params *p, const char **name, double *lo, double *hi);
+
+/* Land mask on a regular grid of the projected plane. Cells are land
+ * (1) or sea (0); outside the grid is open boundary (particles leaving are
+ * removed and counted as outflow), unless closed_outside is set. */
+typedef struct sph_landmask {
+    int nx, ny;
+    double x0, y0, dx, dy;   /* centre of cell (0,0) is (x0 + dx/2, y0 + dy/2) */
+    const unsigned char *land; /* nx*ny, row-major (j*nx + i) */
+    int closed_outside;      /* 1: the grid edge is a wall, not an open boundary */
+} sph_landmask;
+
+typedef struct sph_model sph_model;
+
+/* Creates a model able to hold `cap` particles. The land mask (may be
+ * NULL: no land, open domain) is copied. Returns NULL on failure. */
+sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask *mask);
+void sph_model_free(sph_model *m);
+
+sph_particles *sph_model_particles(sph_model *m);
+const sph_params *sph_model_params(const sph_model *m);
+/* Changes reloadable parameters (same capacity and layers). */
+int sph_model_set_params(sph_model *m, const sph_params *p);
+
+/* After particles were placed (positions, mass, thick, conc, sml):
+ * computes densities, diagnoses concentration, records the initial mass. */
+int sph_model_init(sph_model *m, sph_status *st);
+
+/* One dynamic step of length params.dt (forcing arrays must be filled),
+ * plus thermodynamics when its own step falls due. */
+int sph_model_step(sph_model *m, sph_status *st);
+
+/* Largest stable step of the explicit solver at the current state, s. */
+double sph_model_explicit_dt_limit(sph_model *m);
+
+const sph_budget *sph_model_budget(const sph_model *m);
+double sph_model_time(const sph_model *m);   /* seconds since init */
+long sph_model_steps(const sph_model *m);
+/* Statistics of the last step (sub-steps used, solver iterations, residual,
+ * fraction of particles in each regime). */
+typedef struct sph_step_stats {
+    int substeps;
+    int iterations;
+    double residual;
+    double frac_free_drift, frac_rheology;
+    double frac_zero_layer, frac_multi_layer;
+    double dt_limit_explicit;
+} sph_step_stats;
+const sph_step_stats *sph_model_stats(const sph_model *m);
+
+/* Normalised (Shepard-corrected) SPH interpolation of particle fields to
+ * arbitrary points: out_f[q][i] = sum_j (m_j/M_j) f_q,j W / sum_j (m_j/M_j) W.
+ * `fields` are nf arrays of particle values. Also returns at each point the
+ * raw SPH mass density (kg/m^2) in out_dens if non-NULL (not normalised:
+ * it falls to zero beyond the ice edge). Points with no neighbour get NaN
+ * in out_f and 0 in out_dens. Threaded, deterministic. */
+int sph_model_interpolate(sph_model *m, size_t npts, const double *px, const double *py,
+                          int nf, const double *const *fields, double *const *out_f,
+                          double *out_dens);
+
+#endif

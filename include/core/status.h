@@ -1,0 +1,68 @@
+/* How core routines report: 0 fine, positive recoverable (retry with a
+ * smaller step or simpler physics), negative fatal (SUNDIALS convention).
+ * The core does no I/O: it fills sph_status and the driver writes the
+ * sentence. `quantity` and `what` point at static strings. */
+#ifndef SPHICE_CORE_STATUS_H
+#define SPHICE_CORE_STATUS_H
+
+enum {
+    SPH_STEP_OK = 0,
+    SPH_STEP_RECOVERABLE = 1, /* e.g. stability limit exceeded: sub-step or refuse */
+    SPH_STEP_FATAL = -1       /* NaN/Inf, speed limit, mass not conserved, bad parameter */
+};
+
+typedef struct sph_status {
+    int code;             /* SPH_STEP_* */
+    long step;            /* dynamic step index where it happened, -1 if none */
+    long particle;        /* particle index (id if known), -1 if none */
+    const char *quantity; /* e.g. "velocity", "mass", "thickness" */
+    double value;         /* offending value */
+    double limit;         /* allowed bound, if any */
+    const char *what;     /* static sentence: "is not finite", "exceeds the speed limit" */
+} sph_status;
+
+static inline void sph_status_clear(sph_status *s)
+{
+    s->code = SPH_STEP_OK;
+    s->step = -1;
+    s->particle = -1;
+    s->quantity = "";
+    s->value = 0.0;
+    s->limit = 0.0;
+    s->what = "";
+}
+
+static inline int sph_status_set(sph_status *s, int code, long particle, const char *quantity,
+                                 double value, double limit, const char *what)
+{
+    if (s && s->code == SPH_STEP_OK) {
+        s->code = code;
+        s->particle = particle;
+        s->quantity = quantity;
+        s->value = value;
+        s->limit = limit;
+        s->what = what;
+    }
+    return code;
+}
+
+/* Run budget, kg unless stated. Closes as
+ *   mass_initial + growth + new_ice - melt_top - melt_bottom - lateral_melt
+ *   - outflow = mass  (to round-off). */
+typedef struct sph_budget {
+    double mass_initial;
+    double mass;
+    double growth;       /* basal congelation growth of existing ice */
+    double new_ice;      /* frazil / new ice formed in open water */
+    double melt_top;     /* surface melt */
+    double melt_bottom;  /* basal melt */
+    double lateral_melt; /* lateral melt (concentration loss) */
+    double outflow;      /* removed at open boundaries */
+    long removed_particles;
+    /* diagnostics, recomputed each step */
+    double area;           /* ice-covered area sum m/(rho_i h_i), m^2 */
+    double volume;         /* ice volume sum m/rho_i, m^3 */
+    double kinetic_energy; /* sum m |V|^2 / 2, J */
+} sph_budget;
+
+#endif
