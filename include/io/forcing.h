@@ -1,0 +1,99 @@
+/* Forcing from CF NetCDF files, sampled at particle positions and times.
+ *
+ * A source is one kind of forcing (atmosphere, ocean, tide) spread over
+ * one or more local files. Variables are found by CF standard_name, or by
+ * the source's name mapping. Values come back in sphice's units:
+ *   wind, current: m/s (east, north components)
+ *   air temperature, dew point, SST: deg C
+ *   specific humidity: kg/kg
+ *   shortwave, longwave, heat fluxes: W/m^2 (accumulated J/m^2 converted
+ *   using the accumulation period)
+ *   sea-surface height: m, and its gradient d/d(east), d/d(north) in m/m
+ * Missing/land values are never used as data: a point whose bilinear
+ * stencil is all missing gets the nearest valid value in the grid if one
+ * lies within one cell, else is an error naming the point.
+ */
+#ifndef SPHICE_IO_FORCING_H
+#define SPHICE_IO_FORCING_H
+
+#include <stddef.h>
+#include "util/err.h"
+
+typedef enum {
+    FORCING_ATMOSPHERE = 0, /* wind, air temperature, humidity, radiation */
+    FORCING_OCEAN,          /* currents, SSH, SST, ocean heat flux */
+    FORCING_TIDE            /* harmonic constituents on a grid, or a time series (as OCEAN) */
+} forcing_kind;
+
+/* The quantities a sample can return (bit flags for "needed"). */
+typedef enum {
+    FQ_WIND = 1 << 0,      /* eastward_wind, northward_wind */
+    FQ_TAIR = 1 << 1,      /* air_temperature */
+    FQ_HUMIDITY = 1 << 2,  /* specific_humidity or dew_point_temperature */
+    FQ_SWDN = 1 << 3,      /* surface_downwelling_shortwave_flux_in_air */
+    FQ_LWDN = 1 << 4,      /* surface_downwelling_longwave_flux_in_air */
+    FQ_CURRENT = 1 << 5,   /* eastward/northward_sea_water_velocity */
+    FQ_SSH = 1 << 6,       /* sea_surface_height(_above_geoid) and gradient */
+    FQ_SST = 1 << 7,       /* sea_surface_temperature */
+    FQ_OCEAN_FLUX = 1 << 8 /* upward_sea_ice_basal_heat_flux (sign flipped to into-ice) */
+} forcing_quantity;
+
+typedef struct forcing_name_map {
+    const char *standard_name; /* e.g. "eastward_wind" */
+    const char *variable;      /* name in the file, e.g. "u10" */
+} forcing_name_map;
+
+typedef struct forcing_source_spec {
+    const char *name;          /* for messages: "era5", "tides" */
+    forcing_kind kind;
+    const char *const *files;  /* local paths, any order (sorted by time when opened) */
+    size_t nfiles;
+    const forcing_name_map *map; /* optional renames */
+    size_t nmap;
+    unsigned required;         /* forcing_quantity flags that must be found */
+    unsigned optional;         /* flags used when present */
+} forcing_source_spec;
+
+/* Values at n points; arrays the caller owns, each of length n. A pointer
+ * left NULL is not filled. Quantities not provided by any source are left
+ * untouched, so the caller can pre-fill defaults. */
+typedef struct forcing_sample {
+    double *u_east, *v_north;       /* wind */
+    double *tair;                   /* deg C */
+    double *qair;                   /* kg/kg (from dew point if needed) */
+    double *swdn, *lwdn;            /* W/m^2 */
+    double *uw_east, *vw_north;     /* current (sum of ocean and tide sources) */
+    double *ssh;                    /* m (sum of sources) */
+    double *ssh_dx_east, *ssh_dy_north; /* m/m */
+    double *sst;                    /* deg C */
+    double *fw;                     /* W/m^2 into the ice */
+    unsigned provided;              /* forcing_quantity flags actually filled */
+} forcing_sample;
+
+typedef struct forcing forcing; /* opaque: open sources and the slice cache */
+
+/* Opens every source, checks variables, units, and that time covers
+ * [t_start, t_end] (seconds since 1970 UTC) and space covers the box
+ * [lon_min, lon_max] x [lat_min, lat_max]. One clear message in err naming
+ * source, file and problem on failure. */
+int forcing_open(forcing **out, const forcing_source_spec *specs, size_t nspecs,
+                 double t_start, double t_end, double lon_min, double lon_max, double lat_min,
+                 double lat_max, sph_error *err);
+void forcing_close(forcing *f);
+
+/* Samples every source at time t and n points (degrees). Bilinear in
+ * space, linear in time; time slices are cached so a step reads nothing
+ * from disk it read before. Thread-safe for distinct forcing objects. */
+int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const double *lat,
+                      forcing_sample *out, sph_error *err);
+
+/* Description of what was found, for `sphice check` (JSON or table). */
+typedef struct forcing_var_info {
+    char source[64], standard_name[96], variable[64], file[512], units[64];
+    char grid[96];            /* "regular 0.25x0.25 deg 121x81", "curvilinear 50x40" */
+    double t_first, t_last;   /* seconds since 1970 */
+    double fill_fraction;     /* fraction of missing values in the first slice */
+} forcing_var_info;
+size_t forcing_describe(const forcing *f, forcing_var_info *info, size_t max);
+
+#endif
