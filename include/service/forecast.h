@@ -1,0 +1,64 @@
+/* One forecast run: the engine that `run`, `serve` and `hindcast` share.
+ *
+ * forecast_run reads already-fetched local forcing, initialises particles
+ * (warm start from a particle file of the previous cycle, or cold start
+ * from the initial raster), steps the model, and writes every product into
+ * req->stage_dir (a private directory). Publishing (renaming the staged
+ * directory into place and switching `latest`) is the caller's job, so a
+ * failed or cancelled run never touches the previous products.
+ */
+#ifndef SPHICE_SERVICE_FORECAST_H
+#define SPHICE_SERVICE_FORECAST_H
+
+#include <signal.h>
+#include <stddef.h>
+#include "util/err.h"
+
+struct sph_config;
+
+enum { FC_PHASE_IDLE = 0, FC_PHASE_FETCHING, FC_PHASE_INITIALISING, FC_PHASE_RUNNING,
+       FC_PHASE_WRITING, FC_PHASE_DONE, FC_PHASE_FAILED };
+
+/* Progress, written by the engine thread and read by the status server.
+ * Plain doubles/longs written whole; readers tolerate a torn snapshot. */
+typedef struct forecast_progress {
+    volatile int phase;          /* FC_PHASE_* */
+    volatile double model_time;  /* seconds since 1970 reached */
+    volatile double percent;     /* 0..100 */
+    volatile long particles;
+    volatile double frac_free_drift, frac_rheology, frac_zero_layer, frac_multi_layer;
+} forecast_progress;
+
+typedef struct forecast_request {
+    double cycle_time;        /* seconds since 1970 UTC: forecast start */
+    double hours;             /* forecast length */
+    const char *stage_dir;    /* where products are written */
+    const char *warm_start;   /* particle file of the previous cycle, or NULL */
+    const char *const *forcing_files[8]; /* per configured source: local files (NULL-terminated) */
+    const char *forcing_sha256[64];      /* "path sha256" strings for provenance, NULL-terminated */
+    int stale;                /* forcing older than wanted: flag products */
+    const char *observation;  /* observed concentration raster for verification, or NULL */
+} forecast_request;
+
+#define FC_MAX_PRODUCTS 32
+typedef struct forecast_result {
+    double wall_seconds;
+    long particles_start, particles_end;
+    double ice_area_km2, ice_volume_km3, ice_mass_kg;
+    double edge_distance_nm;     /* NaN if not configured */
+    int has_scores;
+    double iiee_km2, aee_km2, me_km2, edge_displacement_km, conc_bias, conc_rmse, skill_persistence;
+    double frac_free_drift, frac_rheology, frac_zero_layer, frac_multi_layer;
+    double budget_residual;      /* relative mass budget residual */
+    char start_mode[16];         /* "cold", "warm", "reinit" */
+    int nproducts;
+    char products[FC_MAX_PRODUCTS][512]; /* file names relative to stage_dir */
+} forecast_result;
+
+/* Returns SPH_OK, or an error code with one clear line in err. Checks
+ * *cancel between steps; when set, stops and returns SPH_ERR_CANCELLED. */
+int forecast_run(const struct sph_config *cfg, const forecast_request *req,
+                 forecast_progress *prog, const volatile sig_atomic_t *cancel,
+                 forecast_result *res, sph_error *err);
+
+#endif
