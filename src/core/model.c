@@ -892,12 +892,12 @@ int sph_model_init(sph_model *m, sph_status *st)
     /* Calibrate the kernel's lattice sum: intended M = rho_i A h_i from the
      * seeded state, over interior particles (full neighbourhoods). */
     m->dens_scale = 1.0;
-    double *seeded = m->dvel; /* rho A h per particle before diagnosis */
-    for (size_t k = 0; k < P->n; k++)
-        seeded[k] = p->rho_i * P->conc[k] * P->thick[k];
     reorder(m);
-    for (size_t k = 0; k < P->n; k++)
-        seeded[k] = p->rho_i * P->conc[k] * P->thick[k];
+    double *seed_thick = m->dvel, *seed_conc = m->zeta; /* seeded state, before diagnosis */
+    for (size_t k = 0; k < P->n; k++) {
+        seed_thick[k] = P->thick[k];
+        seed_conc[k] = P->conc[k];
+    }
     int rc = prepare(m, st);
     if (rc != SPH_STEP_OK)
         return rc;
@@ -908,7 +908,7 @@ int sph_model_init(sph_model *m, sph_status *st)
     double *ratio = m->scratch;
     for (size_t k = 0; k < P->n; k++)
         if (m->nb->count[k] >= (int)(0.9 * maxc) && P->dens[k] > 0)
-            ratio[ni++] = seeded[k] / P->dens[k];
+            ratio[ni++] = p->rho_i * seed_conc[k] * seed_thick[k] / P->dens[k];
     if (ni >= 5) {
         /* median by insertion sort on a bounded sample */
         size_t ns = ni < 2001 ? ni : 2001;
@@ -925,9 +925,11 @@ int sph_model_init(sph_model *m, sph_status *st)
         if (med > 0.8 && med < 1.25)
             m->dens_scale = med;
     }
-    /* re-diagnose with the calibrated density; restore seeded thickness first */
-    for (size_t k = 0; k < P->n; k++)
-        P->thick[k] = seeded[k] / (p->rho_i * P->conc[k]);
+    /* re-diagnose with the calibrated density from the seeded state */
+    for (size_t k = 0; k < P->n; k++) {
+        P->thick[k] = seed_thick[k];
+        P->conc[k] = seed_conc[k];
+    }
     rc = prepare(m, st);
     if (rc != SPH_STEP_OK)
         return rc;
