@@ -159,7 +159,7 @@ static void test_neighbours_match_brute(void)
         y[i] = 5e4 * rand() / (double)RAND_MAX;
         h[i] = 1500 + 500 * rand() / (double)RAND_MAX;
     }
-    sph_nbr *a = sph_nbr_create(n, 256), *b = sph_nbr_create(n, 256);
+    sph_nbr *a = sph_nbr_create(n, n, 256), *b = sph_nbr_create(n, n, 256);
     double hmax = 2000;
     sph_nbr_grid(a, n, x, y, 2.0 * hmax);
     long over;

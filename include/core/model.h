@@ -47,6 +47,10 @@ typedef struct sph_params {
     sph_kernel_kind kernel;
     double kernel_radius;       /* support radius in units of h (Gaussian truncation; seed box 4h -> 2) */
     int variable_sml;           /* seed eq. 10 variable smoothing length */
+    int summation_density;      /* 1: M = sum_j m_j W_kj every step (seed);
+                                   0: M evolved by continuity dM/dt = -M div V
+                                   from the seeded rho_i A h_i (default: no lattice
+                                   noise, exact edges; see docs/dynamics.md) */
     double sml_factor;          /* h0 = sml_factor * initial spacing */
     sph_solver_kind solver;
     sph_unstable_policy unstable; /* explicit solver beyond its limit */

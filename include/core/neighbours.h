@@ -18,7 +18,8 @@
 #include "core/kernel.h"
 
 typedef struct sph_nbr {
-    size_t cap;      /* particles (query + ghosts) the lists can hold */
+    size_t cap;      /* query particles the lists can hold */
+    size_t cap_all;  /* particles the grid can hold (query + ghosts) */
     int max_nb;      /* list capacity per particle */
     int *count;      /* [cap] neighbours of each query particle (self included) */
     int *idx;        /* [cap * max_nb] */
@@ -35,7 +36,8 @@ typedef struct sph_nbr {
     long pairs;        /* total pairs of the last build */
 } sph_nbr;
 
-sph_nbr *sph_nbr_create(size_t cap, int max_nb);
+/* Lists for up to cap_query particles among up to cap_all gridded ones. */
+sph_nbr *sph_nbr_create(size_t cap_query, size_t cap_all, int max_nb);
 void sph_nbr_free(sph_nbr *nb);
 
 /* Sorts particles [0, n) into cells of size >= cell; fills the grid. */

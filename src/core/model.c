@@ -32,7 +32,7 @@ struct sph_model {
     size_t cap;
     size_t ng;        /* ghosts this step, at indices [n, n + ng) */
     int *ghost_src;
-    double *ghost_nx, *ghost_ny;
+    double *ghost_nx, *ghost_ny, *ghost_n2x, *ghost_n2y;
     sph_nbr *nb;
     int has_mask;
     sph_landmask mask;
@@ -64,6 +64,7 @@ void sph_params_default(sph_params *p)
     p->kernel = SPH_KERNEL_GAUSSIAN;
     p->kernel_radius = 3.0;
     p->variable_sml = 1;
+    p->summation_density = 0;
     p->sml_factor = 1.0;
     p->solver = SPH_SOLVER_MEVP;
     p->unstable = SPH_UNSTABLE_SUBSTEP;
@@ -185,12 +186,16 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     int nl = p->thermo.nlayers > 0 ? p->thermo.nlayers : 1;
     if (nl > SPH_MAX_LAYERS)
         nl = SPH_MAX_LAYERS;
-    size_t c2 = 2 * cap;
+    int with_mask = mask && mask->land && mask->nx > 0 && mask->ny > 0;
+    /* ghosts: up to three per particle near a corner */
+    size_t c2 = with_mask ? 4 * cap : cap;
     m->P = sph_particles_create(c2, nl);
-    m->nb = sph_nbr_create(c2, p->max_neighbours);
+    m->nb = sph_nbr_create(cap, c2, p->max_neighbours);
     m->ghost_src = calloc(c2, sizeof(int));
     m->ghost_nx = calloc(c2, sizeof(double));
     m->ghost_ny = calloc(c2, sizeof(double));
+    m->ghost_n2x = calloc(c2, sizeof(double));
+    m->ghost_n2y = calloc(c2, sizeof(double));
     m->un = calloc(c2, sizeof(double));
     m->vn = calloc(c2, sizeof(double));
     m->zeta = calloc(c2, sizeof(double));
@@ -201,9 +206,9 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     m->active = calloc(c2, sizeof(int));
     m->loose = calloc(c2, 1);
     m->tw = sph_thermo_work_create(c2, nl);
-    int ok = m->P && m->nb && m->ghost_src && m->ghost_nx && m->ghost_ny && m->un && m->vn &&
+    int ok = m->P && m->nb && m->ghost_src && m->ghost_nx && m->ghost_ny && m->ghost_n2x && m->ghost_n2y && m->un && m->vn &&
              m->zeta && m->vfluct && m->dvel && m->scratch && m->order && m->active && m->loose && m->tw;
-    if (ok && mask && mask->land && mask->nx > 0 && mask->ny > 0) {
+    if (ok && with_mask) {
         size_t nc = (size_t)mask->nx * (size_t)mask->ny;
         m->land = malloc(nc);
         m->near_land = calloc(nc, 1);
@@ -232,6 +237,8 @@ void sph_model_free(sph_model *m)
     free(m->ghost_src);
     free(m->ghost_nx);
     free(m->ghost_ny);
+    free(m->ghost_n2x);
+    free(m->ghost_n2y);
     free(m->un);
     free(m->vn);
     free(m->zeta);
@@ -330,7 +337,7 @@ static void mark_near_land(sph_model *m, double radius)
 /* Nearest land cell (as a rectangle) within radius: distance and the unit
  * normal pointing from the coast into the sea. Returns 0 if none. */
 static int nearest_coast(const sph_model *m, double x, double y, double radius, double *dist,
-                         double *nx, double *ny)
+                         double *nx, double *ny, double exnx, double exny)
 {
     const sph_landmask *k = &m->mask;
     int ci, cj;
@@ -348,6 +355,9 @@ static int nearest_coast(const sph_model *m, double x, double y, double radius, 
             double xl = k->x0 + i * k->dx, yl = k->y0 + j * k->dy;
             double px = fmin(fmax(x, xl), xl + k->dx), py = fmin(fmax(y, yl), yl + k->dy);
             double d = hypot(x - px, y - py);
+            /* a second wall must not face the same way as the first (exn) */
+            if (d > 0.0 && ((x - px) * exnx + (y - py) * exny) / d > 0.5)
+                continue;
             if (d < best && d > 0.0) {
                 best = d;
                 bx = px;
@@ -365,35 +375,69 @@ static int nearest_coast(const sph_model *m, double x, double y, double radius, 
 
 /* Mirror ghosts: each live particle within the kernel support of a coast
  * is reflected across the local coast line (the tangent at the nearest
- * land point). Ghosts carry the source's mass, density, thickness and
- * strength, mirrored velocity (free slip: normal component reversed; no
- * slip: whole velocity reversed) and mirrored stress R S R, R = I - 2nn. */
+ * land point); near a second wall facing another way (a corner) it is
+ * also reflected across that one, and across both. Ghosts carry the
+ * source's mass, density, thickness and strength, mirrored velocity (free
+ * slip: normal component reversed; no slip: whole velocity reversed) and
+ * mirrored stress R S R, R = I - 2 n n^T (applied per wall). */
+static int add_ghost(sph_model *m, size_t k, double gx, double gy, double n1x, double n1y,
+                     double n2x, double n2y)
+{
+    sph_particles *P = m->P;
+    size_t q = P->n + m->ng;
+    if (q >= P->cap)
+        return 0;
+    sph_particles_copy_one(P, q, P, k);
+    P->x[q] = gx;
+    P->y[q] = gy;
+    m->ghost_src[m->ng] = (int)k;
+    m->ghost_nx[m->ng] = n1x;
+    m->ghost_ny[m->ng] = n1y;
+    m->ghost_n2x[m->ng] = n2x;
+    m->ghost_n2y[m->ng] = n2y;
+    m->ng++;
+    return 1;
+}
+
 static void build_ghosts(sph_model *m)
 {
     sph_particles *P = m->P;
-    size_t n = P->n, g = 0;
+    size_t n = P->n;
     m->ng = 0;
     if (!m->has_mask)
         return;
     for (size_t k = 0; k < n; k++) {
         double radius = m->kern.radius * P->sml[k];
-        double d, nx, ny;
+        double d1, n1x, n1y, d2, n2x, n2y;
+        double x = P->x[k], y = P->y[k];
         P->regime[k] &= (unsigned char)~SPH_REGIME_NEAR_COAST;
-        if (!nearest_coast(m, P->x[k], P->y[k], radius, &d, &nx, &ny))
+        if (!nearest_coast(m, x, y, radius, &d1, &n1x, &n1y, 0.0, 0.0))
             continue;
-        if (n + g >= P->cap)
-            break;
-        size_t q = n + g;
-        sph_particles_copy_one(P, q, P, k);
-        P->x[q] = P->x[k] - 2.0 * d * nx;
-        P->y[q] = P->y[k] - 2.0 * d * ny;
         P->regime[k] |= SPH_REGIME_NEAR_COAST;
-        m->ghost_src[g] = (int)k;
-        m->ghost_nx[g] = nx;
-        m->ghost_ny[g] = ny;
-        g++;
+        double g1x = x - 2.0 * d1 * n1x, g1y = y - 2.0 * d1 * n1y;
+        add_ghost(m, k, g1x, g1y, n1x, n1y, 0.0, 0.0);
+        if (nearest_coast(m, x, y, radius, &d2, &n2x, &n2y, n1x, n1y)) {
+            add_ghost(m, k, x - 2.0 * d2 * n2x, y - 2.0 * d2 * n2y, n2x, n2y, 0.0, 0.0);
+            /* a corner (walls at an angle) also needs the doubly mirrored ghost;
+             * facing walls (a channel) do not */
+            if (fabs(n1x * n2x + n1y * n2y) < 0.5)
+                add_ghost(m, k, g1x - 2.0 * d2 * n2x, g1y - 2.0 * d2 * n2y, n1x, n1y, n2x, n2y);
+        }
     }
-    m->ng = g;
+}
+
+static inline void reflect_vec(double nx, double ny, int no_slip, double *u, double *v)
+{
+    if (nx == 0.0 && ny == 0.0)
+        return;
+    if (no_slip) {
+        *u = -*u;
+        *v = -*v;
+    } else {
+        double un = *u * nx + *v * ny;
+        *u -= 2.0 * un * nx;
+        *v -= 2.0 * un * ny;
+    }
 }
 
 static void ghost_velocity(sph_model *m, double *u, double *v)
@@ -401,16 +445,27 @@ static void ghost_velocity(sph_model *m, double *u, double *v)
     size_t n = m->P->n;
     for (size_t g = 0; g < m->ng; g++) {
         size_t q = n + g, k = (size_t)m->ghost_src[g];
-        if (m->prm.coast_no_slip) {
-            u[q] = -u[k];
-            v[q] = -v[k];
-        } else {
-            double nx = m->ghost_nx[g], ny = m->ghost_ny[g];
-            double un = u[k] * nx + v[k] * ny;
-            u[q] = u[k] - 2.0 * un * nx;
-            v[q] = v[k] - 2.0 * un * ny;
-        }
+        double a = u[k], b = v[k];
+        reflect_vec(m->ghost_nx[g], m->ghost_ny[g], m->prm.coast_no_slip, &a, &b);
+        reflect_vec(m->ghost_n2x[g], m->ghost_n2y[g], m->prm.coast_no_slip, &a, &b);
+        u[q] = a;
+        v[q] = b;
     }
+}
+
+static inline void reflect_tensor(double nx, double ny, double *a, double *b, double *c)
+{
+    if (nx == 0.0 && ny == 0.0)
+        return;
+    /* S' = R S R with R = I - 2 n n^T; S = [[a, b], [b, c]] */
+    double r11 = 1 - 2 * nx * nx, r12 = -2 * nx * ny, r22 = 1 - 2 * ny * ny;
+    double t11 = r11 * *a + r12 * *b, t12 = r11 * *b + r12 * *c;
+    double t21 = r12 * *a + r22 * *b, t22 = r12 * *b + r22 * *c;
+    double s11 = t11 * r11 + t12 * r12, s12 = t11 * r12 + t12 * r22;
+    double s22 = t21 * r12 + t22 * r22;
+    *a = s11;
+    *b = s12;
+    *c = s22;
 }
 
 static void ghost_stress(sph_model *m)
@@ -419,17 +474,12 @@ static void ghost_stress(sph_model *m)
     size_t n = P->n;
     for (size_t g = 0; g < m->ng; g++) {
         size_t q = n + g, k = (size_t)m->ghost_src[g];
-        double nx = m->ghost_nx[g], ny = m->ghost_ny[g];
-        /* R = I - 2 n n^T; S' = R S R */
-        double r11 = 1 - 2 * nx * nx, r12 = -2 * nx * ny, r22 = 1 - 2 * ny * ny;
         double a = P->s11[k], b = P->s12[k], c = P->s22[k];
-        /* T = R S */
-        double t11 = r11 * a + r12 * b, t12 = r11 * b + r12 * c;
-        double t21 = r12 * a + r22 * b, t22 = r12 * b + r22 * c;
-        P->s11[q] = t11 * r11 + t12 * r12;
-        P->s12[q] = t11 * r12 + t12 * r22;
-        P->s22[q] = t21 * r12 + t22 * r22;
-        (void)t21;
+        reflect_tensor(m->ghost_nx[g], m->ghost_ny[g], &a, &b, &c);
+        reflect_tensor(m->ghost_n2x[g], m->ghost_n2y[g], &a, &b, &c);
+        P->s11[q] = a;
+        P->s12[q] = b;
+        P->s22[q] = c;
         P->dens[q] = P->dens[k];
         P->pres[q] = P->pres[k];
         P->conc[q] = P->conc[k];
@@ -805,7 +855,8 @@ static int prepare(sph_model *m, sph_status *st)
                               "neighbour count", (double)m->prm.max_neighbours,
                               (double)m->prm.max_neighbours,
                               "exceeds max_neighbours (particle clumping)");
-    density_pass(m);
+    if (m->prm.summation_density)
+        density_pass(m);
     /* ghosts take their source's state */
     for (size_t g = 0; g < m->ng; g++) {
         size_t q = P->n + g, k = (size_t)m->ghost_src[g];
@@ -898,6 +949,8 @@ int sph_model_init(sph_model *m, sph_status *st)
         seed_thick[k] = P->thick[k];
         seed_conc[k] = P->conc[k];
     }
+    for (size_t k = 0; k < P->n; k++)
+        P->dens[k] = p->rho_i * seed_conc[k] * seed_thick[k];
     int rc = prepare(m, st);
     if (rc != SPH_STEP_OK)
         return rc;
@@ -922,13 +975,14 @@ int sph_model_init(sph_model *m, sph_status *st)
             ratio[b] = t;
         }
         double med = ratio[ns / 2];
-        if (med > 0.8 && med < 1.25)
+        if (med > 0.8 && med < 1.25 && p->summation_density)
             m->dens_scale = med;
     }
     /* re-diagnose with the calibrated density from the seeded state */
     for (size_t k = 0; k < P->n; k++) {
         P->thick[k] = seed_thick[k];
         P->conc[k] = seed_conc[k];
+        P->dens[k] = p->rho_i * seed_conc[k] * seed_thick[k];
     }
     rc = prepare(m, st);
     if (rc != SPH_STEP_OK)
@@ -1040,6 +1094,14 @@ int sph_model_step(sph_model *m, sph_status *st)
     /* final strain rates of every particle, for output and the smoothing length */
     ghost_velocity(m, P->u, P->v);
     strain_pass(m, NULL, P->n);
+    if (!p->summation_density) {
+        /* continuity in the Lagrangian frame, implicit so M stays positive */
+        for (size_t k = 0; k < P->n; k++) {
+            double div = P->e11[k] + P->e22[k];
+            double fac = 1.0 + p->dt * div;
+            P->dens[k] /= fac > 0.1 ? fac : 0.1;
+        }
+    }
     move_and_constrain(m);
     update_sml(m);
     m->time += p->dt;
@@ -1047,7 +1109,14 @@ int sph_model_step(sph_model *m, sph_status *st)
     if (p->thermo_dt > 0.0 && p->thermo.model != SPH_THERMO_OFF) {
         m->thermo_accum += p->dt;
         if (m->thermo_accum >= p->thermo_dt - 1e-9 * p->thermo_dt) {
+            for (size_t k = 0; k < P->n; k++)
+                m->dvel[k] = P->mass[k];
             rc = sph_thermo_step(&p->thermo, P, m->thermo_accum, m->tw, &m->budget, st);
+            /* the footprint is fixed: mass per area scales with the mass */
+            if (!p->summation_density)
+                for (size_t k = 0; k < P->n; k++)
+                    if (m->dvel[k] > 0.0)
+                        P->dens[k] *= P->mass[k] / m->dvel[k];
             m->thermo_accum = 0.0;
             if (rc != SPH_STEP_OK)
                 return rc;

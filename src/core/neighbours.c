@@ -4,14 +4,17 @@
 #include <stdlib.h>
 #include <string.h>
 
-sph_nbr *sph_nbr_create(size_t cap, int max_nb)
+sph_nbr *sph_nbr_create(size_t cap, size_t cap_all, int max_nb)
 {
+    if (cap_all < cap)
+        cap_all = cap;
     sph_nbr *nb = calloc(1, sizeof *nb);
     if (!nb)
         return NULL;
     nb->cap = cap;
     nb->max_nb = max_nb;
-    nb->max_cells = 4 * cap + 64;
+    nb->cap_all = cap_all;
+    nb->max_cells = 4 * cap_all + 64;
     size_t pairs = cap * (size_t)max_nb;
     nb->count = calloc(cap, sizeof(int));
     nb->idx = malloc(pairs * sizeof(int));
@@ -19,8 +22,8 @@ sph_nbr *sph_nbr_create(size_t cap, int max_nb)
     nb->gx = malloc(pairs * sizeof(double));
     nb->gy = malloc(pairs * sizeof(double));
     nb->cell_start = calloc(nb->max_cells + 1, sizeof(int));
-    nb->sorted = calloc(cap, sizeof(int));
-    nb->cell_of = calloc(cap, sizeof(int));
+    nb->sorted = calloc(cap_all, sizeof(int));
+    nb->cell_of = calloc(cap_all, sizeof(int));
     if (!nb->count || !nb->idx || !nb->w || !nb->gx || !nb->gy || !nb->cell_start ||
         !nb->sorted || !nb->cell_of) {
         sph_nbr_free(nb);
