@@ -155,9 +155,11 @@ typedef struct sph_column_forcing {
     double sst;      /* sea surface temperature (open water), deg C; NaN: freezing point */
     double fw;       /* ocean heat flux into the ice base, W/m^2; NaN: p->fw_default */
     double tsurf_prescribed; /* deg C; NaN: solve the surface energy balance */
+    double snowfall; /* snow depth accumulation rate, m/s (0); added at the start of a step,
+                        bringing its enthalpy -rho_s L0 per m^3 into the column */
 } sph_column_forcing;
 
-/* Everything NaN except zeros for wind, radiation and humidity. */
+/* Everything NaN except zeros for wind, radiation, humidity and snowfall. */
 void sph_column_forcing_default(sph_column_forcing *f);
 
 typedef struct sph_column_result {

@@ -304,6 +304,7 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
     /* fw = 0 is what an unset forcing array holds: take the default too. */
     f.fw = isfinite(P->fw[k]) && P->fw[k] != 0.0 ? P->fw[k] : p->fw_default;
     f.tsurf_prescribed = NAN;
+    f.snowfall = 0.0; /* no snowfall forcing on particles yet */
 
     int multi;
     if (p->model == SPH_THERMO_MULTI_LAYER)

@@ -115,6 +115,7 @@ void sph_column_forcing_default(sph_column_forcing *f)
     f->sst = NAN;
     f->fw = NAN;
     f->tsurf_prescribed = NAN;
+    f->snowfall = 0.0;
 }
 
 double sph_surface_albedo(const sph_thermo_params *p, const sph_column_forcing *f, double thick,
@@ -318,7 +319,7 @@ int sph_column_step_zero_layer(const sph_thermo_params *p, sph_column *c, const 
     result_clear(r);
     double Tf = sph_freezing_point(p);
     double Tmelt = 0.0; /* snow and the (fresh) ice surface */
-    double h = c->thick, hs = c->snow;
+    double h = c->thick, hs = c->snow + (f->snowfall > 0.0 ? f->snowfall * dt : 0.0);
     double Lb = -sph_bl_enthalpy(p, p->salinity_max, Tf) / p->rho_i; /* new ice at the base */
     double Ltop = p->L0;                                             /* surface ice is fresh */
     double Fw = ocean_flux(p, f);
@@ -453,7 +454,7 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
     const double Tf = sph_freezing_point(p);
     const double Tmelt = 0.0;
     const double h = c->thick;
-    double hs = c->snow;
+    double hs = c->snow + (f->snowfall > 0.0 ? f->snowfall * dt : 0.0);
     const double dz = h / n;
     const double Fw = ocean_flux(p, f);
     int rc = SPH_STEP_OK;
