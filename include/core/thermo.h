@@ -58,7 +58,8 @@ typedef struct sph_thermo_params {
     double fw_default;     /* W/m^2 (2): used when a particle's fw is NaN or 0 */
 
     /* radiation */
-    double emissivity;       /* ice and snow (0.98); absorbs emissivity * LW down */
+    double emissivity;       /* ice and snow (0.98): emits emissivity * sigma Ts^4 */
+    double lw_absorptivity;  /* ice and snow (0.98, Kirchhoff); MU71 absorbed all LW down (1.0) */
     double emissivity_water; /* open water (0.97) */
     double albedo_snow;      /* dry snow (0.80) */
     double albedo_snow_melt; /* melting snow (0.70) */
@@ -189,10 +190,11 @@ void sph_column_init(const sph_thermo_params *p, sph_column *c, double thick, do
 double sph_column_energy(const sph_thermo_params *p, const sph_column *c);
 /* Surface albedo for a state (snow depth, thickness, last Ts) unless f->albedo is finite. */
 double sph_surface_albedo(const sph_thermo_params *p, const sph_column_forcing *f, double thick, double snow, double tsurf);
-/* Net atmospheric flux into a surface at Ts, W/m^2: (1 - albedo) SW_surface_fraction * SW
- * + eps LW - eps sigma Ts^4 + sensible + latent (prescribed or bulk). */
+/* Net atmospheric flux into a surface at Ts, W/m^2: (1 - albedo) sw_fraction SW
+ * + absorptivity LW - emissivity sigma Ts^4 + sensible + latent (prescribed or bulk). */
 double sph_surface_flux(const sph_thermo_params *p, const sph_column_forcing *f, double albedo,
-                        double sw_fraction, double emissivity, double Lv, int over_water, double Ts);
+                        double sw_fraction, double absorptivity, double emissivity, double Lv,
+                        int over_water, double Ts);
 /* Net heat flux into open water at max(sst, Tf), W/m^2 (negative: heat loss). */
 double sph_open_water_flux(const sph_thermo_params *p, const sph_column_forcing *f);
 

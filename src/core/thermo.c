@@ -27,6 +27,7 @@ void sph_thermo_params_default(sph_thermo_params *p)
     p->ocean_salinity = 32.0;
     p->fw_default = 2.0;
     p->emissivity = 0.98;
+    p->lw_absorptivity = 0.98;
     p->emissivity_water = 0.97;
     p->albedo_snow = 0.80;
     p->albedo_snow_melt = 0.70;
@@ -79,6 +80,7 @@ int sph_thermo_params_check(const sph_thermo_params *p, const char **name, doubl
         {"ocean_salinity", p->ocean_salinity, p->salinity_max, 45.0},
         {"fw_default", p->fw_default, -50.0, 500.0},
         {"emissivity", p->emissivity, 0.5, 1.0},
+        {"lw_absorptivity", p->lw_absorptivity, 0.5, 1.0},
         {"emissivity_water", p->emissivity_water, 0.5, 1.0},
         {"albedo_snow", p->albedo_snow, 0.0, 1.0},
         {"albedo_snow_melt", p->albedo_snow_melt, 0.0, 1.0},

@@ -136,10 +136,11 @@ double sph_surface_albedo(const sph_thermo_params *p, const sph_column_forcing *
 }
 
 double sph_surface_flux(const sph_thermo_params *p, const sph_column_forcing *f, double albedo,
-                        double sw_fraction, double emissivity, double Lv, int over_water, double Ts)
+                        double sw_fraction, double absorptivity, double emissivity, double Lv,
+                        int over_water, double Ts)
 {
     double Tk = Ts + SPH_KELVIN;
-    double flux = (1.0 - albedo) * sw_fraction * f->swdn + emissivity * f->lwdn -
+    double flux = (1.0 - albedo) * sw_fraction * f->swdn + absorptivity * f->lwdn -
                   emissivity * SPH_STEFAN_BOLTZMANN * Tk * Tk * Tk * Tk;
     double wind = f->wind > p->wind_min ? f->wind : p->wind_min;
     if (isfinite(f->fsens))
@@ -160,7 +161,7 @@ double sph_open_water_flux(const sph_thermo_params *p, const sph_column_forcing 
     double Tf = sph_freezing_point(p);
     double Tw = isfinite(f->sst) && f->sst > Tf ? f->sst : Tf;
     /* A prescribed albedo is the ice surface's; open water keeps its own. */
-    return sph_surface_flux(p, f, p->albedo_water, 1.0, p->emissivity_water, p->Lv_water, 1, Tw);
+    return sph_surface_flux(p, f, p->albedo_water, 1.0, p->emissivity_water, p->emissivity_water, p->Lv_water, 1, Tw);
 }
 
 /* ---------------- surface temperature (GSL Brent) ------------------- */
@@ -202,7 +203,7 @@ typedef struct {
 static double surface_residual(double Ts, void *arg)
 {
     const surface_balance *b = arg;
-    return sph_surface_flux(b->p, b->f, b->albedo, b->sw_fraction, b->p->emissivity, b->p->Lv_ice, 0, Ts) -
+    return sph_surface_flux(b->p, b->f, b->albedo, b->sw_fraction, b->p->lw_absorptivity, b->p->emissivity, b->p->Lv_ice, 0, Ts) -
            (b->a0 + b->a1 * Ts);
 }
 
@@ -335,7 +336,7 @@ int sph_column_step_zero_layer(const sph_thermo_params *p, sph_column *c, const 
         rc = solve_surface(p, &b, Tmelt, c->tsurf, s, &Ts, &fmelt);
     }
     r->albedo = albedo;
-    r->fatm = sph_surface_flux(p, f, albedo, 1.0, p->emissivity, p->Lv_ice, 0, Ts);
+    r->fatm = sph_surface_flux(p, f, albedo, 1.0, p->lw_absorptivity, p->emissivity, p->Lv_ice, 0, Ts);
     r->fmelt = fmelt;
     r->fcond_top = G * (Ts - Tf);
     r->focean = Fw;
@@ -559,7 +560,7 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
         }
     }
     r->albedo = albedo;
-    r->fatm = sph_surface_flux(p, f, albedo, 1.0 - i0, p->emissivity, p->Lv_ice, 0, Ts) + Ipen;
+    r->fatm = sph_surface_flux(p, f, albedo, 1.0 - i0, p->lw_absorptivity, p->emissivity, p->Lv_ice, 0, Ts) + Ipen;
     r->fmelt = fmelt;
     r->fcond_top = Fc[0];
     r->fcond_bottom = Fc[n];
