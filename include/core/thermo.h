@@ -35,7 +35,7 @@ typedef enum {
 typedef struct sph_thermo_params {
     sph_thermo_model model;
     int nlayers;           /* multi-layer column layers, 1..SPH_MAX_LAYERS (7) */
-    double auto_thickness; /* m: threshold of the automatic choice (0.25, docs/thermo.md) */
+    double auto_thickness; /* m: threshold of the automatic choice (0.30, docs/thermo.md) */
     double rho_i;          /* kg/m^3 (917) */
 
     /* Bitz & Lipscomb (1999) ice: c = c0 + L0 mu S / T^2, K = K0 + beta S / T,

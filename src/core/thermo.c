@@ -12,7 +12,7 @@ void sph_thermo_params_default(sph_thermo_params *p)
 {
     p->model = SPH_THERMO_AUTO;
     p->nlayers = 7;
-    p->auto_thickness = 0.25;
+    p->auto_thickness = 0.30; /* bench/bench_thermo.c table, docs/thermo.md */
     p->rho_i = 917.0;
     p->k0 = 2.03;
     p->beta = 0.13;
