@@ -1,0 +1,139 @@
+/* Maykut & Untersteiner (1971) standard Arctic case (PHYSICS.md section 8,
+ * Table 1 forcing in W/m^2, sensible and latent into the surface).
+ * Monthly values are taken at mid-month and interpolated linearly in time
+ * (cyclic). Snowfall: 30 cm spread over 20 Aug - 30 Oct, 5 cm over
+ * 1 Nov - 30 Apr, 5 cm over May (accumulations; the snow melts in summer).
+ * F_w = 2 W/m^2, 365-day years, 1 h step, prescribed monthly albedo.
+ * Radiation as in MU71's surface balance: all incoming longwave absorbed,
+ * emission with emissivity 0.99 (lw_absorptivity = 1, emissivity = 0.99);
+ * i0 = 0.17 of the net shortwave penetrates bare ice, extinction 1.5 /m.
+ * Asserts: the annual cycle repeats (< 1 cm year-on-year), the annual mean
+ * thickness is 2.5-3.5 m (MU71: about 3 m), and the zero-layer column's
+ * seasonal amplitude exceeds the multi-layer column's. */
+#include "check.h"
+#include "core/thermo.h"
+
+static const double SW[12] = {0.0, 0.0, 30.2, 158.9, 281.6, 305.5, 216.4, 143.2, 58.9, 6.4, 0.0, 0.0};
+static const double LW[12] = {165.5, 163.9, 163.9, 184.6, 240.2, 286.4, 303.9, 297.5, 262.5, 221.2, 178.2, 173.4};
+static const double SENS[12] = {18.8, 12.1, 11.5, 4.6, -7.2, -6.2, -4.8, -6.4, -2.7, 1.6, 8.9, 12.6};
+static const double LAT[12] = {0.0, -0.3, -0.5, -1.4, -7.3, -11.1, -10.2, -10.5, -6.2, -3.0, -0.2, -0.2};
+static const double ALB[12] = {.85, .85, .83, .81, .82, .78, .64, .69, .84, .85, .85, .85};
+static const int MDAYS[12] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+
+/* Linear interpolation between mid-month values; day in [0, 365). */
+static double monthly(const double *v, double day)
+{
+    double mid[12], start = 0.0;
+    for (int m = 0; m < 12; m++) {
+        mid[m] = start + 0.5 * MDAYS[m];
+        start += MDAYS[m];
+    }
+    int m1 = 11;
+    for (int m = 0; m < 12; m++)
+        if (day >= mid[m])
+            m1 = m;
+    int m2 = (m1 + 1) % 12;
+    double d1 = mid[m1], d2 = mid[m2];
+    if (day < mid[0]) /* before mid-January: between mid-December of last year and mid-January */
+        d1 -= 365.0;
+    if (d2 < d1)
+        d2 += 365.0;
+    double w = (day - d1) / (d2 - d1);
+    return v[m1] + w * (v[m2] - v[m1]);
+}
+
+/* Snowfall rate (m/s) on day-of-year `day` (0 = 1 Jan). */
+static double snowfall(double day)
+{
+    const double aug20 = 231.0, oct31 = 304.0, nov1 = 304.0, may1 = 120.0, jun1 = 151.0;
+    if (day >= aug20 && day < oct31)
+        return 0.30 / ((oct31 - aug20) * 86400.0);
+    if (day >= nov1 || day < may1)
+        return 0.05 / (181.0 * 86400.0);
+    if (day >= may1 && day < jun1)
+        return 0.05 / (31.0 * 86400.0);
+    return 0.0;
+}
+
+typedef struct {
+    double mean, hmax, hmin, h_jan1;
+} year_stats;
+
+static year_stats run_year(const sph_thermo_params *p, sph_column *c, int multi, sph_column_solver *s,
+                           double dt, double *snow_max)
+{
+    sph_column_forcing f;
+    sph_column_forcing_default(&f);
+    f.fw = 2.0;
+    year_stats y = {0.0, -1e30, 1e30, c->thick};
+    int steps = (int)(365 * 86400.0 / dt);
+    *snow_max = 0.0;
+    for (int i = 0; i < steps; i++) {
+        double day = (i + 0.5) * dt / 86400.0;
+        f.swdn = monthly(SW, day);
+        f.lwdn = monthly(LW, day);
+        f.fsens = monthly(SENS, day);
+        f.flat = monthly(LAT, day);
+        f.albedo = monthly(ALB, day);
+        f.snowfall = snowfall(day);
+        sph_column_result r;
+        if (multi)
+            sph_column_step_multi_layer(p, c, &f, dt, s, &r);
+        else
+            sph_column_step_zero_layer(p, c, &f, dt, s, &r);
+        y.mean += c->thick / steps;
+        if (c->thick > y.hmax)
+            y.hmax = c->thick;
+        if (c->thick < y.hmin)
+            y.hmin = c->thick;
+        if (c->snow > *snow_max)
+            *snow_max = c->snow;
+    }
+    return y;
+}
+
+int main(void)
+{
+    sph_thermo_params p;
+    sph_thermo_params_default(&p);
+    p.nlayers = 10;
+    p.lw_absorptivity = 1.0;
+    p.emissivity = 0.99;
+    sph_column_solver *s = sph_column_solver_create();
+    /* Full: 30 years at 1 h. Quick (valgrind): 6 years at 6 h, no range asserts. */
+    int years = check_quick() ? 6 : 30;
+    double dt = check_quick() ? 6 * 3600.0 : 3600.0;
+    year_stats last[2], prev[2];
+    double snow_max = 0.0;
+    for (int multi = 0; multi < 2; multi++) {
+        sph_column c;
+        sph_column_init(&p, &c, 3.0, 0.0, -25.0);
+        for (int yr = 0; yr < years; yr++) {
+            prev[multi] = last[multi];
+            last[multi] = run_year(&p, &c, multi, s, dt, &snow_max);
+        }
+        printf("MU71 %s after %d years: mean %.3f m, max %.3f, min %.3f, amplitude %.3f m, "
+               "year-on-year change of the mean %.2e m, snow max %.2f m\n",
+               multi ? "multi-layer" : "zero-layer ", years, last[multi].mean, last[multi].hmax,
+               last[multi].hmin, last[multi].hmax - last[multi].hmin, last[multi].mean - prev[multi].mean,
+               snow_max);
+    }
+    for (int m = 0; m < 2; m++)
+        CHECK(isfinite(last[m].mean) && last[m].hmin > 1.0, "MU71 ice survives (%s)", m ? "multi" : "zero");
+    if (!check_quick()) {
+        for (int m = 0; m < 2; m++) {
+            CHECK(fabs(last[m].mean - prev[m].mean) < 0.01, "cycle repeats (%s): %.4f m", m ? "multi" : "zero",
+                  last[m].mean - prev[m].mean);
+            CHECK(fabs(last[m].h_jan1 - prev[m].h_jan1) < 0.01, "1 Jan thickness repeats (%s)", m ? "multi" : "zero");
+        }
+        CHECK(last[1].mean >= 2.5 && last[1].mean <= 3.5, "multi-layer annual mean %.3f m in 2.5-3.5",
+              last[1].mean);
+        CHECK(last[0].mean >= 2.5 && last[0].mean <= 3.5, "zero-layer annual mean %.3f m in 2.5-3.5",
+              last[0].mean);
+        CHECK(last[0].hmax - last[0].hmin > last[1].hmax - last[1].hmin,
+              "zero-layer amplitude %.3f > multi-layer %.3f", last[0].hmax - last[0].hmin,
+              last[1].hmax - last[1].hmin);
+    }
+    sph_column_solver_free(s);
+    return check_summary("test_thermo_mu71");
+}
