@@ -558,10 +558,12 @@ static int bracket_time(const fvar *v, double t, size_t *k0, size_t *k1, double 
         *alpha = 0;
         return 0;
     }
+    /* Interval (t_lo, t_hi]: a step ending exactly on a time of the axis
+     * stays in the interval it started in, so it reads nothing new. */
     size_t lo = 0, hi = n - 1;
     while (hi - lo > 1) {
         size_t m = (lo + hi) / 2;
-        if (tt[m].t <= t)
+        if (tt[m].t < t)
             lo = m;
         else
             hi = m;
