@@ -111,8 +111,8 @@ size_t forcing_describe(const forcing *f, forcing_var_info *info, size_t max);
 size_t forcing_debug_slice_reads(const forcing *f);
 
 /* Added. Built-in variable names of known products (ERA5, CMEMS, HYCOM)
- * tried after the standard_name and the spec's map; NULL-terminated pairs
- * for documentation and for building maps. */
+ * tried after the standard_name when the spec's map has no entry for the
+ * quantity; *n receives the number of entries. */
 const forcing_name_map *forcing_default_names(size_t *n);
 
 #endif
