@@ -35,7 +35,8 @@ typedef enum {
     FQ_CURRENT = 1 << 5,   /* eastward/northward_sea_water_velocity */
     FQ_SSH = 1 << 6,       /* sea_surface_height(_above_geoid) and gradient */
     FQ_SST = 1 << 7,       /* sea_surface_temperature */
-    FQ_OCEAN_FLUX = 1 << 8 /* upward_sea_ice_basal_heat_flux (sign flipped to into-ice) */
+    FQ_OCEAN_FLUX = 1 << 8 /* upward_sea_ice_basal_heat_flux: upward at the ice base is
+                              from the ocean into the ice, so the sign is kept */
 } forcing_quantity;
 
 typedef struct forcing_name_map {
@@ -51,7 +52,15 @@ typedef struct forcing_source_spec {
     const forcing_name_map *map; /* optional renames */
     size_t nmap;
     unsigned required;         /* forcing_quantity flags that must be found */
-    unsigned optional;         /* flags used when present */
+    unsigned optional;         /* flags used when present (required == optional == 0:
+                                  everything the kind can provide, as optional) */
+    /* Added: 1 = vector variables found by mapped name are along the grid
+     * axes of a curvilinear grid and are rotated to east/north (variables
+     * with standard_name x_wind, y_wind, sea_water_x_velocity,
+     * sea_water_y_velocity are always rotated). */
+    int vectors_grid_relative;
+    /* Added: 1 = harmonic tides without nodal corrections (f = 1, u = 0). */
+    int tide_no_nodal;
 } forcing_source_spec;
 
 /* Values at n points; arrays the caller owns, each of length n. A pointer
@@ -95,5 +104,15 @@ typedef struct forcing_var_info {
     double fill_fraction;     /* fraction of missing values in the first slice */
 } forcing_var_info;
 size_t forcing_describe(const forcing *f, forcing_var_info *info, size_t max);
+
+/* Added. Number of time slices read from disk since forcing_open (debug
+ * counter: tests assert that stepping inside one forcing interval reads
+ * nothing new). */
+size_t forcing_debug_slice_reads(const forcing *f);
+
+/* Added. Built-in variable names of known products (ERA5, CMEMS, HYCOM)
+ * tried after the standard_name when the spec's map has no entry for the
+ * quantity; *n receives the number of entries. */
+const forcing_name_map *forcing_default_names(size_t *n);
 
 #endif

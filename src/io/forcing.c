@@ -1,0 +1,1061 @@
+/* Forcing from CF NetCDF files (io/forcing.h): sources, variable discovery,
+ * unpacking and units, time axes over many files, the two-slot slice cache
+ * and sampling at particle positions. Grids are in forcing_grid.c, harmonic
+ * tides in forcing_tide.c. */
+#include "forcing_impl.h"
+#include "util/log.h"
+#include "util/timeutil.h"
+
+#include <math.h>
+#include <netcdf.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* What each slot is called and in which units sphice wants it. */
+static const struct slot_def {
+    const char *std[3];      /* earth-relative standard names, canonical first */
+    const char *grid_std;    /* grid-relative standard name (rotated), or NULL */
+    const char *target;      /* sphice units */
+    int accumulable;         /* may come as J m-2 */
+} slot_defs[FV_COUNT] = {
+    [FV_UWIND] = {{"eastward_wind"}, "x_wind", "m s-1", 0},
+    [FV_VWIND] = {{"northward_wind"}, "y_wind", "m s-1", 0},
+    [FV_TAIR] = {{"air_temperature"}, NULL, "degC", 0},
+    [FV_DEW] = {{"dew_point_temperature"}, NULL, "degC", 0},
+    [FV_QAIR] = {{"specific_humidity"}, NULL, "1", 0},
+    [FV_PSURF] = {{"surface_air_pressure", "air_pressure_at_mean_sea_level"}, NULL, "Pa", 0},
+    [FV_SW] = {{"surface_downwelling_shortwave_flux_in_air"}, NULL, "W m-2", 1},
+    [FV_LW] = {{"surface_downwelling_longwave_flux_in_air"}, NULL, "W m-2", 1},
+    [FV_UCUR] = {{"eastward_sea_water_velocity", "surface_eastward_sea_water_velocity"},
+                 "sea_water_x_velocity", "m s-1", 0},
+    [FV_VCUR] = {{"northward_sea_water_velocity", "surface_northward_sea_water_velocity"},
+                 "sea_water_y_velocity", "m s-1", 0},
+    [FV_SSH] = {{"sea_surface_height_above_geoid", "sea_surface_height",
+                 "sea_surface_height_above_sea_level"}, NULL, "m", 0},
+    [FV_SST] = {{"sea_surface_temperature"}, NULL, "degC", 0},
+    [FV_FW] = {{"upward_sea_ice_basal_heat_flux"}, NULL, "W m-2", 1},
+};
+
+/* Built-in names of known products, tried after the spec's map. */
+static const forcing_name_map default_names[] = {
+    {"eastward_wind", "u10"},       {"northward_wind", "v10"},
+    {"air_temperature", "t2m"},     {"dew_point_temperature", "d2m"},
+    {"surface_air_pressure", "sp"}, {"surface_downwelling_shortwave_flux_in_air", "ssrd"},
+    {"surface_downwelling_longwave_flux_in_air", "strd"},
+    {"eastward_sea_water_velocity", "uo"},  {"northward_sea_water_velocity", "vo"},
+    {"sea_surface_height_above_geoid", "zos"},
+    {"eastward_sea_water_velocity", "water_u"}, {"northward_sea_water_velocity", "water_v"},
+    {"sea_surface_height_above_geoid", "surf_el"},
+};
+
+const forcing_name_map *forcing_default_names(size_t *n)
+{
+    *n = sizeof default_names / sizeof default_names[0];
+    return default_names;
+}
+
+int forcing_fail(sph_error *err, const fsource *s, const char *path, int code, const char *fmt,
+                 ...)
+{
+    char msg[768];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    return sph_err_set(err, code, "forcing '%s': %s: %s", s ? s->name : "?", path ? path : "-",
+                       msg);
+}
+
+static void iso(double t, char *buf, size_t len)
+{
+    time_format_iso(t, buf, len);
+}
+
+/* ---- files ---- */
+
+static int src_ncid(fsource *s, int file, int *ncid, sph_error *err)
+{
+    if (s->open_file == file) {
+        *ncid = s->open_ncid;
+        return 0;
+    }
+    if (s->open_file >= 0)
+        nc_close(s->open_ncid);
+    s->open_file = -1;
+    int rc = nc_open(s->paths[file], NC_NOWRITE, ncid);
+    if (rc != NC_NOERR)
+        return forcing_fail(err, s, s->paths[file], SPH_ERR_NETCDF, "cannot open: %s",
+                            nc_strerror(rc));
+    s->open_file = file;
+    s->open_ncid = *ncid;
+    return 0;
+}
+
+/* ---- variables ---- */
+
+static void fvar_free(fvar *v)
+{
+    if (!v)
+        return;
+    for (int k = 0; k < 2; k++) {
+        free(v->slot[k]);
+        free(v->slot_gx[k]);
+        free(v->slot_gy[k]);
+    }
+    if (v->harm) {
+        for (int k = 0; k < TIDE_NCONST; k++) {
+            free(v->harm->c[k]);
+            free(v->harm->s[k]);
+        }
+        free(v->harm);
+    }
+    free(v->vfiles);
+    free(v->times);
+    free(v);
+}
+
+/* Finds the variable of slot w in an open file: by standard_name first,
+ * then the spec's map, then the built-in product names. */
+static int find_var(int ncid, const forcing_source_spec *spec, fv_slot w, int *varid,
+                    int *grid_rel, char *sn_out, size_t sn_len, char *tried, size_t tried_len)
+{
+    const struct slot_def *d = &slot_defs[w];
+    int nvars = 0;
+    nc_inq_nvars(ncid, &nvars);
+    for (int id = 0; id < nvars; id++) {
+        char sn[96];
+        if (fnc_text_att(ncid, id, "standard_name", sn, sizeof sn))
+            continue;
+        for (int k = 0; k < 3 && d->std[k]; k++)
+            if (strcmp(sn, d->std[k]) == 0) {
+                *varid = id;
+                *grid_rel = 0;
+                snprintf(sn_out, sn_len, "%s", sn);
+                return 0;
+            }
+        if (d->grid_std && strcmp(sn, d->grid_std) == 0) {
+            *varid = id;
+            *grid_rel = 1;
+            snprintf(sn_out, sn_len, "%s", sn);
+            return 0;
+        }
+    }
+    size_t nd;
+    const forcing_name_map *dn = forcing_default_names(&nd);
+    size_t used = 0;
+    tried[0] = '\0';
+    for (int pass = 0; pass < 2; pass++) {
+        const forcing_name_map *m = pass == 0 ? spec->map : dn;
+        size_t nm = pass == 0 ? spec->nmap : nd;
+        for (size_t i = 0; m && i < nm; i++) {
+            int match = 0;
+            for (int k = 0; k < 3 && d->std[k]; k++)
+                match |= m[i].standard_name && strcmp(m[i].standard_name, d->std[k]) == 0;
+            if (!match || !m[i].variable)
+                continue;
+            if (used < tried_len)
+                used += (size_t)snprintf(tried + used, tried_len - used, "%s'%s'",
+                                         used ? ", " : "", m[i].variable);
+            if (nc_inq_varid(ncid, m[i].variable, varid) == NC_NOERR) {
+                char sn[128] = "";
+                fnc_text_att(ncid, *varid, "standard_name", sn, sizeof sn);
+                *grid_rel = spec->vectors_grid_relative ||
+                            (d->grid_std && strcmp(sn, d->grid_std) == 0);
+                snprintf(sn_out, sn_len, "%s", d->std[0]);
+                return 0;
+            }
+        }
+        if (pass == 0 && spec->nmap && used)
+            break; /* an explicit map replaces the built-in names */
+    }
+    return -1;
+}
+
+static double att_double(int ncid, int varid, const char *name, double dflt)
+{
+    double v;
+    size_t len;
+    if (nc_inq_attlen(ncid, varid, name, &len) != NC_NOERR || len != 1 ||
+        nc_get_att_double(ncid, varid, name, &v) != NC_NOERR)
+        return dflt;
+    return v;
+}
+
+static double default_fill(nc_type t)
+{
+    switch (t) {
+    case NC_SHORT: return NC_FILL_SHORT;
+    case NC_INT: return NC_FILL_INT;
+    case NC_FLOAT: return NC_FILL_FLOAT;
+    case NC_DOUBLE: return NC_FILL_DOUBLE;
+    case NC_USHORT: return NC_FILL_USHORT;
+    case NC_UINT: return NC_FILL_UINT;
+    default: return NAN;
+    }
+}
+
+/* Packing, missing values and units of one variable in one file. */
+static int read_var_atts(fsource *s, fvar *v, const char *path, int ncid, int varid, fvfile *vf,
+                         cf_units *units, sph_error *err)
+{
+    nc_type vt;
+    nc_inq_vartype(ncid, varid, &vt);
+    vf->scale = att_double(ncid, varid, "scale_factor", 1.0);
+    vf->offset = att_double(ncid, varid, "add_offset", 0.0);
+    size_t len;
+    nc_type at;
+    vf->has_fill = 1;
+    vf->fill = default_fill(vt);
+    if (nc_inq_attlen(ncid, varid, "_FillValue", &len) == NC_NOERR)
+        nc_get_att_double(ncid, varid, "_FillValue", &vf->fill);
+    else if (isnan(vf->fill))
+        vf->has_fill = 0;
+    vf->nmiss = 0;
+    if (nc_inq_attlen(ncid, varid, "missing_value", &len) == NC_NOERR && len >= 1 && len <= 4) {
+        nc_inq_atttype(ncid, varid, "missing_value", &at);
+        if (at != NC_CHAR && nc_get_att_double(ncid, varid, "missing_value", vf->miss) == NC_NOERR)
+            vf->nmiss = (int)len;
+    }
+    vf->vmin = -INFINITY;
+    vf->vmax = INFINITY;
+    vf->valid_raw = 1;
+    double r[2];
+    if (nc_inq_att(ncid, varid, "valid_range", &at, &len) == NC_NOERR && len == 2 &&
+        nc_get_att_double(ncid, varid, "valid_range", r) == NC_NOERR) {
+        vf->vmin = r[0];
+        vf->vmax = r[1];
+        vf->valid_raw = at == vt; /* CF: in the packed type when the data are packed */
+    } else {
+        if (nc_inq_att(ncid, varid, "valid_min", &at, &len) == NC_NOERR) {
+            vf->vmin = att_double(ncid, varid, "valid_min", -INFINITY);
+            vf->valid_raw = at == vt;
+        }
+        if (nc_inq_att(ncid, varid, "valid_max", &at, &len) == NC_NOERR) {
+            vf->vmax = att_double(ncid, varid, "valid_max", INFINITY);
+            vf->valid_raw = at == vt;
+        }
+    }
+    const struct slot_def *d = &slot_defs[v->which];
+    if (fnc_text_att(ncid, varid, "units", vf->units, sizeof vf->units) != 0) {
+        if (v->which != FV_QAIR)
+            return forcing_fail(err, s, path, SPH_ERR_UNITS,
+                                "variable '%s' (%s) has no units attribute", v->varname,
+                                v->standard_name);
+        snprintf(vf->units, sizeof vf->units, "1");
+    }
+    int rc = cf_units_linear(units, vf->units, d->target, &vf->a, &vf->b);
+    int accumulated = 0;
+    if (rc == -2 && d->accumulable &&
+        cf_units_linear(units, vf->units, "J m-2", &vf->a, &vf->b) == 0) {
+        rc = 0;
+        accumulated = 1;
+    }
+    if (rc == -1)
+        return forcing_fail(err, s, path, SPH_ERR_UNITS, "unknown units '%s' of variable '%s' (%s)",
+                            vf->units, v->varname, v->standard_name);
+    if (rc != 0)
+        return forcing_fail(err, s, path, SPH_ERR_UNITS,
+                            "units '%s' of variable '%s' (%s) cannot be converted to '%s'%s",
+                            vf->units, v->varname, v->standard_name, d->target,
+                            d->accumulable ? " or 'J m-2'" : "");
+    if (v->nvfiles > 0 && accumulated != v->accumulated)
+        return forcing_fail(err, s, path, SPH_ERR_UNITS,
+                            "variable '%s' is accumulated in some files and not in others",
+                            v->varname);
+    v->accumulated = accumulated;
+    return 0;
+}
+
+/* Appends the times of variable v in this file to v->times. */
+static int read_times(fsource *s, fvar *v, const char *path, int ncid, int varid,
+                      const fvfile *vf, int vfi, sph_error *err)
+{
+    if (vf->tdim < 0) {
+        if (v->nvfiles > 1)
+            return 0; /* a static field: the first file is enough */
+        return 0;
+    }
+    int dimids[NC_MAX_VAR_DIMS];
+    nc_inq_vardimid(ncid, varid, dimids);
+    char tname[NC_MAX_NAME + 1];
+    size_t nt;
+    nc_inq_dimname(ncid, dimids[vf->tdim], tname);
+    nc_inq_dimlen(ncid, dimids[vf->tdim], &nt);
+    int tv;
+    if (nc_inq_varid(ncid, tname, &tv) != NC_NOERR)
+        return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                            "time dimension '%s' has no coordinate variable", tname);
+    char units[256], calname[64] = "";
+    if (fnc_text_att(ncid, tv, "units", units, sizeof units) != 0)
+        return forcing_fail(err, s, path, SPH_ERR_UNITS, "time variable '%s' has no units", tname);
+    fnc_text_att(ncid, tv, "calendar", calname, sizeof calname);
+    cf_calendar cal;
+    if (cf_calendar_parse(calname, &cal) != 0)
+        return forcing_fail(err, s, path, SPH_ERR_UNITS, "unknown calendar '%s' of '%s'", calname,
+                            tname);
+    cf_time_units tu;
+    if (cf_time_parse(units, cal, &tu) != 0)
+        return forcing_fail(err, s, path, SPH_ERR_UNITS,
+                            "time units '%s' of '%s' are not '<unit> since <date>'", units, tname);
+    if (nt == 0)
+        return 0;
+    double *vals = malloc(nt * sizeof *vals);
+    ftime *nts = realloc(v->times, (v->ntimes + nt) * sizeof *nts);
+    if (nts)
+        v->times = nts;
+    if (!vals || !nts) {
+        free(vals);
+        return forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
+    }
+    int rc = nc_get_var_double(ncid, tv, vals);
+    if (rc != NC_NOERR) {
+        free(vals);
+        return forcing_fail(err, s, path, SPH_ERR_NETCDF, "cannot read time variable '%s': %s",
+                            tname, nc_strerror(rc));
+    }
+    size_t dropped = 0;
+    for (size_t k = 0; k < nt; k++) {
+        double t;
+        if (!isfinite(vals[k])) {
+            free(vals);
+            return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                                "time variable '%s' has a missing value at index %zu", tname, k);
+        }
+        if (cf_time_to_model(&tu, vals[k], &t) != 0) {
+            dropped++;
+            continue;
+        }
+        v->times[v->ntimes++] = (ftime){.t = t, .vf = vfi, .k = k, .period = 0};
+    }
+    if (dropped)
+        log_warn("forcing '%s': %s: %zu times of '%s' have no real date in calendar '%s' and "
+                 "are skipped",
+                 s->name, path, dropped, tname, calname);
+    free(vals);
+    return 0;
+}
+
+static int cmp_time(const void *a, const void *b)
+{
+    const ftime *x = a, *y = b;
+    if (x->t != y->t)
+        return x->t < y->t ? -1 : 1;
+    return x->vf - y->vf;
+}
+
+static const unsigned kind_defaults[] = {
+    [FORCING_ATMOSPHERE] = FQ_WIND | FQ_TAIR | FQ_HUMIDITY | FQ_SWDN | FQ_LWDN,
+    [FORCING_OCEAN] = FQ_CURRENT | FQ_SSH | FQ_SST | FQ_OCEAN_FLUX,
+    [FORCING_TIDE] = FQ_CURRENT | FQ_SSH,
+};
+
+static unsigned slot_flag(fv_slot w)
+{
+    switch (w) {
+    case FV_UWIND: case FV_VWIND: return FQ_WIND;
+    case FV_TAIR: return FQ_TAIR;
+    case FV_DEW: case FV_QAIR: case FV_PSURF: return FQ_HUMIDITY;
+    case FV_SW: return FQ_SWDN;
+    case FV_LW: return FQ_LWDN;
+    case FV_UCUR: case FV_VCUR: return FQ_CURRENT;
+    case FV_SSH: return FQ_SSH;
+    case FV_SST: return FQ_SST;
+    case FV_FW: return FQ_OCEAN_FLUX;
+    default: return 0;
+    }
+}
+
+static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsigned want,
+                     cf_units *units, sph_error *err)
+{
+    const char *path = s->paths[fi];
+    int ncid;
+    int rc = nc_open(path, NC_NOWRITE, &ncid);
+    if (rc != NC_NOERR)
+        return forcing_fail(err, s, path, SPH_ERR_NETCDF, "cannot open: %s", nc_strerror(rc));
+    for (int w = 0; w < FV_COUNT && rc == 0; w++) {
+        if (!(slot_flag((fv_slot)w) & want))
+            continue;
+        int varid, grid_rel;
+        char sn[96], tried[256];
+        if (find_var(ncid, spec, (fv_slot)w, &varid, &grid_rel, sn, sizeof sn, tried,
+                     sizeof tried))
+            continue;
+        fvar *v = s->vars[w];
+        if (!v) {
+            v = calloc(1, sizeof *v);
+            if (!v) {
+                rc = forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
+                break;
+            }
+            s->vars[w] = v;
+            v->src = s;
+            v->which = (fv_slot)w;
+            v->slot_k[0] = v->slot_k[1] = (size_t)-1;
+            v->grid_relative = grid_rel;
+            snprintf(v->standard_name, sizeof v->standard_name, "%s", sn);
+            nc_inq_varname(ncid, varid, v->varname);
+        }
+        fvfile *nvf = realloc(v->vfiles, (v->nvfiles + 1) * sizeof *nvf);
+        if (!nvf) {
+            rc = forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
+            break;
+        }
+        v->vfiles = nvf;
+        fvfile *vf = &v->vfiles[v->nvfiles];
+        memset(vf, 0, sizeof *vf);
+        vf->file = fi;
+        vf->varid = varid;
+        fgrid *g = NULL;
+        rc = fgrid_read(s, path, ncid, varid, vf, &g, err);
+        if (rc)
+            break;
+        if (v->grid && g != v->grid) {
+            rc = forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                              "grid of variable '%s' differs from the one in %s", v->varname,
+                              v->file0);
+            break;
+        }
+        v->grid = g;
+        rc = read_var_atts(s, v, path, ncid, varid, vf, units, err);
+        if (rc)
+            break;
+        if (v->nvfiles == 0)
+            snprintf(v->file0, sizeof v->file0, "%s", path);
+        v->nvfiles++;
+        rc = read_times(s, v, path, ncid, varid, vf, (int)v->nvfiles - 1, err);
+    }
+    nc_close(ncid);
+    return rc;
+}
+
+/* ---- slices ---- */
+
+static int read_slice(forcing *f, fvar *v, size_t ti, double *dst, sph_error *err)
+{
+    fsource *s = v->src;
+    const ftime *ft = v->ntimes ? &v->times[ti] : NULL;
+    const fvfile *vf = &v->vfiles[ft ? ft->vf : 0];
+    const char *path = s->paths[vf->file];
+    int ncid;
+    if (src_ncid(s, vf->file, &ncid, err))
+        return err->code;
+    size_t start[FORCING_MAX_DIMS], count[FORCING_MAX_DIMS];
+    size_t nx = v->grid->nx, ny = v->grid->ny, n = nx * ny;
+    for (int d = 0; d < vf->ndims; d++) {
+        start[d] = 0;
+        count[d] = 1;
+    }
+    if (vf->tdim >= 0)
+        start[vf->tdim] = ft ? ft->k : 0;
+    count[vf->ydim] = ny;
+    count[vf->xdim] = nx;
+    double *raw = dst;
+    if (vf->transpose && !(raw = malloc(n * sizeof *raw)))
+        return forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
+    int rc = nc_get_vara_double(ncid, vf->varid, start, count, raw);
+    if (rc != NC_NOERR) {
+        if (raw != dst)
+            free(raw);
+        return forcing_fail(err, s, path, SPH_ERR_NETCDF,
+                            "cannot read variable '%s' at time index %zu: %s", v->varname,
+                            ft ? ft->k : 0, nc_strerror(rc));
+    }
+    if (raw != dst) {
+        for (size_t i = 0; i < nx; i++)
+            for (size_t j = 0; j < ny; j++)
+                dst[j * nx + i] = raw[i * ny + j];
+        free(raw);
+    }
+    f->reads++;
+    for (size_t p = 0; p < n; p++) {
+        double x = dst[p];
+        int missing = vf->has_fill && (x == vf->fill || (isnan(vf->fill) && isnan(x)));
+        for (int m = 0; m < vf->nmiss && !missing; m++)
+            missing = x == vf->miss[m] || (isnan(vf->miss[m]) && isnan(x));
+        if (!missing && isnan(x)) {
+            char when[40] = "static";
+            if (ft)
+                iso(ft->t, when, sizeof when);
+            return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                                "NaN in variable '%s' at %s (time index %zu, point %zu) that is "
+                                "not a declared _FillValue or missing_value",
+                                v->varname, when, ft ? ft->k : 0, p);
+        }
+        if (!missing && vf->valid_raw)
+            missing = x < vf->vmin || x > vf->vmax;
+        x = x * vf->scale + vf->offset;
+        if (!missing && !vf->valid_raw)
+            missing = x < vf->vmin || x > vf->vmax;
+        x = vf->a * x + vf->b;
+        if (v->accumulated)
+            x /= ft ? ft->period : 1.0;
+        dst[p] = missing ? NAN : x;
+    }
+    return 0;
+}
+
+static int alloc_slot(fvar *v, int k)
+{
+    size_t n = v->grid->nx * v->grid->ny;
+    if (!v->slot[k] && !(v->slot[k] = malloc(n * sizeof(double))))
+        return -1;
+    if (v->which == FV_SSH && !v->slot_gx[k]) {
+        v->slot_gx[k] = malloc(n * sizeof(double));
+        v->slot_gy[k] = malloc(n * sizeof(double));
+        if (!v->slot_gx[k] || !v->slot_gy[k])
+            return -1;
+    }
+    return 0;
+}
+
+/* Makes time index ti resident without evicting time index keep. */
+static int ensure_slice(forcing *f, fvar *v, size_t ti, size_t keep, int *slot, sph_error *err)
+{
+    for (int k = 0; k < 2; k++)
+        if (v->slot_k[k] == ti) {
+            *slot = k;
+            return 0;
+        }
+    int k = v->slot_k[0] == keep ? 1 : 0;
+    if (alloc_slot(v, k))
+        return forcing_fail(err, v->src, v->file0, SPH_ERR_NOMEM, "out of memory");
+    v->slot_k[k] = (size_t)-1;
+    int rc = read_slice(f, v, ti, v->slot[k], err);
+    if (rc)
+        return rc;
+    if (v->which == FV_SSH)
+        fgrid_gradient(v->grid, v->slot[k], v->slot_gx[k], v->slot_gy[k]);
+    v->slot_k[k] = ti;
+    *slot = k;
+    return 0;
+}
+
+/* Time indices around t and the weight of the second. */
+static int bracket_time(const fvar *v, double t, size_t *k0, size_t *k1, double *alpha,
+                        sph_error *err)
+{
+    if (v->ntimes == 0 || v->harm) {
+        *k0 = *k1 = 0;
+        *alpha = 0;
+        return 0;
+    }
+    const ftime *tt = v->times;
+    size_t n = v->ntimes;
+    if (!(t >= tt[0].t - 1e-6 && t <= tt[n - 1].t + 1e-6)) {
+        char a[40], b[40], c[40];
+        iso(t, a, sizeof a);
+        iso(tt[0].t, b, sizeof b);
+        iso(tt[n - 1].t, c, sizeof c);
+        return forcing_fail(err, v->src, v->file0, SPH_ERR_COVERAGE,
+                            "time %s is outside the time axis %s .. %s of variable '%s'", a, b, c,
+                            v->varname);
+    }
+    if (n == 1) {
+        *k0 = *k1 = 0;
+        *alpha = 0;
+        return 0;
+    }
+    /* Interval (t_lo, t_hi]: a step ending exactly on a time of the axis
+     * stays in the interval it started in, so it reads nothing new. */
+    size_t lo = 0, hi = n - 1;
+    while (hi - lo > 1) {
+        size_t m = (lo + hi) / 2;
+        if (tt[m].t < t)
+            lo = m;
+        else
+            hi = m;
+    }
+    *k0 = lo;
+    *k1 = hi;
+    double a = (t - tt[lo].t) / (tt[hi].t - tt[lo].t);
+    *alpha = a < 0 ? 0 : a > 1 ? 1 : a;
+    return 0;
+}
+
+/* ---- open / close ---- */
+
+static int finish_var(fsource *s, fvar *v, sph_error *err)
+{
+    if (v->ntimes > 1) {
+        qsort(v->times, v->ntimes, sizeof *v->times, cmp_time);
+        size_t m = 1;
+        for (size_t k = 1; k < v->ntimes; k++)
+            if (v->times[k].t > v->times[m - 1].t + 1e-6)
+                v->times[m++] = v->times[k];
+        v->ntimes = m;
+        snprintf(v->file0, sizeof v->file0, "%s", s->paths[v->vfiles[v->times[0].vf].file]);
+    }
+    if (v->accumulated) {
+        if (v->ntimes < 2)
+            return forcing_fail(err, s, v->file0, SPH_ERR_BAD_DATA,
+                                "accumulated variable '%s' needs at least two times to find the "
+                                "accumulation period",
+                                v->varname);
+        for (size_t k = 0; k < v->ntimes; k++)
+            v->times[k].period = k > 0 ? v->times[k].t - v->times[k - 1].t
+                                       : v->times[1].t - v->times[0].t;
+    }
+    if (v->vfiles[0].tdim >= 0 && v->ntimes == 0)
+        return forcing_fail(err, s, v->file0, SPH_ERR_COVERAGE,
+                            "variable '%s' has no valid times", v->varname);
+    snprintf(v->units, sizeof v->units, "%s", v->vfiles[0].units);
+    return 0;
+}
+
+static void grid_extent(const fgrid *g, double *x0, double *x1, double *y0, double *y1)
+{
+    *x0 = *y0 = INFINITY;
+    *x1 = *y1 = -INFINITY;
+    for (size_t p = 0; p < g->nx * g->ny; p++) {
+        double x = g->lon1 ? g->lon1[p % g->nx] : g->lon2[p];
+        *x0 = fmin(*x0, x);
+        *x1 = fmax(*x1, x);
+        *y0 = fmin(*y0, g->lat2[p]);
+        *y1 = fmax(*y1, g->lat2[p]);
+    }
+}
+
+static int check_coverage(forcing *f, fvar *v, double t0, double t1, double lon0, double lon1,
+                          double lat0, double lat1, sph_error *err)
+{
+    fsource *s = v->src;
+    if (v->ntimes && !v->harm) {
+        double a = v->times[0].t, b = v->times[v->ntimes - 1].t;
+        if (a > t0 + 1e-6 || b < t1 - 1e-6) {
+            char sa[40], sb[40], s0[40], s1[40];
+            iso(a, sa, sizeof sa);
+            iso(b, sb, sizeof sb);
+            iso(t0, s0, sizeof s0);
+            iso(t1, s1, sizeof s1);
+            return forcing_fail(err, s, v->file0, SPH_ERR_COVERAGE,
+                                "time axis of '%s' (%s .. %s) does not cover the period %s .. %s",
+                                v->varname, sa, sb, s0, s1);
+        }
+    }
+    const int m = 9;
+    for (int a = 0; a < m; a++)
+        for (int b = 0; b < m; b++) {
+            double x = lon0 + (lon1 - lon0) * a / (m - 1), y = lat0 + (lat1 - lat0) * b / (m - 1);
+            if (!fgrid_covers(v->grid, x, y)) {
+                double gx0, gx1, gy0, gy1;
+                grid_extent(v->grid, &gx0, &gx1, &gy0, &gy1);
+                return forcing_fail(err, s, v->file0, SPH_ERR_COVERAGE,
+                                    "grid of '%s' (%s, lon %.4g .. %.4g, lat %.4g .. %.4g) does "
+                                    "not cover the domain box lon %.4g .. %.4g, lat %.4g .. %.4g "
+                                    "(point %.4g, %.4g outside)",
+                                    v->varname, v->grid->desc, gx0, gx1, gy0, gy1, lon0, lon1,
+                                    lat0, lat1, x, y);
+            }
+        }
+    /* Read (and validate) the first slice now: a bad file fails at open. */
+    size_t k0, k1;
+    double alpha;
+    int slot;
+    if (v->harm)
+        return 0;
+    if (bracket_time(v, t0, &k0, &k1, &alpha, err) || ensure_slice(f, v, k0, (size_t)-1, &slot, err))
+        return err->code;
+    size_t n = v->grid->nx * v->grid->ny, nmiss = 0;
+    for (size_t p = 0; p < n; p++)
+        nmiss += isnan(v->slot[slot][p]);
+    v->fill_fraction = (double)nmiss / (double)n;
+    return 0;
+}
+
+static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, double t_start,
+                       cf_units *units, sph_error *err)
+{
+    unsigned want = spec->required | spec->optional;
+    if (!want)
+        want = kind_defaults[spec->kind <= FORCING_TIDE ? spec->kind : 0];
+    if (spec->nfiles == 0)
+        return forcing_fail(err, s, "-", SPH_ERR_CONFIG, "no files given");
+    s->paths = calloc(spec->nfiles, sizeof *s->paths);
+    if (!s->paths)
+        return forcing_fail(err, s, "-", SPH_ERR_NOMEM, "out of memory");
+    for (size_t i = 0; i < spec->nfiles; i++) {
+        if (!(s->paths[i] = strdup(spec->files[i])))
+            return forcing_fail(err, s, "-", SPH_ERR_NOMEM, "out of memory");
+        s->npaths++;
+    }
+    if (spec->kind == FORCING_TIDE) {
+        int ncid;
+        int rc = nc_open(s->paths[0], NC_NOWRITE, &ncid);
+        if (rc != NC_NOERR)
+            return forcing_fail(err, s, s->paths[0], SPH_ERR_NETCDF, "cannot open: %s",
+                                nc_strerror(rc));
+        char fmt[64];
+        if (fnc_text_att(ncid, NC_GLOBAL, "sphice_tide_format", fmt, sizeof fmt) == 0) {
+            s->harmonic = 1;
+            double t_ref = floor(t_start / 86400.0) * 86400.0;
+            if (strcmp(fmt, "harmonic-1") != 0)
+                rc = forcing_fail(err, s, s->paths[0], SPH_ERR_BAD_DATA,
+                                  "unknown sphice_tide_format '%s' (expected 'harmonic-1')", fmt);
+            else
+                rc = ftide_open(s, ncid, units, t_ref, !spec->tide_no_nodal,
+                                want & spec->required, err);
+            nc_close(ncid);
+            return rc;
+        }
+        nc_close(ncid);
+    }
+    for (size_t i = 0; i < s->npaths; i++)
+        if (scan_file(s, spec, (int)i, want, units, err))
+            return err->code;
+    /* Humidity: specific humidity when present, else dew point. */
+    if (s->vars[FV_QAIR] && s->vars[FV_DEW]) {
+        fvar_free(s->vars[FV_DEW]);
+        s->vars[FV_DEW] = NULL;
+    }
+    if (!s->vars[FV_DEW] && s->vars[FV_PSURF]) {
+        fvar_free(s->vars[FV_PSURF]);
+        s->vars[FV_PSURF] = NULL;
+    }
+    for (int w = 0; w < FV_COUNT; w++) {
+        unsigned fl = slot_flag((fv_slot)w);
+        if (!(fl & spec->required) || s->vars[w] || w == FV_PSURF)
+            continue;
+        if ((w == FV_DEW && s->vars[FV_QAIR]) || (w == FV_QAIR && s->vars[FV_DEW]))
+            continue;
+        /* Report the first missing one with the names tried. */
+        char tried[256] = "", sn[96];
+        int varid, gr, ncid;
+        if (nc_open(s->paths[0], NC_NOWRITE, &ncid) == NC_NOERR) {
+            find_var(ncid, spec, (fv_slot)w, &varid, &gr, sn, sizeof sn, tried, sizeof tried);
+            nc_close(ncid);
+        }
+        char where[600];
+        if (s->npaths > 1)
+            snprintf(where, sizeof where, "%s (and %zu more files)", s->paths[0], s->npaths - 1);
+        else
+            snprintf(where, sizeof where, "%s", s->paths[0]);
+        const char *what = slot_defs[w].std[0];
+        if (w == FV_QAIR || w == FV_DEW)
+            what = "specific_humidity or dew_point_temperature";
+        return forcing_fail(err, s, where, SPH_ERR_MISSING_VAR,
+                            "variable for %s not found (looked for standard_name%s%s%s)", what,
+                            tried[0] ? " and mapped name " : "", tried,
+                            slot_defs[w].grid_std ? " and the grid-relative standard_name" : "");
+    }
+    if (s->vars[FV_UWIND] && !s->vars[FV_VWIND])
+        return forcing_fail(err, s, s->vars[FV_UWIND]->file0, SPH_ERR_MISSING_VAR,
+                            "eastward_wind found but not northward_wind");
+    if (s->vars[FV_UCUR] && !s->vars[FV_VCUR])
+        return forcing_fail(err, s, s->vars[FV_UCUR]->file0, SPH_ERR_MISSING_VAR,
+                            "eastward_sea_water_velocity found but not northward_sea_water_velocity");
+    for (int w = 0; w < FV_COUNT; w++)
+        if (s->vars[w] && finish_var(s, s->vars[w], err))
+            return err->code;
+    (void)f;
+    return 0;
+}
+
+int forcing_open(forcing **out, const forcing_source_spec *specs, size_t nspecs, double t_start,
+                 double t_end, double lon_min, double lon_max, double lat_min, double lat_max,
+                 sph_error *err)
+{
+    *out = NULL;
+    forcing *f = calloc(1, sizeof *f);
+    if (!f)
+        return sph_err_set(err, SPH_ERR_NOMEM, "forcing: out of memory");
+    f->src = calloc(nspecs ? nspecs : 1, sizeof *f->src);
+    if (!f->src) {
+        free(f);
+        return sph_err_set(err, SPH_ERR_NOMEM, "forcing: out of memory");
+    }
+    cf_units *units = NULL;
+    if (cf_units_create(&units, err)) {
+        forcing_close(f);
+        return err->code;
+    }
+    int rc = 0;
+    for (size_t i = 0; i < nspecs && !rc; i++) {
+        fsource *s = &f->src[i];
+        f->nsrc++;
+        s->open_file = -1;
+        s->kind = specs[i].kind;
+        snprintf(s->name, sizeof s->name, "%s", specs[i].name ? specs[i].name : "?");
+        rc = open_source(f, s, &specs[i], t_start, units, err);
+        for (int w = 0; w < FV_COUNT && !rc; w++)
+            if (s->vars[w])
+                rc = check_coverage(f, s->vars[w], t_start, t_end, lon_min, lon_max, lat_min,
+                                    lat_max, err);
+    }
+    cf_units_free(units);
+    if (rc) {
+        forcing_close(f);
+        return rc;
+    }
+    *out = f;
+    return 0;
+}
+
+void forcing_close(forcing *f)
+{
+    if (!f)
+        return;
+    for (size_t i = 0; i < f->nsrc; i++) {
+        fsource *s = &f->src[i];
+        for (int w = 0; w < FV_COUNT; w++)
+            fvar_free(s->vars[w]);
+        while (s->grids) {
+            fgrid *g = s->grids;
+            s->grids = g->next;
+            fgrid_free(g);
+        }
+        if (s->open_file >= 0)
+            nc_close(s->open_ncid);
+        for (size_t k = 0; k < s->npaths; k++)
+            free(s->paths[k]);
+        free(s->paths);
+    }
+    for (int k = 0; k < 6; k++)
+        free(f->tmp[k]);
+    free(f->src);
+    free(f);
+}
+
+size_t forcing_debug_slice_reads(const forcing *f)
+{
+    return f ? f->reads : 0;
+}
+
+/* ---- sampling ---- */
+
+/* Interpolates v at the n points and time t into dst (and the SSH gradient
+ * into gx, gy when given). */
+static int sample_var(forcing *f, fvar *v, double t, size_t n, const double *lon,
+                      const double *lat, double *dst, double *gx, double *gy, sph_error *err)
+{
+    fgrid *g = v->grid;
+    if (fgrid_stencils(g, f->stamp, n, lon, lat)) {
+        for (size_t p = 0; p < n; p++)
+            if (!g->ok[p])
+                return forcing_fail(err, v->src, v->file0, SPH_ERR_COVERAGE,
+                                    "point (%.6g, %.6g) is outside the grid of variable '%s' (%s)",
+                                    lon[p], lat[p], v->varname, g->desc);
+        return forcing_fail(err, v->src, v->file0, SPH_ERR_NOMEM, "out of memory");
+    }
+    size_t k0, k1;
+    double alpha;
+    int s0 = 0, s1 = 0;
+    if (bracket_time(v, t, &k0, &k1, &alpha, err))
+        return err->code;
+    if (v->harm) {
+        if (alloc_slot(v, 0))
+            return forcing_fail(err, v->src, v->file0, SPH_ERR_NOMEM, "out of memory");
+        if (v->slot_k[0] != 0 || v->harm_t != t) {
+            ftide_synth(v, &v->src->targs, t, v->slot[0]);
+            if (v->which == FV_SSH)
+                fgrid_gradient(g, v->slot[0], v->slot_gx[0], v->slot_gy[0]);
+            v->slot_k[0] = 0;
+            v->harm_t = t;
+        }
+    } else if (ensure_slice(f, v, k0, k1, &s0, err) || ensure_slice(f, v, k1, k0, &s1, err)) {
+        return err->code;
+    }
+    for (int field = 0; field < 3; field++) {
+        double *o = field == 0 ? dst : field == 1 ? gx : gy;
+        if (!o)
+            continue;
+        const double *a = field == 0 ? v->slot[s0] : field == 1 ? v->slot_gx[s0] : v->slot_gy[s0];
+        const double *b = field == 0 ? v->slot[s1] : field == 1 ? v->slot_gx[s1] : v->slot_gy[s1];
+        for (size_t p = 0; p < n; p++) {
+            double x0 = 0, x1 = 0;
+            int bad = alpha < 1 && fgrid_interp(g, a, p, lon[p], lat[p], &x0);
+            bad |= alpha > 0 && fgrid_interp(g, b, p, lon[p], lat[p], &x1);
+            if (bad)
+                return forcing_fail(err, v->src, v->file0, SPH_ERR_COVERAGE,
+                                    "no valid %s%s of variable '%s' within one grid cell of "
+                                    "point (%.6g, %.6g)",
+                                    field ? "gradient of " : "", v->standard_name, v->varname,
+                                    lon[p], lat[p]);
+            o[p] = alpha <= 0 ? x0 : alpha >= 1 ? x1 : (1 - alpha) * x0 + alpha * x1;
+        }
+    }
+    return 0;
+}
+
+/* Rotates grid-relative components (u, v) to east/north at the points. */
+static void rotate(const fgrid *g, size_t n, double *u, double *v)
+{
+    if (!g->cosang)
+        return;
+    for (size_t p = 0; p < n; p++) {
+        const size_t *idx = g->idx + 4 * p;
+        const double *w = g->w + 4 * p;
+        double c = 0, s = 0;
+        for (int k = 0; k < 4; k++) {
+            c += w[k] * g->cosang[idx[k]];
+            s += w[k] * g->sinang[idx[k]];
+        }
+        double r = hypot(c, s);
+        c /= r;
+        s /= r;
+        double e = u[p] * c - v[p] * s, nn = u[p] * s + v[p] * c;
+        u[p] = e;
+        v[p] = nn;
+    }
+}
+
+/* Specific humidity (kg/kg) from dew point (deg C) and pressure (Pa), with
+ * the saturation vapour pressure over water of the IFS (ECMWF IFS
+ * documentation Cy47r3 Part IV eq. 7.5, Tetens with Buck's coefficients):
+ *   e = 611.21 exp(17.502 (Td - 273.16) / (Td - 32.19)),  Td in K
+ *   q = 0.621981 e / (p - 0.378019 e)   (epsilon = R_dry / R_vap) */
+static double specific_humidity(double td_c, double p)
+{
+    double td = td_c + 273.15;
+    double e = 611.21 * exp(17.502 * (td - 273.16) / (td - 32.19));
+    const double eps = 0.621981;
+    return eps * e / (p - (1 - eps) * e);
+}
+
+static void put(double *dst, const double *src, size_t n, int add)
+{
+    if (!dst)
+        return;
+    for (size_t p = 0; p < n; p++)
+        dst[p] = add ? dst[p] + src[p] : src[p];
+}
+
+int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const double *lat,
+                      forcing_sample *out, sph_error *err)
+{
+    out->provided = 0;
+    if (n == 0)
+        return 0;
+    if (n > f->tmp_n) {
+        for (int k = 0; k < 6; k++) {
+            free(f->tmp[k]);
+            f->tmp[k] = malloc(n * sizeof(double));
+            if (!f->tmp[k]) {
+                f->tmp_n = 0;
+                return sph_err_set(err, SPH_ERR_NOMEM, "forcing: out of memory");
+            }
+        }
+        f->tmp_n = n;
+    }
+    f->stamp++;
+    double *A = f->tmp[0], *B = f->tmp[1], *C = f->tmp[2], *D = f->tmp[3];
+    for (size_t i = 0; i < f->nsrc; i++) {
+        fsource *s = &f->src[i];
+        fvar **v = s->vars;
+        if (v[FV_UWIND] && !(out->provided & FQ_WIND) && (out->u_east || out->v_north)) {
+            if (sample_var(f, v[FV_UWIND], t, n, lon, lat, A, NULL, NULL, err) ||
+                sample_var(f, v[FV_VWIND], t, n, lon, lat, B, NULL, NULL, err))
+                return err->code;
+            if (v[FV_UWIND]->grid_relative)
+                rotate(v[FV_UWIND]->grid, n, A, B);
+            put(out->u_east, A, n, 0);
+            put(out->v_north, B, n, 0);
+            out->provided |= FQ_WIND;
+        }
+        if (v[FV_TAIR] && !(out->provided & FQ_TAIR) && out->tair) {
+            if (sample_var(f, v[FV_TAIR], t, n, lon, lat, out->tair, NULL, NULL, err))
+                return err->code;
+            out->provided |= FQ_TAIR;
+        }
+        if ((v[FV_QAIR] || v[FV_DEW]) && !(out->provided & FQ_HUMIDITY) && out->qair) {
+            if (v[FV_QAIR]) {
+                if (sample_var(f, v[FV_QAIR], t, n, lon, lat, out->qair, NULL, NULL, err))
+                    return err->code;
+            } else {
+                if (sample_var(f, v[FV_DEW], t, n, lon, lat, A, NULL, NULL, err))
+                    return err->code;
+                if (v[FV_PSURF]) {
+                    if (sample_var(f, v[FV_PSURF], t, n, lon, lat, B, NULL, NULL, err))
+                        return err->code;
+                } else {
+                    for (size_t p = 0; p < n; p++)
+                        B[p] = 101325.0;
+                }
+                for (size_t p = 0; p < n; p++)
+                    out->qair[p] = specific_humidity(A[p], B[p]);
+            }
+            out->provided |= FQ_HUMIDITY;
+        }
+        static const struct {
+            fv_slot w;
+            unsigned flag;
+            size_t off;
+        } scalars[] = {
+            {FV_SW, FQ_SWDN, offsetof(forcing_sample, swdn)},
+            {FV_LW, FQ_LWDN, offsetof(forcing_sample, lwdn)},
+            {FV_SST, FQ_SST, offsetof(forcing_sample, sst)},
+            {FV_FW, FQ_OCEAN_FLUX, offsetof(forcing_sample, fw)},
+        };
+        for (size_t k = 0; k < sizeof scalars / sizeof scalars[0]; k++) {
+            double *dst = *(double **)((char *)out + scalars[k].off);
+            if (!v[scalars[k].w] || (out->provided & scalars[k].flag) || !dst)
+                continue;
+            if (sample_var(f, v[scalars[k].w], t, n, lon, lat, dst, NULL, NULL, err))
+                return err->code;
+            out->provided |= scalars[k].flag;
+        }
+        /* Currents and sea-surface height add up over sources (ocean + tide). */
+        if (v[FV_UCUR] && (out->uw_east || out->vw_north)) {
+            if (sample_var(f, v[FV_UCUR], t, n, lon, lat, A, NULL, NULL, err) ||
+                sample_var(f, v[FV_VCUR], t, n, lon, lat, B, NULL, NULL, err))
+                return err->code;
+            if (v[FV_UCUR]->grid_relative)
+                rotate(v[FV_UCUR]->grid, n, A, B);
+            int add = (out->provided & FQ_CURRENT) != 0;
+            put(out->uw_east, A, n, add);
+            put(out->vw_north, B, n, add);
+            out->provided |= FQ_CURRENT;
+        }
+        if (v[FV_SSH] && (out->ssh || out->ssh_dx_east || out->ssh_dy_north)) {
+            int grad = out->ssh_dx_east || out->ssh_dy_north;
+            if (sample_var(f, v[FV_SSH], t, n, lon, lat, A, grad ? C : NULL, grad ? D : NULL, err))
+                return err->code;
+            int add = (out->provided & FQ_SSH) != 0;
+            put(out->ssh, A, n, add);
+            if (grad) {
+                put(out->ssh_dx_east, C, n, add);
+                put(out->ssh_dy_north, D, n, add);
+            }
+            out->provided |= FQ_SSH;
+        }
+    }
+    return 0;
+}
+
+/* ---- description ---- */
+
+size_t forcing_describe(const forcing *f, forcing_var_info *info, size_t max)
+{
+    size_t m = 0;
+    for (size_t i = 0; f && i < f->nsrc; i++) {
+        const fsource *s = &f->src[i];
+        for (int w = 0; w < FV_COUNT; w++) {
+            const fvar *v = s->vars[w];
+            if (!v)
+                continue;
+            if (m < max) {
+                forcing_var_info *d = &info[m];
+                memset(d, 0, sizeof *d);
+                snprintf(d->source, sizeof d->source, "%s", s->name);
+                snprintf(d->standard_name, sizeof d->standard_name, "%s", v->standard_name);
+                snprintf(d->variable, sizeof d->variable, "%s", v->varname);
+                snprintf(d->file, sizeof d->file, "%s", v->file0);
+                snprintf(d->units, sizeof d->units, "%.48s%s", v->units,
+                         v->accumulated ? " (accumulated)" : "");
+                snprintf(d->grid, sizeof d->grid, "%s", v->grid->desc);
+                if (v->harm || v->ntimes == 0) {
+                    d->t_first = -INFINITY;
+                    d->t_last = INFINITY;
+                } else {
+                    d->t_first = v->times[0].t;
+                    d->t_last = v->times[v->ntimes - 1].t;
+                }
+                d->fill_fraction = v->fill_fraction;
+            }
+            m++;
+        }
+    }
+    return m;
+}

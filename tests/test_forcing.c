@@ -1,0 +1,433 @@
+/* Forcing reader: files in many shapes read back to the analytic fields
+ * used to write them (exact for fields linear in lon, lat and time; packed
+ * shorts within half a packing step), missing-value handling, SSH gradient,
+ * curvilinear rotation, multi-file time series and the slice cache. */
+#include "check.h"
+#include "io/forcing.h"
+#include "test_forcing_nc.h"
+#include "util/timeutil.h"
+
+#include <unistd.h>
+
+enum { UW, VW, TA, TD, SW, UC, VC, SSH };
+enum { C_NONE = 0, C_K = 1, C_CM = 2, C_KT = 3, C_J = 4 };
+#define W(q, c) ((q) | ((c) << 8))
+
+static char dir[64];
+static double T0; /* 2021-02-01T00:00Z */
+static const double R = 6371000.0;
+
+static double wrap(double lon)
+{
+    return lon >= 180.0 ? lon - 360.0 : lon;
+}
+
+/* The analytic fields in sphice units at signed longitude, latitude and
+ * fractional time index k (hours after T0). */
+static double phys(int q, double lon, double lat, double k)
+{
+    lon = wrap(lon);
+    double y = lat - 65.0;
+    switch (q) {
+    case UW: return 3 + 0.1 * lon + 0.2 * y + 0.5 * k;
+    case VW: return -2 + 0.05 * lon - 0.1 * y - 0.25 * k;
+    case TA: return -10 + 0.3 * lon - 0.2 * y + k;
+    case TD: return -15 + 0.1 * lon + 0.1 * y;
+    case SW: return 100 + 2 * lon + y;
+    case UC: return 0.1 + 0.01 * lon + 0.02 * y;
+    case VC: return -0.05 + 0.02 * lon - 0.01 * y + 0.01 * k;
+    case SSH: return 0.01 * lon + 0.02 * y;
+    }
+    return NAN;
+}
+
+/* Value in file units. */
+static double filev(int which, double lon, double lat, size_t k)
+{
+    double x = phys(which & 0xff, lon, lat, (double)k);
+    switch (which >> 8) {
+    case C_K: return x + 273.15;
+    case C_CM: return x * 100.0;
+    case C_KT: return x / (1852.0 / 3600.0);
+    case C_J: return x * 3600.0;
+    }
+    return x;
+}
+
+/* t2m with a land patch: nodes lon 2..3, lat 63..64 missing. */
+static double filev_land(int which, double lon, double lat, size_t k)
+{
+    if (wrap(lon) >= 1.5 && wrap(lon) <= 3.5 && lat >= 62.5 && lat <= 64.5)
+        return NAN;
+    return filev(which, lon, lat, k);
+}
+
+static double qsat_from_dew(double td_c, double p)
+{
+    /* IFS: e = 611.21 exp(17.502 (Td - 273.16) / (Td - 32.19)), q = eps e / (p - (1-eps) e) */
+    double td = td_c + 273.15;
+    double e = 611.21 * exp(17.502 * (td - 273.16) / (td - 32.19));
+    return 0.621981 * e / (p - (1 - 0.621981) * e);
+}
+
+static tgrid regular(void)
+{
+    tgrid g = {.nx = 25, .ny = 15, .lon0 = -12, .dlon = 1, .lat0 = 58, .dlat = 1,
+               .time_units = "hours since 1900-01-01 00:00:0.0", .calendar = "gregorian",
+               .tv0 = (T0 + 2208988800.0) / 3600.0, .dtv = 1.0};
+    return g;
+}
+
+static const double plon[] = {-9.3, -4.25, 0.0, 0.5, 3.71, 8.7, -1.0, 7.0};
+static const double plat[] = {60.2, 62.75, 65.0, 69.9, 66.66, 61.1, 64.0, 69.0};
+#define NP (sizeof plon / sizeof plon[0])
+
+static void path(char *buf, size_t len, const char *name)
+{
+    snprintf(buf, len, "%s/%s", dir, name);
+}
+
+static forcing *open1(const forcing_source_spec *spec, double t1, sph_error *err)
+{
+    forcing *f = NULL;
+    sph_error_clear(err);
+    if (forcing_open(&f, spec, 1, T0, t1, -10, 9, 60, 70, err) != 0)
+        return NULL;
+    return f;
+}
+
+/* Atmosphere in several shapes: every shape reads to the same values. */
+static void test_shapes(void)
+{
+    static const char *names[] = {"plain", "lon360", "latdesc", "swapped", "depth",
+                                  "noleap", "360day", "netcdf4"};
+    for (int variant = 0; variant < 8; variant++) {
+        tgrid g = regular();
+        int fmt = 0;
+        switch (variant) {
+        case 1: g.lon0 = 0; g.dlon = 2; g.nx = 180; g.lon360 = 1; break;
+        case 2: g.lat0 = 72; g.dlat = -1; break;
+        case 3: g.swap = 1; break;
+        case 4: g.depth = 1; break;
+        case 5: g.time_units = "days since 2021-01-01"; g.calendar = "noleap"; g.tv0 = 31;
+                g.dtv = 1.0 / 24; break;
+        case 6: g.time_units = "days since 2021-01-01"; g.calendar = "360_day"; g.tv0 = 30;
+                g.dtv = 1.0 / 24; break;
+        case 7: fmt = NC_NETCDF4; break;
+        }
+        tvar v[] = {
+            {"u", "eastward_wind", "m s-1", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(UW, C_NONE)},
+            {"v", "northward_wind", "m s**-1", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(VW, C_NONE)},
+            {"ta", "air_temperature", "K", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(TA, C_K)},
+            {"td", "dew_point_temperature", "degC", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(TD, 0)},
+        };
+        char p[128];
+        path(p, sizeof p, "shape.nc");
+        tnc_write(p, &g, v, 4, 0, 4, fmt);
+        const char *files[] = {p};
+        forcing_source_spec spec = {.name = "atm", .kind = FORCING_ATMOSPHERE, .files = files,
+                                    .nfiles = 1, .required = FQ_WIND | FQ_TAIR | FQ_HUMIDITY};
+        sph_error err;
+        forcing *f = open1(&spec, T0 + 3 * 3600, &err);
+        CHECK(f != NULL, "%s: open: %s", names[variant], err.msg);
+        if (!f)
+            continue;
+        double u[NP], vv[NP], ta[NP], q[NP];
+        forcing_sample s = {.u_east = u, .v_north = vv, .tair = ta, .qair = q};
+        double k = 1.5;
+        int rc = forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &s, &err);
+        CHECK(rc == 0, "%s: sample: %s", names[variant], err.msg);
+        CHECK(s.provided == (FQ_WIND | FQ_TAIR | FQ_HUMIDITY), "%s: provided %x", names[variant],
+              s.provided);
+        for (size_t i = 0; rc == 0 && i < NP; i++) {
+            char what[64];
+            snprintf(what, sizeof what, "%s u at %zu", names[variant], i);
+            CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, 1e-9, what);
+            snprintf(what, sizeof what, "%s v at %zu", names[variant], i);
+            CHECK_CLOSE(vv[i], phys(VW, plon[i], plat[i], k), 0, 1e-9, what);
+            snprintf(what, sizeof what, "%s tair at %zu", names[variant], i);
+            CHECK_CLOSE(ta[i], phys(TA, plon[i], plat[i], k), 0, 1e-9, what);
+            /* q is not linear in space: interpolation is of the dew point. */
+            snprintf(what, sizeof what, "%s q at %zu", names[variant], i);
+            CHECK_CLOSE(q[i], qsat_from_dew(phys(TD, plon[i], plat[i], k), 101325.0), 1e-12, 0,
+                        what);
+        }
+        forcing_close(f);
+        unlink(p);
+    }
+}
+
+/* ERA5-like: packed shorts, mapped names, K, accumulated J m-2, land fill. */
+static void test_era5(void)
+{
+    tgrid g = regular();
+    tvar v[] = {
+        {"u10", NULL, "m s**-1", NC_SHORT, 0.001, 3.0, 1, -32767, 0, filev, W(UW, 0)},
+        {"v10", NULL, "m s**-1", NC_SHORT, 0.001, -2.0, 1, -32767, 0, filev, W(VW, 0)},
+        {"t2m", NULL, "K", NC_SHORT, 0.002, 263.0, 1, -32767, 0, filev_land, W(TA, C_K)},
+        {"d2m", NULL, "K", NC_SHORT, 0.002, 258.0, 1, -32767, 0, filev, W(TD, C_K)},
+        {"ssrd", NULL, "J m**-2", NC_SHORT, 20.0, 360000.0, 1, -32767, 0, filev, W(SW, C_J)},
+    };
+    char p[128];
+    path(p, sizeof p, "era5.nc");
+    tnc_write(p, &g, v, 5, 0, 6, 0);
+    const char *files[] = {p};
+    static const forcing_name_map map[] = {{"eastward_wind", "u10"}, {"northward_wind", "v10"}};
+    forcing_source_spec spec = {.name = "era5", .kind = FORCING_ATMOSPHERE, .files = files,
+                                .nfiles = 1, .map = map, .nmap = 2,
+                                .required = FQ_WIND | FQ_TAIR | FQ_HUMIDITY | FQ_SWDN};
+    sph_error err;
+    forcing *f = open1(&spec, T0 + 5 * 3600, &err);
+    CHECK(f != NULL, "era5 open: %s", err.msg);
+    if (!f)
+        return;
+    double u[NP], vv[NP], ta[NP], sw[NP];
+    forcing_sample s = {.u_east = u, .v_north = vv, .tair = ta, .swdn = sw};
+    double k = 2.25;
+    CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &s, &err) == 0, "%s", err.msg);
+    for (size_t i = 0; i < NP; i++) {
+        CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, 0.0005 + 1e-9, "era5 u");
+        CHECK_CLOSE(vv[i], phys(VW, plon[i], plat[i], k), 0, 0.0005 + 1e-9, "era5 v");
+        CHECK_CLOSE(sw[i], phys(SW, plon[i], plat[i], k), 0, 10.0 / 3600 + 1e-9, "era5 ssrd");
+    }
+    /* Land: the point (1.5, 63.5) has two missing corners (lon 2): weights
+     * renormalised over (1, 63) and (1, 64). The point (2.4, 63.45) has all
+     * four missing: nearest valid node within one cell is (1, 63). */
+    double lx[] = {1.5, 2.4, 0.25}, ly[] = {63.5, 63.45, 60.5}, t3[3];
+    forcing_sample s3 = {.tair = t3};
+    CHECK(forcing_sample_at(f, T0 + 3600, 3, lx, ly, &s3, &err) == 0, "%s", err.msg);
+    CHECK_CLOSE(t3[0], 0.5 * (phys(TA, 1, 63, 1) + phys(TA, 1, 64, 1)), 0, 0.001 + 1e-9,
+                "renormalised over valid corners");
+    CHECK_CLOSE(t3[1], phys(TA, 1, 63, 1), 0, 0.001 + 1e-9, "nearest valid node");
+    CHECK_CLOSE(t3[2], phys(TA, 0.25, 60.5, 1), 0, 0.001 + 1e-9, "away from land");
+
+    forcing_var_info info[8];
+    size_t n = forcing_describe(f, info, 8);
+    CHECK(n == 5, "describe: %zu variables (u, v, t2m, d2m, ssrd)", n);
+    int seen_t2m = 0;
+    for (size_t i = 0; i < n && i < 8; i++) {
+        CHECK(strcmp(info[i].source, "era5") == 0, "source %s", info[i].source);
+        CHECK(strcmp(info[i].file, p) == 0, "file %s", info[i].file);
+        CHECK(strstr(info[i].grid, "regular 1x1 deg 25x15") != NULL, "grid '%s'", info[i].grid);
+        CHECK_CLOSE(info[i].t_first, T0, 0, 0, "t_first");
+        CHECK_CLOSE(info[i].t_last, T0 + 5 * 3600, 0, 0, "t_last");
+        if (strcmp(info[i].variable, "t2m") == 0) {
+            seen_t2m = 1;
+            CHECK(strcmp(info[i].standard_name, "air_temperature") == 0, "t2m standard_name");
+            CHECK(strcmp(info[i].units, "K") == 0, "t2m units %s", info[i].units);
+            /* 2 x 2 land nodes of 25 x 15 */
+            CHECK_CLOSE(info[i].fill_fraction, 4.0 / 375.0, 0, 1e-12, "t2m fill fraction");
+        }
+    }
+    CHECK(seen_t2m, "describe lists t2m");
+    forcing_close(f);
+    unlink(p);
+}
+
+/* Curvilinear rotated grid: with an angle variable (exact) and with the
+ * angle computed from the coordinates. */
+static double rot_deg_ = 30.0;
+static double curv_angle(double lon, double lat, int use_angle_var)
+{
+    if (use_angle_var)
+        return rot_deg_ * M_PI / 180.0;
+    /* Local direction of the x axis of tgrid_node: d(lon)/di = dlon cos(a) / cos(clat),
+     * d(lat)/di = dlon sin(a); angle from east with the metric cos(lat). */
+    double a = rot_deg_ * M_PI / 180.0, c0 = cos(65.0 * M_PI / 180.0);
+    (void)lon;
+    return atan2(sin(a), cos(a) / c0 * cos(lat * M_PI / 180.0));
+}
+static int curv_use_angle_;
+static double filev_grid(int which, double lon, double lat, size_t k)
+{
+    double a = curv_angle(lon, lat, curv_use_angle_);
+    double ue = phys(UW, lon, lat, (double)k), vn = phys(VW, lon, lat, (double)k);
+    return which == 0 ? ue * cos(a) + vn * sin(a) : -ue * sin(a) + vn * cos(a);
+}
+
+static void test_curvilinear(void)
+{
+    for (int use = 1; use >= 0; use--) {
+        curv_use_angle_ = use;
+        tgrid g = regular();
+        g.curvilinear = 1;
+        g.nx = 60;
+        g.ny = 50;
+        g.dlon = 0.5;
+        g.dlat = 0.5;
+        g.lon0 = 0;
+        g.clat = 65;
+        g.rot_deg = rot_deg_;
+        g.angle_var = use;
+        tvar v[] = {
+            {"u", "x_wind", "m s-1", NC_DOUBLE, 0, 0, 0, 0, 0, filev_grid, 0},
+            {"v", "y_wind", "m s-1", NC_DOUBLE, 0, 0, 0, 0, 0, filev_grid, 1},
+            {"t", "air_temperature", "degC", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(TA, 0)},
+        };
+        char p[128];
+        path(p, sizeof p, "curv.nc");
+        tnc_write(p, &g, v, 3, 0, 3, 0);
+        const char *files[] = {p};
+        forcing_source_spec spec = {.name = "curv", .kind = FORCING_ATMOSPHERE, .files = files,
+                                    .nfiles = 1, .required = FQ_WIND | FQ_TAIR};
+        sph_error err;
+        forcing *f = open1(&spec, T0 + 2 * 3600, &err);
+        CHECK(f != NULL, "curvilinear open: %s", err.msg);
+        if (!f)
+            continue;
+        double u[NP], vv[NP], ta[NP];
+        forcing_sample s = {.u_east = u, .v_north = vv, .tair = ta};
+        double k = 0.75;
+        for (int rep = 0; rep < 2; rep++) { /* second pass uses the cell hints */
+            CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &s, &err) == 0, "%s",
+                  err.msg);
+            for (size_t i = 0; i < NP; i++) {
+                CHECK_CLOSE(ta[i], phys(TA, plon[i], plat[i], k), 0, 1e-9, "curvilinear tair");
+                double tol = use ? 1e-9 : 2e-3;
+                CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, tol, "curvilinear u east");
+                CHECK_CLOSE(vv[i], phys(VW, plon[i], plat[i], k), 0, tol, "curvilinear v north");
+            }
+        }
+        forcing_var_info info[4];
+        CHECK(forcing_describe(f, info, 4) == 3, "3 variables");
+        CHECK(strstr(info[0].grid, "curvilinear 60x50") != NULL, "grid %s", info[0].grid);
+        forcing_close(f);
+        unlink(p);
+    }
+}
+
+/* Two ocean sources (currents in cm/s with SSH; currents in knots on a
+ * 360_day calendar) add up; SSH gradient from centred differences. */
+static void test_ocean(void)
+{
+    tgrid g = regular();
+    g.dlon = 0.25;
+    g.dlat = 0.25;
+    g.nx = 97;
+    g.ny = 57;
+    tvar a[] = {
+        {"uo", NULL, "cm s-1", NC_FLOAT, 0, 0, 1, 1e20, 0, filev, W(UC, C_CM)},
+        {"vo", NULL, "cm/s", NC_FLOAT, 0, 0, 1, 1e20, 0, filev, W(VC, C_CM)},
+        {"zos", "sea_surface_height_above_geoid", "m", NC_DOUBLE, 0, 0, 0, 0, 0, filev, SSH},
+    };
+    tvar b[] = {
+        {"water_u", NULL, "knots", NC_DOUBLE, 0, 0, 1, -30000, 1, filev, W(UC, C_KT)},
+        {"water_v", NULL, "kt", NC_DOUBLE, 0, 0, 1, -30000, 1, filev, W(VC, C_KT)},
+    };
+    char pa[128], pb[128];
+    path(pa, sizeof pa, "cmems.nc");
+    path(pb, sizeof pb, "hycom.nc");
+    tnc_write(pa, &g, a, 3, 0, 4, 0);
+    g.time_units = "hours since 2021-01-01 00:00:00";
+    g.calendar = "360_day";
+    g.tv0 = 30 * 24; /* Feb 1 in 360_day */
+    tnc_write(pb, &g, b, 2, 0, 4, NC_NETCDF4);
+    const char *fa[] = {pa}, *fb[] = {pb};
+    forcing_source_spec specs[] = {
+        {.name = "cmems", .kind = FORCING_OCEAN, .files = fa, .nfiles = 1,
+         .required = FQ_CURRENT | FQ_SSH},
+        {.name = "hycom", .kind = FORCING_OCEAN, .files = fb, .nfiles = 1,
+         .required = FQ_CURRENT},
+    };
+    forcing *f = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    CHECK(forcing_open(&f, specs, 2, T0, T0 + 3 * 3600, -10, 9, 60, 70, &err) == 0, "%s",
+          err.msg);
+    if (!f)
+        return;
+    double u[NP], v[NP], h[NP], hx[NP], hy[NP];
+    forcing_sample s = {.uw_east = u, .vw_north = v, .ssh = h, .ssh_dx_east = hx,
+                        .ssh_dy_north = hy};
+    double k = 2.5;
+    CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &s, &err) == 0, "%s", err.msg);
+    CHECK(s.provided == (FQ_CURRENT | FQ_SSH), "provided %x", s.provided);
+    for (size_t i = 0; i < NP; i++) {
+        CHECK_CLOSE(u[i], 2 * phys(UC, plon[i], plat[i], k), 0, 1e-7, "summed u current");
+        CHECK_CLOSE(v[i], 2 * phys(VC, plon[i], plat[i], k), 0, 1e-7, "summed v current");
+        CHECK_CLOSE(h[i], phys(SSH, plon[i], plat[i], k), 0, 1e-9, "ssh");
+        /* h = 0.01 lon + 0.02 lat (degrees): dh/dE = 0.01 / (R cos(lat) pi/180) */
+        double gx = 0.01 / (R * cos(plat[i] * M_PI / 180) * M_PI / 180);
+        double gy = 0.02 / (R * M_PI / 180);
+        CHECK_CLOSE(hx[i], gx, 1e-4, 0, "dssh/deast");
+        CHECK_CLOSE(hy[i], gy, 1e-9, 0, "dssh/dnorth");
+    }
+    forcing_close(f);
+    unlink(pa);
+    unlink(pb);
+}
+
+/* A time series over two files given in reverse order; the slice cache. */
+static void test_files_and_cache(void)
+{
+    tgrid g = regular();
+    tvar v[] = {
+        {"u", "eastward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, filev, W(UW, 0)},
+        {"v", "northward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, filev, W(VW, 0)},
+        {"t", "air_temperature", "degC", NC_FLOAT, 0, 0, 0, 0, 0, filev, W(TA, 0)},
+    };
+    char p1[128], p2[128];
+    path(p1, sizeof p1, "part1.nc");
+    path(p2, sizeof p2, "part2.nc");
+    tnc_write(p1, &g, v, 3, 0, 3, 0);
+    tnc_write(p2, &g, v, 3, 3, 3, 0);
+    const char *files[] = {p2, p1};
+    forcing_source_spec spec = {.name = "split", .kind = FORCING_ATMOSPHERE, .files = files,
+                                .nfiles = 2, .required = FQ_WIND | FQ_TAIR};
+    sph_error err;
+    forcing *f = open1(&spec, T0 + 5 * 3600, &err);
+    CHECK(f != NULL, "split open: %s", err.msg);
+    if (!f)
+        return;
+    double u[NP], vv[NP], ta[NP];
+    forcing_sample s = {.u_east = u, .v_north = vv, .tair = ta};
+    size_t r0 = forcing_debug_slice_reads(f);
+    CHECK(r0 == 3, "open reads one slice per variable (%zu)", r0);
+    /* Inside [t0, t0 + 1 h]: the second slice once, then nothing. */
+    CHECK(forcing_sample_at(f, T0 + 600, NP, plon, plat, &s, &err) == 0, "%s", err.msg);
+    size_t r1 = forcing_debug_slice_reads(f);
+    CHECK(r1 == 6, "first interval reads 3 more slices (%zu)", r1);
+    for (int m = 2; m <= 6; m++) {
+        CHECK(forcing_sample_at(f, T0 + 600.0 * m, NP, plon, plat, &s, &err) == 0, "%s",
+              err.msg);
+        CHECK(forcing_debug_slice_reads(f) == r1, "no new reads within the interval (%zu)",
+              forcing_debug_slice_reads(f));
+    }
+    CHECK_CLOSE(ta[0], phys(TA, plon[0], plat[0], 1.0), 0, 1e-5, "at the interval end");
+    /* Next interval: one new slice per variable. */
+    CHECK(forcing_sample_at(f, T0 + 4200, NP, plon, plat, &s, &err) == 0, "%s", err.msg);
+    CHECK(forcing_debug_slice_reads(f) == r1 + 3, "next interval reads 3 (%zu)",
+          forcing_debug_slice_reads(f));
+    /* Across the file boundary (k = 2 in part1, k = 3 in part2). */
+    double k = 2.5;
+    CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &s, &err) == 0, "%s", err.msg);
+    for (size_t i = 0; i < NP; i++) {
+        CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, 1e-5, "u across files");
+        CHECK_CLOSE(ta[i], phys(TA, plon[i], plat[i], k), 0, 1e-5, "tair across files");
+    }
+    /* Linear in time exactly (float storage: values at nodes exact to 1e-5). */
+    forcing_var_info info[4];
+    CHECK(forcing_describe(f, info, 4) == 3, "three variables");
+    CHECK(strcmp(info[0].file, p1) == 0, "first file is the earliest: %s", info[0].file);
+    CHECK_CLOSE(info[0].t_last, T0 + 5 * 3600, 0, 0, "t_last over both files");
+    forcing_close(f);
+    unlink(p1);
+    unlink(p2);
+}
+
+int main(void)
+{
+    time_parse_iso("2021-02-01T00:00:00Z", &T0);
+    snprintf(dir, sizeof dir, "/tmp/sphice-forcing-XXXXXX");
+    if (!mkdtemp(dir)) {
+        perror("mkdtemp");
+        return 2;
+    }
+    test_shapes();
+    test_era5();
+    test_curvilinear();
+    test_ocean();
+    test_files_and_cache();
+    rmdir(dir);
+    return check_summary("test_forcing");
+}
