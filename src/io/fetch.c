@@ -505,7 +505,12 @@ static int one_attempt(const char *url, const fetch_options *o, const char *tmp,
     case CURLE_OK:
         break;
     case CURLE_OPERATION_TIMEDOUT:
-        snprintf(why, why_len, "timed out after %lld bytes (%s)", t.bytes, curl_err);
+        if (strstr(curl_err, "too slow"))
+            snprintf(why, why_len, "timed out: stalled (under 1 byte/s for %.0f s) after %lld bytes",
+                     o->stall_timeout_s < 1 ? 1 : ceil(o->stall_timeout_s), t.bytes);
+        else
+            snprintf(why, why_len, "timed out after %lld bytes (limit %.3g s connect, %.3g s "
+                     "total): %s", t.bytes, o->connect_timeout_s, o->timeout_s, curl_err);
         return ATTEMPT_TRANSIENT;
     case CURLE_PARTIAL_FILE:
         snprintf(why, why_len, "truncated transfer: got %lld of %lld bytes", t.bytes,
@@ -652,7 +657,9 @@ int fetch_url_ex(const char *url, const fetch_options *opt, char *local_path, si
         return sph_err_set(err, SPH_ERR_DOWNLOAD, "download %s: %s", url, why);
     }
     if (opt->check_netcdf) {
-        rc = fetch_check_netcdf(tmp, url, opt->expect_vars, opt->n_expect, err);
+        char label[4200];
+        snprintf(label, sizeof label, "download %s", url);
+        rc = fetch_check_netcdf(tmp, label, opt->expect_vars, opt->n_expect, err);
         if (rc != SPH_OK) {
             unlink(tmp);
             return rc;

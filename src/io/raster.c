@@ -498,6 +498,12 @@ static int read_esri(const char *path, const char *text, const ice_raster_option
                              o->thickness_path, path);
         if (rc == SPH_OK)
             rc = parse_esri_values(o->thickness_path, &th, r->thick, err);
+        for (size_t k = 0; rc == SPH_OK && k < n; k++)
+            if (r->thick[k] < 0)
+                rc = sph_err_set(err, SPH_ERR_BAD_DATA,
+                                 "ice raster %s: negative thickness %g m at (%g E, %g N)",
+                                 o->thickness_path, r->thick[k], r->lon[k % r->nlon],
+                                 r->lat[k / r->nlon]);
         free(ttext);
     }
     if (rc == SPH_OK)
