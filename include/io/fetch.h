@@ -4,7 +4,7 @@
  * fetched into a cache directory (fetch_url) and checked to be valid
  * NetCDF with the expected variables before it gets its final name. The
  * cache is never left with a partial file: bytes go to
- * "<name>.part.<pid>", which is renamed only after the check, and removed
+ * "<name>.part.<pid>.<serial>", which is renamed only after the check, and removed
  * on any failure.
  *
  * URL schemes: http://, https://, ftp:// (libcurl); file://PATH and a plain

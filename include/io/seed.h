@@ -13,9 +13,9 @@
  *    (plane area). The total then matches the raster's mass only to the
  *    sampling and projection-scale error (about 1 % for smooth fields).
  * Both: sml = sml_factor * footprint side, u = v = 0, lat set, id =
- * first_id + running index, snow = 0, tsurf = -1.8 C-ish defaults are left
- * to the caller (seeding fills x, y, lat, mass, thick, conc, sml, u, v,
- * id). No particle is placed where the land mask says land (a point
+ * first_id + running index. Seeding fills x, y, lat, mass, thick, conc,
+ * sml, u, v, id only; snow, surface temperature and enthalpy are the
+ * caller's (thermodynamic initialisation). No particle is placed where the land mask says land (a point
  * outside the mask's grid counts as sea).
  *
  * Threshold: default 0.05 (5 %): below that satellite concentration is

@@ -6,6 +6,7 @@
 #include <math.h>
 #include <netcdf.h>
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -614,7 +615,10 @@ int fetch_url_ex(const char *url, const fetch_options *opt, char *local_path, si
     rc = mkdir_p(opt->cache_dir, err);
     if (rc != SPH_OK)
         return rc;
-    snprintf(tmp, sizeof tmp, "%s.part.%ld", final, (long)getpid());
+    /* unique per process and per call, so threads never share a temp file */
+    static atomic_long serial;
+    snprintf(tmp, sizeof tmp, "%s.part.%ld.%ld", final, (long)getpid(),
+             atomic_fetch_add(&serial, 1));
     snprintf(etag_path, sizeof etag_path, "%s.etag", final);
     pthread_once(&curl_once, curl_init_once);
 

@@ -355,7 +355,8 @@ landmask *landmask_create_gshhg(const char *path, const landmask_grid *g, sph_er
                     if ((e->y0 > pyv) != (e->y1 > pyv))
                         xs[nx++] = e->x0 + (pyv - e->y0) * (e->x1 - e->x0) / (e->y1 - e->y0);
                 }
-                qsort(xs, nx, sizeof *xs, cmp_double);
+                if (nx > 1)
+                    qsort(xs, nx, sizeof *xs, cmp_double);
                 size_t q = 0;
                 for (int i = i0; i <= i1; i++) {
                     double pxv = (m->lon0 + (i + 0.5) * m->dlon - west) * scale;
