@@ -1,0 +1,89 @@
+/* Downloads of forcing and initial-state files (libcurl).
+ *
+ * A source is a URL template expanded for a cycle (fetch_expand_template),
+ * fetched into a cache directory (fetch_url) and checked to be valid
+ * NetCDF with the expected variables before it gets its final name. The
+ * cache is never left with a partial file: bytes go to
+ * "<name>.part.<pid>", which is renamed only after the check, and removed
+ * on any failure.
+ *
+ * URL schemes: http://, https://, ftp:// (libcurl); file://PATH and a plain
+ * path (no scheme) are used in place, not copied, and checked the same way.
+ *
+ * Cache: one file per URL, named "<first 16 hex of sha256(url)>-<basename>"
+ * in cache_dir, plus "<name>.etag" when the server sent an ETag. The
+ * cached file's mtime is set to the server's Last-Modified. A later fetch
+ * of the same URL sends If-Modified-Since (that mtime) and If-None-Match
+ * (the ETag); a 304 returns the cached path without downloading.
+ *
+ * Retries: transient failures (HTTP 408, 429, 5xx; connection refused or
+ * reset; timeouts; truncated transfers) are retried `retries` times,
+ * waiting backoff_s, 2 backoff_s, 4 backoff_s, ...; other failures (404,
+ * 403, not NetCDF, missing variable) are not.
+ *
+ * Timeouts: connect_timeout_s for the connection, timeout_s for the whole
+ * transfer, and a stall limit: less than 1 byte/s for stall_timeout_s
+ * (CURLOPT_LOW_SPEED_LIMIT/TIME) aborts a server that stops sending.
+ */
+#ifndef SPHICE_IO_FETCH_H
+#define SPHICE_IO_FETCH_H
+
+#include <stddef.h>
+#include "util/err.h"
+
+typedef struct fetch_options {
+    double timeout_s;         /* whole transfer (default 600) */
+    double connect_timeout_s; /* default 30 */
+    double stall_timeout_s;   /* abort below 1 byte/s for this long (default 60; >= 1) */
+    int retries;              /* extra attempts on transient failures (default 3) */
+    double backoff_s;         /* first wait between attempts, doubled each time (default 5) */
+    const char *cache_dir;    /* required for remote URLs; created if missing */
+    const char *const *expect_vars; /* variables the file must have */
+    size_t n_expect;
+    int check_netcdf;         /* 1 (default): the file must be NetCDF; 0: any bytes */
+} fetch_options;
+
+void fetch_options_default(fetch_options *o);
+
+/* Statistics of the last fetch_url_ex call. */
+typedef struct fetch_result {
+    int attempts;       /* network attempts made (0 for local files) */
+    long http_status;   /* last HTTP/FTP response code, 0 if none */
+    int not_modified;   /* 1 if the server answered 304 / condition unmet */
+    int downloaded;     /* 1 if new bytes were stored in the cache */
+    long long bytes;    /* size of the file returned */
+} fetch_result;
+
+/* Expands a URL or path template for a cycle time (seconds since 1970Z):
+ *   {YYYY} {MM} {DD} {HH}    year, month, day, hour of the cycle
+ *   {yyyymmdd} {YYYYMMDD}    date of the cycle; {YYYYMMDDHH} date and hour
+ *   {JJJ}                    day of year (001..366)
+ *   {FFF} {FF}               lead time in hours, 3 or 2 digits
+ *   {valid:YYYY} {valid:MM} {valid:DD} {valid:HH} {valid:YYYYMMDD}
+ *   {valid:YYYYMMDDHH}       the same fields of cycle + lead
+ * Unknown placeholders and output longer than len are errors. */
+int fetch_expand_template(const char *tmpl, double cycle_time, char *out, size_t len,
+                          sph_error *err);
+int fetch_expand_template_lead(const char *tmpl, double cycle_time, double lead_hours, char *out,
+                               size_t len, sph_error *err);
+
+/* Fetches `url` (see above) and returns the local path and its SHA-256.
+ * sha256_hex may be NULL. */
+int fetch_url(const char *url, const fetch_options *opt, char *local_path, size_t len,
+              char sha256_hex[65], sph_error *err);
+int fetch_url_ex(const char *url, const fetch_options *opt, char *local_path, size_t len,
+                 char sha256_hex[65], fetch_result *result, sph_error *err);
+
+/* The cache file name fetch_url uses for `url` (no I/O). */
+int fetch_cache_path(const char *url, const char *cache_dir, char *path, size_t len,
+                     sph_error *err);
+
+/* Checks that `path` is a complete NetCDF file holding every variable in
+ * vars: nc_open succeeds and, for the classic formats (CDF-1/2/5, where
+ * netcdf-c reads missing bytes past the end as fill values), the file is
+ * at least as long as its header says. `label` (a URL, or NULL for the
+ * path) names the file in messages. */
+int fetch_check_netcdf(const char *path, const char *label, const char *const *vars,
+                       size_t nvars, sph_error *err);
+
+#endif

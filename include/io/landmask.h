@@ -1,0 +1,77 @@
+/* Land/sea mask on a regular longitude/latitude grid.
+ *
+ * Cell (i, j) has its centre at (lon0 + (i + 0.5) dlon, lat0 + (j + 0.5) dlat),
+ * row-major (j * nlon + i), latitude ascending; 1 = land (including lakes
+ * and other inland water: sea ice never reaches them), 0 = sea.
+ *
+ * Sources:
+ *  - GSHHG binned NetCDF (the files GMT uses, e.g. Debian gmt-gshhg-high
+ *    /usr/share/gmt-gshhg/binned_GSHHS_h.nc or the full-resolution _f):
+ *    each cell centre is classified exactly against the level-1 (ocean /
+ *    land) shoreline, see landmask.c for the method;
+ *  - a land-sea mask NetCDF: standard_name land_binary_mask (land where
+ *    > 0.5), sea_binary_mask (land where < 0.5), land_area_fraction or
+ *    ERA5 "lsm" (land where > 0.5), or a variable "mask" (land where > 0.5);
+ *  - the fill pattern of a forcing variable: land where the value is the
+ *    _FillValue / missing_value or NaN.
+ */
+#ifndef SPHICE_IO_LANDMASK_H
+#define SPHICE_IO_LANDMASK_H
+
+#include <stddef.h>
+#include "io/geo.h"
+#include "util/err.h"
+
+typedef struct landmask landmask;
+
+/* A region and resolution: cells cover [lon_min, lon_max] x [lat_min,
+ * lat_max] (degrees; lon_max may exceed 180 to cross the dateline) in
+ * squares of `resolution` degrees (the extent is rounded up to whole cells). */
+typedef struct landmask_grid {
+    double lon_min, lon_max, lat_min, lat_max;
+    double resolution;
+} landmask_grid;
+
+/* The GSHHG file to use when none is configured: $SPHICE_GSHHG if set,
+ * else the first existing of binned_GSHHS_f.nc, binned_GSHHS_h.nc in
+ * /usr/share/gmt-gshhg; NULL if none exists. */
+const char *landmask_gshhg_default_path(void);
+
+landmask *landmask_create_gshhg(const char *path, const landmask_grid *grid, sph_error *err);
+
+typedef enum {
+    LANDMASK_NC_AUTO = 0, /* by standard_name / name, see above */
+    LANDMASK_NC_FILL      /* land where `variable` is missing (fill pattern) */
+} landmask_nc_mode;
+/* Reads a mask (or a fill pattern) from a NetCDF file on a 1-D regular
+ * lon/lat grid; `variable` may be NULL in AUTO mode. For variables with
+ * more than two dimensions the first index of the leading ones is used. */
+landmask *landmask_read_netcdf(const char *path, const char *variable, landmask_nc_mode mode,
+                               sph_error *err);
+
+/* A mask from an array (copied), e.g. for tests or a model grid. */
+landmask *landmask_create_array(int nlon, int nlat, double lon0, double lat0, double dlon,
+                                double dlat, const unsigned char *land, sph_error *err);
+void landmask_free(landmask *m); /* NULL does nothing */
+
+/* 1 land, 0 sea, -1 outside the mask's grid (caller decides). Longitudes
+ * are taken modulo 360 into the grid's range. */
+int landmask_is_land(const landmask *m, double lon, double lat);
+
+void landmask_get_grid(const landmask *m, int *nlon, int *nlat, double *lon0, double *lat0,
+                       double *dlon, double *dlat);
+const unsigned char *landmask_data(const landmask *m);
+
+/* Samples the mask at the centres of an nx x ny grid of the projected
+ * plane (cell (i,j) centre (x0 + (i+0.5) dx, y0 + (j+0.5) dy), row-major
+ * j*nx + i, the layout of sph_landmask). Centres outside the mask's grid
+ * are sea (0): the model treats the domain edge as open boundary. */
+int landmask_to_plane(const landmask *m, const geo_proj *p, double x0, double y0, double dx,
+                      double dy, int nx, int ny, unsigned char *out, sph_error *err);
+
+/* CF NetCDF: byte land_binary_mask(lat, lon) with lon/lat coordinates;
+ * written atomically; read back with landmask_read_netcdf. */
+int landmask_write_netcdf(const landmask *m, const char *path, const char *source,
+                          sph_error *err);
+
+#endif

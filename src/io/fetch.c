@@ -1,0 +1,691 @@
+/* Downloads with libcurl: see io/fetch.h. */
+#include "io/fetch.h"
+
+#include <curl/curl.h>
+#include <errno.h>
+#include <math.h>
+#include <netcdf.h>
+#include <pthread.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+#include <utime.h>
+
+#include "util/fileio.h"
+#include "util/log.h"
+#include "util/timeutil.h"
+
+void fetch_options_default(fetch_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->timeout_s = 600;
+    o->connect_timeout_s = 30;
+    o->stall_timeout_s = 60;
+    o->retries = 3;
+    o->backoff_s = 5;
+    o->check_netcdf = 1;
+}
+
+/* ------------------------------------------------------------ templates */
+
+static int append(char *out, size_t len, size_t *pos, const char *s)
+{
+    size_t n = strlen(s);
+    if (*pos + n >= len)
+        return -1;
+    memcpy(out + *pos, s, n + 1);
+    *pos += n;
+    return 0;
+}
+
+int fetch_expand_template_lead(const char *tmpl, double cycle_time, double lead_hours, char *out,
+                               size_t len, sph_error *err)
+{
+    if (!tmpl || !out || len == 0)
+        return sph_err_set(err, SPH_ERR_PARAM, "URL template: no template or buffer");
+    if (!isfinite(cycle_time) || !isfinite(lead_hours))
+        return sph_err_set(err, SPH_ERR_PARAM, "URL template %s: cycle time is not finite", tmpl);
+    double valid_time = cycle_time + lead_hours * 3600.0;
+    struct {
+        long year;
+        int month, day, hour, yday;
+    } t[2];
+    for (int k = 0; k < 2; k++) {
+        double s = floor((k ? valid_time : cycle_time) + 0.5);
+        long days = (long)floor(s / 86400.0);
+        time_civil_from_days(days, &t[k].year, &t[k].month, &t[k].day);
+        t[k].hour = (int)((s - days * 86400.0) / 3600.0);
+        t[k].yday = (int)(days - time_days_from_civil(t[k].year, 1, 1)) + 1;
+    }
+    size_t pos = 0;
+    out[0] = '\0';
+    const char *p = tmpl;
+    while (*p) {
+        if (*p != '{') {
+            char c[2] = {*p++, '\0'};
+            if (append(out, len, &pos, c) != 0)
+                goto too_long;
+            continue;
+        }
+        const char *close = strchr(p, '}');
+        if (!close || close - p > 40)
+            return sph_err_set(err, SPH_ERR_CONFIG, "URL template %s: unclosed '{'", tmpl);
+        char key[48];
+        memcpy(key, p + 1, (size_t)(close - p - 1));
+        key[close - p - 1] = '\0';
+        int w = 0;
+        const char *field = key;
+        if (strncmp(key, "valid:", 6) == 0)
+            w = 1, field = key + 6;
+        char buf[64];
+        if (strcmp(field, "YYYY") == 0)
+            snprintf(buf, sizeof buf, "%04ld", t[w].year);
+        else if (strcmp(field, "MM") == 0)
+            snprintf(buf, sizeof buf, "%02d", t[w].month);
+        else if (strcmp(field, "DD") == 0)
+            snprintf(buf, sizeof buf, "%02d", t[w].day);
+        else if (strcmp(field, "HH") == 0)
+            snprintf(buf, sizeof buf, "%02d", t[w].hour);
+        else if (strcmp(field, "JJJ") == 0)
+            snprintf(buf, sizeof buf, "%03d", t[w].yday);
+        else if (strcmp(field, "yyyymmdd") == 0 || strcmp(field, "YYYYMMDD") == 0)
+            snprintf(buf, sizeof buf, "%04ld%02d%02d", t[w].year, t[w].month, t[w].day);
+        else if (strcmp(field, "YYYYMMDDHH") == 0)
+            snprintf(buf, sizeof buf, "%04ld%02d%02d%02d", t[w].year, t[w].month, t[w].day,
+                     t[w].hour);
+        else if (!w && strcmp(field, "FFF") == 0)
+            snprintf(buf, sizeof buf, "%03ld", lround(lead_hours));
+        else if (!w && strcmp(field, "FF") == 0)
+            snprintf(buf, sizeof buf, "%02ld", lround(lead_hours));
+        else
+            return sph_err_set(err, SPH_ERR_CONFIG, "URL template %s: unknown placeholder {%s}",
+                               tmpl, key);
+        if (append(out, len, &pos, buf) != 0)
+            goto too_long;
+        p = close + 1;
+    }
+    return SPH_OK;
+too_long:
+    return sph_err_set(err, SPH_ERR_CONFIG, "URL template %s: expansion longer than %zu bytes",
+                       tmpl, len - 1);
+}
+
+int fetch_expand_template(const char *tmpl, double cycle_time, char *out, size_t len,
+                          sph_error *err)
+{
+    return fetch_expand_template_lead(tmpl, cycle_time, 0, out, len, err);
+}
+
+/* ------------------------------------------------- NetCDF completeness */
+
+/* Minimal reader of the classic header (NetCDF classic format spec): we
+ * need only each variable's size and begin offset, to know how long a
+ * complete file is. Big-endian throughout. */
+typedef struct {
+    const unsigned char *p, *end;
+    int version; /* 1, 2 or 5 */
+    int bad;
+} hdr;
+
+static uint64_t get_be(hdr *h, int bytes)
+{
+    if (h->bad || h->end - h->p < bytes) {
+        h->bad = 1;
+        return 0;
+    }
+    uint64_t v = 0;
+    for (int k = 0; k < bytes; k++)
+        v = (v << 8) | *h->p++;
+    return v;
+}
+
+static uint64_t get_count(hdr *h) { return get_be(h, h->version == 5 ? 8 : 4); }
+
+static void skip(hdr *h, uint64_t n)
+{
+    uint64_t padded = (n + 3) & ~(uint64_t)3;
+    if (h->bad || (uint64_t)(h->end - h->p) < padded) {
+        h->bad = 1;
+        return;
+    }
+    h->p += padded;
+}
+
+static int type_size(uint64_t t)
+{
+    switch (t) {
+    case 1: case 2: case 7: return 1;  /* byte, char, ubyte */
+    case 3: case 8: return 2;          /* short, ushort */
+    case 4: case 5: case 9: return 4;  /* int, float, uint */
+    case 6: case 10: case 11: return 8; /* double, int64, uint64 */
+    default: return 0;
+    }
+}
+
+static void skip_attrs(hdr *h)
+{
+    uint64_t tag = get_be(h, 4), n = get_count(h);
+    if (tag == 0)
+        return;
+    if (tag != 0x0C || n > 1000000) {
+        h->bad = 1;
+        return;
+    }
+    for (uint64_t a = 0; a < n && !h->bad; a++) {
+        skip(h, get_count(h)); /* name */
+        int ts = type_size(get_be(h, 4));
+        uint64_t nv = get_count(h);
+        if (!ts || nv > (1ull << 40)) {
+            h->bad = 1;
+            return;
+        }
+        skip(h, nv * (uint64_t)ts);
+    }
+}
+
+/* Length a complete classic file must have; 0 if unknown (streaming). */
+static int classic_expected_size(const unsigned char *buf, size_t n, uint64_t *size)
+{
+    hdr h = {buf + 4, buf + n, buf[3], 0};
+    *size = 0;
+    uint64_t numrecs = get_count(&h);
+    int streaming = h.version == 5 ? numrecs == UINT64_MAX : numrecs == 0xFFFFFFFFu;
+    uint64_t tag = get_be(&h, 4), ndims = get_count(&h);
+    uint64_t dimlen[1024];
+    if ((tag != 0 && tag != 0x0A) || ndims > 1024)
+        return -1;
+    for (uint64_t d = 0; d < ndims && !h.bad; d++) {
+        skip(&h, get_count(&h));
+        dimlen[d] = get_count(&h);
+    }
+    skip_attrs(&h);
+    tag = get_be(&h, 4);
+    uint64_t nvars = get_count(&h);
+    if ((tag != 0 && tag != 0x0B) || nvars > 1000000)
+        return -1;
+    uint64_t recsize = 0, need = 0;
+    typedef struct { uint64_t begin, bytes; int rec; } vinfo;
+    vinfo *v = calloc(nvars ? nvars : 1, sizeof *v);
+    if (!v)
+        return -1;
+    for (uint64_t k = 0; k < nvars && !h.bad; k++) {
+        skip(&h, get_count(&h));
+        uint64_t nd = get_count(&h), bytes = 1;
+        int rec = 0;
+        for (uint64_t d = 0; d < nd && !h.bad; d++) {
+            uint64_t id = get_count(&h);
+            if (id >= ndims) {
+                h.bad = 1;
+                break;
+            }
+            if (dimlen[id] == 0 && d == 0)
+                rec = 1;
+            else
+                bytes *= dimlen[id];
+        }
+        skip_attrs(&h);
+        int ts = type_size(get_be(&h, 4));
+        get_count(&h); /* vsize: may be capped for huge variables, recomputed below */
+        uint64_t begin = get_be(&h, h.version == 1 ? 4 : 8);
+        if (!ts)
+            h.bad = 1;
+        v[k].begin = begin;
+        v[k].bytes = bytes * (uint64_t)ts;
+        v[k].rec = rec;
+        if (rec)
+            recsize += (v[k].bytes + 3) & ~(uint64_t)3;
+    }
+    int nrec = 0;
+    for (uint64_t k = 0; k < nvars; k++)
+        nrec += v[k].rec;
+    if (nrec == 1)
+        for (uint64_t k = 0; k < nvars; k++)
+            if (v[k].rec)
+                recsize = v[k].bytes; /* a lone record variable is not padded */
+    for (uint64_t k = 0; k < nvars && !h.bad; k++) {
+        uint64_t end;
+        if (!v[k].rec)
+            end = v[k].begin + v[k].bytes;
+        else if (streaming || numrecs == 0)
+            continue;
+        else
+            end = v[k].begin + (numrecs - 1) * recsize + v[k].bytes;
+        if (end > need)
+            need = end;
+    }
+    free(v);
+    if (h.bad)
+        return -1;
+    *size = need;
+    return 0;
+}
+
+int fetch_check_netcdf(const char *path, const char *label, const char *const *vars,
+                       size_t nvars, sph_error *err)
+{
+    if (!label)
+        label = path;
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return sph_err_set(err, SPH_ERR_IO, "%s: cannot open %s: %s", label, path, strerror(errno));
+    /* The classic header is at most a few hundred kB for any sane file. */
+    size_t cap = 1 << 20;
+    unsigned char *buf = malloc(cap);
+    if (!buf) {
+        fclose(f);
+        return sph_err_set(err, SPH_ERR_NOMEM, "%s: out of memory", label);
+    }
+    size_t got = fread(buf, 1, cap, f);
+    struct stat st;
+    int have_stat = fstat(fileno(f), &st) == 0;
+    fclose(f);
+    int classic = got >= 4 && memcmp(buf, "CDF", 3) == 0 &&
+                  (buf[3] == 1 || buf[3] == 2 || buf[3] == 5);
+    int hdf5 = got >= 8 && memcmp(buf, "\x89HDF\r\n\x1a\n", 8) == 0;
+    if (!classic && !hdf5) {
+        char shown[17];
+        size_t k;
+        for (k = 0; k < got && k < 16; k++)
+            shown[k] = buf[k] >= 32 && buf[k] < 127 ? (char)buf[k] : '.';
+        shown[k] = '\0';
+        free(buf);
+        return sph_err_set(err, SPH_ERR_NETCDF, "%s: not a NetCDF file (%lld bytes starting \"%s\")",
+                           label, have_stat ? (long long)st.st_size : -1LL, shown);
+    }
+    if (classic) {
+        uint64_t need = 0;
+        int prc = classic_expected_size(buf, got, &need);
+        free(buf);
+        if (prc != 0)
+            return sph_err_set(err, SPH_ERR_NETCDF, "%s: truncated or corrupt NetCDF header", label);
+        if (have_stat && (uint64_t)st.st_size < need)
+            return sph_err_set(err, SPH_ERR_NETCDF,
+                               "%s: truncated NetCDF file: %lld bytes, the header needs %llu",
+                               label, (long long)st.st_size, (unsigned long long)need);
+    } else {
+        free(buf);
+    }
+    int ncid, status = nc_open(path, NC_NOWRITE, &ncid);
+    if (status != NC_NOERR)
+        return sph_err_set(err, SPH_ERR_NETCDF, "%s: cannot open as NetCDF (truncated or corrupt?): %s",
+                           label, nc_strerror(status));
+    int rc = SPH_OK;
+    for (size_t k = 0; k < nvars && rc == SPH_OK; k++) {
+        int varid;
+        if (nc_inq_varid(ncid, vars[k], &varid) != NC_NOERR)
+            rc = sph_err_set(err, SPH_ERR_MISSING_VAR, "%s: NetCDF file lacks variable \"%s\"", label,
+                             vars[k]);
+    }
+    nc_close(ncid);
+    return rc;
+}
+
+/* ------------------------------------------------------------ downloads */
+
+static pthread_once_t curl_once = PTHREAD_ONCE_INIT;
+static void curl_init_once(void) { curl_global_init(CURL_GLOBAL_DEFAULT); }
+
+static const char *scheme_end(const char *url)
+{
+    const char *p = strstr(url, "://");
+    if (!p)
+        return NULL;
+    for (const char *q = url; q < p; q++)
+        if (!((*q >= 'a' && *q <= 'z') || (*q >= 'A' && *q <= 'Z') || *q == '+' || *q == '.' ||
+              *q == '-'))
+            return NULL;
+    return p + 3;
+}
+
+int fetch_cache_path(const char *url, const char *cache_dir, char *path, size_t len,
+                     sph_error *err)
+{
+    if (!cache_dir || !*cache_dir)
+        return sph_err_set(err, SPH_ERR_CONFIG, "download %s: no cache directory configured", url);
+    char hex[65];
+    sha256_hex(url, strlen(url), hex);
+    /* basename of the URL path, without query, restricted to safe characters */
+    const char *start = scheme_end(url);
+    start = start ? start : url;
+    const char *q = strpbrk(start, "?#");
+    size_t plen = q ? (size_t)(q - start) : strlen(start);
+    const char *base = start;
+    for (size_t k = 0; k < plen; k++)
+        if (start[k] == '/')
+            base = start + k + 1;
+    char safe[96];
+    size_t n = 0;
+    for (const char *c = base; c < start + plen && n < sizeof safe - 1; c++)
+        safe[n++] = (*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') ||
+                            (*c >= '0' && *c <= '9') || *c == '.' || *c == '-' || *c == '_'
+                        ? *c
+                        : '_';
+    safe[n] = '\0';
+    int w = snprintf(path, len, "%s/%.16s-%s", cache_dir, hex, n ? safe : "download");
+    if (w < 0 || (size_t)w >= len)
+        return sph_err_set(err, SPH_ERR_CONFIG, "download %s: cache path too long", url);
+    return SPH_OK;
+}
+
+typedef struct {
+    FILE *f;
+    long long bytes;
+    int write_error;
+    char etag[256];
+} transfer;
+
+static size_t on_data(char *ptr, size_t size, size_t nmemb, void *userdata)
+{
+    transfer *t = userdata;
+    size_t n = size * nmemb;
+    if (fwrite(ptr, 1, n, t->f) != n) {
+        t->write_error = errno ? errno : EIO;
+        return 0;
+    }
+    t->bytes += (long long)n;
+    return n;
+}
+
+static size_t on_header(char *buf, size_t size, size_t nitems, void *userdata)
+{
+    transfer *t = userdata;
+    size_t n = size * nitems;
+    if (n > 5 && strncasecmp(buf, "ETag:", 5) == 0) {
+        const char *v = buf + 5;
+        while (*v == ' ' || *v == '\t')
+            v++;
+        size_t m = (size_t)(buf + n - v);
+        while (m && (v[m - 1] == '\r' || v[m - 1] == '\n' || v[m - 1] == ' '))
+            m--;
+        if (m < sizeof t->etag) {
+            memcpy(t->etag, v, m);
+            t->etag[m] = '\0';
+        }
+    }
+    return n;
+}
+
+static void read_etag(const char *etag_path, char *etag, size_t len)
+{
+    etag[0] = '\0';
+    FILE *f = fopen(etag_path, "r");
+    if (!f)
+        return;
+    if (fgets(etag, (int)len, f)) {
+        size_t n = strlen(etag);
+        while (n && (etag[n - 1] == '\n' || etag[n - 1] == '\r'))
+            etag[--n] = '\0';
+    }
+    fclose(f);
+}
+
+/* Outcome of one attempt. */
+enum { ATTEMPT_OK, ATTEMPT_NOT_MODIFIED, ATTEMPT_TRANSIENT, ATTEMPT_FATAL };
+
+static int one_attempt(const char *url, const fetch_options *o, const char *tmp,
+                       const char *cached, const char *etag_path, fetch_result *res,
+                       long *filetime, char *etag_out, size_t etag_len, char *why, size_t why_len)
+{
+    transfer t = {0};
+    t.f = fopen(tmp, "wb");
+    if (!t.f) {
+        snprintf(why, why_len, "cannot create %s: %s", tmp, strerror(errno));
+        return ATTEMPT_FATAL;
+    }
+    CURL *c = curl_easy_init();
+    if (!c) {
+        fclose(t.f);
+        snprintf(why, why_len, "curl_easy_init failed");
+        return ATTEMPT_FATAL;
+    }
+    char curl_err[CURL_ERROR_SIZE] = "";
+    struct curl_slist *headers = NULL;
+    curl_easy_setopt(c, CURLOPT_URL, url);
+    curl_easy_setopt(c, CURLOPT_ERRORBUFFER, curl_err);
+    curl_easy_setopt(c, CURLOPT_WRITEFUNCTION, on_data);
+    curl_easy_setopt(c, CURLOPT_WRITEDATA, &t);
+    curl_easy_setopt(c, CURLOPT_HEADERFUNCTION, on_header);
+    curl_easy_setopt(c, CURLOPT_HEADERDATA, &t);
+    curl_easy_setopt(c, CURLOPT_FOLLOWLOCATION, 1L);
+    curl_easy_setopt(c, CURLOPT_MAXREDIRS, 5L);
+    curl_easy_setopt(c, CURLOPT_NOSIGNAL, 1L); /* thread-safe timeouts */
+    curl_easy_setopt(c, CURLOPT_FILETIME, 1L);
+    curl_easy_setopt(c, CURLOPT_USERAGENT, "sphice/" SPHICE_VERSION);
+    curl_easy_setopt(c, CURLOPT_TIMEOUT_MS, (long)(o->timeout_s * 1000));
+    curl_easy_setopt(c, CURLOPT_CONNECTTIMEOUT_MS, (long)(o->connect_timeout_s * 1000));
+    curl_easy_setopt(c, CURLOPT_LOW_SPEED_LIMIT, 1L);
+    curl_easy_setopt(c, CURLOPT_LOW_SPEED_TIME,
+                     (long)(o->stall_timeout_s < 1 ? 1 : ceil(o->stall_timeout_s)));
+    struct stat st;
+    if (cached && stat(cached, &st) == 0) {
+        curl_easy_setopt(c, CURLOPT_TIMECONDITION, (long)CURL_TIMECOND_IFMODSINCE);
+        curl_easy_setopt(c, CURLOPT_TIMEVALUE, (long)st.st_mtime);
+        char etag[256], line[300];
+        read_etag(etag_path, etag, sizeof etag);
+        if (etag[0]) {
+            snprintf(line, sizeof line, "If-None-Match: %s", etag);
+            headers = curl_slist_append(headers, line);
+            curl_easy_setopt(c, CURLOPT_HTTPHEADER, headers);
+        }
+    }
+    res->attempts++;
+    CURLcode cc = curl_easy_perform(c);
+    long status = 0, unmet = 0;
+    curl_off_t expected = -1;
+    curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &status);
+    curl_easy_getinfo(c, CURLINFO_CONDITION_UNMET, &unmet);
+    curl_easy_getinfo(c, CURLINFO_CONTENT_LENGTH_DOWNLOAD_T, &expected);
+    curl_easy_getinfo(c, CURLINFO_FILETIME, filetime);
+    res->http_status = status;
+    int closed_bad = fclose(t.f) != 0;
+    curl_easy_cleanup(c);
+    curl_slist_free_all(headers);
+    snprintf(etag_out, etag_len, "%s", t.etag);
+    int is_http = strncmp(url, "http", 4) == 0;
+
+    if (cc == CURLE_OK && (status == 304 || unmet)) {
+        res->not_modified = 1;
+        return ATTEMPT_NOT_MODIFIED;
+    }
+    if (t.write_error || closed_bad) {
+        snprintf(why, why_len, "writing %s: %s", tmp, strerror(t.write_error ? t.write_error : EIO));
+        return ATTEMPT_FATAL;
+    }
+    if (cc == CURLE_HTTP_RETURNED_ERROR || (cc == CURLE_OK && is_http && status >= 400)) {
+        int transient = status >= 500 || status == 408 || status == 429;
+        snprintf(why, why_len, "HTTP %ld%s", status,
+                 status == 404 ? " (not found)" : status >= 500 ? " (server error)" : "");
+        return transient ? ATTEMPT_TRANSIENT : ATTEMPT_FATAL;
+    }
+    switch (cc) {
+    case CURLE_OK:
+        break;
+    case CURLE_OPERATION_TIMEDOUT:
+        snprintf(why, why_len, "timed out after %lld bytes (%s)", t.bytes, curl_err);
+        return ATTEMPT_TRANSIENT;
+    case CURLE_PARTIAL_FILE:
+        snprintf(why, why_len, "truncated transfer: got %lld of %lld bytes", t.bytes,
+                 (long long)expected);
+        return ATTEMPT_TRANSIENT;
+    case CURLE_COULDNT_CONNECT:
+    case CURLE_COULDNT_RESOLVE_HOST:
+    case CURLE_RECV_ERROR:
+    case CURLE_SEND_ERROR:
+    case CURLE_GOT_NOTHING:
+    case CURLE_SSL_CONNECT_ERROR:
+    case CURLE_FTP_ACCEPT_TIMEOUT:
+        snprintf(why, why_len, "%s: %s", curl_easy_strerror(cc), curl_err);
+        return ATTEMPT_TRANSIENT;
+    case CURLE_REMOTE_FILE_NOT_FOUND:
+        snprintf(why, why_len, "not found: %s", curl_err);
+        return ATTEMPT_FATAL;
+    default:
+        snprintf(why, why_len, "%s: %s", curl_easy_strerror(cc), curl_err);
+        return ATTEMPT_FATAL;
+    }
+    if (expected >= 0 && t.bytes != (long long)expected) {
+        snprintf(why, why_len, "truncated transfer: got %lld of %lld bytes", t.bytes,
+                 (long long)expected);
+        return ATTEMPT_TRANSIENT;
+    }
+    return ATTEMPT_OK;
+}
+
+static void sleep_s(double s)
+{
+    if (s <= 0)
+        return;
+    struct timespec ts = {(time_t)s, (long)((s - floor(s)) * 1e9)};
+    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
+    }
+}
+
+/* A file:// URL or plain path: used in place. */
+static int fetch_local(const char *url, const fetch_options *o, char *local_path, size_t len,
+                       char sha[65], fetch_result *res, sph_error *err)
+{
+    const char *path = url;
+    char decoded[4096];
+    if (strncmp(url, "file://", 7) == 0) {
+        path = url + 7;
+        if (strncmp(path, "localhost/", 10) == 0)
+            path += 9;
+        size_t n = 0;
+        for (const char *p = path; *p && n < sizeof decoded - 1; p++) {
+            int hi, lo;
+            if (p[0] == '%' && sscanf(p + 1, "%1x%1x", (unsigned *)&hi, (unsigned *)&lo) == 2) {
+                decoded[n++] = (char)(hi * 16 + lo);
+                p += 2;
+            } else {
+                decoded[n++] = *p;
+            }
+        }
+        decoded[n] = '\0';
+        path = decoded;
+    }
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return sph_err_set(err, SPH_ERR_IO, "fetch %s: %s", url, strerror(errno));
+    if (o->check_netcdf) {
+        int rc = fetch_check_netcdf(path, url, o->expect_vars, o->n_expect, err);
+        if (rc != SPH_OK)
+            return rc;
+    }
+    if ((size_t)snprintf(local_path, len, "%s", path) >= len)
+        return sph_err_set(err, SPH_ERR_PARAM, "fetch %s: path longer than %zu", url, len - 1);
+    res->bytes = (long long)st.st_size;
+    return sha ? sha256_file(path, sha, err) : SPH_OK;
+}
+
+int fetch_url_ex(const char *url, const fetch_options *opt, char *local_path, size_t len,
+                 char sha256_hex[65], fetch_result *result, sph_error *err)
+{
+    fetch_options defaults;
+    if (!opt) {
+        fetch_options_default(&defaults);
+        opt = &defaults;
+    }
+    fetch_result local_res;
+    fetch_result *res = result ? result : &local_res;
+    memset(res, 0, sizeof *res);
+    if (!url || !*url)
+        return sph_err_set(err, SPH_ERR_CONFIG, "fetch: empty URL");
+    if (!scheme_end(url) || strncmp(url, "file://", 7) == 0)
+        return fetch_local(url, opt, local_path, len, sha256_hex, res, err);
+    if (strncmp(url, "http://", 7) != 0 && strncmp(url, "https://", 8) != 0 &&
+        strncmp(url, "ftp://", 6) != 0)
+        return sph_err_set(err, SPH_ERR_CONFIG, "download %s: unsupported scheme", url);
+
+    char final[4096], tmp[4200], etag_path[4200];
+    int rc = fetch_cache_path(url, opt->cache_dir, final, sizeof final, err);
+    if (rc != SPH_OK)
+        return rc;
+    if ((size_t)snprintf(local_path, len, "%s", final) >= len)
+        return sph_err_set(err, SPH_ERR_PARAM, "download %s: cache path longer than %zu", url, len - 1);
+    rc = mkdir_p(opt->cache_dir, err);
+    if (rc != SPH_OK)
+        return rc;
+    snprintf(tmp, sizeof tmp, "%s.part.%ld", final, (long)getpid());
+    snprintf(etag_path, sizeof etag_path, "%s.etag", final);
+    pthread_once(&curl_once, curl_init_once);
+
+    /* A cached copy that no longer passes the check is not offered for a
+     * conditional request (it would be kept forever). */
+    int have_cache = access(final, R_OK) == 0 &&
+                     (!opt->check_netcdf ||
+                      fetch_check_netcdf(final, url, opt->expect_vars, opt->n_expect, NULL) == SPH_OK);
+
+    char why[8192] = "", etag[256] = "";
+    long filetime = -1;
+    double wait = opt->backoff_s;
+    int outcome = ATTEMPT_FATAL;
+    for (int attempt = 0; attempt <= (opt->retries > 0 ? opt->retries : 0); attempt++) {
+        if (attempt > 0) {
+            log_warn("download %s: %s; retry %d of %d in %.3g s", url, why, attempt, opt->retries,
+                     wait);
+            sleep_s(wait);
+            wait *= 2;
+        }
+        why[0] = '\0';
+        outcome = one_attempt(url, opt, tmp, have_cache ? final : NULL, etag_path, res, &filetime,
+                              etag, sizeof etag, why, sizeof why);
+        if (outcome != ATTEMPT_TRANSIENT)
+            break;
+    }
+    if (outcome == ATTEMPT_NOT_MODIFIED) {
+        unlink(tmp);
+        struct stat st;
+        if (stat(final, &st) == 0)
+            res->bytes = (long long)st.st_size;
+        log_info("download %s: not modified, using %s", url, final);
+        return sha256_hex ? sha256_file(final, sha256_hex, err) : SPH_OK;
+    }
+    if (outcome != ATTEMPT_OK) {
+        unlink(tmp);
+        if (outcome == ATTEMPT_TRANSIENT && res->attempts > 1)
+            return sph_err_set(err, SPH_ERR_DOWNLOAD, "download %s: %s (after %d attempts)", url,
+                               why, res->attempts);
+        return sph_err_set(err, SPH_ERR_DOWNLOAD, "download %s: %s", url, why);
+    }
+    if (opt->check_netcdf) {
+        rc = fetch_check_netcdf(tmp, url, opt->expect_vars, opt->n_expect, err);
+        if (rc != SPH_OK) {
+            unlink(tmp);
+            return rc;
+        }
+    }
+    if (filetime > 0) {
+        struct utimbuf ut = {(time_t)filetime, (time_t)filetime};
+        utime(tmp, &ut);
+    }
+    if (fault_point("fetch_before_rename")) {
+        unlink(tmp);
+        return sph_err_set(err, SPH_ERR_IO, "download %s: fault injected before rename", url);
+    }
+    rc = atomic_commit(tmp, final, err);
+    if (rc != SPH_OK)
+        return rc;
+    if (etag[0]) {
+        char line[300];
+        int n = snprintf(line, sizeof line, "%s\n", etag);
+        atomic_write_file(etag_path, line, (size_t)n, NULL);
+    } else {
+        unlink(etag_path);
+    }
+    res->downloaded = 1;
+    struct stat st;
+    if (stat(final, &st) == 0)
+        res->bytes = (long long)st.st_size;
+    log_info("download %s: %lld bytes -> %s", url, res->bytes, final);
+    return sha256_hex ? sha256_file(final, sha256_hex, err) : SPH_OK;
+}
+
+int fetch_url(const char *url, const fetch_options *opt, char *local_path, size_t len,
+              char sha256_hex[65], sph_error *err)
+{
+    return fetch_url_ex(url, opt, local_path, len, sha256_hex, NULL, err);
+}

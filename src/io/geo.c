@@ -1,0 +1,203 @@
+/* PROJ wrapper: see io/geo.h. */
+#include "io/geo.h"
+
+#include <math.h>
+#include <proj.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct geo_proj {
+    PJ_CONTEXT *ctx;     /* one per object: PJ objects are not thread-safe */
+    PJ *pj;              /* geographic (lon, lat degrees) -> plane (x, y metres) */
+    pthread_mutex_t lock; /* serialises proj_trans on this object */
+    double lon0, lat0;
+    char definition[512];
+};
+
+/* The geographic side: WGS84 longitude/latitude in degrees, spelled out so
+ * that no proj.db lookup is needed. */
+static const char geographic_crs[] = "+proj=longlat +datum=WGS84 +no_defs +type=crs";
+
+static int build_definition(const char *kind, double lon0, double lat0, char *def, size_t len,
+                            sph_error *err)
+{
+    if (!kind || !*kind)
+        kind = "auto";
+    if (!isfinite(lon0) || !isfinite(lat0) || lat0 < -90 || lat0 > 90)
+        return sph_err_set(err, SPH_ERR_PARAM,
+                           "projection: centre (%g E, %g N) is not a valid position", lon0, lat0);
+    if (strcmp(kind, "auto") == 0)
+        kind = fabs(lat0) < 60 ? "aeqd" : "polar";
+    if (strcmp(kind, "aeqd") == 0) {
+        snprintf(def, len, "+proj=aeqd +lat_0=%.10g +lon_0=%.10g +x_0=0 +y_0=0 +ellps=WGS84 "
+                 "+units=m +no_defs +type=crs", lat0, lon0);
+    } else if (strcmp(kind, "stere") == 0) {
+        snprintf(def, len, "+proj=stere +lat_0=%.10g +lon_0=%.10g +k=1 +x_0=0 +y_0=0 "
+                 "+ellps=WGS84 +units=m +no_defs +type=crs", lat0, lon0);
+    } else if (strcmp(kind, "polar") == 0) {
+        double pole = lat0 >= 0 ? 90.0 : -90.0;
+        snprintf(def, len, "+proj=stere +lat_0=%g +lat_ts=%g +lon_0=%.10g +x_0=0 +y_0=0 "
+                 "+ellps=WGS84 +units=m +no_defs +type=crs", pole, pole > 0 ? 70.0 : -70.0,
+                 lon0);
+    } else if (strstr(kind, "+proj=") && !strstr(kind, "+type=crs")) {
+        snprintf(def, len, "%s +type=crs", kind);
+    } else if (strstr(kind, "+proj=") || strncmp(kind, "EPSG:", 5) == 0 ||
+               strncmp(kind, "epsg:", 5) == 0) {
+        snprintf(def, len, "%s", kind);
+    } else {
+        return sph_err_set(err, SPH_ERR_CONFIG,
+                           "projection: unknown kind \"%s\" (auto, aeqd, stere, polar, or a "
+                           "PROJ definition with +proj=)", kind);
+    }
+    return SPH_OK;
+}
+
+static geo_proj *create_from_definition(const char *def, double lon0, double lat0,
+                                        sph_error *err)
+{
+    geo_proj *p = calloc(1, sizeof *p);
+    if (!p) {
+        sph_err_set(err, SPH_ERR_NOMEM, "projection: out of memory");
+        return NULL;
+    }
+    snprintf(p->definition, sizeof p->definition, "%s", def);
+    p->lon0 = lon0;
+    p->lat0 = lat0;
+    p->ctx = proj_context_create();
+    if (!p->ctx) {
+        free(p);
+        sph_err_set(err, SPH_ERR_NOMEM, "projection: proj_context_create failed");
+        return NULL;
+    }
+    proj_log_level(p->ctx, PJ_LOG_NONE);
+    PJ *raw = proj_create_crs_to_crs(p->ctx, geographic_crs, def, NULL);
+    if (raw) {
+        p->pj = proj_normalize_for_visualization(p->ctx, raw);
+        proj_destroy(raw);
+    }
+    if (!p->pj) {
+        int e = proj_context_errno(p->ctx);
+        sph_err_set(err, SPH_ERR_CONFIG, "projection \"%s\": %s", def,
+                    e ? proj_context_errno_string(p->ctx, e) : "cannot create");
+        proj_context_destroy(p->ctx);
+        free(p);
+        return NULL;
+    }
+    pthread_mutex_init(&p->lock, NULL);
+    return p;
+}
+
+geo_proj *geo_proj_create(const char *kind, double lon0, double lat0, sph_error *err)
+{
+    char def[512];
+    if (build_definition(kind, lon0, lat0, def, sizeof def, err) != SPH_OK)
+        return NULL;
+    return create_from_definition(def, lon0, lat0, err);
+}
+
+geo_proj *geo_proj_clone(const geo_proj *p, sph_error *err)
+{
+    if (!p) {
+        sph_err_set(err, SPH_ERR_PARAM, "projection: clone of NULL");
+        return NULL;
+    }
+    return create_from_definition(p->definition, p->lon0, p->lat0, err);
+}
+
+void geo_proj_free(geo_proj *p)
+{
+    if (!p)
+        return;
+    proj_destroy(p->pj);
+    proj_context_destroy(p->ctx);
+    pthread_mutex_destroy(&p->lock);
+    free(p);
+}
+
+const char *geo_proj_definition(const geo_proj *p) { return p ? p->definition : ""; }
+
+void geo_proj_centre(const geo_proj *p, double *lon0, double *lat0)
+{
+    if (lon0)
+        *lon0 = p->lon0;
+    if (lat0)
+        *lat0 = p->lat0;
+}
+
+/* One direction for n points. The mutex is logically mutable state of a
+ * const object: it only serialises use of the PJ. */
+static int transform(const geo_proj *cp, PJ_DIRECTION dir, size_t n, const double *a,
+                     const double *b, double *outa, double *outb, sph_error *err)
+{
+    geo_proj *p = (geo_proj *)cp;
+    size_t bad = 0, first_bad = 0;
+    pthread_mutex_lock(&p->lock);
+    for (size_t i = 0; i < n; i++) {
+        PJ_COORD c = proj_coord(a[i], b[i], 0, HUGE_VAL);
+        PJ_COORD r = proj_trans(p->pj, dir, c);
+        if (!isfinite(a[i]) || !isfinite(b[i]) || !isfinite(r.xy.x) || !isfinite(r.xy.y) ||
+            r.xy.x == HUGE_VAL) {
+            if (!bad++)
+                first_bad = i;
+            outa[i] = outb[i] = NAN;
+            proj_errno_reset(p->pj);
+        } else {
+            outa[i] = r.xy.x;
+            outb[i] = r.xy.y;
+        }
+    }
+    pthread_mutex_unlock(&p->lock);
+    if (bad)
+        return sph_err_set(err, SPH_ERR_PARAM,
+                           "projection %s: %zu of %zu points do not %s (first: %g, %g)",
+                           p->definition, bad, n, dir == PJ_FWD ? "project" : "unproject",
+                           a[first_bad], b[first_bad]);
+    return SPH_OK;
+}
+
+int geo_forward(const geo_proj *p, size_t n, const double *lon, const double *lat, double *x,
+                double *y, sph_error *err)
+{
+    return transform(p, PJ_FWD, n, lon, lat, x, y, err);
+}
+
+int geo_inverse(const geo_proj *p, size_t n, const double *x, const double *y, double *lon,
+                double *lat, sph_error *err)
+{
+    int rc = transform(p, PJ_INV, n, x, y, lon, lat, err);
+    for (size_t i = 0; i < n; i++)
+        if (isfinite(lon[i]))
+            lon[i] = remainder(lon[i], 360.0); /* -180..180 */
+    return rc;
+}
+
+double geo_grid_angle(const geo_proj *p, double lon, double lat)
+{
+    /* 1e-4 degree (about 10 m) steps along the parallel: the truncation
+     * error of the centred difference is ~1e-9 rad, far below float noise. */
+    const double d = 1e-4;
+    double lons[2] = {lon - d, lon + d}, lats[2] = {lat, lat}, x[2], y[2];
+    if (fabs(lat) > 90 - 1e-6 || geo_forward(p, 2, lons, lats, x, y, NULL) != SPH_OK)
+        return NAN;
+    /* East points at atan2(dy, dx) from the x axis; x is at minus that from east. */
+    return -atan2(y[1] - y[0], x[1] - x[0]);
+}
+
+int geo_rotate_to_plane(const geo_proj *p, size_t n, const double *lon, const double *lat,
+                        const double *ue, const double *vn, double *ux, double *uy,
+                        sph_error *err)
+{
+    for (size_t i = 0; i < n; i++) {
+        double a = geo_grid_angle(p, lon[i], lat[i]);
+        if (!isfinite(a))
+            return sph_err_set(err, SPH_ERR_PARAM,
+                               "projection %s: no grid angle at (%g E, %g N)", p->definition,
+                               lon[i], lat[i]);
+        double e = ue[i], nn = vn[i], c = cos(a), s = sin(a);
+        ux[i] = e * c + nn * s;
+        uy[i] = -e * s + nn * c;
+    }
+    return SPH_OK;
+}

@@ -1,0 +1,214 @@
+/* Particle seeding: see io/seed.h. */
+#include "io/seed.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+void seed_options_default(seed_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->threshold = 0.05;
+    o->sml_factor = 1.0;
+    o->rho_ice = 900.0;
+}
+
+static int check_options(const ice_raster *r, const seed_options *o, sph_error *err)
+{
+    if (!(o->threshold >= 0 && o->threshold < 1))
+        return sph_err_set(err, SPH_ERR_CONFIG, "seeding: threshold %g outside 0..1", o->threshold);
+    if (!(o->spacing_m >= 0) || !(o->sml_factor > 0) || !(o->rho_ice > 0))
+        return sph_err_set(err, SPH_ERR_CONFIG,
+                           "seeding: spacing %g m, sml_factor %g, rho_ice %g must be positive",
+                           o->spacing_m, o->sml_factor, o->rho_ice);
+    if (!r || r->nlon < 1 || r->nlat < 1)
+        return sph_err_set(err, SPH_ERR_PARAM, "seeding: empty raster");
+    return SPH_OK;
+}
+
+typedef struct {
+    double lon, lat, conc, thick, area;
+} seed_point;
+
+/* Calls `emit` for every particle in a deterministic order; returns the
+ * count. `emit` NULL only counts. */
+typedef int (*emit_fn)(void *ctx, const seed_point *s);
+
+static int is_sea(const landmask *mask, double lon, double lat)
+{
+    return !mask || landmask_is_land(mask, lon, lat) != 1;
+}
+
+static int walk_cells(const ice_raster *r, const landmask *mask, const seed_options *o,
+                      emit_fn emit, void *ctx, size_t *count)
+{
+    *count = 0;
+    for (int j = 0; j < r->nlat; j++) {
+        double area = ice_raster_cell_area(r, j);
+        for (int i = 0; i < r->nlon; i++) {
+            size_t k = (size_t)j * r->nlon + i;
+            double c = r->conc[k];
+            if (!(c > o->threshold) || !(r->thick[k] > 0) || !is_sea(mask, r->lon[i], r->lat[j]))
+                continue;
+            seed_point s = {r->lon[i], r->lat[j], c, r->thick[k], area};
+            if (emit) {
+                int rc = emit(ctx, &s);
+                if (rc != SPH_OK)
+                    return rc;
+            }
+            (*count)++;
+        }
+    }
+    return SPH_OK;
+}
+
+/* Plane lattice bounds: the projected corners and edge midpoints of the
+ * raster (enough for the small regional domains sphice runs on). */
+static int lattice_bounds(const ice_raster *r, const geo_proj *p, const seed_options *o,
+                          double b[4], sph_error *err)
+{
+    if (o->xmin != 0 || o->xmax != 0 || o->ymin != 0 || o->ymax != 0) {
+        b[0] = o->xmin, b[1] = o->xmax, b[2] = o->ymin, b[3] = o->ymax;
+        return SPH_OK;
+    }
+    enum { NS = 9 };
+    double lon[4 * NS], lat[4 * NS], x[4 * NS], y[4 * NS];
+    double w = r->lon[0] - r->dlon / 2, e = r->lon[r->nlon - 1] + r->dlon / 2;
+    double s = r->lat[0] - r->dlat / 2, n = r->lat[r->nlat - 1] + r->dlat / 2;
+    for (int k = 0; k < NS; k++) {
+        double f = k / (double)(NS - 1);
+        lon[k] = w + f * (e - w), lat[k] = s;
+        lon[NS + k] = w + f * (e - w), lat[NS + k] = n;
+        lon[2 * NS + k] = w, lat[2 * NS + k] = s + f * (n - s);
+        lon[3 * NS + k] = e, lat[3 * NS + k] = s + f * (n - s);
+    }
+    int rc = geo_forward(p, 4 * NS, lon, lat, x, y, err);
+    if (rc != SPH_OK)
+        return rc;
+    b[0] = b[2] = INFINITY;
+    b[1] = b[3] = -INFINITY;
+    for (int k = 0; k < 4 * NS; k++) {
+        b[0] = fmin(b[0], x[k]), b[1] = fmax(b[1], x[k]);
+        b[2] = fmin(b[2], y[k]), b[3] = fmax(b[3], y[k]);
+    }
+    return SPH_OK;
+}
+
+static int walk_lattice(const ice_raster *r, const geo_proj *p, const landmask *mask,
+                        const seed_options *o, emit_fn emit, void *ctx, size_t *count,
+                        sph_error *err)
+{
+    *count = 0;
+    double b[4];
+    int rc = lattice_bounds(r, p, o, b, err);
+    if (rc != SPH_OK)
+        return rc;
+    const double d = o->spacing_m;
+    long i0 = (long)ceil(b[0] / d - 0.5), i1 = (long)floor(b[1] / d - 0.5);
+    long j0 = (long)ceil(b[2] / d - 0.5), j1 = (long)floor(b[3] / d - 0.5);
+    if (i1 < i0 || j1 < j0)
+        return SPH_OK;
+    if ((double)(i1 - i0 + 1) * (double)(j1 - j0 + 1) > 1e9)
+        return sph_err_set(err, SPH_ERR_CONFIG, "seeding: spacing %g m gives over 1e9 lattice points", d);
+    size_t nx = (size_t)(i1 - i0 + 1);
+    double *x = malloc(sizeof(double) * nx * 4);
+    if (!x)
+        return sph_err_set(err, SPH_ERR_NOMEM, "seeding: out of memory");
+    double *y = x + nx, *lon = y + nx, *lat = lon + nx;
+    for (long j = j0; j <= j1 && rc == SPH_OK; j++) {
+        for (size_t i = 0; i < nx; i++) {
+            x[i] = ((double)(i0 + (long)i) + 0.5) * d;
+            y[i] = ((double)j + 0.5) * d;
+        }
+        geo_inverse(p, nx, x, y, lon, lat, NULL); /* NaN where it fails: skipped */
+        for (size_t i = 0; i < nx && rc == SPH_OK; i++) {
+            seed_point s = {lon[i], lat[i], 0, 0, d * d};
+            if (!isfinite(lon[i]) || !ice_raster_sample(r, lon[i], lat[i], &s.conc, &s.thick))
+                continue;
+            if (!(s.conc > o->threshold) || !(s.thick > 0) || !is_sea(mask, lon[i], lat[i]))
+                continue;
+            if (emit)
+                rc = emit(ctx, &s);
+            (*count)++;
+        }
+    }
+    free(x);
+    return rc;
+}
+
+int seed_count(const ice_raster *r, const geo_proj *p, const landmask *mask,
+               const seed_options *o, size_t *count, sph_error *err)
+{
+    seed_options def;
+    if (!o) {
+        seed_options_default(&def);
+        o = &def;
+    }
+    int rc = check_options(r, o, err);
+    if (rc != SPH_OK)
+        return rc;
+    if (o->spacing_m > 0)
+        return walk_lattice(r, p, mask, o, NULL, NULL, count, err);
+    return walk_cells(r, mask, o, NULL, NULL, count);
+}
+
+typedef struct {
+    sph_particles *P;
+    const geo_proj *p;
+    const seed_options *o;
+    sph_error *err;
+} emit_ctx;
+
+static int emit_particle(void *vctx, const seed_point *s)
+{
+    emit_ctx *c = vctx;
+    sph_particles *P = c->P;
+    size_t k = P->n;
+    double x, y;
+    int rc = geo_forward(c->p, 1, &s->lon, &s->lat, &x, &y, c->err);
+    if (rc != SPH_OK)
+        return rc;
+    P->x[k] = x;
+    P->y[k] = y;
+    P->lat[k] = s->lat;
+    P->u[k] = P->v[k] = 0;
+    P->conc[k] = s->conc;
+    P->thick[k] = s->thick;
+    P->mass[k] = c->o->rho_ice * s->conc * s->thick * s->area;
+    P->sml[k] = c->o->sml_factor * sqrt(s->area);
+    P->id[k] = c->o->first_id + (long)k;
+    P->n = k + 1;
+    return SPH_OK;
+}
+
+int seed_from_raster(const ice_raster *r, const geo_proj *p, const landmask *mask,
+                     const seed_options *o, sph_particles *P, sph_error *err)
+{
+    seed_options def;
+    if (!o) {
+        seed_options_default(&def);
+        o = &def;
+    }
+    size_t need;
+    int rc = seed_count(r, p, mask, o, &need, err);
+    if (rc != SPH_OK)
+        return rc;
+    if (!p)
+        return sph_err_set(err, SPH_ERR_PARAM, "seeding %s: no projection", r->path);
+    if (need > P->cap - P->n)
+        return sph_err_set(err, SPH_ERR_PARAM,
+                           "seeding %s: %zu particles needed but only %zu of %zu free", r->path,
+                           need, P->cap - P->n, P->cap);
+    size_t n0 = P->n, got;
+    /* ids count from first_id for this call's first particle */
+    seed_options local = *o;
+    local.first_id = o->first_id - (long)n0;
+    emit_ctx c = {P, p, &local, err};
+    if (o->spacing_m > 0)
+        rc = walk_lattice(r, p, mask, o, emit_particle, &c, &got, err);
+    else
+        rc = walk_cells(r, mask, o, emit_particle, &c, &got);
+    if (rc != SPH_OK)
+        P->n = n0;
+    return rc;
+}
