@@ -303,11 +303,15 @@ typedef struct {
     size_t nedges;
 } gs_bin;
 
+typedef struct gs_cross gs_cross;
+
 typedef struct {
     gs_bin *bins;
     size_t nbins;
     int nx;
     double size_deg;
+    gs_cross *xbuf; /* crossings along one ray (scratch) */
+    size_t xcap;
 } gshhg;
 
 static void gshhg_free(gshhg *g)
@@ -317,6 +321,9 @@ static void gshhg_free(gshhg *g)
     for (size_t i = 0; i < g->nbins; i++)
         free(g->bins[i].edges);
     free(g->bins);
+    free(g->xbuf);
+    g->xbuf = NULL;
+    g->xcap = 0;
     g->bins = NULL;
     g->nbins = 0;
 }
@@ -467,10 +474,10 @@ done:
     return rc;
 }
 
-typedef struct {
+struct gs_cross {
     double t;
     int level;
-} gs_cross;
+};
 
 static int cross_cmp(const void *a, const void *b)
 {
@@ -511,7 +518,8 @@ static int gs_level_from_corner(const gs_bin *bin, int k, double px, double py,
         (*buf)[n].level = e->level;
         n++;
     }
-    qsort(*buf, n, sizeof **buf, cross_cmp);
+    if (n > 1)
+        qsort(*buf, n, sizeof **buf, cross_cmp);
     int level = bin->node_level[k];
     for (size_t i = 0; i < n; i++) {
         int L = (*buf)[i].level;
@@ -522,10 +530,8 @@ static int gs_level_from_corner(const gs_bin *bin, int k, double px, double py,
 
 /* GSHHG level at a point; -1 when the point lies in no loaded bin or on
  * allocation failure. *disagree is set when the corners did not agree. */
-static int gshhg_level(const gshhg *g, double lon, double lat, int *disagree)
+static int gshhg_level(gshhg *g, double lon, double lat, int *disagree)
 {
-    static gs_cross *buf;
-    static size_t cap;
     if (lon < 0)
         lon += 360.0;
     for (size_t i = 0; i < g->nbins; i++) {
@@ -537,7 +543,7 @@ static int gshhg_level(const gshhg *g, double lon, double lat, int *disagree)
         double py = (lat - b->lat_sw) / b->size_deg * 65535.0;
         int votes[8] = {0}, lv[4];
         for (int k = 0; k < 4; k++) {
-            lv[k] = gs_level_from_corner(b, k, px, py, &buf, &cap);
+            lv[k] = gs_level_from_corner(b, k, px, py, &g->xbuf, &g->xcap);
             if (lv[k] < 0 || lv[k] > 7)
                 return -1;
             votes[lv[k]]++;
