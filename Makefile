@@ -37,7 +37,7 @@ BENCH_BIN := $(BENCH_SRC:bench/%.c=$(BUILD)/bench/%)
 TOOL_SRC := $(wildcard tools/*.c)
 TOOL_BIN := $(TOOL_SRC:tools/%.c=$(BUILD)/tools/%)
 
-.PHONY: all deps check check-long sanitize valgrind layers demo bench clean install tests tools
+.PHONY: all deps check check-long sanitize valgrind layers demo demo-forcing bench clean install tests tools
 all: $(BUILD)/sphice tools
 
 deps:
@@ -99,6 +99,10 @@ valgrind: all tests
 
 demo: all
 	sh tools/demo.sh
+
+# Regenerates the synthetic Liaodong Bay 1999 scene (committed files).
+demo-forcing: $(BUILD)/tools/gen_liaodong
+	$(BUILD)/tools/gen_liaodong forcing/liaodong-1999
 
 bench: all $(BENCH_BIN)
 	sh bench/run.sh
