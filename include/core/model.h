@@ -53,6 +53,9 @@ typedef struct sph_params {
     int evp_iterations;         /* mEVP sub-iterations per step */
     int evp_adaptive;           /* aEVP: local alpha = beta from the stability bound */
     double evp_alpha, evp_beta; /* fixed mEVP parameters */
+    double evp_tol;             /* m/s: stop iterating when no velocity changes more */
+    double explicit_safety;     /* explicit limit dt < safety * M h^2 / (zeta + eta) */
+    int max_neighbours;         /* neighbour list capacity (more = clumping, an error) */
     int implicit_max_picard;    /* Picard iterations */
     double implicit_tol;        /* relative residual */
     int max_substeps;           /* explicit solver sub-step cap per dynamic step */
@@ -71,13 +74,15 @@ typedef struct sph_params {
     double coll_restitution;    /* e_r */
     double coll_floe_diameter;  /* d = D, m */
     double coll_max_conc;       /* C0 */
-    double coll_fluct_ratio;    /* v' = ratio * |local velocity deviation| */
+    double coll_vfluct_min;     /* m/s: floor of v' (v' = kernel-weighted RMS deviation) */
     /* momentum */
     double rho_i, rho_a, rho_w; /* kg/m^3 */
     double Ca, Cw;              /* drag coefficients */
     double turn_air, turn_water;/* turning angles, degrees (+ to the right in the NH) */
     double gravity;             /* m/s^2 */
     int coriolis;               /* 0 disables (channel tests) */
+    int coast_no_slip;          /* 1: ghosts reverse velocity; 0: free slip */
+    double sml_min_factor, sml_max_factor; /* h kept within [min, max] * h0 */
     /* health */
     double speed_limit;         /* m/s: above is a fatal blow-up */
     double mass_tolerance;      /* relative mass change per step no source explains */
@@ -110,6 +115,7 @@ void sph_model_free(sph_model *m);
 
 sph_particles *sph_model_particles(sph_model *m);
 const sph_params *sph_model_params(const sph_model *m);
+size_t sph_model_capacity(const sph_model *m); /* live particles it can hold */
 /* Changes reloadable parameters (same capacity and layers). */
 int sph_model_set_params(sph_model *m, const sph_params *p);
 
@@ -120,6 +126,11 @@ int sph_model_init(sph_model *m, sph_status *st);
 /* One dynamic step of length params.dt (forcing arrays must be filled),
  * plus thermodynamics when its own step falls due. */
 int sph_model_step(sph_model *m, sph_status *st);
+
+/* Diagnoses the current state without advancing: neighbours, density,
+ * concentration, strength, strain rates of the current velocities, the
+ * constitutive stress (no EVP memory) and its divergence (ax, ay). */
+int sph_model_diagnose(sph_model *m, sph_status *st);
 
 /* Largest stable step of the explicit solver at the current state, s. */
 double sph_model_explicit_dt_limit(sph_model *m);

@@ -45,6 +45,8 @@ typedef struct sph_particles {
     double *enth;    /* layer enthalpy q (J/m^3, negative), nlayers per particle */
     double *s11, *s22, *s12; /* vertically integrated stress, N/m (EVP memory) */
     long *id;        /* stable identity (trajectories, replay) */
+    double *sml0;    /* h0: reference smoothing length (seed eq. 10) */
+    double *dens0;   /* M0: reference density for the variable smoothing length */
 
     /* --- diagnosed by the step --- */
     double *dens;    /* M = sum_j m_j W_kj: mass per unit area, kg/m^2 */
@@ -74,6 +76,9 @@ sph_particles *sph_particles_create(size_t cap, int nlayers);
 void sph_particles_free(sph_particles *p); /* NULL does nothing */
 /* Removes particle k by moving the last one into its slot (O(1)). */
 void sph_particles_remove(sph_particles *p, size_t k);
+/* Reorders the live particles: new slot i takes old particle order[i].
+ * scratch must hold n doubles (and n * nlayers for the enthalpy). */
+void sph_particles_permute(sph_particles *p, const int *order, double *scratch);
 /* Copies every array entry of particle src to dst (same or other set). */
 void sph_particles_copy_one(sph_particles *dst, size_t d, const sph_particles *src, size_t s);
 

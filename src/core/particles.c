@@ -10,7 +10,7 @@
     X(x) X(y) X(u) X(v) X(mass) X(thick) X(conc) X(sml) X(snow) X(tsurf) X(s11)    \
     X(s22) X(s12) X(dens) X(e11) X(e22) X(e12) X(pres) X(ax) X(ay) X(lat) X(ua)     \
     X(va) X(uw) X(vw) X(sshx) X(sshy) X(tair) X(qair) X(swdn) X(lwdn) X(sst) X(fw) \
-    X(fsens) X(flat)
+    X(fsens) X(flat) X(sml0) X(dens0)
 
 sph_particles *sph_particles_create(size_t cap, int nlayers)
 {
@@ -72,4 +72,27 @@ void sph_particles_remove(sph_particles *p, size_t k)
     if (k != last)
         sph_particles_copy_one(p, k, p, last);
     p->n = last;
+}
+
+void sph_particles_permute(sph_particles *p, const int *order, double *scratch)
+{
+    size_t n = p->n;
+#define PERM_(f)                                      \
+    for (size_t i = 0; i < n; i++)                    \
+        scratch[i] = p->f[order[i]];                  \
+    memcpy(p->f, scratch, n * sizeof(double));
+    SPH_DOUBLE_FIELDS(PERM_)
+#undef PERM_
+    size_t nl = (size_t)p->nlayers;
+    for (size_t i = 0; i < n; i++)
+        memcpy(scratch + i * nl, p->enth + (size_t)order[i] * nl, nl * sizeof(double));
+    memcpy(p->enth, scratch, n * nl * sizeof(double));
+    long *ids = (long *)scratch;
+    for (size_t i = 0; i < n; i++)
+        ids[i] = p->id[order[i]];
+    memcpy(p->id, ids, n * sizeof(long));
+    unsigned char *rg = (unsigned char *)scratch;
+    for (size_t i = 0; i < n; i++)
+        rg[i] = p->regime[order[i]];
+    memcpy(p->regime, rg, n);
 }

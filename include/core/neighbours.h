@@ -1,0 +1,60 @@
+/* Neighbour search: a cell grid with particles counting-sorted by cell
+ * (row-major cell order), O(N) per build. The seed's point-by-point O(N^2)
+ * search (sph_nbr_build_brute) is kept only as the reference for tests
+ * and benchmarks.
+ *
+ * Lists are per query particle, in a fixed order (cells scanned in a fixed
+ * order, particles within a cell by index), so every sum over neighbours
+ * is deterministic whatever the thread count. Per pair the kernel value
+ * W_kj and gradient grad_k W_kj are cached (positions do not move within
+ * a dynamic step, so the solver iterations reuse them).
+ *
+ * All memory is allocated by sph_nbr_create; builds allocate nothing.
+ */
+#ifndef SPHICE_CORE_NEIGHBOURS_H
+#define SPHICE_CORE_NEIGHBOURS_H
+
+#include <stddef.h>
+#include "core/kernel.h"
+
+typedef struct sph_nbr {
+    size_t cap;      /* particles (query + ghosts) the lists can hold */
+    int max_nb;      /* list capacity per particle */
+    int *count;      /* [cap] neighbours of each query particle (self included) */
+    int *idx;        /* [cap * max_nb] */
+    double *w;       /* [cap * max_nb] W_kj */
+    double *gx, *gy; /* [cap * max_nb] grad_k W_kj */
+    /* cell grid of the last build */
+    size_t max_cells;
+    size_t ncells;
+    int ncx, ncy;
+    double x0, y0, cell;
+    int *cell_start;   /* [max_cells + 1] */
+    int *sorted;       /* [cap] particle indices in cell order */
+    int *cell_of;      /* [cap] */
+    long pairs;        /* total pairs of the last build */
+} sph_nbr;
+
+sph_nbr *sph_nbr_create(size_t cap, int max_nb);
+void sph_nbr_free(sph_nbr *nb);
+
+/* Sorts particles [0, n) into cells of size >= cell; fills the grid. */
+void sph_nbr_grid(sph_nbr *nb, size_t n, const double *x, const double *y, double cell);
+
+/* Builds lists for query particles [0, nq) among all gridded particles
+ * [0, n) (call sph_nbr_grid first with a cell >= the largest support).
+ * Pair smoothing length is (h_k + h_j) / 2. Returns 0, or 1 with
+ * *overflow = the first particle whose list would exceed max_nb. */
+int sph_nbr_build(sph_nbr *nb, const sph_kernel *k, size_t nq, const double *x,
+                  const double *y, const double *h, long *overflow);
+
+/* The O(N^2) reference: same lists (order by index), no grid needed. */
+int sph_nbr_build_brute(sph_nbr *nb, const sph_kernel *k, size_t nq, size_t n,
+                        const double *x, const double *y, const double *h, long *overflow);
+
+/* Candidate particles near point (px, py): those in the 3x3 cells around
+ * it (the caller filters by distance). Returns the number written (at
+ * most max); uses the grid of the last sph_nbr_grid. */
+int sph_nbr_candidates(const sph_nbr *nb, double px, double py, int *out, int max);
+
+#endif

@@ -1,0 +1,1129 @@
+/* The SPH sea-ice model: one dynamic step, driven from outside.
+ *
+ * Step n -> n+1 (params.dt):
+ *  1. reorder particles by cell (locality), mirror ghosts at coasts,
+ *     neighbour lists with cached kernel values and gradients;
+ *  2. SPH density M_k = sum_j m_j W_kj, concentration A = M/(rho_i h_i);
+ *     A > 1 ridges: A = 1 and h_i = M/rho_i (volume conserved: mass fixed);
+ *  3. ice strength, regime per particle (auto: free drift where
+ *     exp(-C(1-A)) < auto_tolerance in the whole neighbourhood);
+ *  4. momentum with the chosen stress solver; water drag and Coriolis
+ *     implicit (Coriolis trapezoidal, so it conserves kinetic energy);
+ *  5. positions (trapezoidal), coasts, open boundaries, smoothing length;
+ *  6. thermodynamics when its step falls due; budgets and health.
+ */
+#include "core/model.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/kernel.h"
+#include "core/neighbours.h"
+#include "core/rheology.h"
+
+#define OMEGA_EARTH 7.292e-5
+#define DEG2RAD (M_PI / 180.0)
+
+struct sph_model {
+    sph_params prm;
+    sph_kernel kern;
+    sph_particles *P; /* capacity 2*cap: live particles then ghosts */
+    size_t cap;
+    size_t ng;        /* ghosts this step, at indices [n, n + ng) */
+    int *ghost_src;
+    double *ghost_nx, *ghost_ny;
+    sph_nbr *nb;
+    int has_mask;
+    sph_landmask mask;
+    unsigned char *land;
+    unsigned char *near_land; /* sea cells within the ghost radius of land */
+    double near_radius;
+    /* workspaces, [2*cap] */
+    double *un, *vn;     /* velocity at the start of the step */
+    double *zeta;        /* last bulk viscosity */
+    double *vfluct;      /* fluctuating velocity (collision rheology) */
+    double *dvel;        /* per-particle velocity change of the last iteration */
+    double *scratch;     /* permutation and misc, [2*cap*SPH_MAX_LAYERS] */
+    int *order;
+    int *active;         /* particles iterated by the stress solver */
+    size_t nactive;
+    unsigned char *loose; /* per particle: free drift in auto mode */
+    double dens_scale;   /* lattice calibration of the truncated kernel */
+    sph_thermo_work *tw;
+    sph_budget budget;
+    sph_step_stats stats;
+    double time, thermo_accum;
+    long steps;
+};
+
+void sph_params_default(sph_params *p)
+{
+    memset(p, 0, sizeof *p);
+    p->dt = 60.0;
+    p->kernel = SPH_KERNEL_GAUSSIAN;
+    p->kernel_radius = 3.0;
+    p->variable_sml = 1;
+    p->sml_factor = 1.0;
+    p->solver = SPH_SOLVER_MEVP;
+    p->unstable = SPH_UNSTABLE_SUBSTEP;
+    p->evp_iterations = 120;
+    p->evp_adaptive = 1;
+    p->evp_alpha = 300.0;
+    p->evp_beta = 300.0;
+    p->evp_tol = 1e-7;
+    p->implicit_max_picard = 30;
+    p->implicit_tol = 1e-6;
+    p->max_substeps = 20000;
+    p->explicit_safety = 0.25;
+    p->max_neighbours = 96;
+    p->physics = SPH_PHYSICS_AUTO;
+    p->rheology = SPH_RHEOLOGY_VP;
+    p->pressure_form = SPH_PRESSURE_SEED;
+    p->P0 = 1.0e4;
+    p->C = 20.0;
+    p->ecc = 2.0;
+    p->zeta_max_factor = 2.5e8;
+    p->delta_min = 2.0e-9;
+    p->replacement_pressure = 0;
+    p->auto_tolerance = 1.0e-3;
+    p->coll_restitution = 0.5;
+    p->coll_floe_diameter = 100.0;
+    p->coll_max_conc = 1.0;
+    p->coll_vfluct_min = 1.0e-3;
+    p->rho_i = 900.0;
+    p->rho_a = 1.3;
+    p->rho_w = 1026.0;
+    p->Ca = 1.2e-3;
+    p->Cw = 5.5e-3;
+    p->turn_air = 0.0;
+    p->turn_water = 0.0;
+    p->gravity = 9.81;
+    p->coriolis = 1;
+    p->coast_no_slip = 0;
+    p->speed_limit = 10.0;
+    p->mass_tolerance = 1.0e-10;
+    p->sml_min_factor = 0.5;
+    p->sml_max_factor = 2.0;
+    p->thermo_dt = 600.0;
+    sph_thermo_params_default(&p->thermo);
+    p->thermo.rho_i = p->rho_i;
+}
+
+#define RANGE(field, lo_, hi_)                                   \
+    do {                                                         \
+        if (!(p->field >= (lo_) && p->field <= (hi_))) {         \
+            *name = #field;                                      \
+            *lo = (lo_);                                         \
+            *hi = (hi_);                                         \
+            return SPH_STEP_FATAL;                               \
+        }                                                        \
+    } while (0)
+
+int sph_params_check(const sph_params *p, const char **name, double *lo, double *hi)
+{
+    RANGE(dt, 1e-6, 86400.0);
+    RANGE(kernel, 0, 2);
+    RANGE(kernel_radius, 1.0, 5.0);
+    RANGE(sml_factor, 0.5, 3.0);
+    RANGE(solver, 0, 2);
+    RANGE(evp_iterations, 1, 100000);
+    RANGE(evp_alpha, 1.0, 1e6);
+    RANGE(evp_beta, 1.0, 1e6);
+    RANGE(evp_tol, 0.0, 1.0);
+    RANGE(max_substeps, 1, 10000000);
+    RANGE(explicit_safety, 1e-3, 10.0);
+    RANGE(max_neighbours, 8, 4096);
+    RANGE(physics, 0, 2);
+    RANGE(rheology, 0, 1);
+    RANGE(pressure_form, 0, 1);
+    RANGE(P0, 0.0, 1e7);
+    RANGE(C, 0.0, 100.0);
+    RANGE(ecc, 0.1, 10.0);
+    RANGE(zeta_max_factor, 1.0, 1e12);
+    RANGE(delta_min, 1e-15, 1e-3);
+    RANGE(auto_tolerance, 0.0, 1.0);
+    RANGE(coll_restitution, 0.0, 1.0);
+    RANGE(coll_floe_diameter, 1e-3, 1e5);
+    RANGE(coll_max_conc, 0.1, 1.0);
+    RANGE(coll_vfluct_min, 0.0, 10.0);
+    RANGE(rho_i, 800.0, 1000.0);
+    RANGE(rho_a, 0.5, 2.0);
+    RANGE(rho_w, 990.0, 1100.0);
+    RANGE(Ca, 0.0, 0.1);
+    RANGE(Cw, 0.0, 0.1);
+    RANGE(turn_air, -90.0, 90.0);
+    RANGE(turn_water, -90.0, 90.0);
+    RANGE(gravity, 0.0, 20.0);
+    RANGE(speed_limit, 0.01, 1000.0);
+    RANGE(mass_tolerance, 0.0, 1.0);
+    RANGE(sml_min_factor, 0.1, 1.0);
+    RANGE(sml_max_factor, 1.0, 10.0);
+    RANGE(thermo_dt, 0.0, 86400.0);
+    if (p->thermo_dt > 0.0 && p->thermo_dt < p->dt) {
+        *name = "thermo_dt";
+        *lo = p->dt;
+        *hi = 86400.0;
+        return SPH_STEP_FATAL;
+    }
+    return SPH_STEP_OK;
+}
+#undef RANGE
+
+sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask *mask)
+{
+    const char *nm;
+    double lo, hi;
+    if (!p || cap == 0 || sph_params_check(p, &nm, &lo, &hi) != SPH_STEP_OK)
+        return NULL;
+    sph_model *m = calloc(1, sizeof *m);
+    if (!m)
+        return NULL;
+    m->prm = *p;
+    m->cap = cap;
+    sph_kernel_init(&m->kern, p->kernel, p->kernel_radius);
+    int nl = p->thermo.nlayers > 0 ? p->thermo.nlayers : 1;
+    if (nl > SPH_MAX_LAYERS)
+        nl = SPH_MAX_LAYERS;
+    size_t c2 = 2 * cap;
+    m->P = sph_particles_create(c2, nl);
+    m->nb = sph_nbr_create(c2, p->max_neighbours);
+    m->ghost_src = calloc(c2, sizeof(int));
+    m->ghost_nx = calloc(c2, sizeof(double));
+    m->ghost_ny = calloc(c2, sizeof(double));
+    m->un = calloc(c2, sizeof(double));
+    m->vn = calloc(c2, sizeof(double));
+    m->zeta = calloc(c2, sizeof(double));
+    m->vfluct = calloc(c2, sizeof(double));
+    m->dvel = calloc(c2, sizeof(double));
+    m->scratch = calloc(c2 * SPH_MAX_LAYERS, sizeof(double));
+    m->order = calloc(c2, sizeof(int));
+    m->active = calloc(c2, sizeof(int));
+    m->loose = calloc(c2, 1);
+    m->tw = sph_thermo_work_create(c2, nl);
+    int ok = m->P && m->nb && m->ghost_src && m->ghost_nx && m->ghost_ny && m->un && m->vn &&
+             m->zeta && m->vfluct && m->dvel && m->scratch && m->order && m->active && m->loose && m->tw;
+    if (ok && mask && mask->land && mask->nx > 0 && mask->ny > 0) {
+        size_t nc = (size_t)mask->nx * (size_t)mask->ny;
+        m->land = malloc(nc);
+        m->near_land = calloc(nc, 1);
+        ok = m->land && m->near_land;
+        if (ok) {
+            memcpy(m->land, mask->land, nc);
+            m->mask = *mask;
+            m->mask.land = m->land;
+            m->has_mask = 1;
+        }
+    }
+    if (!ok) {
+        sph_model_free(m);
+        return NULL;
+    }
+    m->dens_scale = 1.0;
+    return m;
+}
+
+void sph_model_free(sph_model *m)
+{
+    if (!m)
+        return;
+    sph_particles_free(m->P);
+    sph_nbr_free(m->nb);
+    free(m->ghost_src);
+    free(m->ghost_nx);
+    free(m->ghost_ny);
+    free(m->un);
+    free(m->vn);
+    free(m->zeta);
+    free(m->vfluct);
+    free(m->dvel);
+    free(m->scratch);
+    free(m->order);
+    free(m->active);
+    free(m->loose);
+    free(m->land);
+    free(m->near_land);
+    sph_thermo_work_free(m->tw);
+    free(m);
+}
+
+sph_particles *sph_model_particles(sph_model *m) { return m->P; }
+const sph_params *sph_model_params(const sph_model *m) { return &m->prm; }
+const sph_budget *sph_model_budget(const sph_model *m) { return &m->budget; }
+double sph_model_time(const sph_model *m) { return m->time; }
+long sph_model_steps(const sph_model *m) { return m->steps; }
+const sph_step_stats *sph_model_stats(const sph_model *m) { return &m->stats; }
+size_t sph_model_capacity(const sph_model *m) { return m->cap; }
+
+int sph_model_set_params(sph_model *m, const sph_params *p)
+{
+    const char *nm;
+    double lo, hi;
+    if (sph_params_check(p, &nm, &lo, &hi) != SPH_STEP_OK)
+        return SPH_STEP_FATAL;
+    if (p->max_neighbours != m->prm.max_neighbours ||
+        (p->thermo.nlayers > 0 ? p->thermo.nlayers : 1) != m->P->nlayers)
+        return SPH_STEP_FATAL;
+    m->prm = *p;
+    sph_kernel_init(&m->kern, p->kernel, p->kernel_radius);
+    return SPH_STEP_OK;
+}
+
+/* ------------------------------------------------------------------ */
+/* land mask                                                           */
+
+static int mask_cell(const sph_model *m, double x, double y, int *ci, int *cj)
+{
+    const sph_landmask *k = &m->mask;
+    double fi = floor((x - k->x0) / k->dx), fj = floor((y - k->y0) / k->dy);
+    if (fi < 0 || fj < 0 || fi >= k->nx || fj >= k->ny)
+        return 0;
+    *ci = (int)fi;
+    *cj = (int)fj;
+    return 1;
+}
+
+/* 1 if the point is land (or outside a closed domain). */
+static int is_land(const sph_model *m, double x, double y)
+{
+    if (!m->has_mask)
+        return 0;
+    int i, j;
+    if (!mask_cell(m, x, y, &i, &j))
+        return m->mask.closed_outside;
+    return m->land[(size_t)j * m->mask.nx + i] != 0;
+}
+
+static int outside_open(const sph_model *m, double x, double y)
+{
+    if (!m->has_mask || m->mask.closed_outside)
+        return 0;
+    int i, j;
+    return !mask_cell(m, x, y, &i, &j);
+}
+
+static int land_at(const sph_model *m, int i, int j)
+{
+    const sph_landmask *k = &m->mask;
+    if (i < 0 || j < 0 || i >= k->nx || j >= k->ny)
+        return k->closed_outside;
+    return k->land[(size_t)j * k->nx + i] != 0;
+}
+
+/* Marks sea cells within `radius` of a land cell (done once, at init). */
+static void mark_near_land(sph_model *m, double radius)
+{
+    const sph_landmask *k = &m->mask;
+    int ri = (int)ceil(radius / k->dx) + 1, rj = (int)ceil(radius / k->dy) + 1;
+    m->near_radius = radius;
+    for (int j = 0; j < k->ny; j++)
+        for (int i = 0; i < k->nx; i++) {
+            unsigned char nl = 0;
+            for (int b = -rj; b <= rj && !nl; b++)
+                for (int a = -ri; a <= ri && !nl; a++)
+                    if (land_at(m, i + a, j + b))
+                        nl = 1;
+            m->near_land[(size_t)j * k->nx + i] = nl;
+        }
+}
+
+/* Nearest land cell (as a rectangle) within radius: distance and the unit
+ * normal pointing from the coast into the sea. Returns 0 if none. */
+static int nearest_coast(const sph_model *m, double x, double y, double radius, double *dist,
+                         double *nx, double *ny)
+{
+    const sph_landmask *k = &m->mask;
+    int ci, cj;
+    if (!mask_cell(m, x, y, &ci, &cj))
+        return 0;
+    if (!m->near_land[(size_t)cj * k->nx + ci])
+        return 0;
+    int ri = (int)ceil(radius / k->dx) + 1, rj = (int)ceil(radius / k->dy) + 1;
+    double best = radius, bx = 0, by = 0;
+    int found = 0;
+    for (int j = cj - rj; j <= cj + rj; j++)
+        for (int i = ci - ri; i <= ci + ri; i++) {
+            if (!land_at(m, i, j))
+                continue;
+            double xl = k->x0 + i * k->dx, yl = k->y0 + j * k->dy;
+            double px = fmin(fmax(x, xl), xl + k->dx), py = fmin(fmax(y, yl), yl + k->dy);
+            double d = hypot(x - px, y - py);
+            if (d < best && d > 0.0) {
+                best = d;
+                bx = px;
+                by = py;
+                found = 1;
+            }
+        }
+    if (!found)
+        return 0;
+    *dist = best;
+    *nx = (x - bx) / best;
+    *ny = (y - by) / best;
+    return 1;
+}
+
+/* Mirror ghosts: each live particle within the kernel support of a coast
+ * is reflected across the local coast line (the tangent at the nearest
+ * land point). Ghosts carry the source's mass, density, thickness and
+ * strength, mirrored velocity (free slip: normal component reversed; no
+ * slip: whole velocity reversed) and mirrored stress R S R, R = I - 2nn. */
+static void build_ghosts(sph_model *m)
+{
+    sph_particles *P = m->P;
+    size_t n = P->n, g = 0;
+    m->ng = 0;
+    if (!m->has_mask)
+        return;
+    for (size_t k = 0; k < n; k++) {
+        double radius = m->kern.radius * P->sml[k];
+        double d, nx, ny;
+        P->regime[k] &= (unsigned char)~SPH_REGIME_NEAR_COAST;
+        if (!nearest_coast(m, P->x[k], P->y[k], radius, &d, &nx, &ny))
+            continue;
+        if (n + g >= P->cap)
+            break;
+        size_t q = n + g;
+        sph_particles_copy_one(P, q, P, k);
+        P->x[q] = P->x[k] - 2.0 * d * nx;
+        P->y[q] = P->y[k] - 2.0 * d * ny;
+        P->regime[k] |= SPH_REGIME_NEAR_COAST;
+        m->ghost_src[g] = (int)k;
+        m->ghost_nx[g] = nx;
+        m->ghost_ny[g] = ny;
+        g++;
+    }
+    m->ng = g;
+}
+
+static void ghost_velocity(sph_model *m, double *u, double *v)
+{
+    size_t n = m->P->n;
+    for (size_t g = 0; g < m->ng; g++) {
+        size_t q = n + g, k = (size_t)m->ghost_src[g];
+        if (m->prm.coast_no_slip) {
+            u[q] = -u[k];
+            v[q] = -v[k];
+        } else {
+            double nx = m->ghost_nx[g], ny = m->ghost_ny[g];
+            double un = u[k] * nx + v[k] * ny;
+            u[q] = u[k] - 2.0 * un * nx;
+            v[q] = v[k] - 2.0 * un * ny;
+        }
+    }
+}
+
+static void ghost_stress(sph_model *m)
+{
+    sph_particles *P = m->P;
+    size_t n = P->n;
+    for (size_t g = 0; g < m->ng; g++) {
+        size_t q = n + g, k = (size_t)m->ghost_src[g];
+        double nx = m->ghost_nx[g], ny = m->ghost_ny[g];
+        /* R = I - 2 n n^T; S' = R S R */
+        double r11 = 1 - 2 * nx * nx, r12 = -2 * nx * ny, r22 = 1 - 2 * ny * ny;
+        double a = P->s11[k], b = P->s12[k], c = P->s22[k];
+        /* T = R S */
+        double t11 = r11 * a + r12 * b, t12 = r11 * b + r12 * c;
+        double t21 = r12 * a + r22 * b, t22 = r12 * b + r22 * c;
+        P->s11[q] = t11 * r11 + t12 * r12;
+        P->s12[q] = t11 * r12 + t12 * r22;
+        P->s22[q] = t21 * r12 + t22 * r22;
+        (void)t21;
+        P->dens[q] = P->dens[k];
+        P->pres[q] = P->pres[k];
+        P->conc[q] = P->conc[k];
+        P->thick[q] = P->thick[k];
+    }
+}
+
+/* ------------------------------------------------------------------ */
+/* SPH passes                                                          */
+
+static double max_sml(const sph_particles *P, size_t n)
+{
+    double hmax = 0.0;
+    for (size_t k = 0; k < n; k++)
+        hmax = fmax(hmax, P->sml[k]);
+    return hmax;
+}
+
+/* Reorders live particles by cell so that neighbours are close in memory. */
+static void reorder(sph_model *m)
+{
+    sph_particles *P = m->P;
+    size_t n = P->n;
+    if (n < 2)
+        return;
+    double cell = m->kern.radius * max_sml(P, n);
+    sph_nbr_grid(m->nb, n, P->x, P->y, cell);
+    int ident = 1;
+    for (size_t i = 0; i < n; i++) {
+        m->order[i] = m->nb->sorted[i];
+        ident &= m->order[i] == (int)i;
+    }
+    if (!ident)
+        sph_particles_permute(P, m->order, m->scratch);
+}
+
+static void density_pass(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    size_t n = P->n;
+    double scale = m->dens_scale;
+#pragma omp parallel for schedule(static)
+    for (size_t k = 0; k < n; k++) {
+        const size_t base = k * (size_t)nb->max_nb;
+        double s = 0.0;
+        for (int q = 0; q < nb->count[k]; q++)
+            s += P->mass[nb->idx[base + q]] * nb->w[base + q];
+        P->dens[k] = scale * s;
+    }
+}
+
+/* Concentration, ridging, strength, and the auto regime's loose flags. */
+static void diagnose(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    size_t n = P->n;
+#pragma omp parallel for schedule(static)
+    for (size_t k = 0; k < n; k++) {
+        double hbar = P->dens[k] / p->rho_i;
+        double A = hbar / P->thick[k];
+        if (A > 1.0) { /* ridging: A = 1, the ice thickens at constant volume */
+            P->thick[k] = hbar;
+            A = 1.0;
+        }
+        P->conc[k] = A;
+        P->pres[k] = sph_ice_strength(p, hbar, A);
+        double factor = exp(-p->C * (1.0 - A));
+        m->loose[k] = p->physics == SPH_PHYSICS_FREE_DRIFT ||
+                      (p->physics == SPH_PHYSICS_AUTO && factor < p->auto_tolerance);
+    }
+}
+
+/* Active set: particles that are packed or have a packed neighbour. */
+static void select_active(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    size_t n = P->n, na = 0;
+    for (size_t k = 0; k < n; k++) {
+        int act = 0;
+        if (m->prm.physics != SPH_PHYSICS_FREE_DRIFT) {
+            const size_t base = k * (size_t)nb->max_nb;
+            for (int q = 0; q < nb->count[k] && !act; q++) {
+                int j = nb->idx[base + q];
+                size_t src = (size_t)j < n ? (size_t)j : (size_t)m->ghost_src[(size_t)j - n];
+                act = !m->loose[src];
+            }
+        }
+        P->regime[k] &= (unsigned char)~(SPH_REGIME_FREE_DRIFT | SPH_REGIME_RHEOLOGY);
+        P->regime[k] |= act ? SPH_REGIME_RHEOLOGY : SPH_REGIME_FREE_DRIFT;
+        if (act)
+            m->active[na++] = (int)k;
+    }
+    m->nactive = na;
+}
+
+/* Strain rates (seed eq. 15, sign settled by the linear-field test) and
+ * the fluctuating velocity for the collision rheology, for the listed
+ * particles (list NULL: all live particles). */
+static void strain_pass(sph_model *m, const int *list, size_t count)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    const double *u = P->u, *v = P->v, *mass = P->mass;
+    int want_fluct = m->prm.rheology == SPH_RHEOLOGY_COLLISION;
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < count; i++) {
+        size_t k = list ? (size_t)list[i] : i;
+        const size_t base = k * (size_t)nb->max_nb;
+        double a11 = 0, a22 = 0, a12 = 0, fl = 0, wsum = 0;
+        for (int q = 0; q < nb->count[k]; q++) {
+            size_t s = base + (size_t)q;
+            int j = nb->idx[s];
+            double du = u[j] - u[k], dv = v[j] - v[k];
+            double gx = nb->gx[s], gy = nb->gy[s];
+            a11 += mass[j] * du * gx;
+            a22 += mass[j] * dv * gy;
+            a12 += mass[j] * (dv * gx + du * gy);
+            if (want_fluct) {
+                double wj = mass[j] / P->dens[j] * nb->w[s];
+                fl += wj * (du * du + dv * dv);
+                wsum += wj;
+            }
+        }
+        double iM = 1.0 / P->dens[k];
+        P->e11[k] = a11 * iM;
+        P->e22[k] = a22 * iM;
+        P->e12[k] = 0.5 * a12 * iM;
+        if (want_fluct) {
+            double vf = wsum > 0 ? sqrt(fl / wsum) : 0.0;
+            m->vfluct[k] = fmax(vf, m->prm.coll_vfluct_min);
+        }
+    }
+}
+
+/* Constitutive stress for particle k from its strain rates; returns zeta. */
+static inline double target_stress(const sph_model *m, size_t k, double *s11, double *s22,
+                                   double *s12)
+{
+    const sph_particles *P = m->P;
+    if (m->loose[k]) {
+        *s11 = *s22 = *s12 = 0.0;
+        return 0.0;
+    }
+    if (m->prm.rheology == SPH_RHEOLOGY_COLLISION)
+        return sph_collision_stress(&m->prm, P->thick[k], P->conc[k], m->vfluct[k], P->e11[k],
+                                    P->e22[k], P->e12[k], s11, s22, s12);
+    return sph_vp_stress(&m->prm, P->pres[k], P->e11[k], P->e22[k], P->e12[k], s11, s22, s12);
+}
+
+/* Symmetric stress divergence (seed eq. 13): a_k = [div(hbar sigma)/M]_k. */
+static void divergence_pass(sph_model *m, const int *list, size_t count)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < count; i++) {
+        size_t k = list ? (size_t)list[i] : i;
+        const size_t base = k * (size_t)nb->max_nb;
+        double iMk2 = 1.0 / (P->dens[k] * P->dens[k]);
+        double tk11 = P->s11[k] * iMk2, tk22 = P->s22[k] * iMk2, tk12 = P->s12[k] * iMk2;
+        double ax = 0, ay = 0;
+        for (int q = 0; q < nb->count[k]; q++) {
+            size_t s = base + (size_t)q;
+            int j = nb->idx[s];
+            double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
+            double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
+                   t12 = P->s12[j] * iMj2 + tk12;
+            double gx = nb->gx[s], gy = nb->gy[s];
+            ax += P->mass[j] * (t11 * gx + t12 * gy);
+            ay += P->mass[j] * (t12 * gx + t22 * gy);
+        }
+        P->ax[k] = ax;
+        P->ay[k] = ay;
+    }
+}
+
+/* Momentum for particle k with implicit water drag (lagged speed) and
+ * trapezoidal Coriolis, solved as a 2x2 system:
+ *   (1+beta) u' = beta u_p + u_n + dt [a_int + tau_a/(rho h) - g grad xi
+ *                 + c R_w (U_w - u') - f k x (u' + u_n)/2]
+ * c = rho_w C_w |U_w - u_p| / (rho_i h_i). beta = 0 is a plain implicit
+ * step; beta > 0 is the mEVP pseudo-time iteration (Kimmritz et al. 2015),
+ * whose fixed point is the same time-discrete equation. */
+static inline void momentum(const sph_model *m, size_t k, double beta, double up, double vp,
+                            double un, double vn, double dt, double *uo, double *vo)
+{
+    const sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    double rho_h = p->rho_i * P->thick[k];
+    double ua = P->ua[k], va = P->va[k];
+    double sa = hypot(ua, va);
+    double ta = p->turn_air * DEG2RAD, tw = p->turn_water * DEG2RAD;
+    double tax = p->rho_a * p->Ca * sa * (ua * cos(ta) - va * sin(ta));
+    double tay = p->rho_a * p->Ca * sa * (ua * sin(ta) + va * cos(ta));
+    double uw = P->uw[k], vw = P->vw[k];
+    double c = p->rho_w * p->Cw * hypot(uw - up, vw - vp) / rho_h;
+    double cw = cos(tw), sw = sin(tw);
+    double f = p->coriolis ? 2.0 * OMEGA_EARTH * sin(P->lat[k] * DEG2RAD) : 0.0;
+    double rx = beta * up + un +
+                dt * (P->ax[k] + tax / rho_h + c * (cw * uw - sw * vw) -
+                      p->gravity * P->sshx[k] + 0.5 * f * vn);
+    double ry = beta * vp + vn +
+                dt * (P->ay[k] + tay / rho_h + c * (sw * uw + cw * vw) -
+                      p->gravity * P->sshy[k] - 0.5 * f * un);
+    double d11 = 1.0 + beta + dt * c * cw, d22 = d11;
+    double d12 = -dt * (c * sw + 0.5 * f), d21 = -d12;
+    double det = d11 * d22 - d12 * d21;
+    *uo = (d22 * rx - d12 * ry) / det;
+    *vo = (d11 * ry - d21 * rx) / det;
+}
+
+/* Free drift (no internal force) for the particles not in the active set. */
+static void free_drift_pass(sph_model *m)
+{
+    sph_particles *P = m->P;
+    size_t n = P->n;
+    double dt = m->prm.dt;
+#pragma omp parallel for schedule(static)
+    for (size_t k = 0; k < n; k++) {
+        if (P->regime[k] & SPH_REGIME_RHEOLOGY)
+            continue;
+        P->ax[k] = P->ay[k] = 0.0;
+        P->s11[k] = P->s22[k] = P->s12[k] = 0.0;
+        /* two Picard sweeps on the drag speed; steady states are exact */
+        double u = m->un[k], v = m->vn[k];
+        for (int it = 0; it < 3; it++)
+            momentum(m, k, 0.0, u, v, m->un[k], m->vn[k], dt, &u, &v);
+        P->u[k] = u;
+        P->v[k] = v;
+    }
+}
+
+/* Upper bound of the explicit viscous step: dt < safety M h^2 / (zeta_max (1 + e^-2)). */
+static double explicit_limit(const sph_model *m)
+{
+    const sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    double lim = HUGE_VAL;
+    for (size_t i = 0; i < m->nactive; i++) {
+        size_t k = (size_t)m->active[i];
+        double zmax;
+        if (p->rheology == SPH_RHEOLOGY_COLLISION) {
+            zmax = m->zeta[k];
+        } else {
+            zmax = P->pres[k] / (2.0 * p->delta_min);
+        }
+        double nu = zmax * (1.0 + 1.0 / (p->ecc * p->ecc)) / P->dens[k];
+        if (nu > 0.0)
+            lim = fmin(lim, p->explicit_safety * P->sml[k] * P->sml[k] / nu);
+    }
+    return lim;
+}
+
+double sph_model_explicit_dt_limit(sph_model *m) { return explicit_limit(m); }
+
+static int solve_explicit(sph_model *m, sph_status *st)
+{
+    sph_particles *P = m->P;
+    double dt = m->prm.dt;
+    double lim = explicit_limit(m);
+    m->stats.dt_limit_explicit = lim;
+    int nsub = 1;
+    if (dt > lim) {
+        double want = ceil(dt / lim);
+        if (m->prm.unstable == SPH_UNSTABLE_REFUSE || want > m->prm.max_substeps)
+            return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "time step", dt, lim,
+                                  "exceeds the explicit solver's stability limit");
+        nsub = (int)want;
+    }
+    double dts = dt / nsub;
+    const int *act = m->active;
+    size_t na = m->nactive;
+    for (int s = 0; s < nsub; s++) {
+        ghost_velocity(m, P->u, P->v);
+        strain_pass(m, act, na);
+#pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < na; i++) {
+            size_t k = (size_t)act[i];
+            m->zeta[k] = target_stress(m, k, &P->s11[k], &P->s22[k], &P->s12[k]);
+        }
+        ghost_stress(m);
+        divergence_pass(m, act, na);
+#pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < na; i++) {
+            size_t k = (size_t)act[i];
+            double u = P->u[k], v = P->v[k];
+            momentum(m, k, 0.0, u, v, u, v, dts, &P->u[k], &P->v[k]);
+        }
+    }
+    m->stats.substeps = nsub;
+    return SPH_STEP_OK;
+}
+
+static int sph_solve_implicit(sph_model *m, sph_status *st);
+
+static int solve_mevp(sph_model *m, sph_status *st)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    double dt = p->dt;
+    const int *act = m->active;
+    size_t na = m->nactive;
+    int it;
+    double resid = 0.0;
+    for (it = 0; it < p->evp_iterations; it++) {
+        ghost_velocity(m, P->u, P->v);
+        strain_pass(m, act, na);
+#pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < na; i++) {
+            size_t k = (size_t)act[i];
+            double t11, t22, t12;
+            double z = target_stress(m, k, &t11, &t22, &t12);
+            m->zeta[k] = z;
+            double alpha = p->evp_alpha;
+            if (p->evp_adaptive) {
+                /* aEVP (Kimmritz, Losch & Danilov 2016): alpha = beta = sqrt(gamma)
+                 * with gamma the local stiffness of the viscous operator. */
+                double gam = 8.0 * z * (1.0 + 1.0 / (p->ecc * p->ecc)) * dt /
+                             (P->dens[k] * P->sml[k] * P->sml[k]);
+                alpha = fmax(2.0 * sqrt(gam), 10.0);
+            }
+            m->scratch[k] = alpha; /* beta = alpha */
+            double ia = 1.0 / alpha;
+            P->s11[k] += (t11 - P->s11[k]) * ia;
+            P->s22[k] += (t22 - P->s22[k]) * ia;
+            P->s12[k] += (t12 - P->s12[k]) * ia;
+        }
+        ghost_stress(m);
+        divergence_pass(m, act, na);
+        double r = 0.0;
+        /* velocity update; the max change is reduced serially afterwards */
+#pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < na; i++) {
+            size_t k = (size_t)act[i];
+            double beta = p->evp_adaptive ? m->scratch[k] : p->evp_beta;
+            double u, v;
+            momentum(m, k, beta, P->u[k], P->v[k], m->un[k], m->vn[k], dt, &u, &v);
+            m->dvel[k] = fmax(fabs(u - P->u[k]), fabs(v - P->v[k]));
+            P->u[k] = u;
+            P->v[k] = v;
+        }
+        for (size_t i = 0; i < na; i++)
+            r = fmax(r, m->dvel[(size_t)act[i]]);
+        resid = r;
+        if (!isfinite(r))
+            return sph_status_set(st, SPH_STEP_FATAL, -1, "mEVP residual", r, 0.0,
+                                  "is not finite (the stress iteration diverged)");
+        if (r < p->evp_tol) {
+            it++;
+            break;
+        }
+    }
+    m->stats.iterations = it;
+    m->stats.residual = resid;
+    return SPH_STEP_OK;
+}
+
+/* Neighbours, density and diagnosis at the current positions. */
+static int prepare(sph_model *m, sph_status *st)
+{
+    sph_particles *P = m->P;
+    reorder(m);
+    build_ghosts(m);
+    size_t nall = P->n + m->ng;
+    double cell = m->kern.radius * max_sml(P, nall);
+    sph_nbr_grid(m->nb, nall, P->x, P->y, cell);
+    long over = -1;
+    if (sph_nbr_build(m->nb, &m->kern, P->n, P->x, P->y, P->sml, &over))
+        return sph_status_set(st, SPH_STEP_RECOVERABLE, over >= 0 ? P->id[over] : -1,
+                              "neighbour count", (double)m->prm.max_neighbours,
+                              (double)m->prm.max_neighbours,
+                              "exceeds max_neighbours (particle clumping)");
+    density_pass(m);
+    /* ghosts take their source's state */
+    for (size_t g = 0; g < m->ng; g++) {
+        size_t q = P->n + g, k = (size_t)m->ghost_src[g];
+        P->dens[q] = P->dens[k];
+    }
+    diagnose(m);
+    ghost_stress(m);
+    select_active(m);
+    return SPH_STEP_OK;
+}
+
+static void update_budget(sph_model *m)
+{
+    sph_particles *P = m->P;
+    double mass = 0, area = 0, vol = 0, ke = 0;
+    for (size_t k = 0; k < P->n; k++) { /* serial: bit-reproducible */
+        mass += P->mass[k];
+        area += P->mass[k] / (m->prm.rho_i * P->thick[k]);
+        vol += P->mass[k] / m->prm.rho_i;
+        ke += 0.5 * P->mass[k] * (P->u[k] * P->u[k] + P->v[k] * P->v[k]);
+    }
+    m->budget.mass = mass;
+    m->budget.area = area;
+    m->budget.volume = vol;
+    m->budget.kinetic_energy = ke;
+}
+
+static int check_health(sph_model *m, sph_status *st)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    for (size_t k = 0; k < P->n; k++) {
+        const double vals[] = {P->x[k], P->y[k], P->u[k], P->v[k], P->thick[k], P->mass[k]};
+        static const char *const names[] = {"x position", "y position", "x velocity",
+                                            "y velocity", "thickness", "mass"};
+        for (int q = 0; q < 6; q++)
+            if (!isfinite(vals[q]))
+                return sph_status_set(st, SPH_STEP_FATAL, P->id[k], names[q], vals[q], 0.0,
+                                      "is not finite (numerical blow-up)");
+        double sp = hypot(P->u[k], P->v[k]);
+        if (sp > p->speed_limit)
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "speed", sp, p->speed_limit,
+                                  "exceeds the speed limit (numerical blow-up)");
+    }
+    const sph_budget *b = &m->budget;
+    double expect = b->mass_initial + b->growth + b->new_ice - b->melt_top - b->melt_bottom -
+                    b->lateral_melt - b->outflow;
+    double tol = p->mass_tolerance * fmax(fabs(expect), fabs(b->mass)) + 1e-300;
+    if (fabs(b->mass - expect) > tol)
+        return sph_status_set(st, SPH_STEP_FATAL, -1, "total mass", b->mass, expect,
+                              "changed beyond round-off with no source or sink to explain it");
+    return SPH_STEP_OK;
+}
+
+int sph_model_init(sph_model *m, sph_status *st)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    sph_status_clear(st);
+    if (P->n > m->cap)
+        return sph_status_set(st, SPH_STEP_FATAL, -1, "particle count", (double)P->n,
+                              (double)m->cap, "exceeds the model capacity");
+    for (size_t k = 0; k < P->n; k++) {
+        if (!(P->mass[k] > 0.0) || !isfinite(P->mass[k]))
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "mass", P->mass[k], 0.0,
+                                  "must be positive");
+        if (!(P->thick[k] > 0.0) || !isfinite(P->thick[k]))
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "thickness", P->thick[k], 0.0,
+                                  "must be positive");
+        if (!(P->conc[k] > 0.0 && P->conc[k] <= 1.0))
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "concentration", P->conc[k],
+                                  1.0, "must be in (0, 1]");
+        if (!(P->sml[k] > 0.0) || !isfinite(P->sml[k]))
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "smoothing length", P->sml[k],
+                                  0.0, "must be positive");
+        if (!(P->sml0[k] > 0.0))
+            P->sml0[k] = P->sml[k];
+        if (!isfinite(P->x[k]) || !isfinite(P->y[k]))
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "position", P->x[k], 0.0,
+                                  "is not finite");
+    }
+    if (m->has_mask)
+        mark_near_land(m, m->kern.radius * p->sml_max_factor * max_sml(P, P->n));
+    /* Calibrate the kernel's lattice sum: intended M = rho_i A h_i from the
+     * seeded state, over interior particles (full neighbourhoods). */
+    m->dens_scale = 1.0;
+    reorder(m);
+    double *seed_thick = m->dvel, *seed_conc = m->zeta; /* seeded state, before diagnosis */
+    for (size_t k = 0; k < P->n; k++) {
+        seed_thick[k] = P->thick[k];
+        seed_conc[k] = P->conc[k];
+    }
+    int rc = prepare(m, st);
+    if (rc != SPH_STEP_OK)
+        return rc;
+    int maxc = 0;
+    for (size_t k = 0; k < P->n; k++)
+        maxc = m->nb->count[k] > maxc ? m->nb->count[k] : maxc;
+    size_t ni = 0;
+    double *ratio = m->scratch;
+    for (size_t k = 0; k < P->n; k++)
+        if (m->nb->count[k] >= (int)(0.9 * maxc) && P->dens[k] > 0)
+            ratio[ni++] = p->rho_i * seed_conc[k] * seed_thick[k] / P->dens[k];
+    if (ni >= 5) {
+        /* median by insertion sort on a bounded sample */
+        size_t ns = ni < 2001 ? ni : 2001;
+        for (size_t a = 1; a < ns; a++) {
+            double t = ratio[a];
+            size_t b = a;
+            while (b > 0 && ratio[b - 1] > t) {
+                ratio[b] = ratio[b - 1];
+                b--;
+            }
+            ratio[b] = t;
+        }
+        double med = ratio[ns / 2];
+        if (med > 0.8 && med < 1.25)
+            m->dens_scale = med;
+    }
+    /* re-diagnose with the calibrated density from the seeded state */
+    for (size_t k = 0; k < P->n; k++) {
+        P->thick[k] = seed_thick[k];
+        P->conc[k] = seed_conc[k];
+    }
+    rc = prepare(m, st);
+    if (rc != SPH_STEP_OK)
+        return rc;
+    for (size_t k = 0; k < P->n; k++)
+        P->dens0[k] = P->dens[k];
+    memset(&m->budget, 0, sizeof m->budget);
+    update_budget(m);
+    m->budget.mass_initial = m->budget.mass;
+    m->time = 0.0;
+    m->thermo_accum = 0.0;
+    m->steps = 0;
+    return SPH_STEP_OK;
+}
+
+/* Keeps particles out of land; removes those leaving an open boundary. */
+static void move_and_constrain(sph_model *m)
+{
+    sph_particles *P = m->P;
+    double dt = m->prm.dt;
+    for (size_t k = 0; k < P->n; k++) {
+        double x0 = P->x[k], y0 = P->y[k];
+        double x1 = x0 + 0.5 * dt * (m->un[k] + P->u[k]);
+        double y1 = y0 + 0.5 * dt * (m->vn[k] + P->v[k]);
+        if (is_land(m, x1, y1)) {
+            if (!is_land(m, x1, y0)) {
+                y1 = y0;
+                P->v[k] = 0.0;
+            } else if (!is_land(m, x0, y1)) {
+                x1 = x0;
+                P->u[k] = 0.0;
+            } else {
+                x1 = x0;
+                y1 = y0;
+                P->u[k] = P->v[k] = 0.0;
+            }
+        }
+        P->x[k] = x1;
+        P->y[k] = y1;
+    }
+    for (size_t k = P->n; k-- > 0;) {
+        if (outside_open(m, P->x[k], P->y[k])) {
+            m->budget.outflow += P->mass[k];
+            m->budget.removed_particles++;
+            sph_particles_remove(P, k);
+        }
+    }
+}
+
+static void update_sml(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    if (!p->variable_sml)
+        return;
+    for (size_t k = 0; k < P->n; k++) {
+        double div = P->e11[k] + P->e22[k];
+        double h = P->sml0[k] * sqrt(P->dens0[k] / P->dens[k]) * (1.0 + 0.5 * p->dt * div);
+        double lo = p->sml_min_factor * P->sml0[k], hi = p->sml_max_factor * P->sml0[k];
+        P->sml[k] = fmin(fmax(h, lo), hi);
+    }
+}
+
+static void regime_fractions(sph_model *m)
+{
+    sph_particles *P = m->P;
+    size_t fd = 0, rh = 0, zl = 0, ml = 0;
+    for (size_t k = 0; k < P->n; k++) {
+        fd += (P->regime[k] & SPH_REGIME_FREE_DRIFT) != 0;
+        rh += (P->regime[k] & SPH_REGIME_RHEOLOGY) != 0;
+        zl += (P->regime[k] & SPH_REGIME_ZERO_LAYER) != 0;
+        ml += (P->regime[k] & SPH_REGIME_MULTI_LAYER) != 0;
+    }
+    double n = P->n > 0 ? (double)P->n : 1.0;
+    m->stats.frac_free_drift = (double)fd / n;
+    m->stats.frac_rheology = (double)rh / n;
+    m->stats.frac_zero_layer = (double)zl / n;
+    m->stats.frac_multi_layer = (double)ml / n;
+}
+
+int sph_model_step(sph_model *m, sph_status *st)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    sph_status_clear(st);
+    st->step = m->steps;
+    m->stats.substeps = 1;
+    m->stats.iterations = 0;
+    m->stats.residual = 0.0;
+    int rc = prepare(m, st);
+    if (rc != SPH_STEP_OK)
+        return rc;
+    for (size_t k = 0; k < P->n; k++) {
+        m->un[k] = P->u[k];
+        m->vn[k] = P->v[k];
+        P->ax[k] = P->ay[k] = 0.0;
+    }
+    free_drift_pass(m);
+    if (m->nactive > 0) {
+        if (p->solver == SPH_SOLVER_EXPLICIT)
+            rc = solve_explicit(m, st);
+        else if (p->solver == SPH_SOLVER_IMPLICIT)
+            rc = sph_solve_implicit(m, st);
+        else
+            rc = solve_mevp(m, st);
+        if (rc != SPH_STEP_OK)
+            return rc;
+    }
+    /* final strain rates of every particle, for output and the smoothing length */
+    ghost_velocity(m, P->u, P->v);
+    strain_pass(m, NULL, P->n);
+    move_and_constrain(m);
+    update_sml(m);
+    m->time += p->dt;
+    m->steps++;
+    if (p->thermo_dt > 0.0 && p->thermo.model != SPH_THERMO_OFF) {
+        m->thermo_accum += p->dt;
+        if (m->thermo_accum >= p->thermo_dt - 1e-9 * p->thermo_dt) {
+            rc = sph_thermo_step(&p->thermo, P, m->thermo_accum, m->tw, &m->budget, st);
+            m->thermo_accum = 0.0;
+            if (rc != SPH_STEP_OK)
+                return rc;
+            for (size_t k = P->n; k-- > 0;)
+                if (!(P->mass[k] > 0.0))
+                    sph_particles_remove(P, k);
+        }
+    }
+    regime_fractions(m);
+    update_budget(m);
+    return check_health(m, st);
+}
+
+int sph_model_interpolate(sph_model *m, size_t npts, const double *px, const double *py,
+                          int nf, const double *const *fields, double *const *out_f,
+                          double *out_dens)
+{
+    sph_particles *P = m->P;
+    size_t n = P->n;
+    double hmax = max_sml(P, n);
+    double R = m->kern.radius;
+    sph_nbr_grid(m->nb, n, P->x, P->y, R * hmax);
+    const int maxc = 4096;
+    int bad = 0;
+#pragma omp parallel
+    {
+        int cand[4096];
+#pragma omp for schedule(static)
+        for (size_t i = 0; i < npts; i++) {
+            int nc = sph_nbr_candidates(m->nb, px[i], py[i], cand, maxc);
+            if (nc == maxc)
+                bad = 1;
+            double wsum = 0.0, dsum = 0.0;
+            double acc[16] = {0};
+            for (int c = 0; c < nc; c++) {
+                int j = cand[c];
+                double dx = px[i] - P->x[j], dy = py[i] - P->y[j];
+                double W, F;
+                sph_kernel_eval(&m->kern, dx * dx + dy * dy, P->sml[j], &W, &F);
+                if (W <= 0.0)
+                    continue;
+                double wj = P->mass[j] / P->dens[j] * W;
+                wsum += wj;
+                dsum += P->mass[j] * W;
+                for (int f = 0; f < nf && f < 16; f++)
+                    acc[f] += wj * fields[f][j];
+            }
+            for (int f = 0; f < nf && f < 16; f++)
+                out_f[f][i] = wsum > 0.0 ? acc[f] / wsum : NAN;
+            if (out_dens)
+                out_dens[i] = dsum;
+        }
+    }
+    return bad || nf > 16 ? SPH_STEP_RECOVERABLE : SPH_STEP_OK;
+}
+
+int sph_model_diagnose(sph_model *m, sph_status *st)
+{
+    sph_particles *P = m->P;
+    sph_status_clear(st);
+    int rc = prepare(m, st);
+    if (rc != SPH_STEP_OK)
+        return rc;
+    ghost_velocity(m, P->u, P->v);
+    strain_pass(m, NULL, P->n);
+    for (size_t k = 0; k < P->n; k++)
+        m->zeta[k] = target_stress(m, k, &P->s11[k], &P->s22[k], &P->s12[k]);
+    ghost_stress(m);
+    divergence_pass(m, NULL, P->n);
+    return SPH_STEP_OK;
+}
+
+/* Implicit Picard solver: see below. */
+static int sph_solve_implicit(sph_model *m, sph_status *st)
+{
+    (void)m;
+    return sph_status_set(st, SPH_STEP_FATAL, -1, "solver", 2.0, 0.0,
+                          "implicit is not available in this build");
+}

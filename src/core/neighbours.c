@@ -1,0 +1,199 @@
+#include "core/neighbours.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+sph_nbr *sph_nbr_create(size_t cap, int max_nb)
+{
+    sph_nbr *nb = calloc(1, sizeof *nb);
+    if (!nb)
+        return NULL;
+    nb->cap = cap;
+    nb->max_nb = max_nb;
+    nb->max_cells = 4 * cap + 64;
+    size_t pairs = cap * (size_t)max_nb;
+    nb->count = calloc(cap, sizeof(int));
+    nb->idx = malloc(pairs * sizeof(int));
+    nb->w = malloc(pairs * sizeof(double));
+    nb->gx = malloc(pairs * sizeof(double));
+    nb->gy = malloc(pairs * sizeof(double));
+    nb->cell_start = calloc(nb->max_cells + 1, sizeof(int));
+    nb->sorted = calloc(cap, sizeof(int));
+    nb->cell_of = calloc(cap, sizeof(int));
+    if (!nb->count || !nb->idx || !nb->w || !nb->gx || !nb->gy || !nb->cell_start ||
+        !nb->sorted || !nb->cell_of) {
+        sph_nbr_free(nb);
+        return NULL;
+    }
+    return nb;
+}
+
+void sph_nbr_free(sph_nbr *nb)
+{
+    if (!nb)
+        return;
+    free(nb->count);
+    free(nb->idx);
+    free(nb->w);
+    free(nb->gx);
+    free(nb->gy);
+    free(nb->cell_start);
+    free(nb->sorted);
+    free(nb->cell_of);
+    free(nb);
+}
+
+void sph_nbr_grid(sph_nbr *nb, size_t n, const double *x, const double *y, double cell)
+{
+    double xmin = HUGE_VAL, ymin = HUGE_VAL, xmax = -HUGE_VAL, ymax = -HUGE_VAL;
+    for (size_t i = 0; i < n; i++) {
+        xmin = fmin(xmin, x[i]);
+        xmax = fmax(xmax, x[i]);
+        ymin = fmin(ymin, y[i]);
+        ymax = fmax(ymax, y[i]);
+    }
+    if (n == 0) {
+        xmin = ymin = 0.0;
+        xmax = ymax = 1.0;
+    }
+    if (!(cell > 0.0))
+        cell = 1.0;
+    /* Coarsen until the grid fits the preallocated cell table. */
+    for (;;) {
+        double fx = floor((xmax - xmin) / cell) + 1.0, fy = floor((ymax - ymin) / cell) + 1.0;
+        if (fx * fy <= (double)nb->max_cells) {
+            nb->ncx = (int)fx;
+            nb->ncy = (int)fy;
+            break;
+        }
+        cell *= 1.5;
+    }
+    nb->x0 = xmin;
+    nb->y0 = ymin;
+    nb->cell = cell;
+    nb->ncells = (size_t)nb->ncx * (size_t)nb->ncy;
+    int *start = nb->cell_start;
+    memset(start, 0, (nb->ncells + 1) * sizeof(int));
+    for (size_t i = 0; i < n; i++) {
+        int cx = (int)((x[i] - xmin) / cell), cy = (int)((y[i] - ymin) / cell);
+        if (cx >= nb->ncx) cx = nb->ncx - 1;
+        if (cy >= nb->ncy) cy = nb->ncy - 1;
+        int c = cy * nb->ncx + cx;
+        nb->cell_of[i] = c;
+        start[c + 1]++;
+    }
+    for (size_t c = 0; c < nb->ncells; c++)
+        start[c + 1] += start[c];
+    /* Stable counting sort: within a cell, particles stay in index order.
+     * cell_of is reused as the running insertion cursor's source. */
+    for (size_t i = 0; i < n; i++) {
+        int c = nb->cell_of[i];
+        nb->sorted[start[c]++] = (int)i;
+    }
+    /* start[c] now holds the end of cell c: shift back to starts. */
+    for (size_t c = nb->ncells; c > 0; c--)
+        start[c] = start[c - 1];
+    start[0] = 0;
+}
+
+static inline void add_pair(sph_nbr *nb, const sph_kernel *k, size_t q, int j, const double *x,
+                            const double *y, const double *h, int *cnt, int *over)
+{
+    double dx = x[q] - x[j], dy = y[q] - y[j];
+    double r2 = dx * dx + dy * dy;
+    double hh = 0.5 * (h[q] + h[j]);
+    double R = k->radius * hh;
+    if (r2 >= R * R)
+        return;
+    if (*cnt >= nb->max_nb) {
+        *over = 1;
+        return;
+    }
+    double W, F;
+    sph_kernel_eval(k, r2, hh, &W, &F);
+    size_t s = q * (size_t)nb->max_nb + (size_t)*cnt;
+    nb->idx[s] = j;
+    nb->w[s] = W;
+    nb->gx[s] = F * dx;
+    nb->gy[s] = F * dy;
+    (*cnt)++;
+}
+
+int sph_nbr_build(sph_nbr *nb, const sph_kernel *k, size_t nq, const double *x,
+                  const double *y, const double *h, long *overflow)
+{
+    long first_over = -1;
+    long pairs = 0;
+#pragma omp parallel for schedule(static) reduction(+ : pairs)
+    for (size_t q = 0; q < nq; q++) {
+        int cx = (int)((x[q] - nb->x0) / nb->cell), cy = (int)((y[q] - nb->y0) / nb->cell);
+        int cnt = 0, over = 0;
+        for (int oy = -1; oy <= 1; oy++) {
+            int yy = cy + oy;
+            if (yy < 0 || yy >= nb->ncy)
+                continue;
+            for (int ox = -1; ox <= 1; ox++) {
+                int xx = cx + ox;
+                if (xx < 0 || xx >= nb->ncx)
+                    continue;
+                int c = yy * nb->ncx + xx;
+                for (int s = nb->cell_start[c]; s < nb->cell_start[c + 1]; s++)
+                    add_pair(nb, k, q, nb->sorted[s], x, y, h, &cnt, &over);
+            }
+        }
+        nb->count[q] = cnt;
+        pairs += cnt;
+        if (over) {
+#pragma omp critical(sph_nbr_over)
+            if (first_over < 0 || (long)q < first_over)
+                first_over = (long)q;
+        }
+    }
+    nb->pairs = pairs;
+    if (overflow)
+        *overflow = first_over;
+    return first_over >= 0;
+}
+
+int sph_nbr_build_brute(sph_nbr *nb, const sph_kernel *k, size_t nq, size_t n,
+                        const double *x, const double *y, const double *h, long *overflow)
+{
+    long first_over = -1;
+    long pairs = 0;
+#pragma omp parallel for schedule(static) reduction(+ : pairs)
+    for (size_t q = 0; q < nq; q++) {
+        int cnt = 0, over = 0;
+        for (size_t j = 0; j < n; j++)
+            add_pair(nb, k, q, (int)j, x, y, h, &cnt, &over);
+        nb->count[q] = cnt;
+        pairs += cnt;
+        if (over) {
+#pragma omp critical(sph_nbr_over)
+            if (first_over < 0 || (long)q < first_over)
+                first_over = (long)q;
+        }
+    }
+    nb->pairs = pairs;
+    if (overflow)
+        *overflow = first_over;
+    return first_over >= 0;
+}
+
+int sph_nbr_candidates(const sph_nbr *nb, double px, double py, int *out, int max)
+{
+    int cx = (int)floor((px - nb->x0) / nb->cell), cy = (int)floor((py - nb->y0) / nb->cell);
+    int n = 0;
+    for (int yy = cy - 1; yy <= cy + 1; yy++) {
+        if (yy < 0 || yy >= nb->ncy)
+            continue;
+        for (int xx = cx - 1; xx <= cx + 1; xx++) {
+            if (xx < 0 || xx >= nb->ncx)
+                continue;
+            int c = yy * nb->ncx + xx;
+            for (int s = nb->cell_start[c]; s < nb->cell_start[c + 1] && n < max; s++)
+                out[n++] = nb->sorted[s];
+        }
+    }
+    return n;
+}
