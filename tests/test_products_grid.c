@@ -84,7 +84,7 @@ int main(void)
         bad_h += fabs(thick[k] - h_i) > 1e-9;
         bad_hb += fabs(hbar[k] - A * h_i) > 0.01 * A * h_i;
     }
-    CHECK(ninner > 100, "interior points %d", ninner);
+    CHECK(ninner > (check_quick() ? 0 : 100), "interior points %d", ninner);
     CHECK(bad_c == 0 && bad_h == 0, "normalised interpolation uniform: %d conc, %d thick off",
           bad_c, bad_h);
     CHECK(bad_hb == 0, "mean thickness uniform within 1 %% inside: %d off", bad_hb);
