@@ -1,0 +1,169 @@
+/* Forecast products: gridded CF-1.8 NetCDF, ice edge (NetCDF geometry and
+ * GeoJSON), station time series (NetCDF + CSV), particle trajectories,
+ * quick-look PNG maps, verification scores and a manifest, all written into
+ * a private stage directory and published atomically. docs/products.md
+ * lists every file, variable and unit.
+ *
+ * Use (the forecast engine):
+ *   products_open(&p, &opts, &grid, &meta, stage_dir, err);
+ *   products_set_observation(p, t_obs, obs_conc, err);     optional
+ *   for each output time: products_add_time(p, t, &fields, &particles, err);
+ *   products_set_run_info(p, &info);                        optional
+ *   products_close(p, &summary, err);        (frees p; on error p is aborted)
+ *   on any earlier error: products_abort(p);  (removes temporary files)
+ *   products_publish(stage_dir, final_dir, latest_link, err);
+ *
+ * Atomicity: every file is written under a temporary name beside its final
+ * name (util/fileio.h) and renamed only once complete; manifest.json is
+ * written last, and products_publish refuses a stage directory without it.
+ *
+ * Fault injection (SPHICE_FAULT=products-mid-write): products_add_time stops
+ * after writing part of a time record and returns SPH_ERR_IO (the caller
+ * then aborts, which removes the temporary files); with SPHICE_FAULT_EXIT
+ * also set the process calls _exit(99) there instead, as a kill would.
+ */
+#ifndef SPHICE_IO_PRODUCTS_H
+#define SPHICE_IO_PRODUCTS_H
+
+#include <stddef.h>
+#include "io/edge.h"
+#include "io/verify.h"
+#include "util/err.h"
+
+#define PROD_MAX_PRODUCTS 32   /* as FC_MAX_PRODUCTS */
+#define PROD_NAME_LEN 256
+#define PROD_FILL_FLOAT 1.0e20f /* _FillValue of every float variable */
+
+typedef struct prod_station {
+    char name[64];
+    double lon, lat;   /* degrees; must lie inside the output grid */
+} prod_station;
+
+typedef struct prod_options {
+    const char *prefix;         /* file-name prefix; NULL or "" -> "sphice" */
+    double edge_threshold;      /* ice edge / extent threshold, fraction (0.15) */
+    int has_reference;          /* edge distance from (ref_lon, ref_lat) */
+    double ref_lon, ref_lat;
+    const char *ref_name;       /* e.g. "head of Liaodong Bay"; may be NULL */
+    const prod_station *stations;
+    int nstations;
+    int write_particles;        /* trajectory file <prefix>_particles.nc */
+    int quicklook_every;        /* PNG for output times 0, k, 2k, ... and the
+                                   last one; 0 = none */
+    int quicklook_width, quicklook_height; /* pixels (900 x 700) */
+    double quicklook_thick_max; /* top of the thickness colour scale, m (0.6) */
+    int deflate_level;          /* 0..9 (4) */
+} prod_options;
+
+void products_options_default(prod_options *o);
+
+/* Provenance (copied at open). */
+typedef struct prod_meta {
+    const char *title, *summary, *institution, *region;
+    const char *model_version;  /* NULL -> SPHICE_VERSION of this build */
+    const char *git_revision;   /* NULL -> SPHICE_GIT of this build */
+    const char *config_sha256;  /* sha256 of the configuration text */
+    const char *const *forcing_sha256; /* "path sha256" strings, NULL-terminated */
+    double cycle_time;          /* seconds since 1970: forecast reference time */
+    int stale_forcing;          /* 1: forcing older than wanted */
+    const char *start_mode;     /* "cold", "warm", "reinit"; may be NULL */
+} prod_meta;
+
+/* Run statistics known only at the end (written as global attributes). */
+typedef struct prod_run_info {
+    double frac_free_drift, frac_rheology, frac_zero_layer, frac_multi_layer;
+    long particles_start, particles_end;
+    double budget_residual;     /* relative mass budget residual */
+} prod_run_info;
+
+/* Gridded fields at one output time: nlat*nlon doubles, row-major, south
+ * to north. Only conc is required; a NULL field is written as fill.
+ * Masking: land (land[k] = 1) is fill everywhere. Over sea, NaN in conc
+ * and hbar means open water (0); the other fields are fill where there is
+ * no ice (conc <= 0 or NaN) or the value is NaN. */
+typedef struct prod_fields {
+    const double *conc;        /* sea ice area fraction, 0..1 */
+    const double *hbar;        /* ice volume per cell area (mean thickness), m */
+    const double *thick;       /* thickness of the ice itself h_i, m */
+    const double *u_east, *v_north; /* ice velocity, m/s */
+    const double *pressure;    /* vertically integrated ice pressure/strength, N/m */
+    const double *divergence;  /* 1/s */
+    const double *shear;       /* maximum shear rate, 1/s */
+    const unsigned char *land; /* 1 = land; may be NULL (all sea) */
+} prod_fields;
+
+/* Particles at one output time (geographic positions and east/north
+ * velocity: the engine converts from the model plane). */
+typedef struct prod_particles_view {
+    size_t n;
+    const double *lon, *lat, *u_east, *v_north, *mass, *thick, *conc;
+    const long *id;
+} prod_particles_view;
+
+/* Particles read back from a trajectory file (owned arrays). */
+typedef struct prod_particles {
+    size_t n;
+    double time;
+    double *lon, *lat, *u_east, *v_north, *mass, *thick, *conc;
+    long *id;
+} prod_particles;
+
+typedef struct prod_summary {
+    int ntimes;
+    double ice_area_km2;       /* last output time: sum conc dA */
+    double ice_extent_km2;     /* last output time: sum dA where conc >= threshold */
+    double ice_volume_km3;     /* last output time: sum hbar dA */
+    double edge_length_km;     /* last output time */
+    double edge_distance_nm;   /* last output time; NaN without reference or edge */
+    int has_scores;
+    verify_scores scores;
+    int nproducts;
+    char products[PROD_MAX_PRODUCTS][PROD_NAME_LEN]; /* names relative to stage_dir */
+} prod_summary;
+
+typedef struct prod_writer prod_writer;
+
+/* Creates stage_dir (mkdir -p) and the temporary files. */
+int products_open(prod_writer **p, const prod_options *opts, const prod_grid *grid,
+                  const prod_meta *meta, const char *stage_dir, sph_error *err);
+
+/* Observed concentration (fraction, nlat*nlon, NaN where unknown) valid at
+ * t_obs; copied. Scored against the output time equal to t_obs (within
+ * 1 s); persistence is the first output time's concentration. */
+int products_set_observation(prod_writer *p, double t_obs, const double *obs_conc,
+                             sph_error *err);
+
+/* Appends output time t (strictly increasing). particles may be NULL. */
+int products_add_time(prod_writer *p, double t, const prod_fields *fields,
+                      const prod_particles_view *particles, sph_error *err);
+
+void products_set_run_info(prod_writer *p, const prod_run_info *info);
+
+/* Finalises and commits every file, writes manifest.json last, fills
+ * *summary (may be NULL) and frees p. On failure removes the temporary
+ * files, frees p and returns the error. */
+int products_close(prod_writer *p, prod_summary *summary, sph_error *err);
+
+/* Discards an unfinished writer: closes and removes temporary files. NULL-safe. */
+void products_abort(prod_writer *p);
+
+/* Publishes a completed stage directory: checks manifest.json and every
+ * file it lists (size), renames stage_dir to final_dir (an existing
+ * final_dir is replaced: moved aside, then removed), then points
+ * latest_link (may be NULL) at final_dir with an atomic symlink switch
+ * (relative target when both share a directory). On any failure before
+ * the rename nothing is changed; latest moves only after the rename. */
+int products_publish(const char *stage_dir, const char *final_dir, const char *latest_link,
+                     sph_error *err);
+
+/* Reads the particles of output time t (NaN: the last time) from a
+ * trajectory file written by products_*. For drift analysis and replay; a
+ * warm start needs the full state and uses the engine's restart format. */
+int products_read_particles(const char *path, double t, prod_particles *out, sph_error *err);
+void prod_particles_free(prod_particles *p); /* NULL-safe */
+
+/* Drift direction: the direction the ice moves TOWARDS, degrees clockwise
+ * from true north in [0, 360) (due south = 180). NaN if either is NaN. */
+double products_drift_direction_deg(double u_east, double v_north);
+
+#endif

@@ -1,0 +1,104 @@
+/* Private to src/io/products*.c: the writer's state. */
+#ifndef SPHICE_IO_PRODUCTS_IMPL_H
+#define SPHICE_IO_PRODUCTS_IMPL_H
+
+#include <stdio.h>
+#include "io/products.h"
+
+#define PROD_PATH 4096
+#define PROD_STAGE_LEN 3584 /* leaves room for "/<name>" in PROD_PATH */
+
+/* One output file under construction: final and temporary names. */
+typedef struct prod_file {
+    char name[PROD_NAME_LEN];  /* relative to the stage directory */
+    char path[PROD_PATH];      /* final path */
+    char tmp[PROD_PATH];       /* temporary path, "" once committed or unused */
+} prod_file;
+
+enum { PF_VAR_CONC, PF_VAR_HBAR, PF_VAR_THICK, PF_VAR_U, PF_VAR_V, PF_VAR_PRES, PF_VAR_DIV,
+       PF_VAR_SHEAR, PF_NVARS };
+
+typedef struct id_slot { long id; long index; } id_slot;
+
+struct prod_writer {
+    prod_grid grid;
+    prod_options opts;
+    char prefix[128];
+    char ref_name[128];
+    prod_station *stations;
+    char stage[PROD_STAGE_LEN];
+    /* provenance copies */
+    char *title, *summary, *institution, *region, *version, *gitrev, *config_sha, *forcing,
+        *start_mode;
+    double cycle_time;
+    int stale;
+    prod_run_info run;
+    int has_run;
+
+    /* gridded fields file */
+    prod_file fields;
+    int nc;
+    int v_time, v_data[PF_NVARS], v_area, v_extent, v_volume, v_elen, v_edist;
+    int v_node_count, v_part_count, v_ex, v_ey;
+    size_t ntimes, edge_nodes, edge_parts;
+    double t_first, t_last;
+    double *masked[PF_NVARS];  /* last time's masked fields (NaN = fill) */
+    float *fbuf;
+    double *area_row;          /* cell area per row, m^2 */
+    unsigned char *land;       /* last land mask (or NULL) */
+
+    /* stations */
+    prod_file st_nc, st_csv;
+    int st_ncid;
+    int st_v_time, st_v[8];
+    FILE *csv;
+
+    /* particles */
+    prod_file pt;
+    int pt_nc;
+    int pt_v_tid, pt_v_tindex, pt_v[8];
+    size_t pt_nobs, pt_ntraj;
+    id_slot *ids;
+    size_t ids_cap;
+
+    /* edge history for GeoJSON */
+    edge_set *edges;
+    double *edge_time, *edge_len, *edge_dist;
+    size_t nedges, edges_cap;
+
+    /* verification */
+    double *persistence, *obs;
+    double obs_time;
+    int has_obs, has_scores;
+    verify_scores scores;
+
+    /* quick-looks */
+    int last_quicklook_index;
+
+    /* results */
+    double area_km2, extent_km2, volume_km3;
+    int nproducts;
+    char products[PROD_MAX_PRODUCTS][PROD_NAME_LEN];
+    int failed;
+};
+
+/* products.c */
+int prod_file_init(prod_writer *p, prod_file *f, const char *suffix, sph_error *err);
+int prod_file_commit(prod_writer *p, prod_file *f, sph_error *err);
+void prod_file_discard(prod_file *f);
+int prod_nc_check(int status, const char *what, const char *path, sph_error *err);
+int prod_put_text(int ncid, int varid, const char *name, const char *text);
+
+/* products_stations.c */
+int prod_stations_open(prod_writer *p, sph_error *err);
+int prod_stations_add(prod_writer *p, double t, sph_error *err);
+int prod_stations_close(prod_writer *p, sph_error *err);
+void prod_stations_abort(prod_writer *p);
+
+/* products_particles.c */
+int prod_particles_open(prod_writer *p, sph_error *err);
+int prod_particles_add(prod_writer *p, double t, const prod_particles_view *v, sph_error *err);
+int prod_particles_close(prod_writer *p, sph_error *err);
+void prod_particles_abort(prod_writer *p);
+
+#endif

@@ -1,0 +1,245 @@
+/* Station time series: CF discrete sampling geometry (featureType
+ * timeSeries, orthogonal multidimensional: data(station, time)) and a CSV
+ * file with one header line. Values are bilinear in the grid cell holding
+ * the station, using only the corners where the field is defined (land and
+ * fill corners are left out, weights renormalised); fill if none is. */
+#include "products_impl.h"
+
+#include <errno.h>
+#include <math.h>
+#include <netcdf.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "util/fileio.h"
+#include "util/timeutil.h"
+
+#define NAME_LEN 64
+
+enum { ST_CONC, ST_THICK, ST_HBAR, ST_SPEED, ST_DIR, ST_U, ST_V, ST_PRES, ST_NVARS };
+
+static const struct {
+    const char *name, *standard_name, *long_name, *units;
+} st_specs[ST_NVARS] = {
+    { "siconc", "sea_ice_area_fraction", "sea ice area fraction", "1" },
+    { "sithick", "sea_ice_thickness", "sea ice thickness (of the ice-covered part)", "m" },
+    { "sivol", "sea_ice_thickness", "sea ice volume per unit area (mean thickness over the cell)",
+      "m" },
+    { "sispeed", "sea_ice_speed", "sea ice drift speed", "m s-1" },
+    { "sidir", NULL,
+      "sea ice drift direction: direction the ice moves towards, degrees clockwise from true "
+      "north (180 = moving south)", "degree" },
+    { "siu", "eastward_sea_ice_velocity", "eastward sea ice velocity", "m s-1" },
+    { "siv", "northward_sea_ice_velocity", "northward sea ice velocity", "m s-1" },
+    { "sicompstren", "compressive_strength_of_sea_ice",
+      "vertically integrated ice pressure (compressive strength) P", "N m-1" },
+};
+
+#define NCS(call, what)                                                   \
+    do {                                                                  \
+        int st_ = (call);                                                 \
+        if (st_ != NC_NOERR)                                              \
+            return prod_nc_check(st_, what, p->st_nc.tmp, err);          \
+    } while (0)
+
+static double sample(const prod_writer *p, const double *f, double lon, double lat)
+{
+    const prod_grid *g = &p->grid;
+    double x = (lon - g->lon0) / g->dlon, y = (lat - g->lat0) / g->dlat;
+    int i0 = (int)floor(x), j0 = (int)floor(y);
+    if (i0 > g->nlon - 2)
+        i0 = g->nlon - 2;
+    if (j0 > g->nlat - 2)
+        j0 = g->nlat - 2;
+    if (i0 < 0)
+        i0 = 0;
+    if (j0 < 0)
+        j0 = 0;
+    double fx = x - i0, fy = y - j0, sum = 0, wsum = 0;
+    for (int c = 0; c < 4; c++) {
+        int di = c & 1, dj = c >> 1;
+        double w = (di ? fx : 1 - fx) * (dj ? fy : 1 - fy);
+        double v = f[(size_t)(j0 + dj) * g->nlon + i0 + di];
+        if (w > 0 && !isnan(v)) {
+            sum += w * v;
+            wsum += w;
+        }
+    }
+    return wsum > 1e-12 ? sum / wsum : NAN;
+}
+
+int prod_stations_open(prod_writer *p, sph_error *err)
+{
+    int ns = p->opts.nstations;
+    if (ns <= 0)
+        return SPH_OK;
+    int rc;
+    if ((rc = prod_file_init(p, &p->st_nc, "stations.nc", err)) != SPH_OK ||
+        (rc = prod_file_init(p, &p->st_csv, "stations.csv", err)) != SPH_OK)
+        return rc;
+    p->csv = fopen(p->st_csv.tmp, "w");
+    if (!p->csv)
+        return sph_err_set(err, SPH_ERR_IO, "create %s: %s", p->st_csv.tmp, strerror(errno));
+    fprintf(p->csv, "station,lon,lat,valid_time,siconc,sithick_m,sivol_m,drift_speed_m_s,"
+                    "drift_direction_deg_towards,siu_m_s,siv_m_s,sicompstren_N_m\n");
+
+    int st = nc_create(p->st_nc.tmp, NC_NETCDF4 | NC_CLOBBER, &p->st_ncid);
+    if (st != NC_NOERR) {
+        p->st_ncid = -1;
+        return prod_nc_check(st, "create", p->st_nc.tmp, err);
+    }
+    int nc = p->st_ncid, d_st, d_t, d_len, v_name, v_lon, v_lat;
+    NCS(nc_def_dim(nc, "station", (size_t)ns, &d_st), "define dimension in");
+    NCS(nc_def_dim(nc, "time", NC_UNLIMITED, &d_t), "define dimension in");
+    NCS(nc_def_dim(nc, "name_strlen", NAME_LEN, &d_len), "define dimension in");
+    int dn[2] = { d_st, d_len };
+    NCS(nc_def_var(nc, "station_name", NC_CHAR, 2, dn, &v_name), "define variable in");
+    NCS(prod_put_text(nc, v_name, "cf_role", "timeseries_id"), "write attribute in");
+    NCS(prod_put_text(nc, v_name, "long_name", "station name"), "write attribute in");
+    NCS(nc_def_var(nc, "lon", NC_DOUBLE, 1, &d_st, &v_lon), "define variable in");
+    NCS(prod_put_text(nc, v_lon, "standard_name", "longitude"), "write attribute in");
+    NCS(prod_put_text(nc, v_lon, "long_name", "station longitude"), "write attribute in");
+    NCS(prod_put_text(nc, v_lon, "units", "degrees_east"), "write attribute in");
+    NCS(prod_put_text(nc, v_lon, "axis", "X"), "write attribute in");
+    NCS(nc_def_var(nc, "lat", NC_DOUBLE, 1, &d_st, &v_lat), "define variable in");
+    NCS(prod_put_text(nc, v_lat, "standard_name", "latitude"), "write attribute in");
+    NCS(prod_put_text(nc, v_lat, "long_name", "station latitude"), "write attribute in");
+    NCS(prod_put_text(nc, v_lat, "units", "degrees_north"), "write attribute in");
+    NCS(prod_put_text(nc, v_lat, "axis", "Y"), "write attribute in");
+    NCS(nc_def_var(nc, "time", NC_DOUBLE, 1, &d_t, &p->st_v_time), "define variable in");
+    NCS(prod_put_text(nc, p->st_v_time, "standard_name", "time"), "write attribute in");
+    NCS(prod_put_text(nc, p->st_v_time, "long_name", "valid time"), "write attribute in");
+    NCS(prod_put_text(nc, p->st_v_time, "units", "seconds since 1970-01-01 00:00:00"),
+        "write attribute in");
+    NCS(prod_put_text(nc, p->st_v_time, "calendar", "standard"), "write attribute in");
+    NCS(prod_put_text(nc, p->st_v_time, "axis", "T"), "write attribute in");
+    int dd[2] = { d_st, d_t };
+    float fill = PROD_FILL_FLOAT;
+    for (int k = 0; k < ST_NVARS; k++) {
+        NCS(nc_def_var(nc, st_specs[k].name, NC_FLOAT, 2, dd, &p->st_v[k]), "define variable in");
+        int v = p->st_v[k];
+        NCS(nc_put_att_float(nc, v, "_FillValue", NC_FLOAT, 1, &fill), "write attribute in");
+        if (st_specs[k].standard_name)
+            NCS(prod_put_text(nc, v, "standard_name", st_specs[k].standard_name),
+                "write attribute in");
+        NCS(prod_put_text(nc, v, "long_name", st_specs[k].long_name), "write attribute in");
+        NCS(prod_put_text(nc, v, "units", st_specs[k].units), "write attribute in");
+        NCS(prod_put_text(nc, v, "coordinates", "time lat lon station_name"), "write attribute in");
+    }
+    NCS(prod_put_text(nc, NC_GLOBAL, "Conventions", "CF-1.8, ACDD-1.3"), "write attribute in");
+    NCS(prod_put_text(nc, NC_GLOBAL, "featureType", "timeSeries"), "write attribute in");
+    NCS(prod_put_text(nc, NC_GLOBAL, "title", "sphice sea ice forecast at stations"),
+        "write attribute in");
+    NCS(prod_put_text(nc, NC_GLOBAL, "summary",
+                      "Forecast sea ice at configured stations, sampled bilinearly from the "
+                      "gridded products."), "write attribute in");
+    NCS(prod_put_text(nc, NC_GLOBAL, "sphice_model_version", p->version), "write attribute in");
+    NCS(prod_put_text(nc, NC_GLOBAL, "sphice_git_revision", p->gitrev), "write attribute in");
+    NCS(prod_put_text(nc, NC_GLOBAL, "sphice_config_sha256", p->config_sha ? p->config_sha : "unknown"),
+        "write attribute in");
+    char iso[32];
+    time_format_iso(p->cycle_time, iso, sizeof iso);
+    NCS(prod_put_text(nc, NC_GLOBAL, "sphice_cycle_time", iso), "write attribute in");
+    int stale = p->stale;
+    NCS(nc_put_att_int(nc, NC_GLOBAL, "sphice_stale_forcing", NC_INT, 1, &stale),
+        "write attribute in");
+    NCS(nc_enddef(nc), "end definitions in");
+    for (int s = 0; s < ns; s++) {
+        char name[NAME_LEN] = { 0 };
+        snprintf(name, sizeof name, "%s", p->stations[s].name);
+        size_t start[2] = { (size_t)s, 0 }, count[2] = { 1, NAME_LEN };
+        NCS(nc_put_vara_text(nc, v_name, start, count, name), "write station names to");
+        size_t idx = (size_t)s;
+        NCS(nc_put_var1_double(nc, v_lon, &idx, &p->stations[s].lon), "write station lon to");
+        NCS(nc_put_var1_double(nc, v_lat, &idx, &p->stations[s].lat), "write station lat to");
+    }
+    return SPH_OK;
+}
+
+static void csv_num(FILE *f, double v, int decimals)
+{
+    fputc(',', f);
+    if (!isnan(v))
+        fprintf(f, "%.*f", decimals, v);
+}
+
+int prod_stations_add(prod_writer *p, double t, sph_error *err)
+{
+    int ns = p->opts.nstations;
+    if (ns <= 0)
+        return SPH_OK;
+    size_t ti = p->ntimes - 1; /* the record just written by products_add_time */
+    NCS(nc_put_var1_double(p->st_ncid, p->st_v_time, &ti, &t), "write time to");
+    char iso[32];
+    time_format_iso(t, iso, sizeof iso);
+    for (int s = 0; s < ns; s++) {
+        const prod_station *st = &p->stations[s];
+        double v[ST_NVARS];
+        v[ST_CONC] = sample(p, p->masked[PF_VAR_CONC], st->lon, st->lat);
+        v[ST_THICK] = sample(p, p->masked[PF_VAR_THICK], st->lon, st->lat);
+        v[ST_HBAR] = sample(p, p->masked[PF_VAR_HBAR], st->lon, st->lat);
+        v[ST_U] = sample(p, p->masked[PF_VAR_U], st->lon, st->lat);
+        v[ST_V] = sample(p, p->masked[PF_VAR_V], st->lon, st->lat);
+        v[ST_PRES] = sample(p, p->masked[PF_VAR_PRES], st->lon, st->lat);
+        v[ST_SPEED] = hypot(v[ST_U], v[ST_V]);
+        v[ST_DIR] = products_drift_direction_deg(v[ST_U], v[ST_V]);
+        for (int k = 0; k < ST_NVARS; k++) {
+            float x = isnan(v[k]) ? PROD_FILL_FLOAT : (float)v[k];
+            size_t idx[2] = { (size_t)s, ti };
+            NCS(nc_put_var1_float(p->st_ncid, p->st_v[k], idx, &x), "write station data to");
+        }
+        /* CSV: the name quoted (embedded quotes doubled), empty = missing */
+        fputc('"', p->csv);
+        for (const char *c = st->name; *c; c++) {
+            if (*c == '"')
+                fputc('"', p->csv);
+            fputc(*c, p->csv);
+        }
+        fprintf(p->csv, "\",%.6f,%.6f,%s", st->lon, st->lat, iso);
+        csv_num(p->csv, v[ST_CONC], 4);
+        csv_num(p->csv, v[ST_THICK], 4);
+        csv_num(p->csv, v[ST_HBAR], 4);
+        csv_num(p->csv, v[ST_SPEED], 4);
+        csv_num(p->csv, v[ST_DIR], 1);
+        csv_num(p->csv, v[ST_U], 4);
+        csv_num(p->csv, v[ST_V], 4);
+        csv_num(p->csv, v[ST_PRES], 1);
+        fputc('\n', p->csv);
+    }
+    if (ferror(p->csv))
+        return sph_err_set(err, SPH_ERR_IO, "write %s: %s", p->st_csv.tmp, strerror(errno));
+    return SPH_OK;
+}
+
+int prod_stations_close(prod_writer *p, sph_error *err)
+{
+    if (p->opts.nstations <= 0)
+        return SPH_OK;
+    int nc = p->st_ncid;
+    p->st_ncid = -1;
+    NCS(nc_close(nc), "close");
+    FILE *f = p->csv;
+    p->csv = NULL;
+    int bad = fflush(f) != 0 || ferror(f);
+    int e = errno;
+    if (fclose(f) != 0)
+        bad = 1;
+    if (bad)
+        return sph_err_set(err, SPH_ERR_IO, "write %s: %s", p->st_csv.tmp, strerror(e));
+    int rc = prod_file_commit(p, &p->st_nc, err);
+    if (rc == SPH_OK)
+        rc = prod_file_commit(p, &p->st_csv, err);
+    return rc;
+}
+
+void prod_stations_abort(prod_writer *p)
+{
+    if (p->st_ncid >= 0)
+        nc_close(p->st_ncid);
+    p->st_ncid = -1;
+    if (p->csv)
+        fclose(p->csv);
+    p->csv = NULL;
+    prod_file_discard(&p->st_nc);
+    prod_file_discard(&p->st_csv);
+}
