@@ -37,6 +37,7 @@ BENCH_BIN := $(BENCH_SRC:bench/%.c=$(BUILD)/bench/%)
 TOOL_SRC := $(wildcard tools/*.c)
 TOOL_BIN := $(TOOL_SRC:tools/%.c=$(BUILD)/tools/%)
 
+.SECONDARY:
 .PHONY: all deps check check-long sanitize valgrind layers demo demo-forcing bench clean install tests tools
 all: $(BUILD)/sphice tools
 
