@@ -42,6 +42,9 @@ double history_last_done(history *h);
 int history_latest(history *h, history_run *r);
 /* The most recent n rows as a JSON array text (caller frees), newest first. */
 char *history_recent_json(history *h, int n);
+/* The newest finished row (any result but "running") as a JSON object
+ * text (caller frees), or NULL if none. */
+char *history_last_finished_json(history *h, history_run *r);
 /* Number of rows with the given result. */
 long history_count(history *h, const char *result);
 

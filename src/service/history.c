@@ -243,6 +243,48 @@ static void add_raw(cJSON *o, const char *k, const char *json)
     cJSON_AddItemToObject(o, k, v ? v : cJSON_CreateNull());
 }
 
+static cJSON *row_json(const history_run *r)
+{
+    cJSON *o = cJSON_CreateObject();
+    add_time(o, "cycle", r->cycle);
+    add_time(o, "started", r->started);
+    add_time(o, "ended", r->ended);
+    add_num(o, "duration_s", isfinite(r->ended) && isfinite(r->started) ? r->ended - r->started : NAN);
+    cJSON_AddStringToObject(o, "result", r->result);
+    cJSON_AddStringToObject(o, "message", r->message);
+    add_num(o, "ice_area_km2", r->area_km2);
+    add_num(o, "ice_volume_km3", r->volume_km3);
+    add_num(o, "edge_distance_nm", r->edge_nm);
+    add_raw(o, "scores", r->scores_json);
+    add_raw(o, "products", r->products_json);
+    cJSON_AddBoolToObject(o, "stale", r->stale);
+    cJSON_AddStringToObject(o, "start_mode", r->mode);
+    return o;
+}
+
+char *history_last_finished_json(history *h, history_run *out)
+{
+    char *text = NULL;
+    pthread_mutex_lock(&h->lock);
+    sqlite3_stmt *s = NULL;
+    if (sqlite3_prepare_v2(h->db, "SELECT " COLS " FROM runs WHERE result != 'running'"
+                           " ORDER BY ended DESC, cycle DESC LIMIT 1;", -1, &s, NULL) == SQLITE_OK &&
+        sqlite3_step(s) == SQLITE_ROW) {
+        history_run r;
+        row_read(s, &r);
+        cJSON *o = row_json(&r);
+        text = cJSON_Print(o);
+        cJSON_Delete(o);
+        if (out)
+            *out = r;
+        else
+            history_run_clear(&r);
+    }
+    sqlite3_finalize(s);
+    pthread_mutex_unlock(&h->lock);
+    return text;
+}
+
 char *history_recent_json(history *h, int n)
 {
     cJSON *a = cJSON_CreateArray();
@@ -254,20 +296,7 @@ char *history_recent_json(history *h, int n)
         while (sqlite3_step(s) == SQLITE_ROW) {
             history_run r;
             row_read(s, &r);
-            cJSON *o = cJSON_CreateObject();
-            add_time(o, "cycle", r.cycle);
-            add_time(o, "started", r.started);
-            add_time(o, "ended", r.ended);
-            add_num(o, "duration_s", isfinite(r.ended) && isfinite(r.started) ? r.ended - r.started : NAN);
-            cJSON_AddStringToObject(o, "result", r.result);
-            cJSON_AddStringToObject(o, "message", r.message);
-            add_num(o, "ice_area_km2", r.area_km2);
-            add_num(o, "ice_volume_km3", r.volume_km3);
-            add_num(o, "edge_distance_nm", r.edge_nm);
-            add_raw(o, "scores", r.scores_json);
-            add_raw(o, "products", r.products_json);
-            cJSON_AddBoolToObject(o, "stale", r.stale);
-            cJSON_AddStringToObject(o, "start_mode", r.mode);
+            cJSON *o = row_json(&r);
             cJSON_AddItemToArray(a, o);
             history_run_clear(&r);
         }
