@@ -505,7 +505,7 @@ static int write_manifest(const struct sph_config *cfg, const cycle_opts *o, con
     cJSON_Delete(m);
     if (!text)
         return sph_err_set(err, SPH_ERR_NOMEM, "manifest: out of memory");
-    char path[4200];
+    char path[4400];
     snprintf(path, sizeof path, "%s/cycle.json", stage);
     int rc = atomic_write_file(path, text, strlen(text), err);
     free(text);
@@ -766,7 +766,8 @@ done:
         if (rc == SPH_ERR_CANCELLED)
             log_warn("cycle %s: cancelled; products left as they were", cname);
         else
-            log_error("cycle %s: failed: %s", cname, e.msg);
+            log_error("cycle %s: failed: %s", cname,
+                      !strncmp(e.msg, "cycle ", 6) && strchr(e.msg, ':') ? strchr(e.msg, ':') + 2 : e.msg);
     } else {
         prog->phase = FC_PHASE_DONE;
         record(o->hist, rep, "ok");
