@@ -279,12 +279,13 @@ static int cmd_status(int argc, char **argv)
     char url[2100];
     const char *base = o.url ? o.url : "http://127.0.0.1:8642";
     size_t bl = strlen(base);
-    if (bl >= 7 && !strcmp(base + bl - 7, "/status"))
-        snprintf(url, sizeof url, "%s", base);
+    while (bl && base[bl - 1] == '/')
+        bl--;
+    /* "http://host:port", "http://host:port/" and ".../status" all mean /status */
+    if (bl >= 7 && !strncmp(base + bl - 7, "/status", 7))
+        snprintf(url, sizeof url, "%.*s", (int)bl, base);
     else
-        snprintf(url, sizeof url, "%s%s/status", base, bl && base[bl - 1] == '/' ? "" : "");
-    if (bl && base[bl - 1] == '/' && strcmp(base + (bl >= 7 ? bl - 7 : 0), "/status"))
-        snprintf(url, sizeof url, "%sstatus", base);
+        snprintf(url, sizeof url, "%.*s/status", (int)bl, base);
     curl_global_init(CURL_GLOBAL_DEFAULT);
     CURL *c = curl_easy_init();
     membuf b = {0};
