@@ -3,9 +3,10 @@
  * allocation inside a step: all workspace is allocated by sph_model_create.
  *
  * Momentum (PHYSICS.md eq. 2, per unit area):
- *   M dV/dt = -M f k x V + A (tau_a + tau_w) - M g grad(xi) + div(hbar sigma)
- * Drag is scaled by concentration A (as CICE) so that with M = rho_i A h_i
- * the free drift of loose ice depends on the ice's own thickness h_i.
+ *   M dV/dt = -M f k x V + tau_a + tau_w - M g grad(xi) + div(hbar sigma)
+ * with M = rho_i A h_i the mass per unit area (Hibler 1979; CICE would
+ * scale the drag by A, which changes only the Coriolis/inertia balance of
+ * loose ice).
  */
 #ifndef SPHICE_CORE_MODEL_H
 #define SPHICE_CORE_MODEL_H
@@ -120,6 +121,8 @@ void sph_model_free(sph_model *m);
 sph_particles *sph_model_particles(sph_model *m);
 const sph_params *sph_model_params(const sph_model *m);
 size_t sph_model_capacity(const sph_model *m); /* live particles it can hold */
+/* Mirror ghosts of the last step, stored after the live particles. */
+size_t sph_model_ghosts(const sph_model *m);
 /* Changes reloadable parameters (same capacity and layers). */
 int sph_model_set_params(sph_model *m, const sph_params *p);
 
