@@ -1,0 +1,90 @@
+/* One forecast cycle, one state machine:
+ *
+ *   lock -> fetch forcing (waiting for late data) -> choose the start
+ *   (warm / cold / reinit) -> run the engine into a private stage dir ->
+ *   write the manifest -> publish (rename the stage dir to
+ *   OUTDIR/<YYYYMMDDTHHZ>/, then switch OUTDIR/latest) -> record history.
+ *
+ * Invariant: published products are only ever replaced by a rename of a
+ * complete directory; a failed, cancelled or killed cycle leaves them as
+ * they were (its stage dir is removed, or swept by the next run).
+ *
+ * The engine and the fetcher are function pointers so the scheduler can
+ * be tested without the model or the network. */
+#ifndef SPHICE_SERVICE_CYCLE_H
+#define SPHICE_SERVICE_CYCLE_H
+
+#include <signal.h>
+#include <stddef.h>
+#include "service/forecast.h"
+#include "service/history.h"
+#include "util/err.h"
+
+struct sph_config;
+
+#define CYCLE_MAX_SOURCES 8
+#define CYCLE_MAX_FILES 64
+
+typedef int (*cycle_engine_fn)(const struct sph_config *cfg, const forecast_request *req,
+                               forecast_progress *prog, const volatile sig_atomic_t *cancel,
+                               forecast_result *res, sph_error *err);
+/* NULL restores forecast_run. The test double is chosen instead when the
+ * config says engine "test-double" or SPHICE_TEST_ENGINE is set:
+ *   SPHICE_TEST_ENGINE=sleep:SECONDS   run that long, write a small product
+ *   SPHICE_TEST_ENGINE=fail            fail with a message */
+void cycle_set_engine(cycle_engine_fn fn);
+/* The stand-in engine itself (exported for tests). */
+int cycle_test_engine(const struct sph_config *cfg, const forecast_request *req, forecast_progress *prog,
+                      const volatile sig_atomic_t *cancel, forecast_result *res, sph_error *err);
+
+/* Makes one forcing template for cycle time t a local file: expands the
+ * template, downloads it when it is a URL, and returns the local path and
+ * its sha256. Returns SPH_OK, or an error (SPH_ERR_IO / SPH_ERR_DOWNLOAD)
+ * when the file is not (yet) there. */
+typedef int (*cycle_fetch_fn)(const char *tmpl, double t, const char *cache_dir, char *local, size_t len,
+                              char sha256[65], sph_error *err);
+/* NULL restores the built-in fetcher (local paths and file:// only). */
+void cycle_set_fetcher(cycle_fetch_fn fn);
+
+/* strftime-style expansion with the cycle time: %Y %m %d %H %M %S %j %y %%.
+ * Any other conversion is an error naming the template. */
+int cycle_expand_template(const char *tmpl, double t, char *out, size_t len, sph_error *err);
+
+/* The warm-start file an engine writes into its stage dir for a later
+ * cycle at time t: "restart-<cycle name>.nc". */
+void cycle_restart_name(double t, char *buf, size_t len);
+
+enum { CYCLE_OK = 0, CYCLE_FAILED, CYCLE_CANCELLED, CYCLE_SKIPPED };
+
+typedef struct cycle_opts {
+    double cycle_time;
+    double hours;          /* 0: schedule.forecast_hours */
+    const char *out_dir;   /* NULL: output.dir */
+    int hindcast;          /* replay: no wait for late data, no global run lock */
+    int force;             /* run even when the history says the cycle is done */
+    history *hist;         /* may be NULL */
+} cycle_opts;
+
+typedef struct cycle_report {
+    int result;            /* CYCLE_* */
+    double cycle, started, ended;
+    int stale;
+    char mode[16];         /* cold, warm, reinit */
+    char message[1024];    /* the error, or a summary */
+    char product_dir[4096];
+    size_t nsources;
+    char source_name[CYCLE_MAX_SOURCES][64];
+    double source_age_h[CYCLE_MAX_SOURCES]; /* cycle time - issue time used; NaN if none */
+    forecast_result res;
+} cycle_report;
+
+/* Runs one cycle. Returns SPH_OK when the cycle was published or skipped
+ * (rep->result says which), otherwise the error (rep and err say why).
+ * prog may be NULL; cancel may be NULL. */
+int cycle_run(const struct sph_config *cfg, const cycle_opts *o, forecast_progress *prog,
+              const volatile sig_atomic_t *cancel, cycle_report *rep, sph_error *err);
+
+/* rm -rf (for stage dirs); 0 on success. */
+int cycle_remove_tree(const char *path);
+
+#endif

@@ -1,0 +1,1005 @@
+/* The configuration key table and everything it drives: parsing,
+ * validation, defaults, the markdown reference and the effective config.
+ *
+ * Invariant: after a successful parse every member named by the table holds
+ * either the file's value or the table's default; required keys (default
+ * NULL) were present. Defaults are JSON text parsed by the same code as the
+ * file, so a default can never bypass validation. */
+#include "service/config.h"
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "util/fileio.h"
+#include "util/log.h"
+
+_Static_assert(sizeof(sph_kernel_kind) == sizeof(int), "enums are stored as int");
+_Static_assert(sizeof(sph_solver_kind) == sizeof(int), "enums are stored as int");
+_Static_assert(sizeof(sph_thermo_model) == sizeof(int), "enums are stored as int");
+
+typedef enum { CT_BOOL, CT_INT, CT_DOUBLE, CT_STRING, CT_ENUM, CT_TODLIST, CT_STRLIST,
+               CT_DBLLIST, CT_STRMAP, CT_OBJARRAY } cfg_type;
+
+enum { CF_RELOAD = 1u << 0, /* a SIGHUP applies a change */
+       CF_TEST = 1u << 1 }; /* for tests only (documented as such) */
+
+struct cfg_table;
+typedef struct cfg_key {
+    const char *path;          /* dotted, relative to the table's object */
+    cfg_type type;
+    const char *def;           /* JSON text; NULL = required */
+    double lo, hi;             /* numbers: inclusive bounds; strings: length; lists: count */
+    unsigned flags;
+    const char *const *names;  /* CT_ENUM: NULL-terminated, index = value */
+    size_t off, off_count;     /* member offset; CT_OBJARRAY: offset of the size_t count */
+    const struct cfg_table *sub; /* CT_OBJARRAY element table */
+    const char *doc;
+} cfg_key;
+
+typedef struct cfg_table {
+    const cfg_key *keys;
+    size_t nkeys;
+    size_t elem_size;
+} cfg_table;
+
+#define BIG 1e300
+#define K(T, path, type, member, def, lo, hi, fl, names, doc) \
+    {path, type, def, lo, hi, fl, names, offsetof(T, member), 0, NULL, doc}
+#define C_(path, type, member, def, lo, hi, fl, names, doc) \
+    K(struct sph_config, path, type, member, def, lo, hi, fl, names, doc)
+
+static const char *const kernel_names[] = {"gaussian", "wendland_c2", "cubic_spline", NULL};
+static const char *const solver_names[] = {"explicit", "mevp", "implicit", NULL};
+static const char *const unstable_names[] = {"substep", "refuse", NULL};
+static const char *const physics_names[] = {"auto", "full", "free_drift", NULL};
+static const char *const rheology_names[] = {"vp", "collision", NULL};
+static const char *const pressure_names[] = {"seed", "hibler", NULL};
+static const char *const thermo_names[] = {"off", "zero_layer", "multi_layer", "auto", NULL};
+static const char *const fkind_names[] = {"atmosphere", "ocean", "tide", NULL};
+static const char *const init_format_names[] = {"netcdf", "esri", NULL};
+static const char *const reinit_names[] = {"warm", "cold", "newer_raster", NULL};
+static const char *const land_names[] = {"none", "gshhg", "netcdf", "forcing", NULL};
+static const char *const landres_names[] = {"crude", "low", "intermediate", "high", "full", NULL};
+static const char *const grid_names[] = {"regular", "raster", NULL};
+static const char *const late_names[] = {"fail", "stale", NULL};
+static const char *const engine_names[] = {"forecast", "test-double", NULL};
+static const char *const level_names[] = {"error", "warn", "info", "debug", NULL};
+
+static const cfg_key forcing_keys[] = {
+    K(cfg_forcing_source, "name", CT_STRING, name, NULL, 1, 63, 0, NULL,
+      "Source name used in messages, status and provenance (unique)."),
+    K(cfg_forcing_source, "kind", CT_ENUM, kind, NULL, 0, 0, 0, fkind_names,
+      "What the source provides: atmosphere (wind, air temperature, radiation), ocean (currents, SSH, SST, heat flux) or tide."),
+    K(cfg_forcing_source, "urls", CT_STRLIST, urls, NULL, 1, 64, 0, NULL,
+      "File templates (a string or a list): local path, file:// or http(s):// URL; strftime fields %Y %m %d %H %M %j are the cycle time."),
+    K(cfg_forcing_source, "variables", CT_STRMAP, variables, "{}", 0, 64, 0, NULL,
+      "Renames {standard_name: variable_in_file} for files without CF standard_name attributes."),
+    K(cfg_forcing_source, "required", CT_STRLIST, required, "[]", 0, 16, 0, NULL,
+      "Quantities that must be found: wind, tair, humidity, swdn, lwdn, current, ssh, sst, ocean_flux."),
+    K(cfg_forcing_source, "optional", CT_STRLIST, optional_q, "[]", 0, 16, 0, NULL,
+      "Quantities used when present (same names as required)."),
+    K(cfg_forcing_source, "max_age_hours", CT_DOUBLE, max_age_hours, "24", 0, 720, 0, NULL,
+      "With late_data.policy stale: the oldest issue (hours before the cycle) still usable."),
+    K(cfg_forcing_source, "issue_hours", CT_DOUBLE, issue_hours, "6", 0.001, 720, 0, NULL,
+      "How often the provider issues new files; older issues are looked for in these steps."),
+    K(cfg_forcing_source, "optional_source", CT_BOOL, optional_source, "false", 0, 0, 0, NULL,
+      "A missing optional source does not fail the cycle (e.g. tides)."),
+};
+static const cfg_table forcing_table = {forcing_keys, sizeof forcing_keys / sizeof forcing_keys[0],
+                                        sizeof(cfg_forcing_source)};
+
+static const cfg_key station_keys[] = {
+    K(cfg_station, "name", CT_STRING, name, NULL, 1, 63, 0, NULL, "Station name."),
+    K(cfg_station, "lon", CT_DOUBLE, lon, NULL, -180, 360, 0, NULL, "Longitude, degrees east."),
+    K(cfg_station, "lat", CT_DOUBLE, lat, NULL, -90, 90, 0, NULL, "Latitude, degrees north."),
+};
+static const cfg_table station_table = {station_keys, sizeof station_keys / sizeof station_keys[0],
+                                        sizeof(cfg_station)};
+
+#define R CF_RELOAD
+static const cfg_key config_keys[] = {
+    C_("log_level", CT_ENUM, log_level, "\"info\"", 0, 0, R, level_names,
+       "Log level: error, warn, info, debug."),
+    C_("engine", CT_ENUM, engine, "\"forecast\"", 0, 0, CF_TEST, engine_names,
+       "test-double replaces the model by a stand-in that writes a small product and sleeps."),
+    C_("test.engine_seconds", CT_DOUBLE, test_engine_seconds, "1", 0, 3600, CF_TEST | R, NULL,
+       "How long the test-double engine runs, s."),
+
+    C_("domain.name", CT_STRING, domain.name, "\"domain\"", 1, 63, R, NULL, "Name of the domain (products, status)."),
+    C_("domain.lon_min", CT_DOUBLE, domain.lon_min, NULL, -180, 360, R, NULL, "West edge, degrees east."),
+    C_("domain.lon_max", CT_DOUBLE, domain.lon_max, NULL, -180, 360, R, NULL, "East edge, degrees east."),
+    C_("domain.lat_min", CT_DOUBLE, domain.lat_min, NULL, -90, 90, R, NULL, "South edge, degrees north."),
+    C_("domain.lat_max", CT_DOUBLE, domain.lat_max, NULL, -90, 90, R, NULL, "North edge, degrees north."),
+    C_("domain.projection", CT_STRING, domain.projection, "\"auto\"", 1, 511, R, NULL,
+       "\"auto\" (local transverse Mercator at the domain centre) or a PROJ string."),
+
+    /* model: every member of sph_params */
+    C_("model.dt", CT_DOUBLE, model.dt, "60", 0.001, 3600, R, NULL, "Dynamic time step, s."),
+    C_("model.kernel", CT_ENUM, model.kernel, "\"gaussian\"", 0, 0, R, kernel_names,
+       "SPH kernel: gaussian (seed), wendland_c2, cubic_spline."),
+    C_("model.kernel_radius", CT_DOUBLE, model.kernel_radius, "2", 1, 6, R, NULL,
+       "Kernel support radius in units of the smoothing length h."),
+    C_("model.variable_sml", CT_BOOL, model.variable_sml, "true", 0, 0, R, NULL,
+       "Variable smoothing length (seed eq. 10)."),
+    C_("model.sml_factor", CT_DOUBLE, model.sml_factor, "1", 0.1, 10, R, NULL,
+       "Initial smoothing length h0 = sml_factor x initial particle spacing."),
+    C_("model.solver", CT_ENUM, model.solver, "\"mevp\"", 0, 0, R, solver_names,
+       "Momentum solver: explicit (sub-stepped), mevp (modified/adaptive EVP), implicit (Picard + GMRES)."),
+    C_("model.unstable", CT_ENUM, model.unstable, "\"substep\"", 0, 0, R, unstable_names,
+       "Explicit solver beyond its stability limit: substep, or refuse (fail)."),
+    C_("model.max_substeps", CT_INT, model.max_substeps, "2000", 1, 1000000, R, NULL,
+       "Cap on explicit sub-steps per dynamic step."),
+    C_("model.evp.iterations", CT_INT, model.evp_iterations, "120", 1, 10000, R, NULL,
+       "mEVP sub-iterations per step."),
+    C_("model.evp.adaptive", CT_BOOL, model.evp_adaptive, "true", 0, 0, R, NULL,
+       "Adaptive EVP: local alpha = beta from the stability bound."),
+    C_("model.evp.alpha", CT_DOUBLE, model.evp_alpha, "300", 1, 1e6, R, NULL, "Fixed mEVP alpha."),
+    C_("model.evp.beta", CT_DOUBLE, model.evp_beta, "300", 1, 1e6, R, NULL, "Fixed mEVP beta."),
+    C_("model.implicit.max_picard", CT_INT, model.implicit_max_picard, "20", 1, 1000, R, NULL,
+       "Implicit solver: Picard iterations."),
+    C_("model.implicit.tol", CT_DOUBLE, model.implicit_tol, "1e-6", 1e-14, 1, R, NULL,
+       "Implicit solver: relative residual."),
+    C_("model.physics", CT_ENUM, model.physics, "\"auto\"", 0, 0, R, physics_names,
+       "auto (free drift where loose, rheology where packed), full, free_drift."),
+    C_("model.auto_tolerance", CT_DOUBLE, model.auto_tolerance, "1e-3", 0, 1, R, NULL,
+       "auto physics: free drift where exp(-C(1-A)) is below this."),
+    C_("model.rheology.kind", CT_ENUM, model.rheology, "\"vp\"", 0, 0, R, rheology_names,
+       "Rheology: vp (Hibler viscous-plastic) or collision (Shen, Hibler & Lepparanta 1987)."),
+    C_("model.rheology.pressure_form", CT_ENUM, model.pressure_form, "\"seed\"", 0, 0, R, pressure_names,
+       "seed: P = P0 exp(-C(1-A)) integrated as hbar P; hibler: P = P* hbar exp(-C(1-A))."),
+    C_("model.rheology.P0", CT_DOUBLE, model.P0, "1.0e4", 1, 1e7, R, NULL,
+       "Ice strength P0 (seed) or P* (hibler), N/m^2."),
+    C_("model.rheology.C", CT_DOUBLE, model.C, "20", 0, 100, R, NULL, "Concentration parameter C."),
+    C_("model.rheology.e", CT_DOUBLE, model.ecc, "2", 1, 10, R, NULL, "Yield ellipse ratio e."),
+    C_("model.rheology.zeta_max_factor", CT_DOUBLE, model.zeta_max_factor, "2.5e8", 1, 1e12, R, NULL,
+       "zeta_max = factor x P, s."),
+    C_("model.rheology.delta_min", CT_DOUBLE, model.delta_min, "2e-9", 1e-15, 1e-3, R, NULL,
+       "Minimum Delta, 1/s."),
+    C_("model.rheology.replacement_pressure", CT_BOOL, model.replacement_pressure, "false", 0, 0, R, NULL,
+       "Hibler/Kreyscher replacement pressure (resting stress 0 instead of -P/2)."),
+    C_("model.rheology.collision.restitution", CT_DOUBLE, model.coll_restitution, "0.5", 0, 1, R, NULL,
+       "Collision rheology: restitution coefficient e_r."),
+    C_("model.rheology.collision.floe_diameter", CT_DOUBLE, model.coll_floe_diameter, "100", 0.1, 1e5, R, NULL,
+       "Collision rheology: floe diameter D, m."),
+    C_("model.rheology.collision.max_concentration", CT_DOUBLE, model.coll_max_conc, "0.91", 0.1, 1, R, NULL,
+       "Collision rheology: maximum packing concentration C0."),
+    C_("model.rheology.collision.fluctuation_ratio", CT_DOUBLE, model.coll_fluct_ratio, "0.5", 0, 10, R, NULL,
+       "Collision rheology: velocity fluctuation v' as a ratio of the local velocity deviation."),
+    C_("model.momentum.rho_ice", CT_DOUBLE, model.rho_i, "900", 800, 1000, R, NULL, "Ice density, kg/m^3."),
+    C_("model.momentum.rho_air", CT_DOUBLE, model.rho_a, "1.3", 0.5, 2, R, NULL, "Air density, kg/m^3."),
+    C_("model.momentum.rho_water", CT_DOUBLE, model.rho_w, "1026", 990, 1050, R, NULL, "Sea water density, kg/m^3."),
+    C_("model.momentum.Ca", CT_DOUBLE, model.Ca, "1.2e-3", 0, 0.1, R, NULL, "Air drag coefficient."),
+    C_("model.momentum.Cw", CT_DOUBLE, model.Cw, "5.5e-3", 0, 0.1, R, NULL, "Water drag coefficient."),
+    C_("model.momentum.turn_air", CT_DOUBLE, model.turn_air, "0", -90, 90, R, NULL,
+       "Air turning angle, degrees (+ to the right in the NH)."),
+    C_("model.momentum.turn_water", CT_DOUBLE, model.turn_water, "0", -90, 90, R, NULL,
+       "Water turning angle, degrees (25 typical in the Arctic)."),
+    C_("model.momentum.gravity", CT_DOUBLE, model.gravity, "9.81", 9, 10, R, NULL, "Gravity, m/s^2."),
+    C_("model.momentum.coriolis", CT_BOOL, model.coriolis, "true", 0, 0, R, NULL,
+       "Coriolis force (off only for channel tests)."),
+    C_("model.health.speed_limit", CT_DOUBLE, model.speed_limit, "10", 0.1, 1000, R, NULL,
+       "Ice speed above which the run is declared blown up, m/s."),
+    C_("model.health.mass_tolerance", CT_DOUBLE, model.mass_tolerance, "1e-9", 0, 1, R, NULL,
+       "Relative mass change per step no source explains before the run fails."),
+    C_("model.thermo.dt", CT_DOUBLE, model.thermo_dt, "600", 0, 86400, R, NULL,
+       "Thermodynamic step, s; 0 turns thermodynamics off."),
+    C_("model.thermo.model", CT_ENUM, model.thermo.model, "\"auto\"", 0, 0, R, thermo_names,
+       "off, zero_layer (Semtner 1976), multi_layer (Bitz & Lipscomb 1999), auto (by thickness)."),
+    C_("model.thermo.nlayers", CT_INT, model.thermo.nlayers, "4", 1, SPH_MAX_LAYERS, R, NULL,
+       "Multi-layer column layers."),
+    C_("model.thermo.auto_thickness", CT_DOUBLE, model.thermo.auto_thickness, "0.3", 0, 10, R, NULL,
+       "auto: zero-layer below this thickness, multi-layer above, m."),
+    C_("model.thermo.rho_ice", CT_DOUBLE, model.thermo.rho_i, "900", 800, 1000, R, NULL,
+       "Ice density in the thermodynamics, kg/m^3."),
+
+    {"forcing", CT_OBJARRAY, NULL, 1, 8, R, NULL, offsetof(struct sph_config, forcing),
+     offsetof(struct sph_config, nforcing), &forcing_table,
+     "Forcing sources (1 to 8), each an object with the keys below."},
+
+    C_("initial.path", CT_STRING, initial.path, "\"\"", 0, 4095, R, NULL,
+       "Initial ice raster (template with strftime fields); empty: warm starts only."),
+    C_("initial.format", CT_ENUM, initial.format, "\"netcdf\"", 0, 0, R, init_format_names,
+       "Raster format: netcdf or esri (ASCII grid)."),
+    C_("initial.conc_var", CT_STRING, initial.conc_var, "\"sea_ice_concentration\"", 1, 63, R, NULL,
+       "Concentration variable (NetCDF)."),
+    C_("initial.thick_var", CT_STRING, initial.thick_var, "\"\"", 0, 63, R, NULL,
+       "Thickness variable (NetCDF); empty: default_thickness everywhere."),
+    C_("initial.default_thickness", CT_DOUBLE, initial.default_thickness, "0.2", 0.001, 20, R, NULL,
+       "Ice thickness where the raster has none, m."),
+    C_("initial.threshold", CT_DOUBLE, initial.threshold, "0.15", 0, 1, R, NULL,
+       "Concentration below which no particle is placed."),
+    C_("initial.spacing", CT_DOUBLE, initial.spacing_deg, "0.02", 1e-4, 5, R, NULL,
+       "Initial particle spacing, degrees."),
+    C_("initial.reinit", CT_ENUM, initial.reinit, "\"newer_raster\"", 0, 0, R, reinit_names,
+       "warm: warm start from the previous cycle's particles when they exist; cold: always from the raster; newer_raster: warm unless the raster is newer than the previous cycle."),
+
+    C_("landmask.source", CT_ENUM, landmask.source, "\"none\"", 0, 0, R, land_names,
+       "none, gshhg (shoreline polygons), netcdf (mask variable), forcing (ocean model's land)."),
+    C_("landmask.path", CT_STRING, landmask.path, "\"\"", 0, 4095, R, NULL, "Land mask file."),
+    C_("landmask.variable", CT_STRING, landmask.variable, "\"mask\"", 1, 63, R, NULL,
+       "Mask variable (netcdf source)."),
+    C_("landmask.resolution", CT_ENUM, landmask.resolution, "\"intermediate\"", 0, 0, R, landres_names,
+       "GSHHG resolution."),
+
+    C_("output.dir", CT_STRING, output.dir, NULL, 1, 4095, 0, NULL,
+       "Product directory: one <YYYYMMDDTHHZ>/ per cycle and a `latest` symlink."),
+    C_("output.grid.mode", CT_ENUM, output.grid.mode, "\"regular\"", 0, 0, R, grid_names,
+       "regular (the keys below) or raster (the initial raster's grid)."),
+    C_("output.grid.lon0", CT_DOUBLE, output.grid.lon0, "0", -180, 360, R, NULL, "First longitude, degrees east."),
+    C_("output.grid.lat0", CT_DOUBLE, output.grid.lat0, "0", -90, 90, R, NULL, "First latitude, degrees north."),
+    C_("output.grid.dlon", CT_DOUBLE, output.grid.dlon, "0.05", 1e-5, 10, R, NULL, "Longitude step, degrees."),
+    C_("output.grid.dlat", CT_DOUBLE, output.grid.dlat, "0.05", 1e-5, 10, R, NULL, "Latitude step, degrees."),
+    C_("output.grid.nlon", CT_INT, output.grid.nlon, "1", 1, 100000, R, NULL, "Number of longitudes."),
+    C_("output.grid.nlat", CT_INT, output.grid.nlat, "1", 1, 100000, R, NULL, "Number of latitudes."),
+    C_("output.interval_hours", CT_DOUBLE, output.interval_hours, "1", 0.01, 240, R, NULL,
+       "Time between output fields, hours."),
+    C_("output.products.fields", CT_BOOL, output.products.fields, "true", 0, 0, R, NULL, "Gridded CF NetCDF fields."),
+    C_("output.products.edge", CT_BOOL, output.products.edge, "true", 0, 0, R, NULL, "Ice edge lines."),
+    C_("output.products.geojson", CT_BOOL, output.products.geojson, "true", 0, 0, R, NULL, "Edge and areas as GeoJSON."),
+    C_("output.products.particles", CT_BOOL, output.products.particles, "true", 0, 0, R, NULL,
+       "Particle files (also the next cycle's warm start)."),
+    C_("output.products.stations", CT_BOOL, output.products.stations, "true", 0, 0, R, NULL, "Station time series."),
+    C_("output.products.maps", CT_BOOL, output.products.maps, "false", 0, 0, R, NULL, "PNG maps at map_times."),
+    C_("output.products.verification", CT_BOOL, output.products.verification, "true", 0, 0, R, NULL,
+       "Scores against observations when a raster exists."),
+    C_("output.edge_threshold", CT_DOUBLE, output.edge_threshold, "0.15", 0.01, 0.99, R, NULL,
+       "Concentration defining the ice edge."),
+    C_("output.edge_reference.lon", CT_DOUBLE, output.edge_reference.lon, "0", -180, 360, R, NULL,
+       "Reference point for the edge distance, degrees east."),
+    C_("output.edge_reference.lat", CT_DOUBLE, output.edge_reference.lat, "0", -90, 90, R, NULL,
+       "Reference point latitude, degrees north."),
+    C_("output.edge_reference.name", CT_STRING, output.edge_reference.name, "\"\"", 0, 63, R, NULL,
+       "Reference point name; empty: no edge distance."),
+    C_("output.map_times", CT_DBLLIST, output.map_times, "[]", 0, 10000, R, NULL,
+       "Hours after the cycle time at which maps are drawn."),
+    C_("output.retention_cycles", CT_INT, output.retention_cycles, "14", 0, 100000, R, NULL,
+       "Published cycles kept in output.dir; 0 keeps all."),
+
+    C_("observations.path", CT_STRING, observations.path, "\"\"", 0, 4095, R, NULL,
+       "Observed concentration raster template (strftime fields = valid time); empty: no verification."),
+    C_("observations.format", CT_ENUM, observations.format, "\"netcdf\"", 0, 0, R, init_format_names,
+       "Observation raster format."),
+    C_("observations.conc_var", CT_STRING, observations.conc_var, "\"sea_ice_concentration\"", 1, 63, R, NULL,
+       "Observation concentration variable."),
+
+    {"stations", CT_OBJARRAY, "[]", 0, 10000, R, NULL, offsetof(struct sph_config, stations),
+     offsetof(struct sph_config, nstations), &station_table, "Time series points, each {name, lon, lat}."},
+
+    C_("schedule.cycles", CT_TODLIST, schedule.cycles, "[\"00:00\", \"12:00\"]", 0, CFG_MAX_CYCLES, R, NULL,
+       "Cycle times of day, \"HH:MM\" UTC."),
+    C_("schedule.every_hours", CT_DOUBLE, schedule.every_hours, "0", 0, 240, R, NULL,
+       "If > 0: a cycle every N hours from 00:00 UTC, instead of cycles."),
+    C_("schedule.every_seconds", CT_DOUBLE, schedule.every_seconds, "0", 0, 86400, CF_TEST | R, NULL,
+       "A cycle every N seconds."),
+    C_("schedule.forecast_hours", CT_DOUBLE, schedule.forecast_hours, "72", 0.001, 2400, R, NULL,
+       "Forecast length, hours."),
+    C_("schedule.catch_up", CT_BOOL, schedule.catch_up, "true", 0, 0, R, NULL,
+       "true: run missed cycles (oldest first) after downtime; false: only the latest."),
+    C_("schedule.catch_up_hours", CT_DOUBLE, schedule.catch_up_hours, "24", 0, 8760, R, NULL,
+       "How far back missed cycles are caught up."),
+    C_("schedule.late_data.wait_minutes", CT_DOUBLE, schedule.late_data.wait_minutes, "60", 0, 1440, R, NULL,
+       "How long to wait for the cycle's forcing."),
+    C_("schedule.late_data.poll_seconds", CT_DOUBLE, schedule.late_data.poll_seconds, "60", 0.05, 3600, R, NULL,
+       "How often to look again while waiting."),
+    C_("schedule.late_data.policy", CT_ENUM, schedule.late_data.policy, "\"stale\"", 0, 0, R, late_names,
+       "After the wait: fail, or stale (run with the newest forcing within max_age_hours, flagged stale)."),
+
+    C_("status.enabled", CT_BOOL, status.enabled, "true", 0, 0, 0, NULL, "Serve HTTP status."),
+    C_("status.listen", CT_STRING, status.listen, "\"127.0.0.1:8642\"", 3, 127, 0, NULL,
+       "ADDRESS:PORT of the status server (IPv4)."),
+    C_("status.max_connections", CT_INT, status.max_connections, "32", 1, 1024, 0, NULL,
+       "Concurrent HTTP connections."),
+    C_("status.per_ip_limit", CT_INT, status.per_ip_limit, "8", 1, 1024, 0, NULL,
+       "Concurrent HTTP connections from one address."),
+
+    C_("paths.state_dir", CT_STRING, paths.state_dir, "\"/var/lib/sphice\"", 1, 4095, 0, NULL,
+       "History database, locks."),
+    C_("paths.cache_dir", CT_STRING, paths.cache_dir, "\"/var/cache/sphice\"", 1, 4095, R, NULL,
+       "Downloaded forcing."),
+    C_("paths.hindcast_dir", CT_STRING, paths.hindcast_dir, "\"\"", 0, 4095, R, NULL,
+       "Hindcast products; empty: output.dir/hindcast."),
+};
+#undef R
+static const cfg_table config_table = {config_keys, sizeof config_keys / sizeof config_keys[0],
+                                       sizeof(struct sph_config)};
+
+/* ---------------------------------------------------------------- helpers */
+
+static const char *json_kind(const cJSON *n)
+{
+    if (cJSON_IsString(n)) return "string";
+    if (cJSON_IsNumber(n)) return "number";
+    if (cJSON_IsBool(n)) return "boolean";
+    if (cJSON_IsNull(n)) return "null";
+    if (cJSON_IsArray(n)) return "array";
+    if (cJSON_IsObject(n)) return "object";
+    return "invalid";
+}
+
+static void *at(void *base, size_t off) { return (char *)base + off; }
+static const void *cat_(const void *base, size_t off) { return (const char *)base + off; }
+
+static char *dupstr(const char *s)
+{
+    size_t n = strlen(s);
+    char *d = malloc(n + 1);
+    if (d)
+        memcpy(d, s, n + 1);
+    return d;
+}
+
+static void strlist_free(cfg_strlist *l)
+{
+    for (size_t i = 0; i < l->n; i++)
+        free(l->v[i]);
+    free(l->v);
+    l->v = NULL;
+    l->n = 0;
+}
+
+static void strmap_free(cfg_strmap *m)
+{
+    for (size_t i = 0; i < m->n; i++) {
+        free(m->key[i]);
+        free(m->val[i]);
+    }
+    free(m->key);
+    free(m->val);
+    m->key = m->val = NULL;
+    m->n = 0;
+}
+
+static void table_free(const cfg_table *t, void *base);
+
+static void key_free(const cfg_key *k, void *base)
+{
+    void *p = at(base, k->off);
+    switch (k->type) {
+    case CT_STRING: free(*(char **)p); *(char **)p = NULL; break;
+    case CT_STRLIST: strlist_free(p); break;
+    case CT_STRMAP: strmap_free(p); break;
+    case CT_DBLLIST: free(((cfg_dbllist *)p)->v); ((cfg_dbllist *)p)->v = NULL; ((cfg_dbllist *)p)->n = 0; break;
+    case CT_OBJARRAY: {
+        char *arr = *(char **)p;
+        size_t *count = at(base, k->off_count);
+        for (size_t i = 0; arr && i < *count; i++)
+            table_free(k->sub, arr + i * k->sub->elem_size);
+        free(arr);
+        *(char **)p = NULL;
+        *count = 0;
+        break;
+    }
+    default: break;
+    }
+}
+
+static void table_free(const cfg_table *t, void *base)
+{
+    for (size_t i = 0; i < t->nkeys; i++)
+        key_free(&t->keys[i], base);
+}
+
+void sph_config_free(struct sph_config *c)
+{
+    if (!c)
+        return;
+    table_free(&config_table, c);
+    free(c->file);
+    free(c);
+}
+
+/* Parses "HH:MM" into seconds of day; -1 if malformed. */
+static int parse_tod(const char *s)
+{
+    char *end;
+    errno = 0;
+    long h = strtol(s, &end, 10);
+    if (end == s || *end != ':' || h < 0 || h > 23 || end - s > 2)
+        return -1;
+    const char *m0 = end + 1;
+    long m = strtol(m0, &end, 10);
+    if (end - m0 != 2 || *end || m < 0 || m > 59)
+        return -1;
+    return (int)(h * 3600 + m * 60);
+}
+
+static int cmp_int(const void *a, const void *b)
+{
+    int x = *(const int *)a, y = *(const int *)b;
+    return (x > y) - (x < y);
+}
+
+static int table_parse(const cfg_table *t, void *base, const cJSON *obj, const char *prefix,
+                       const char *origin, sph_error *err);
+
+/* Sets one key from a JSON node. `where` is the full key path for messages. */
+static int key_set(const cfg_key *k, void *base, const cJSON *n, const char *where,
+                   const char *origin, sph_error *err)
+{
+    void *p = at(base, k->off);
+#define BAD(fmt, ...) sph_err_set(err, SPH_ERR_CONFIG, "config %s: %s: " fmt, origin, where, ##__VA_ARGS__)
+    switch (k->type) {
+    case CT_BOOL:
+        if (!cJSON_IsBool(n))
+            return BAD("expected true or false, got %s", json_kind(n));
+        *(int *)p = cJSON_IsTrue(n);
+        return SPH_OK;
+    case CT_INT:
+    case CT_DOUBLE: {
+        if (!cJSON_IsNumber(n))
+            return BAD("expected number, got %s", json_kind(n));
+        double v = n->valuedouble;
+        if (k->type == CT_INT && v != floor(v))
+            return BAD("expected an integer, got %g", v);
+        if (!isfinite(v) || v < k->lo || v > k->hi)
+            return BAD("%g out of range [%g, %g]", v, k->lo, k->hi);
+        if (k->type == CT_INT)
+            *(int *)p = (int)v;
+        else
+            *(double *)p = v;
+        return SPH_OK;
+    }
+    case CT_STRING: {
+        if (!cJSON_IsString(n))
+            return BAD("expected string, got %s", json_kind(n));
+        size_t len = strlen(n->valuestring);
+        if (len < (size_t)k->lo || len > (size_t)k->hi)
+            return BAD("length %zu out of range [%g, %g]", len, k->lo, k->hi);
+        char *s = dupstr(n->valuestring);
+        if (!s)
+            return sph_err_set(err, SPH_ERR_NOMEM, "config %s: %s: out of memory", origin, where);
+        free(*(char **)p);
+        *(char **)p = s;
+        return SPH_OK;
+    }
+    case CT_ENUM: {
+        if (!cJSON_IsString(n))
+            return BAD("expected string, got %s", json_kind(n));
+        for (int i = 0; k->names[i]; i++)
+            if (!strcmp(k->names[i], n->valuestring)) {
+                *(int *)p = i;
+                return SPH_OK;
+            }
+        char allowed[256] = "";
+        size_t used = 0;
+        for (int i = 0; k->names[i]; i++)
+            used += (size_t)snprintf(allowed + used, used < sizeof allowed ? sizeof allowed - used : 0,
+                                     "%s%s", i ? ", " : "", k->names[i]);
+        return BAD("\"%s\" is not one of: %s", n->valuestring, allowed);
+    }
+    case CT_TODLIST: {
+        cfg_todlist *l = p;
+        if (!cJSON_IsArray(n))
+            return BAD("expected array of \"HH:MM\" strings, got %s", json_kind(n));
+        int cnt = cJSON_GetArraySize(n);
+        if (cnt < k->lo || cnt > k->hi)
+            return BAD("%d entries, allowed [%g, %g]", cnt, k->lo, k->hi);
+        l->n = 0;
+        const cJSON *e;
+        cJSON_ArrayForEach(e, n) {
+            int s = cJSON_IsString(e) ? parse_tod(e->valuestring) : -1;
+            if (s < 0)
+                return BAD("entry %zu: expected \"HH:MM\" (00:00 to 23:59)", l->n);
+            for (size_t j = 0; j < l->n; j++)
+                if (l->sec[j] == s)
+                    return BAD("entry %zu: \"%s\" listed twice", l->n, e->valuestring);
+            l->sec[l->n++] = s;
+        }
+        qsort(l->sec, l->n, sizeof l->sec[0], cmp_int);
+        return SPH_OK;
+    }
+    case CT_STRLIST: {
+        cfg_strlist fresh = {0};
+        int cnt = cJSON_IsString(n) ? 1 : cJSON_IsArray(n) ? cJSON_GetArraySize(n) : -1;
+        if (cnt < 0)
+            return BAD("expected string or array of strings, got %s", json_kind(n));
+        if (cnt < k->lo || cnt > k->hi)
+            return BAD("%d entries, allowed [%g, %g]", cnt, k->lo, k->hi);
+        fresh.v = calloc((size_t)cnt + 1, sizeof(char *));
+        if (!fresh.v)
+            return sph_err_set(err, SPH_ERR_NOMEM, "config %s: %s: out of memory", origin, where);
+        if (cJSON_IsString(n)) {
+            fresh.v[fresh.n++] = dupstr(n->valuestring);
+        } else {
+            const cJSON *e;
+            cJSON_ArrayForEach(e, n) {
+                if (!cJSON_IsString(e)) {
+                    strlist_free(&fresh);
+                    return BAD("entry %d: expected string, got %s", (int)fresh.n, json_kind(e));
+                }
+                fresh.v[fresh.n++] = dupstr(e->valuestring);
+            }
+        }
+        for (size_t i = 0; i < fresh.n; i++)
+            if (!fresh.v[i]) {
+                strlist_free(&fresh);
+                return sph_err_set(err, SPH_ERR_NOMEM, "config %s: %s: out of memory", origin, where);
+            }
+        strlist_free(p);
+        *(cfg_strlist *)p = fresh;
+        return SPH_OK;
+    }
+    case CT_DBLLIST: {
+        if (!cJSON_IsArray(n))
+            return BAD("expected array of numbers, got %s", json_kind(n));
+        int cnt = cJSON_GetArraySize(n);
+        double *v = calloc((size_t)cnt + 1, sizeof(double));
+        if (!v)
+            return sph_err_set(err, SPH_ERR_NOMEM, "config %s: %s: out of memory", origin, where);
+        int i = 0;
+        const cJSON *e;
+        cJSON_ArrayForEach(e, n) {
+            if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || e->valuedouble < k->lo ||
+                e->valuedouble > k->hi) {
+                free(v);
+                return BAD("entry %d: expected number in [%g, %g]", i, k->lo, k->hi);
+            }
+            v[i++] = e->valuedouble;
+        }
+        cfg_dbllist *l = p;
+        free(l->v);
+        l->v = v;
+        l->n = (size_t)cnt;
+        return SPH_OK;
+    }
+    case CT_STRMAP: {
+        if (!cJSON_IsObject(n))
+            return BAD("expected object {name: string}, got %s", json_kind(n));
+        int cnt = cJSON_GetArraySize(n);
+        if (cnt > k->hi)
+            return BAD("%d entries, at most %g", cnt, k->hi);
+        cfg_strmap fresh = {calloc((size_t)cnt + 1, sizeof(char *)), calloc((size_t)cnt + 1, sizeof(char *)), 0};
+        if (!fresh.key || !fresh.val) {
+            strmap_free(&fresh);
+            return sph_err_set(err, SPH_ERR_NOMEM, "config %s: %s: out of memory", origin, where);
+        }
+        const cJSON *e;
+        cJSON_ArrayForEach(e, n) {
+            if (!cJSON_IsString(e)) {
+                strmap_free(&fresh);
+                return BAD("%s: expected string, got %s", e->string, json_kind(e));
+            }
+            fresh.key[fresh.n] = dupstr(e->string);
+            fresh.val[fresh.n] = dupstr(e->valuestring);
+            fresh.n++;
+            if (!fresh.key[fresh.n - 1] || !fresh.val[fresh.n - 1]) {
+                strmap_free(&fresh);
+                return sph_err_set(err, SPH_ERR_NOMEM, "config %s: %s: out of memory", origin, where);
+            }
+        }
+        strmap_free(p);
+        *(cfg_strmap *)p = fresh;
+        return SPH_OK;
+    }
+    case CT_OBJARRAY: {
+        if (!cJSON_IsArray(n))
+            return BAD("expected array of objects, got %s", json_kind(n));
+        int cnt = cJSON_GetArraySize(n);
+        if (cnt < k->lo || cnt > k->hi)
+            return BAD("%d entries, allowed [%g, %g]", cnt, k->lo, k->hi);
+        key_free(k, base);
+        char *arr = calloc((size_t)cnt + 1, k->sub->elem_size);
+        if (!arr)
+            return sph_err_set(err, SPH_ERR_NOMEM, "config %s: %s: out of memory", origin, where);
+        *(char **)p = arr;
+        size_t *count = at(base, k->off_count);
+        *count = (size_t)cnt; /* zeroed elements free cleanly if one fails */
+        int i = 0;
+        const cJSON *e;
+        cJSON_ArrayForEach(e, n) {
+            char sub[256];
+            snprintf(sub, sizeof sub, "%s[%d]", where, i);
+            if (!cJSON_IsObject(e))
+                return sph_err_set(err, SPH_ERR_CONFIG, "config %s: %s: expected object, got %s",
+                                   origin, sub, json_kind(e));
+            int rc = table_parse(k->sub, arr + (size_t)i * k->sub->elem_size, e, sub, origin, err);
+            if (rc)
+                return rc;
+            i++;
+        }
+        return SPH_OK;
+    }
+    }
+#undef BAD
+    return sph_err_set(err, SPH_ERR_INTERNAL, "config %s: %s: unknown key type", origin, where);
+}
+
+/* The node at a dotted path under obj, or NULL. */
+static const cJSON *find_path(const cJSON *obj, const char *path)
+{
+    char seg[128];
+    const char *s = path;
+    const cJSON *n = obj;
+    while (n && *s) {
+        const char *dot = strchr(s, '.');
+        size_t len = dot ? (size_t)(dot - s) : strlen(s);
+        if (len >= sizeof seg)
+            return NULL;
+        memcpy(seg, s, len);
+        seg[len] = 0;
+        if (!cJSON_IsObject(n))
+            return NULL;
+        n = cJSON_GetObjectItemCaseSensitive(n, seg);
+        s = dot ? dot + 1 : s + len;
+    }
+    return n;
+}
+
+static void join(char *out, size_t len, const char *a, const char *b)
+{
+    if (a && *a)
+        snprintf(out, len, "%s.%s", a, b);
+    else
+        snprintf(out, len, "%s", b);
+}
+
+/* Every member of obj (at relative path rel) must be a key or a section. */
+static int check_unknown(const cfg_table *t, const cJSON *obj, const char *rel, const char *prefix,
+                         const char *origin, sph_error *err)
+{
+    const cJSON *m;
+    cJSON_ArrayForEach(m, obj) {
+        char path[256], full[320];
+        join(path, sizeof path, rel, m->string);
+        join(full, sizeof full, prefix, path);
+        int known = 0, section = 0;
+        size_t plen = strlen(path);
+        for (size_t i = 0; i < t->nkeys; i++) {
+            if (!strcmp(t->keys[i].path, path))
+                known = 1;
+            else if (!strncmp(t->keys[i].path, path, plen) && t->keys[i].path[plen] == '.')
+                section = 1;
+        }
+        if (known)
+            continue;
+        if (!section)
+            return sph_err_set(err, SPH_ERR_CONFIG, "config %s: %s: unknown key", origin, full);
+        if (!cJSON_IsObject(m))
+            return sph_err_set(err, SPH_ERR_CONFIG, "config %s: %s: expected object, got %s", origin,
+                               full, json_kind(m));
+        int rc = check_unknown(t, m, path, prefix, origin, err);
+        if (rc)
+            return rc;
+    }
+    return SPH_OK;
+}
+
+static int table_parse(const cfg_table *t, void *base, const cJSON *obj, const char *prefix,
+                       const char *origin, sph_error *err)
+{
+    int rc = check_unknown(t, obj, "", prefix, origin, err);
+    if (rc)
+        return rc;
+    for (size_t i = 0; i < t->nkeys; i++) {
+        const cfg_key *k = &t->keys[i];
+        char full[320];
+        join(full, sizeof full, prefix, k->path);
+        const cJSON *n = find_path(obj, k->path);
+        if (n) {
+            rc = key_set(k, base, n, full, origin, err);
+        } else if (k->def) {
+            cJSON *d = cJSON_Parse(k->def);
+            if (!d)
+                return sph_err_set(err, SPH_ERR_INTERNAL, "config: default of %s does not parse", full);
+            rc = key_set(k, base, d, full, "(default)", err);
+            cJSON_Delete(d);
+        } else {
+            rc = sph_err_set(err, SPH_ERR_CONFIG, "config %s: %s: required key missing", origin, full);
+        }
+        if (rc)
+            return rc;
+    }
+    return SPH_OK;
+}
+
+int config_quantity_flag(const char *name)
+{
+    static const struct { const char *name; int flag; } q[] = {
+        {"wind", FQ_WIND}, {"tair", FQ_TAIR}, {"humidity", FQ_HUMIDITY}, {"swdn", FQ_SWDN},
+        {"lwdn", FQ_LWDN}, {"current", FQ_CURRENT}, {"ssh", FQ_SSH}, {"sst", FQ_SST},
+        {"ocean_flux", FQ_OCEAN_FLUX}};
+    for (size_t i = 0; i < sizeof q / sizeof q[0]; i++)
+        if (!strcmp(q[i].name, name))
+            return q[i].flag;
+    return -1;
+}
+
+int config_log_level(const struct sph_config *c)
+{
+    static const int lv[] = {LOG_LVL_ERROR, LOG_LVL_WARN, LOG_LVL_INFO, LOG_LVL_DEBUG};
+    return lv[c->log_level];
+}
+
+/* Parses "A.B.C.D:PORT"; 0 on success. */
+static int check_listen(const char *s)
+{
+    const char *colon = strrchr(s, ':');
+    if (!colon || colon == s)
+        return -1;
+    char *end;
+    long port = strtol(colon + 1, &end, 10);
+    if (*end || end == colon + 1 || port < 0 || port > 65535)
+        return -1;
+    unsigned a, b, c, d;
+    char tail;
+    if (sscanf(s, "%u.%u.%u.%u%c", &a, &b, &c, &d, &tail) != 5 || tail != ':' || a > 255 || b > 255 ||
+        c > 255 || d > 255)
+        return -1;
+    return 0;
+}
+
+/* Rules between keys, after every key was read. */
+static int cross_check(const struct sph_config *c, const char *origin, sph_error *err)
+{
+    if (c->domain.lon_min >= c->domain.lon_max)
+        return sph_err_set(err, SPH_ERR_CONFIG, "config %s: domain.lon_min: %g must be below domain.lon_max %g",
+                           origin, c->domain.lon_min, c->domain.lon_max);
+    if (c->domain.lat_min >= c->domain.lat_max)
+        return sph_err_set(err, SPH_ERR_CONFIG, "config %s: domain.lat_min: %g must be below domain.lat_max %g",
+                           origin, c->domain.lat_min, c->domain.lat_max);
+    for (size_t i = 0; i < c->nforcing; i++) {
+        const cfg_forcing_source *s = &c->forcing[i];
+        for (size_t j = 0; j < i; j++)
+            if (!strcmp(c->forcing[j].name, s->name))
+                return sph_err_set(err, SPH_ERR_CONFIG, "config %s: forcing[%zu].name: \"%s\" used twice",
+                                   origin, i, s->name);
+        const cfg_strlist *lists[2] = {&s->required, &s->optional_q};
+        for (int l = 0; l < 2; l++)
+            for (size_t j = 0; j < lists[l]->n; j++)
+                if (config_quantity_flag(lists[l]->v[j]) < 0)
+                    return sph_err_set(err, SPH_ERR_CONFIG,
+                                       "config %s: forcing[%zu].%s[%zu]: unknown quantity \"%s\" (wind, tair, "
+                                       "humidity, swdn, lwdn, current, ssh, sst, ocean_flux)",
+                                       origin, i, l ? "optional" : "required", j, lists[l]->v[j]);
+        for (size_t j = 0; j < s->urls.n; j++)
+            if (!s->urls.v[j][0])
+                return sph_err_set(err, SPH_ERR_CONFIG, "config %s: forcing[%zu].urls[%zu]: empty", origin, i, j);
+    }
+    if (c->schedule.every_hours <= 0 && c->schedule.every_seconds <= 0 && c->schedule.cycles.n == 0)
+        return sph_err_set(err, SPH_ERR_CONFIG,
+                           "config %s: schedule.cycles: empty and schedule.every_hours is 0: no cycle would run",
+                           origin);
+    if (check_listen(c->status.listen))
+        return sph_err_set(err, SPH_ERR_CONFIG, "config %s: status.listen: \"%s\" is not IPV4:PORT", origin,
+                           c->status.listen);
+    return SPH_OK;
+}
+
+int sph_config_parse(const char *text, const char *origin, struct sph_config **out, sph_error *err)
+{
+    *out = NULL;
+    const char *where = origin ? origin : "<string>";
+    cJSON *root = cJSON_ParseWithOpts(text, NULL, 1);
+    if (!root) {
+        const char *e = cJSON_GetErrorPtr();
+        long line = 1;
+        for (const char *p = text; e && p < e; p++)
+            line += *p == '\n';
+        return sph_err_set(err, SPH_ERR_CONFIG, "config %s: line %ld: not valid JSON", where, line);
+    }
+    if (!cJSON_IsObject(root)) {
+        cJSON_Delete(root);
+        return sph_err_set(err, SPH_ERR_CONFIG, "config %s: expected a JSON object at the top", where);
+    }
+    struct sph_config *c = calloc(1, sizeof *c);
+    if (!c) {
+        cJSON_Delete(root);
+        return sph_err_set(err, SPH_ERR_NOMEM, "config %s: out of memory", where);
+    }
+    c->file = dupstr(where);
+    sha256_hex(text, strlen(text), c->sha256);
+    int rc = c->file ? table_parse(&config_table, c, root, "", where, err)
+                     : sph_err_set(err, SPH_ERR_NOMEM, "config: out of memory");
+    cJSON_Delete(root);
+    if (!rc)
+        rc = cross_check(c, where, err);
+    if (rc) {
+        sph_config_free(c);
+        return rc;
+    }
+    *out = c;
+    return SPH_OK;
+}
+
+int sph_config_load(const char *path, struct sph_config **out, sph_error *err)
+{
+    char *text = NULL;
+    size_t len = 0;
+    *out = NULL;
+    sph_error rerr;
+    sph_error_clear(&rerr);
+    if (read_file(path, &text, &len, &rerr))
+        return sph_err_set(err, SPH_ERR_CONFIG, "config %s: cannot read: %s", path, rerr.msg);
+    if (strlen(text) != len) {
+        free(text);
+        return sph_err_set(err, SPH_ERR_CONFIG, "config %s: contains a NUL byte", path);
+    }
+    int rc = sph_config_parse(text, path, out, err);
+    free(text);
+    return rc;
+}
+
+/* ------------------------------------------------------------- reporting */
+
+static cJSON *key_to_json(const cfg_key *k, const void *base);
+
+static cJSON *table_to_json(const cfg_table *t, const void *base)
+{
+    cJSON *root = cJSON_CreateObject();
+    for (size_t i = 0; i < t->nkeys; i++) {
+        const cfg_key *k = &t->keys[i];
+        /* walk/create the sections of the dotted path */
+        cJSON *obj = root;
+        const char *s = k->path;
+        const char *dot;
+        while ((dot = strchr(s, '.'))) {
+            char seg[128];
+            size_t len = (size_t)(dot - s) < sizeof seg - 1 ? (size_t)(dot - s) : sizeof seg - 1;
+            memcpy(seg, s, len);
+            seg[len] = 0;
+            cJSON *next = cJSON_GetObjectItemCaseSensitive(obj, seg);
+            if (!next)
+                next = cJSON_AddObjectToObject(obj, seg);
+            obj = next;
+            s = dot + 1;
+        }
+        cJSON_AddItemToObject(obj, s, key_to_json(k, base));
+    }
+    return root;
+}
+
+static cJSON *key_to_json(const cfg_key *k, const void *base)
+{
+    const void *p = cat_(base, k->off);
+    switch (k->type) {
+    case CT_BOOL: return cJSON_CreateBool(*(const int *)p);
+    case CT_INT: return cJSON_CreateNumber(*(const int *)p);
+    case CT_DOUBLE: return cJSON_CreateNumber(*(const double *)p);
+    case CT_STRING: return cJSON_CreateString(*(char *const *)p ? *(char *const *)p : "");
+    case CT_ENUM: return cJSON_CreateString(k->names[*(const int *)p]);
+    case CT_TODLIST: {
+        const cfg_todlist *l = p;
+        cJSON *a = cJSON_CreateArray();
+        for (size_t i = 0; i < l->n; i++) {
+            char s[16];
+            snprintf(s, sizeof s, "%02d:%02d", l->sec[i] / 3600, l->sec[i] / 60 % 60);
+            cJSON_AddItemToArray(a, cJSON_CreateString(s));
+        }
+        return a;
+    }
+    case CT_STRLIST: {
+        const cfg_strlist *l = p;
+        cJSON *a = cJSON_CreateArray();
+        for (size_t i = 0; i < l->n; i++)
+            cJSON_AddItemToArray(a, cJSON_CreateString(l->v[i]));
+        return a;
+    }
+    case CT_DBLLIST: {
+        const cfg_dbllist *l = p;
+        cJSON *a = cJSON_CreateArray();
+        for (size_t i = 0; i < l->n; i++)
+            cJSON_AddItemToArray(a, cJSON_CreateNumber(l->v[i]));
+        return a;
+    }
+    case CT_STRMAP: {
+        const cfg_strmap *m = p;
+        cJSON *o = cJSON_CreateObject();
+        for (size_t i = 0; i < m->n; i++)
+            cJSON_AddStringToObject(o, m->key[i], m->val[i]);
+        return o;
+    }
+    case CT_OBJARRAY: {
+        const char *arr = *(char *const *)p;
+        size_t count = *(const size_t *)cat_(base, k->off_count);
+        cJSON *a = cJSON_CreateArray();
+        for (size_t i = 0; arr && i < count; i++)
+            cJSON_AddItemToArray(a, table_to_json(k->sub, arr + i * k->sub->elem_size));
+        return a;
+    }
+    }
+    return cJSON_CreateNull();
+}
+
+char *sph_config_to_json(const struct sph_config *c)
+{
+    cJSON *j = table_to_json(&config_table, c);
+    char *s = cJSON_Print(j);
+    cJSON_Delete(j);
+    return s;
+}
+
+int sph_config_keep_unreloadable(struct sph_config *fresh, const struct sph_config *old, char *changed,
+                                 size_t len)
+{
+    int n = 0;
+    size_t used = 0;
+    if (len)
+        changed[0] = 0;
+    for (size_t i = 0; i < config_table.nkeys; i++) {
+        const cfg_key *k = &config_table.keys[i];
+        if (k->flags & CF_RELOAD)
+            continue;
+        cJSON *a = key_to_json(k, fresh), *b = key_to_json(k, old);
+        int same = cJSON_Compare(a, b, 1);
+        cJSON_Delete(b);
+        if (!same) {
+            /* put the running value back (the table marks only scalars and strings unreloadable) */
+            key_free(k, fresh);
+            sph_error e;
+            sph_error_clear(&e);
+            cJSON *oldv = key_to_json(k, old);
+            if (k->type != CT_STRING || oldv)
+                (void)key_set(k, fresh, oldv, k->path, "(running)", &e);
+            cJSON_Delete(oldv);
+            if (used < len)
+                used += (size_t)snprintf(changed + used, len - used, "%s%s", n ? ", " : "", k->path);
+            n++;
+        }
+        cJSON_Delete(a);
+    }
+    return n;
+}
+
+/* ------------------------------------------------------------ reference */
+
+static const char *type_name(const cfg_key *k)
+{
+    switch (k->type) {
+    case CT_BOOL: return "bool";
+    case CT_INT: return "int";
+    case CT_DOUBLE: return "number";
+    case CT_STRING: return "string";
+    case CT_ENUM: return "enum";
+    case CT_TODLIST: return "list of \"HH:MM\"";
+    case CT_STRLIST: return "string or list of strings";
+    case CT_DBLLIST: return "list of numbers";
+    case CT_STRMAP: return "object {string: string}";
+    case CT_OBJARRAY: return "array of objects";
+    }
+    return "?";
+}
+
+static void doc_rows(FILE *f, const cfg_table *t, const char *prefix)
+{
+    for (size_t i = 0; i < t->nkeys; i++) {
+        const cfg_key *k = &t->keys[i];
+        char full[320], range[160] = "";
+        join(full, sizeof full, prefix, k->path);
+        if (k->type == CT_INT || k->type == CT_DOUBLE || k->type == CT_DBLLIST)
+            snprintf(range, sizeof range, "%g to %g", k->lo, k->hi);
+        else if (k->type == CT_ENUM) {
+            size_t used = 0;
+            for (int j = 0; k->names[j] && used < sizeof range; j++)
+                used += (size_t)snprintf(range + used, sizeof range - used, "%s%s", j ? ", " : "", k->names[j]);
+        } else if (k->type == CT_OBJARRAY || k->type == CT_STRLIST || k->type == CT_TODLIST)
+            snprintf(range, sizeof range, "%g to %g entries", k->lo, k->hi);
+        else if (k->type == CT_STRING)
+            snprintf(range, sizeof range, "length %g to %g", k->lo, k->hi);
+        fprintf(f, "| `%s` | %s | %s%s%s | %s | %s | %s%s |\n", full, type_name(k), k->def ? "`" : "",
+                k->def ? k->def : "**required**", k->def ? "`" : "", range, (k->flags & CF_RELOAD) ? "yes" : "restart",
+                (k->flags & CF_TEST) ? "*For tests only.* " : "", k->doc);
+        if (k->type == CT_OBJARRAY) {
+            char sub[330];
+            snprintf(sub, sizeof sub, "%s[]", full);
+            doc_rows(f, k->sub, sub);
+        }
+    }
+}
+
+void sph_config_doc(FILE *f)
+{
+    fprintf(f, "# sphice configuration reference\n\n"
+               "Generated by `sphice config-doc` from the key table in `src/service/config.c`.\n"
+               "The file is one JSON object; nested keys are written as objects (`model.rheology.P0` is\n"
+               "`{\"model\": {\"rheology\": {\"P0\": 1e4}}}`). Unknown keys and wrong types are errors naming\n"
+               "the key; every key has a default or is marked required. \"reload\" says whether SIGHUP\n"
+               "applies a change (`restart`: the running value is kept until the service restarts).\n\n"
+               "| key | type | default | allowed | reload | description |\n"
+               "|---|---|---|---|---|---|\n");
+    doc_rows(f, &config_table, "");
+}

@@ -1,0 +1,585 @@
+/* The daemon end to end: fork/exec `build/sphice serve` with temporary
+ * configurations on a free loopback port and the test-double engine
+ * (SPHICE_TEST_ENGINE=sleep:S). Asserts: two cycles run and are reported by
+ * /status, /runs and `sphice status --url`; HTTP misuse gets 4xx or is
+ * refused while /health keeps answering; an invalid config on SIGHUP is
+ * reported and the old one keeps working; SIGTERM during a run exits 0
+ * promptly with no partial product; kill -9 then restart re-runs the cycle
+ * once; missing forcing fails (fail policy) or runs flagged stale; the
+ * systemd units pass systemd-analyze verify. */
+#include <arpa/inet.h>
+#include <cjson/cJSON.h>
+#include <curl/curl.h>
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "check.h"
+#include "service/cycle.h"
+#include "service/history.h"
+#include "service/schedule.h"
+#include "util/fileio.h"
+#include "util/timeutil.h"
+
+static char tmp[256], exe[512];
+
+static void nap(double s)
+{
+    struct timespec ts = {(time_t)s, (long)((s - floor(s)) * 1e9)};
+    nanosleep(&ts, NULL);
+}
+
+static int free_port(void)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in a;
+    memset(&a, 0, sizeof a);
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof a;
+    int port = -1;
+    if (bind(fd, (struct sockaddr *)&a, sizeof a) == 0 && getsockname(fd, (struct sockaddr *)&a, &len) == 0)
+        port = ntohs(a.sin_port);
+    close(fd);
+    return port;
+}
+
+typedef struct membuf { char *p; size_t n; } membuf;
+static size_t collect(void *d, size_t sz, size_t nm, void *u)
+{
+    membuf *b = u;
+    char *g = realloc(b->p, b->n + sz * nm + 1);
+    if (!g)
+        return 0;
+    memcpy(g + b->n, d, sz * nm);
+    b->p = g;
+    b->n += sz * nm;
+    b->p[b->n] = 0;
+    return sz * nm;
+}
+
+/* HTTP status code (0 if no answer); body malloc'd into *body if non-NULL. */
+static long http(int port, const char *method, const char *path, char **body)
+{
+    char url[8192];
+    snprintf(url, sizeof url, "http://127.0.0.1:%d%s", port, path);
+    CURL *c = curl_easy_init();
+    membuf b = {0};
+    long code = 0;
+    curl_easy_setopt(c, CURLOPT_URL, url);
+    curl_easy_setopt(c, CURLOPT_WRITEFUNCTION, collect);
+    curl_easy_setopt(c, CURLOPT_WRITEDATA, &b);
+    curl_easy_setopt(c, CURLOPT_TIMEOUT, 5L);
+    curl_easy_setopt(c, CURLOPT_NOSIGNAL, 1L);
+    if (!strcmp(method, "POST"))
+        curl_easy_setopt(c, CURLOPT_POSTFIELDS, "a=1");
+    if (curl_easy_perform(c) == CURLE_OK)
+        curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &code);
+    curl_easy_cleanup(c);
+    if (body)
+        *body = b.p;
+    else
+        free(b.p);
+    return code;
+}
+
+static cJSON *get_json(int port, const char *path)
+{
+    char *body = NULL;
+    cJSON *j = NULL;
+    if (http(port, "GET", path, &body) == 200 && body)
+        j = cJSON_Parse(body);
+    free(body);
+    return j;
+}
+
+static const char *jstr(const cJSON *o, const char *a, const char *b)
+{
+    const cJSON *x = cJSON_GetObjectItemCaseSensitive(o, a);
+    if (b)
+        x = cJSON_GetObjectItemCaseSensitive(x, b);
+    return cJSON_IsString(x) ? x->valuestring : NULL;
+}
+
+/* Writes a daemon config. */
+static void write_config(const char *path, const char *dir, int port, double every, const char *forcing_tmpl,
+                         const char *policy, const char *extra)
+{
+    char text[4096];
+    snprintf(text, sizeof text,
+             "{\"engine\": \"test-double\","
+             " \"domain\": {\"lon_min\": 119, \"lon_max\": 122, \"lat_min\": 38, \"lat_max\": 41},"
+             " \"forcing\": [{\"name\": \"atm\", \"kind\": \"atmosphere\", \"urls\": \"%s\","
+             "   \"issue_hours\": 24, \"max_age_hours\": 72}],"
+             " \"output\": {\"dir\": \"%s/out\"},"
+             " \"schedule\": {\"every_seconds\": %g, \"forecast_hours\": 6,"
+             "   \"late_data\": {\"wait_minutes\": 0, \"policy\": \"%s\"}},"
+             " \"status\": {\"listen\": \"127.0.0.1:%d\", \"per_ip_limit\": 8, \"max_connections\": 16},"
+             " \"paths\": {\"state_dir\": \"%s/state\", \"cache_dir\": \"%s/cache\"} %s}",
+             forcing_tmpl, dir, every, policy, port, dir, dir, extra ? extra : "");
+    sph_error e;
+    sph_error_clear(&e);
+    atomic_write_file(path, text, strlen(text), &e);
+}
+
+static pid_t spawn(const char *config, const char *engine, const char *log)
+{
+    pid_t pid = fork();
+    if (pid == 0) {
+        setenv("SPHICE_TEST_ENGINE", engine, 1);
+        int fd = open(log, O_CREAT | O_WRONLY | O_APPEND, 0644);
+        if (fd >= 0) {
+            dup2(fd, 2);
+            dup2(fd, 1);
+        }
+        execl(exe, exe, "serve", config, (char *)NULL);
+        _exit(127);
+    }
+    return pid;
+}
+
+/* Waits for the daemon's /health to answer at all. */
+static int wait_up(int port, double timeout)
+{
+    double end = time_monotonic() + timeout;
+    while (time_monotonic() < end) {
+        if (http(port, "GET", "/health", NULL) > 0)
+            return 1;
+        nap(0.05);
+    }
+    return 0;
+}
+
+/* Waits for exit; returns the exit status, or -1 on timeout (then kills). */
+static int wait_exit(pid_t pid, double timeout)
+{
+    double end = time_monotonic() + timeout;
+    int st;
+    while (time_monotonic() < end) {
+        if (waitpid(pid, &st, WNOHANG) == pid)
+            return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+        nap(0.05);
+    }
+    kill(pid, SIGKILL);
+    waitpid(pid, &st, 0);
+    return -1;
+}
+
+static int count_ok_runs(int port)
+{
+    cJSON *runs = get_json(port, "/runs");
+    int n = 0;
+    const cJSON *r;
+    cJSON_ArrayForEach(r, runs) {
+        const char *res = jstr(r, "result", NULL);
+        n += res && !strcmp(res, "ok");
+    }
+    cJSON_Delete(runs);
+    return n;
+}
+
+/* Waits until /status has state == want (or the last run's result == want). */
+static cJSON *wait_status(int port, const char *key, const char *sub, const char *want, double timeout)
+{
+    double end = time_monotonic() + timeout;
+    while (time_monotonic() < end) {
+        cJSON *s = get_json(port, "/status");
+        const char *v = s ? jstr(s, key, sub) : NULL;
+        if (v && !strcmp(v, want))
+            return s;
+        cJSON_Delete(s);
+        nap(0.05);
+    }
+    return NULL;
+}
+
+static int count_stage_dirs(const char *dir)
+{
+    DIR *d = opendir(dir);
+    int n = 0;
+    struct dirent *e;
+    while (d && (e = readdir(d)))
+        n += !strncmp(e->d_name, ".stage-", 7);
+    if (d)
+        closedir(d);
+    return n;
+}
+
+static void dump_log(const char *log)
+{
+    char *t = NULL;
+    size_t n;
+    sph_error e;
+    sph_error_clear(&e);
+    if (read_file(log, &t, &n, &e) == 0)
+        fprintf(stderr, "--- %s ---\n%s", log, t);
+    free(t);
+}
+
+/* ----------------------------------------------------------- scenarios */
+
+static void scenario_cycles_status_http_reload(void)
+{
+    char dir[512], cfg[600], log[600], forcing[600], tmpl[600];
+    snprintf(dir, sizeof dir, "%s/a", tmp);
+    snprintf(cfg, sizeof cfg, "%s/a.json", tmp);
+    snprintf(log, sizeof log, "%s/a.log", tmp);
+    snprintf(forcing, sizeof forcing, "%s/atm.nc", tmp);
+    snprintf(tmpl, sizeof tmpl, "%s", forcing);
+    sph_error e;
+    sph_error_clear(&e);
+    atomic_write_file(forcing, "forcing", 7, &e);
+    int port = free_port();
+    write_config(cfg, dir, port, 1.5, tmpl, "fail", NULL);
+    pid_t pid = spawn(cfg, "sleep:0.3", log);
+    CHECK(wait_up(port, 10), "daemon A answers");
+
+    /* two cycles */
+    double end = time_monotonic() + 20;
+    while (count_ok_runs(port) < 2 && time_monotonic() < end)
+        nap(0.1);
+    CHECK(count_ok_runs(port) >= 2, "two cycles in /runs");
+    cJSON *st = get_json(port, "/status");
+    CHECK(st != NULL, "/status is JSON");
+    const char *res = jstr(st, "last_run", "result");
+    CHECK(res && !strcmp(res, "ok"), "last_run ok: %s", res ? res : "(null)");
+    const char *state = jstr(st, "service", "state");
+    CHECK(state && (!strcmp(state, "idle") || !strcmp(state, "running") || !strcmp(state, "fetching") ||
+                    !strcmp(state, "writing")),
+          "state %s", state ? state : "(null)");
+    CHECK(jstr(st, "next_cycle", NULL) != NULL, "next cycle reported");
+    CHECK(cJSON_IsObject(cJSON_GetObjectItem(st, "config")), "effective config in status");
+    const cJSON *pidj = cJSON_GetObjectItem(cJSON_GetObjectItem(st, "service"), "pid");
+    CHECK(cJSON_IsNumber(pidj) && (pid_t)pidj->valuedouble == pid, "pid");
+
+    /* sphice status --url prints the same */
+    char cmd[1024];
+    snprintf(cmd, sizeof cmd, "%s status --url http://127.0.0.1:%d", exe, port);
+    FILE *pf = popen(cmd, "r");
+    char *out = NULL;
+    size_t outlen = 0;
+    FILE *mem = open_memstream(&out, &outlen);
+    char line[4096];
+    while (pf && fgets(line, sizeof line, pf))
+        fputs(line, mem);
+    fclose(mem);
+    int prc = pf ? pclose(pf) : -1;
+    cJSON *cli = cJSON_Parse(out ? out : "");
+    CHECK(prc == 0 && cli, "sphice status exit 0, JSON");
+    const cJSON *cpid = cJSON_GetObjectItem(cJSON_GetObjectItem(cli, "service"), "pid");
+    CHECK(cJSON_IsNumber(cpid) && (pid_t)cpid->valuedouble == pid, "status --url: same pid");
+    const char *cf = jstr(cli, "service", "config_file");
+    CHECK(cf && !strcmp(cf, cfg), "status --url: config file");
+    CHECK(jstr(cli, "last_run", "cycle") != NULL, "status --url: last run");
+    cJSON_Delete(cli);
+    free(out);
+    cJSON_Delete(st);
+
+    /* health and metrics */
+    CHECK(http(port, "GET", "/health", NULL) == 200, "healthy");
+    char *metrics = NULL;
+    CHECK(http(port, "GET", "/metrics", &metrics) == 200, "metrics");
+    CHECK(metrics && strstr(metrics, "sphice_up 1") && strstr(metrics, "sphice_last_run_success 1") &&
+              strstr(metrics, "sphice_runs_total{result=\"ok\"}") && strstr(metrics, "sphice_ice_area_km2"),
+          "prometheus text");
+    free(metrics);
+
+    /* misuse */
+    CHECK(http(port, "GET", "/nope", NULL) == 404, "unknown path 404");
+    CHECK(http(port, "POST", "/status", NULL) == 405, "POST 405");
+    static char longp[3100];
+    longp[0] = '/';
+    memset(longp + 1, 'a', 3000);
+    long lc = http(port, "GET", longp, NULL);
+    CHECK(lc == 0 || lc == 414, "long URL refused: %ld", lc);
+    static char huge[70000];
+    huge[0] = '/';
+    memset(huge + 1, 'b', sizeof huge - 2);
+    lc = http(port, "GET", huge, NULL);
+    CHECK(lc == 0 || (lc >= 400 && lc < 500), "64 KiB URL refused: %ld", lc);
+    int fds[50];
+    for (int i = 0; i < 50; i++) {
+        fds[i] = socket(AF_INET, SOCK_STREAM, 0);
+        struct sockaddr_in a;
+        memset(&a, 0, sizeof a);
+        a.sin_family = AF_INET;
+        a.sin_port = htons((unsigned short)port);
+        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        if (connect(fds[i], (struct sockaddr *)&a, sizeof a) == 0) {
+            /* half a request: the server must not wait for it forever */
+            const char *req = "GET /status HTTP/1.1\r\nHost: x\r\n";
+            (void)!write(fds[i], req, strlen(req));
+        }
+    }
+    nap(0.2);
+    for (int i = 0; i < 50; i++)
+        close(fds[i]);
+    nap(0.2);
+    CHECK(http(port, "GET", "/health", NULL) == 200, "still serving after 50 connections");
+    CHECK(kill(pid, 0) == 0, "daemon alive after misuse");
+
+    /* invalid config on SIGHUP: reported, the old one keeps working */
+    char *good = NULL;
+    size_t glen;
+    read_file(cfg, &good, &glen, &e);
+    char bad[8192];
+    snprintf(bad, sizeof bad, "%.*s, \"model\": {\"dt\": \"fast\"}}", (int)glen - 1, good);
+    atomic_write_file(cfg, bad, strlen(bad), &e);
+    int before = count_ok_runs(port);
+    kill(pid, SIGHUP);
+    end = time_monotonic() + 5;
+    const char *ce = NULL;
+    cJSON *s2 = NULL;
+    while (time_monotonic() < end) {
+        cJSON_Delete(s2);
+        s2 = get_json(port, "/status");
+        ce = s2 ? jstr(s2, "service", "config_error") : NULL;
+        if (ce)
+            break;
+        nap(0.05);
+    }
+    CHECK(ce && strstr(ce, "model.dt") && strstr(ce, "expected number"), "config error reported: %s",
+          ce ? ce : "(null)");
+    cJSON_Delete(s2);
+    end = time_monotonic() + 10;
+    while (count_ok_runs(port) <= before && time_monotonic() < end)
+        nap(0.1);
+    CHECK(count_ok_runs(port) > before, "cycles go on with the old config");
+    atomic_write_file(cfg, good, glen, &e);
+    free(good);
+    kill(pid, SIGHUP);
+    end = time_monotonic() + 5;
+    int cleared = 0;
+    while (!cleared && time_monotonic() < end) {
+        cJSON *s3 = get_json(port, "/status");
+        cleared = s3 && cJSON_IsNull(cJSON_GetObjectItem(cJSON_GetObjectItem(s3, "service"), "config_error"));
+        cJSON_Delete(s3);
+        nap(0.05);
+    }
+    CHECK(cleared, "a valid reload clears the error");
+
+    kill(pid, SIGTERM);
+    int rc = wait_exit(pid, 5);
+    CHECK(rc == 0, "SIGTERM exit 0: %d", rc);
+    if (check_failed_)
+        dump_log(log);
+}
+
+static void scenario_term_and_kill(void)
+{
+    char dir[512], cfg[600], log[600], forcing[600], out[700], state[700];
+    snprintf(dir, sizeof dir, "%s/b", tmp);
+    snprintf(cfg, sizeof cfg, "%s/b.json", tmp);
+    snprintf(log, sizeof log, "%s/b.log", tmp);
+    snprintf(forcing, sizeof forcing, "%s/atm.nc", tmp);
+    snprintf(out, sizeof out, "%s/out", dir);
+    snprintf(state, sizeof state, "%s/state/history.sqlite", dir);
+    int port = free_port();
+    write_config(cfg, dir, port, 3600, forcing, "fail", NULL);
+    /* previous products: one cycle an hour earlier, by `sphice run` */
+    double now = time_now();
+    double slot = floor(now / 3600) * 3600;
+    char iso[32], cmd[2048];
+    time_format_iso(slot - 3600, iso, sizeof iso);
+    snprintf(cmd, sizeof cmd, "SPHICE_TEST_ENGINE=sleep:0 %s run %s --cycle %s >>%s 2>&1", exe, cfg, iso, log);
+    CHECK(system(cmd) == 0, "sphice run publishes the previous cycle");
+    char prev_name[32], prev_fields[800], latest[800], target[64];
+    cycle_name(slot - 3600, prev_name, sizeof prev_name);
+    snprintf(prev_fields, sizeof prev_fields, "%s/%s/fields.txt", out, prev_name);
+    snprintf(latest, sizeof latest, "%s/latest", out);
+    char *before = NULL;
+    size_t blen;
+    sph_error e;
+    sph_error_clear(&e);
+    CHECK(read_file(prev_fields, &before, &blen, &e) == 0, "previous product: %s", e.msg);
+
+    /* SIGTERM during a run */
+    pid_t pid = spawn(cfg, "sleep:30", log);
+    CHECK(wait_up(port, 10), "daemon B answers");
+    cJSON *s = wait_status(port, "service", "state", "running", 10);
+    CHECK(s != NULL, "B is running a cycle");
+    cJSON_Delete(s);
+    double t0 = time_monotonic();
+    kill(pid, SIGTERM);
+    int rc = wait_exit(pid, 5);
+    CHECK(rc == 0, "SIGTERM during a run: exit %d", rc);
+    CHECK(time_monotonic() - t0 < 5, "within a few seconds");
+    CHECK(count_stage_dirs(out) == 0, "no stage dir left");
+    ssize_t n = readlink(latest, target, sizeof target - 1);
+    target[n > 0 ? n : 0] = 0;
+    CHECK(!strcmp(target, prev_name), "latest still the previous cycle: %s", target);
+    char *after = NULL;
+    size_t alen;
+    CHECK(read_file(prev_fields, &after, &alen, &e) == 0 && alen == blen && !memcmp(before, after, blen),
+          "previous products intact");
+    free(after);
+    history *h = NULL;
+    history_run r;
+    if (history_open(&h, state, &e) == 0) {
+        CHECK(history_get(h, slot, &r, &e) == 1 && !strcmp(r.result, "cancelled"), "recorded cancelled");
+        history_run_clear(&r);
+        history_close(h);
+    }
+
+    /* kill -9 during a run, then restart: runs again, one entry */
+    pid = spawn(cfg, "sleep:30", log);
+    CHECK(wait_up(port, 10), "daemon C answers");
+    s = wait_status(port, "service", "state", "running", 10);
+    CHECK(s != NULL, "C is running a cycle");
+    cJSON_Delete(s);
+    kill(pid, SIGKILL);
+    waitpid(pid, NULL, 0);
+    if (history_open(&h, state, &e) == 0) {
+        CHECK(history_get(h, slot, &r, &e) == 1 && !strcmp(r.result, "running"), "killed: row left running");
+        history_run_clear(&r);
+        history_close(h);
+    }
+    n = readlink(latest, target, sizeof target - 1);
+    target[n > 0 ? n : 0] = 0;
+    CHECK(!strcmp(target, prev_name), "kill -9: latest untouched");
+    pid = spawn(cfg, "sleep:0.2", log);
+    CHECK(wait_up(port, 10), "daemon D answers");
+    char slot_iso[32];
+    time_format_iso(slot, slot_iso, sizeof slot_iso);
+    double end = time_monotonic() + 10;
+    int entries = 0, ok = 0;
+    while (time_monotonic() < end && !ok) {
+        cJSON *runs = get_json(port, "/runs");
+        entries = ok = 0;
+        const cJSON *x;
+        cJSON_ArrayForEach(x, runs) {
+            const char *c = jstr(x, "cycle", NULL);
+            if (c && !strcmp(c, slot_iso)) {
+                entries++;
+                ok = !strcmp(jstr(x, "result", NULL), "ok");
+            }
+        }
+        cJSON_Delete(runs);
+        if (!ok)
+            nap(0.1);
+    }
+    CHECK(ok && entries == 1, "re-run after kill -9 completes, one entry (%d)", entries);
+    n = readlink(latest, target, sizeof target - 1);
+    target[n > 0 ? n : 0] = 0;
+    char slot_name[32];
+    cycle_name(slot, slot_name, sizeof slot_name);
+    CHECK(!strcmp(target, slot_name), "latest now the re-run cycle");
+    CHECK(count_stage_dirs(out) == 0, "the killed run's stage dir was swept");
+    kill(pid, SIGTERM);
+    CHECK(wait_exit(pid, 5) == 0, "D exits 0");
+    free(before);
+    if (check_failed_)
+        dump_log(log);
+}
+
+static void scenario_late_data(void)
+{
+    char dir[512], cfg[600], log[600], tmpl[600];
+    /* fail policy: nothing there */
+    snprintf(dir, sizeof dir, "%s/e", tmp);
+    snprintf(cfg, sizeof cfg, "%s/e.json", tmp);
+    snprintf(log, sizeof log, "%s/e.log", tmp);
+    snprintf(tmpl, sizeof tmpl, "%s/nothing_%%Y%%j.nc", tmp);
+    int port = free_port();
+    write_config(cfg, dir, port, 3600, tmpl, "fail", NULL);
+    pid_t pid = spawn(cfg, "sleep:0.1", log);
+    CHECK(wait_up(port, 10), "daemon E answers");
+    cJSON *s = wait_status(port, "last_run", "result", "failed", 10);
+    const char *msg = s ? jstr(s, "last_run", "message") : NULL;
+    CHECK(msg && strstr(msg, "forcing atm missing") && strstr(msg, "nothing_"), "fail policy reason: %s",
+          msg ? msg : "(null)");
+    const char *state = s ? jstr(s, "service", "state") : NULL;
+    CHECK(state && !strcmp(state, "failed"), "state failed");
+    cJSON_Delete(s);
+    CHECK(http(port, "GET", "/health", NULL) == 503, "unhealthy after a failed cycle");
+    kill(pid, SIGTERM);
+    CHECK(wait_exit(pid, 5) == 0, "E exits 0");
+
+    /* stale policy: only the issues of 1 and 2 days ago exist */
+    snprintf(dir, sizeof dir, "%s/f", tmp);
+    snprintf(cfg, sizeof cfg, "%s/f.json", tmp);
+    snprintf(log, sizeof log, "%s/f.log", tmp);
+    snprintf(tmpl, sizeof tmpl, "%s/day_%%Y%%j.nc", tmp);
+    sph_error e;
+    sph_error_clear(&e);
+    for (int k = 1; k <= 2; k++) {
+        char p[800];
+        cycle_expand_template(tmpl, time_now() - k * 86400.0, p, sizeof p, &e);
+        atomic_write_file(p, "old", 3, &e);
+    }
+    port = free_port();
+    write_config(cfg, dir, port, 3600, tmpl, "stale", NULL);
+    pid = spawn(cfg, "sleep:0.1", log);
+    CHECK(wait_up(port, 10), "daemon F answers");
+    s = wait_status(port, "last_run", "result", "ok", 10);
+    CHECK(s && cJSON_IsTrue(cJSON_GetObjectItem(cJSON_GetObjectItem(s, "last_run"), "stale")),
+          "stale policy: ran, flagged stale");
+    /* the forcing ages come from the finished cycle, collected by the next tick */
+    for (int i = 0; i < 40 && s && !cJSON_GetArrayItem(cJSON_GetObjectItem(s, "forcing"), 0); i++) {
+        nap(0.05);
+        cJSON_Delete(s);
+        s = get_json(port, "/status");
+    }
+    const cJSON *fc = s ? cJSON_GetArrayItem(cJSON_GetObjectItem(s, "forcing"), 0) : NULL;
+    const cJSON *age = cJSON_GetObjectItem(fc, "age_hours");
+    CHECK(cJSON_IsNumber(age) && age->valuedouble >= 24, "forcing age reported: %g",
+          cJSON_IsNumber(age) ? age->valuedouble : -1);
+    cJSON_Delete(s);
+    kill(pid, SIGTERM);
+    CHECK(wait_exit(pid, 5) == 0, "F exits 0");
+}
+
+static void scenario_units(void)
+{
+    if (system("command -v systemd-analyze >/dev/null 2>&1") != 0) {
+        printf("note: systemd-analyze not found; unit verification skipped (counted as passed)\n");
+        CHECK(1, "skipped");
+        return;
+    }
+    char cmd[2048];
+    snprintf(cmd, sizeof cmd,
+             "set -e; d=%s/units; mkdir -p $d; for u in systemd/*.service systemd/*.timer; do "
+             "sed 's#@PREFIX@/bin/sphice#%s#g; s#@PREFIX@#/usr/local#g' $u > $d/$(basename $u); done; "
+             "cd $d && systemd-analyze verify sphice.service sphice-forecast.service sphice-forecast.timer",
+             tmp, exe);
+    CHECK(system(cmd) == 0, "systemd-analyze verify accepts the units");
+}
+
+int main(void)
+{
+    signal(SIGPIPE, SIG_IGN);
+    const char *build = getenv("BUILD") ? getenv("BUILD") : "build";
+    char cwd[256];
+    if (!getcwd(cwd, sizeof cwd))
+        return 1;
+    snprintf(exe, sizeof exe, "%s/%s/sphice", cwd, build);
+    if (access(exe, X_OK) != 0) {
+        fprintf(stderr, "%s: not built\n", exe);
+        return 1;
+    }
+    snprintf(tmp, sizeof tmp, "/tmp/sphice-test-daemon-XXXXXX");
+    if (!mkdtemp(tmp))
+        return 1;
+    curl_global_init(CURL_GLOBAL_DEFAULT);
+    scenario_cycles_status_http_reload();
+    scenario_term_and_kill();
+    scenario_late_data();
+    scenario_units();
+    curl_global_cleanup();
+    if (!check_failed_)
+        cycle_remove_tree(tmp);
+    else
+        fprintf(stderr, "logs kept in %s\n", tmp);
+    return check_summary("test_daemon");
+}
