@@ -69,8 +69,37 @@ static void leaves(const cJSON *o, const char *prefix, char paths[][128], int *n
     }
 }
 
+/* The key table's defaults must be the core's own defaults (one source of
+ * truth for the physics: PHYSICS.md values in sph_params_default). */
+static void test_defaults_match_core(void)
+{
+    struct sph_config *c = NULL;
+    char msg[1024];
+    CHECK(parse_with("", &c, msg, sizeof msg) == 0, "minimal config parses: %s", msg);
+    if (!c)
+        return;
+    sph_params d;
+    sph_params_default(&d);
+    const sph_params *m = &c->model;
+#define SAME(f) CHECK(m->f == d.f, "model default %s: config %g, core %g", #f, (double)m->f, (double)d.f)
+    SAME(dt); SAME(kernel); SAME(kernel_radius); SAME(variable_sml); SAME(summation_density);
+    SAME(sml_factor); SAME(solver); SAME(unstable); SAME(evp_iterations); SAME(evp_adaptive);
+    SAME(evp_alpha); SAME(evp_beta); SAME(evp_tol); SAME(implicit_max_picard); SAME(implicit_tol);
+    SAME(max_substeps); SAME(explicit_safety); SAME(max_neighbours); SAME(physics); SAME(rheology);
+    SAME(pressure_form); SAME(P0); SAME(C); SAME(ecc); SAME(zeta_max_factor); SAME(delta_min);
+    SAME(replacement_pressure); SAME(auto_tolerance); SAME(coll_restitution);
+    SAME(coll_floe_diameter); SAME(coll_max_conc); SAME(coll_vfluct_min); SAME(rho_i); SAME(rho_a);
+    SAME(rho_w); SAME(Ca); SAME(Cw); SAME(turn_air); SAME(turn_water); SAME(gravity); SAME(coriolis);
+    SAME(coast_no_slip); SAME(sml_min_factor); SAME(sml_max_factor); SAME(speed_limit);
+    SAME(mass_tolerance); SAME(thermo_dt); SAME(thermo.model); SAME(thermo.nlayers);
+    SAME(thermo.auto_thickness); SAME(thermo.rho_i);
+#undef SAME
+    sph_config_free(c);
+}
+
 int main(void)
 {
+    test_defaults_match_core();
     /* the shipped example */
     struct sph_config *c = NULL;
     sph_error e;

@@ -90,7 +90,7 @@ void sph_params_default(sph_params *p)
     p->auto_tolerance = 1.0e-3;
     p->coll_restitution = 0.5;
     p->coll_floe_diameter = 100.0;
-    p->coll_max_conc = 1.0;
+    p->coll_max_conc = 0.91;
     p->coll_vfluct_min = 1.0e-3;
     p->rho_i = 900.0;
     p->rho_a = 1.3;
