@@ -42,6 +42,7 @@ typedef struct run_out {
 } run_out;
 
 static const char *atm_files[2];
+static const char *observation; /* observed concentration raster for the next run, or NULL */
 
 static void run_at(const struct sph_config *cfg, const char *stage_name, double cycle, double hours,
                    const char *warm, const volatile sig_atomic_t *cancel, run_out *o)
@@ -53,6 +54,7 @@ static void run_at(const struct sph_config *cfg, const char *stage_name, double 
     req.hours = hours;
     req.stage_dir = o->stage;
     req.warm_start = warm;
+    req.observation = observation;
     req.forcing_files[0] = atm_files;
     static const char *sums[] = {"atm.nc 0000", NULL};
     for (int i = 0; sums[i]; i++)
@@ -133,7 +135,11 @@ int main(int argc, char **argv)
     if (!cfg)
         return check_summary("test_engine");
     run_out a;
+    char obs[1024];
+    snprintf(obs, sizeof obs, "%s/ice.nc", dir);
+    observation = obs; /* verified against the initial field (valid at the end: it has no time) */
     run(cfg, "stage-a", 6, NULL, NULL, &a);
+    observation = NULL;
     CHECK(a.rc == SPH_OK, "forecast: %s", a.err.msg);
     printf("  6 h run: %.2f s wall, %ld -> %ld particles, residual %.3g, area %.1f km2, volume %.6f km3, "
            "free drift %.3f, rheology %.3f, zero-layer %.3f, multi-layer %.3f\n",
@@ -150,6 +156,10 @@ int main(int argc, char **argv)
     CHECK(exists(a.stage, rname), "restart file %s", rname);
     CHECK(strcmp(a.res.start_mode, "cold") == 0, "start mode %s", a.res.start_mode);
     CHECK(a.res.budget_residual < 1e-10, "budget residual %g", a.res.budget_residual);
+    CHECK(a.res.has_scores && isfinite(a.res.iiee_km2) && a.res.iiee_km2 > 0 && exists(a.stage, "sphice_scores.json"),
+          "scores against the observation: IIEE %g km2", a.res.iiee_km2);
+    printf("  verification against the initial field at +6 h: IIEE %.1f km2, bias %.3f\n", a.res.iiee_km2,
+           a.res.conc_bias);
     CHECK(a.res.particles_start > 400 && a.res.particles_end == a.res.particles_start,
           "particles %ld -> %ld", a.res.particles_start, a.res.particles_end);
     int listed = 0;
