@@ -286,7 +286,8 @@ static int mask_cell(const sph_model *m, double x, double y, int *ci, int *cj)
 {
     const sph_landmask *k = &m->mask;
     double fi = floor((x - k->x0) / k->dx), fj = floor((y - k->y0) / k->dy);
-    if (fi < 0 || fj < 0 || fi >= k->nx || fj >= k->ny)
+    /* written so that a NaN position is outside (no out-of-range index) */
+    if (!(fi >= 0 && fj >= 0 && fi < k->nx && fj < k->ny))
         return 0;
     *ci = (int)fi;
     *cj = (int)fj;
@@ -306,7 +307,8 @@ static int is_land(const sph_model *m, double x, double y)
 
 static int outside_open(const sph_model *m, double x, double y)
 {
-    if (!m->has_mask || m->mask.closed_outside)
+    /* a non-finite position is a blow-up for check_health to report, not outflow */
+    if (!m->has_mask || m->mask.closed_outside || !isfinite(x) || !isfinite(y))
         return 0;
     int i, j;
     return !mask_cell(m, x, y, &i, &j);
@@ -1012,6 +1014,57 @@ int sph_model_init(sph_model *m, sph_status *st)
     m->time = 0.0;
     m->thermo_accum = 0.0;
     m->steps = 0;
+    return SPH_STEP_OK;
+}
+
+void sph_model_get_clock(const sph_model *m, sph_model_clock *c)
+{
+    c->time = m->time;
+    c->steps = m->steps;
+    c->thermo_accum = m->thermo_accum;
+    c->dens_scale = m->dens_scale;
+    c->budget = m->budget;
+}
+
+int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    sph_status_clear(st);
+    if (P->n > m->cap)
+        return sph_status_set(st, SPH_STEP_FATAL, -1, "particle count", (double)P->n,
+                              (double)m->cap, "exceeds the model capacity");
+    double sml0_max = 0.0;
+    for (size_t k = 0; k < P->n; k++) {
+        const double must_pos[] = {P->mass[k], P->thick[k], P->sml[k], P->sml0[k], P->dens[k],
+                                   P->dens0[k]};
+        static const char *const names[] = {"mass", "thickness", "smoothing length",
+                                            "reference smoothing length", "density",
+                                            "reference density"};
+        for (int q = 0; q < 6; q++)
+            if (!(must_pos[q] > 0.0) || !isfinite(must_pos[q]))
+                return sph_status_set(st, SPH_STEP_FATAL, P->id[k], names[q], must_pos[q], 0.0,
+                                      "must be positive");
+        if (!(P->conc[k] > 0.0 && P->conc[k] <= 1.0))
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "concentration", P->conc[k],
+                                  1.0, "must be in (0, 1]");
+        if (!isfinite(P->x[k]) || !isfinite(P->y[k]) || !isfinite(P->u[k]) ||
+            !isfinite(P->v[k]))
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "position or velocity",
+                                  P->x[k], 0.0, "is not finite");
+        sml0_max = fmax(sml0_max, P->sml0[k]);
+    }
+    if (!(c->dens_scale > 0.0) || !isfinite(c->time) || !isfinite(c->thermo_accum))
+        return sph_status_set(st, SPH_STEP_FATAL, -1, "clock", c->dens_scale, 0.0,
+                              "is not valid");
+    /* the same radius as sph_model_init used: there every sml equalled sml0 */
+    if (m->has_mask)
+        mark_near_land(m, m->kern.radius * p->sml_max_factor * sml0_max);
+    m->dens_scale = c->dens_scale;
+    m->budget = c->budget;
+    m->time = c->time;
+    m->steps = c->steps;
+    m->thermo_accum = c->thermo_accum;
     return SPH_STEP_OK;
 }
 
