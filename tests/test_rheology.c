@@ -53,6 +53,44 @@ static void test_coast_balance(sph_kernel_kind kern, double radius, double hfac)
     coast_free(&c);
 }
 
+/* The analytic steady state (no replacement pressure) is held by the
+ * dynamic model: 12 h of mEVP at the seed's 60 s step, wind on, starting
+ * at rest in the analytic state: the ice stays at rest and its mean
+ * thickness matches the analytic profile within 2 % away from one
+ * smoothing length of the wall and of the pack edge. */
+static void test_coast_steady_state_held(void)
+{
+    sph_params p;
+    sph_params_default(&p);
+    p.physics = SPH_PHYSICS_FULL;
+    p.dt = 60;
+    double wind = 9.0, tau = p.rho_a * p.Ca * wind * wind;
+    coast_analytic a;
+    coast_solve(&a, &p, tau, 0.5, 40e3);
+    coast_case c;
+    CHECK(coast_setup_steady(&c, &p, 1000, 4, &a, wind) == 0, "setup");
+    sph_status st;
+    sph_model_init(c.model, &st);
+    int steps = check_quick() ? 60 : 720, ok = 1;
+    for (int s = 0; s < steps && ok; s++)
+        ok = sph_model_step(c.model, &st) == 0;
+    CHECK(ok, "held run: %s %g %s", st.quantity, st.value, st.what);
+    sph_particles *P = sph_model_particles(c.model);
+    double worst = 0;
+    for (size_t k = 0; k < P->n; k++) {
+        double y = P->y[k];
+        if (y < P->sml[k] || y > a.L - P->sml[k])
+            continue;
+        double want = coast_hbar(&a, y);
+        worst = fmax(worst, fabs(P->dens[k] / p.rho_i - want) / want);
+    }
+    const sph_budget *b = sph_model_budget(c.model);
+    CHECK(worst < 0.02, "thickness profile within 2 %% after 12 h: worst %.4f", worst);
+    CHECK(sqrt(2 * b->kinetic_energy / b->mass) < 0.01, "ice at rest: rms speed %g m/s",
+          sqrt(2 * b->kinetic_energy / b->mass));
+    coast_free(&c);
+}
+
 /* Packed ice pushed and sheared against a coast for a few hours with
  * mEVP at 60 s: stable, and the stresses lie inside the yield ellipse
  * ((sI + P/2)/(P/2))^2 + (sII/(P/(2e)))^2 <= 1 (sI, sII: mean and half
@@ -141,8 +179,11 @@ static void test_explicit_substeps(void)
 int main(void)
 {
     test_coast_balance(SPH_KERNEL_GAUSSIAN, 3.0, 1.0);
-    test_coast_balance(SPH_KERNEL_WENDLAND_C2, 2.0, 1.3);
-    test_coast_balance(SPH_KERNEL_CUBIC_SPLINE, 2.0, 1.3);
+    /* compact kernels at h = 1.5 dx: at 1.3 dx their lattice gradient error
+     * is 2.6-3 % (test_kernel measures it), above the 2 % asked here */
+    test_coast_balance(SPH_KERNEL_WENDLAND_C2, 2.0, 1.5);
+    test_coast_balance(SPH_KERNEL_CUBIC_SPLINE, 2.0, 1.5);
+    test_coast_steady_state_held();
     test_yield_curve_and_mevp_stable();
     test_explicit_refused_at_60s();
     test_explicit_substeps();
