@@ -127,6 +127,24 @@ int sph_model_set_params(sph_model *m, const sph_params *p);
  * computes densities, diagnoses concentration, records the initial mass. */
 int sph_model_init(sph_model *m, sph_status *st);
 
+/* The model's own state outside the particle arrays, for restart files:
+ * with it and every particle array a run continues bit for bit. */
+typedef struct sph_model_clock {
+    double time;         /* seconds since init */
+    long steps;          /* dynamic steps since init */
+    double thermo_accum; /* s of dynamics since the last thermodynamic step */
+    double dens_scale;   /* kernel lattice calibration (summation density; else 1) */
+    sph_budget budget;
+} sph_model_clock;
+void sph_model_get_clock(const sph_model *m, sph_model_clock *c);
+
+/* Instead of sph_model_init, for particles restored with their full state
+ * (dens, dens0, sml0, stress, enthalpy ...) in the order they were saved:
+ * validates them, builds the coast tables and sets the clock. Nothing is
+ * re-diagnosed or reordered, so the next step is the step the saved run
+ * would have taken. */
+int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st);
+
 /* One dynamic step of length params.dt (forcing arrays must be filled),
  * plus thermodynamics when its own step falls due. */
 int sph_model_step(sph_model *m, sph_status *st);

@@ -998,6 +998,57 @@ int sph_model_init(sph_model *m, sph_status *st)
     return SPH_STEP_OK;
 }
 
+void sph_model_get_clock(const sph_model *m, sph_model_clock *c)
+{
+    c->time = m->time;
+    c->steps = m->steps;
+    c->thermo_accum = m->thermo_accum;
+    c->dens_scale = m->dens_scale;
+    c->budget = m->budget;
+}
+
+int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    sph_status_clear(st);
+    if (P->n > m->cap)
+        return sph_status_set(st, SPH_STEP_FATAL, -1, "particle count", (double)P->n,
+                              (double)m->cap, "exceeds the model capacity");
+    double sml0_max = 0.0;
+    for (size_t k = 0; k < P->n; k++) {
+        const double must_pos[] = {P->mass[k], P->thick[k], P->sml[k], P->sml0[k], P->dens[k],
+                                   P->dens0[k]};
+        static const char *const names[] = {"mass", "thickness", "smoothing length",
+                                            "reference smoothing length", "density",
+                                            "reference density"};
+        for (int q = 0; q < 6; q++)
+            if (!(must_pos[q] > 0.0) || !isfinite(must_pos[q]))
+                return sph_status_set(st, SPH_STEP_FATAL, P->id[k], names[q], must_pos[q], 0.0,
+                                      "must be positive");
+        if (!(P->conc[k] > 0.0 && P->conc[k] <= 1.0))
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "concentration", P->conc[k],
+                                  1.0, "must be in (0, 1]");
+        if (!isfinite(P->x[k]) || !isfinite(P->y[k]) || !isfinite(P->u[k]) ||
+            !isfinite(P->v[k]))
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "position or velocity",
+                                  P->x[k], 0.0, "is not finite");
+        sml0_max = fmax(sml0_max, P->sml0[k]);
+    }
+    if (!(c->dens_scale > 0.0) || !isfinite(c->time) || !isfinite(c->thermo_accum))
+        return sph_status_set(st, SPH_STEP_FATAL, -1, "clock", c->dens_scale, 0.0,
+                              "is not valid");
+    /* the same radius as sph_model_init used: there every sml equalled sml0 */
+    if (m->has_mask)
+        mark_near_land(m, m->kern.radius * p->sml_max_factor * sml0_max);
+    m->dens_scale = c->dens_scale;
+    m->budget = c->budget;
+    m->time = c->time;
+    m->steps = c->steps;
+    m->thermo_accum = c->thermo_accum;
+    return SPH_STEP_OK;
+}
+
 /* Keeps particles out of land; removes those leaving an open boundary. */
 static void move_and_constrain(sph_model *m)
 {
