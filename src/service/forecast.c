@@ -237,8 +237,11 @@ static int build_landmask(engine *e, double xmin, double xmax, double ymin, doub
     case CFG_LAND_NETCDF:
         if (!cfg->landmask.path || !cfg->landmask.path[0])
             return sph_err_set(err, SPH_ERR_CONFIG, "config: landmask.path: required for source netcdf");
+        /* the default "mask" is one of the names the automatic search tries
+         * (after land_binary_mask, sea_binary_mask, lsm ...) */
         e->lm = landmask_read_netcdf(cfg->landmask.path,
-                                     cfg->landmask.variable && cfg->landmask.variable[0]
+                                     cfg->landmask.variable && cfg->landmask.variable[0] &&
+                                             strcmp(cfg->landmask.variable, "mask")
                                          ? cfg->landmask.variable : NULL,
                                      LANDMASK_NC_AUTO, err);
         if (!e->lm)
