@@ -289,6 +289,9 @@ int main(void)
     }
     ut_set_error_message_handler(ut_ignore);
     UT = ut_read_xml(NULL);
+    /* Many short parallel regions per step (1.2k particles): spinning
+     * OpenMP threads on a busy 2-core machine cost 10x (docs/demo.md). */
+    setenv("OMP_WAIT_POLICY", getenv("OMP_WAIT_POLICY") ? getenv("OMP_WAIT_POLICY") : "passive", 1);
     double hours = check_long() ? 96 : 24;
     int min_reversals = check_long() ? 6 : 2;
 

@@ -12,7 +12,13 @@
 #   DEMO_OUT     output folder (default output/liaodong-demo)
 #   DEMO_CONFIG  configuration (default etc/liaodong-demo.json)
 #   DEMO_SKIP_DEPS=1  do not look at the Debian packages
+#   OMP_NUM_THREADS, OMP_WAIT_POLICY  OpenMP threads (default: all cores)
+#                and waiting (default here: passive; the model's many short
+#                parallel regions make spinning threads very slow on a busy
+#                machine, docs/demo.md)
 set -eu
+: "${OMP_WAIT_POLICY:=passive}"
+export OMP_WAIT_POLICY
 
 CYCLE="1999-02-07T22:00Z"
 HOURS="${DEMO_HOURS:-96}"

@@ -10,6 +10,9 @@
  *     ice around it under 0.10 m), followed by id;
  *   - ice area of the patch: sum of mass / (rho_i h_i) (= A x particle
  *     area, since a particle's mass is rho_i A h_i times its area);
+ *   - footprint of the patch: sum of mass / (rho_i A h_i), the area its
+ *     particles occupy, open water between the floes included (it grows
+ *     when the patch spreads even where A falls and h_i stays);
  *   - mean thickness: volume / area = sum (m / rho_i) / sum (m / (rho_i h_i))
  *     (the area-weighted mean of h_i); mean concentration: plain mean of
  *     the particles' A;
@@ -46,6 +49,7 @@ typedef struct demo_time {
     double hours;                /* since the first output time */
     long n;                      /* patch particles present */
     double area_km2, mean_thick, mean_conc;
+    double footprint_km2;        /* sum m / (rho_i A h_i) */
     double lon_c, lat_c;         /* mass-weighted centre */
     double u_c, v_c;             /* mass-weighted mean velocity, m/s */
     double vel_spread;           /* m/s */
@@ -295,7 +299,7 @@ static int demo_analyse(const char *dir, double rho_i, demo_run *r, sph_error *e
         demo_time *d = &r->times[k];
         d->t = tt[k];
         d->hours = (tt[k] - tt[0]) / 3600.0;
-        double msum = 0, area = 0, vol = 0, csum = 0, xs = 0, ys = 0, zs = 0, us = 0, vs = 0;
+        double msum = 0, area = 0, foot = 0, vol = 0, csum = 0, xs = 0, ys = 0, zs = 0, us = 0, vs = 0;
         for (size_t i = 0; i < p.n; i++) {
             if (!bsearch(&p.id[i], ids, (size_t)r->n_patch, sizeof *ids, demo_cmp_long))
                 continue;
@@ -305,6 +309,7 @@ static int demo_analyse(const char *dir, double rho_i, demo_run *r, sph_error *e
             d->n++;
             msum += m;
             area += m / (rho_i * h);
+            foot += p.conc[i] > 0 ? m / (rho_i * p.conc[i] * h) : 0.0;
             vol += m / rho_i;
             csum += p.conc[i];
             /* centre on the sphere (unit vectors), robust and exact enough */
@@ -317,6 +322,7 @@ static int demo_analyse(const char *dir, double rho_i, demo_run *r, sph_error *e
         }
         if (d->n > 0) {
             d->area_km2 = area / 1e6;
+            d->footprint_km2 = foot / 1e6;
             d->mean_thick = vol / area;
             d->mean_conc = csum / (double)d->n;
             d->lon_c = atan2(ys, xs) * 180 / M_PI;
@@ -333,7 +339,7 @@ static int demo_analyse(const char *dir, double rho_i, demo_run *r, sph_error *e
             }
             d->vel_spread = sqrt(var / msum);
         } else {
-            d->area_km2 = d->mean_thick = d->mean_conc = d->lon_c = d->lat_c = NAN;
+            d->area_km2 = d->footprint_km2 = d->mean_thick = d->mean_conc = d->lon_c = d->lat_c = NAN;
             d->u_c = d->v_c = d->vel_spread = NAN;
         }
         prod_particles_free(&p);

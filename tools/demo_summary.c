@@ -44,20 +44,21 @@ static void print_run(const char *label, const demo_run *r, double wall)
     printf("   wall time %s%.1f s; %ld particles at t0, %ld in the thick patch (h > %.2f m)\n",
            isfinite(wall) ? "" : "unknown ", isfinite(wall) ? wall : 0.0, r->n_particles0, r->n_patch,
            DEMO_PATCH_THICK);
-    printf("   %6s %6s %10s %8s %8s %9s %9s %8s\n", "hour", "n", "area km2", "area/a0", "h_mean",
-           "conc", "|v| sd", "centre");
+    printf("   %6s %6s %10s %8s %10s %8s %9s %9s %8s\n", "hour", "n", "area km2", "area/a0", "footpr km2",
+           "h_mean", "conc", "|v| sd", "centre");
     for (size_t k = 0; k < NREPORT; k++) {
         const demo_time *d = demo_at_hours(r, report_hours[k]);
         if (!d)
             continue;
-        printf("   %6.0f %6ld %10.2f %8.3f %8.3f %9.3f %9.4f %.3fE %.3fN\n", d->hours, d->n, d->area_km2,
-               d->area_km2 / t0->area_km2, d->mean_thick, d->mean_conc, d->vel_spread, d->lon_c, d->lat_c);
+        printf("   %6.0f %6ld %10.2f %8.3f %10.2f %8.3f %9.3f %9.4f %.3fE %.3fN\n", d->hours, d->n, d->area_km2,
+               d->area_km2 / t0->area_km2, d->footprint_km2, d->mean_thick, d->mean_conc, d->vel_spread, d->lon_c, d->lat_c);
     }
     if (!demo_at_hours(r, tl->hours) || tl->hours > report_hours[NREPORT - 1] ||
         fmod(tl->hours, 24.0) > 0.5)
-        printf("   %6.0f %6ld %10.2f %8.3f %8.3f %9.3f %9.4f %.3fE %.3fN\n", tl->hours, tl->n, tl->area_km2,
-               tl->area_km2 / t0->area_km2, tl->mean_thick, tl->mean_conc, tl->vel_spread, tl->lon_c, tl->lat_c);
-    printf("   area at %.0f h / start: %.3f (seed: about 1.5 at 96 h)\n", tl->hours, tl->area_km2 / t0->area_km2);
+        printf("   %6.0f %6ld %10.2f %8.3f %10.2f %8.3f %9.3f %9.4f %.3fE %.3fN\n", tl->hours, tl->n, tl->area_km2,
+               tl->area_km2 / t0->area_km2, tl->footprint_km2, tl->mean_thick, tl->mean_conc, tl->vel_spread, tl->lon_c, tl->lat_c);
+    printf("   ice area at %.0f h / start: %.3f (seed: about 1.5 at 96 h); footprint: %.3f\n", tl->hours,
+           tl->area_km2 / t0->area_km2, tl->footprint_km2 / t0->footprint_km2);
     printf("   net drift of the patch centre: %.1f km towards %.0f deg (%s)\n", r->drift_km,
            r->drift_bearing_deg, compass(r->drift_bearing_deg));
     printf("   velocity spread of the patch particles: mean %.4f m/s over %d output times\n",
@@ -92,6 +93,7 @@ static cJSON *run_json(const char *label, const char *dir, const demo_run *r, do
         cJSON_AddNumberToObject(e, "particles", (double)d->n);
         cJSON_AddItemToObject(e, "area_km2", num_or_null(d->area_km2));
         cJSON_AddItemToObject(e, "area_ratio", num_or_null(d->area_km2 / t0->area_km2));
+        cJSON_AddItemToObject(e, "footprint_km2", num_or_null(d->footprint_km2));
         cJSON_AddItemToObject(e, "mean_thickness_m", num_or_null(d->mean_thick));
         cJSON_AddItemToObject(e, "mean_concentration", num_or_null(d->mean_conc));
         cJSON_AddItemToObject(e, "centre_lon", num_or_null(d->lon_c));
@@ -101,6 +103,7 @@ static cJSON *run_json(const char *label, const char *dir, const demo_run *r, do
     }
     cJSON_AddNumberToObject(o, "hours", tl->hours);
     cJSON_AddItemToObject(o, "area_ratio_end", num_or_null(tl->area_km2 / t0->area_km2));
+    cJSON_AddItemToObject(o, "footprint_ratio_end", num_or_null(tl->footprint_km2 / t0->footprint_km2));
     cJSON_AddItemToObject(o, "mean_thickness_start_m", num_or_null(t0->mean_thick));
     cJSON_AddItemToObject(o, "mean_thickness_end_m", num_or_null(tl->mean_thick));
     cJSON_AddItemToObject(o, "drift_km", num_or_null(r->drift_km));
@@ -178,8 +181,11 @@ int main(int argc, char **argv)
         double gs = s->times[s->ntimes - 1].area_km2 / s->times[0].area_km2;
         double gf = f->times[f->ntimes - 1].area_km2 / f->times[0].area_km2;
         printf("\n== %s vs %s\n", argv[a + 3], argv[a]);
-        printf("   area growth %.3f vs %.3f: %s\n", gf, gs,
+        double fs = s->times[s->ntimes - 1].footprint_km2 / s->times[0].footprint_km2;
+        double ff = f->times[f->ntimes - 1].footprint_km2 / f->times[0].footprint_km2;
+        printf("   ice area growth %.3f vs %.3f: %s\n", gf, gs,
                gf > gs ? "free drift spreads more (seed)" : "free drift does NOT spread more");
+        printf("   footprint growth %.3f vs %.3f\n", ff, fs);
         printf("   velocity spread %.4f vs %.4f m/s: %s\n", f->vel_spread_mean, s->vel_spread_mean,
                f->vel_spread_mean > s->vel_spread_mean ? "free drift less uniform (seed)"
                                                         : "free drift NOT less uniform");
