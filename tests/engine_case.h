@@ -61,6 +61,41 @@ static inline void ec_write_atm(const char *path, double hours)
     tnc_write(path, &g, v, 3, 0, nt, NC_NETCDF4);
 }
 
+#define EC_CURRENT_E 0.1   /* ocean.nc: eastward current, m/s */
+#define EC_OCEAN_LAND 121.7 /* ocean.nc: no water from this longitude east */
+
+static double ec_ocean_fn(int which, double lon, double lat, size_t k)
+{
+    (void)lat; (void)k;
+    if (lon >= EC_OCEAN_LAND - 1e-9)
+        return NAN;
+    return which == 0 ? EC_CURRENT_E : 0.0;
+}
+
+/* An ocean source at 0.05 deg, hourly, eastward current EC_CURRENT_E, its
+ * land (fill) from EC_OCEAN_LAND east: a coast it resolves worse than the
+ * land mask, so particles there have no ocean data within a cell. */
+static inline void ec_write_ocean(const char *path)
+{
+    tgrid g;
+    memset(&g, 0, sizeof g);
+    g.nx = 41;
+    g.ny = 25;
+    g.lon0 = 120.9;
+    g.dlon = 0.05;
+    g.lat0 = 39.9;
+    g.dlat = 0.05;
+    g.time_units = "hours since 1999-02-08 00:00:00";
+    g.calendar = "standard";
+    g.tv0 = 3.0;
+    g.dtv = 1.0;
+    tvar v[2];
+    memset(v, 0, sizeof v);
+    v[0] = (tvar){"uo", "eastward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ec_ocean_fn, 0};
+    v[1] = (tvar){"vo", "northward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ec_ocean_fn, 1};
+    tnc_write(path, &g, v, 2, 0, 13, NC_NETCDF4);
+}
+
 /* Ice raster; nan_cell >= 0 puts an undeclared NaN there. */
 static inline void ec_write_ice(const char *path, int nan_cell)
 {
@@ -168,6 +203,8 @@ static inline void ec_write_inputs(const char *dir)
     ec_write_ice(p, 200);
     snprintf(p, sizeof p, "%s/mask.nc", dir);
     ec_write_mask(p);
+    snprintf(p, sizeof p, "%s/ocean.nc", dir);
+    ec_write_ocean(p);
 }
 
 /* libgomp's default busy-wait at every barrier turns into seconds per

@@ -42,6 +42,7 @@ typedef struct run_out {
 } run_out;
 
 static const char *atm_files[2];
+static const char *observation; /* observed concentration raster for the next run, or NULL */
 
 static void run_at(const struct sph_config *cfg, const char *stage_name, double cycle, double hours,
                    const char *warm, const volatile sig_atomic_t *cancel, run_out *o)
@@ -53,6 +54,7 @@ static void run_at(const struct sph_config *cfg, const char *stage_name, double 
     req.hours = hours;
     req.stage_dir = o->stage;
     req.warm_start = warm;
+    req.observation = observation;
     req.forcing_files[0] = atm_files;
     static const char *sums[] = {"atm.nc 0000", NULL};
     for (int i = 0; sums[i]; i++)
@@ -133,7 +135,11 @@ int main(int argc, char **argv)
     if (!cfg)
         return check_summary("test_engine");
     run_out a;
+    char obs[1024];
+    snprintf(obs, sizeof obs, "%s/ice.nc", dir);
+    observation = obs; /* verified against the initial field (valid at the end: it has no time) */
     run(cfg, "stage-a", 6, NULL, NULL, &a);
+    observation = NULL;
     CHECK(a.rc == SPH_OK, "forecast: %s", a.err.msg);
     printf("  6 h run: %.2f s wall, %ld -> %ld particles, residual %.3g, area %.1f km2, volume %.6f km3, "
            "free drift %.3f, rheology %.3f, zero-layer %.3f, multi-layer %.3f\n",
@@ -150,6 +156,10 @@ int main(int argc, char **argv)
     CHECK(exists(a.stage, rname), "restart file %s", rname);
     CHECK(strcmp(a.res.start_mode, "cold") == 0, "start mode %s", a.res.start_mode);
     CHECK(a.res.budget_residual < 1e-10, "budget residual %g", a.res.budget_residual);
+    CHECK(a.res.has_scores && isfinite(a.res.iiee_km2) && a.res.iiee_km2 > 0 && exists(a.stage, "sphice_scores.json"),
+          "scores against the observation: IIEE %g km2", a.res.iiee_km2);
+    printf("  verification against the initial field at +6 h: IIEE %.1f km2, bias %.3f\n", a.res.iiee_km2,
+           a.res.conc_bias);
     CHECK(a.res.particles_start > 400 && a.res.particles_end == a.res.particles_start,
           "particles %ld -> %ld", a.res.particles_start, a.res.particles_end);
     int listed = 0;
@@ -242,6 +252,75 @@ int main(int argc, char **argv)
             run_at(c2, "stage-proj", EC_CYCLE + 6 * 3600.0, 1, restart, NULL, &o);
             expect_failure(&o, SPH_ERR_CONFIG, "plane", "restart on another projection");
             sph_config_free(c2);
+        }
+    }
+
+    /* ---- an ocean source that does not resolve the coast: particles with
+     * no ocean data near them drift without current, the others with it */
+    {
+        char text[8192];
+        ec_config(text, sizeof text, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "");
+        char *fo = strstr(text, "}],\n  \"initial\"");
+        char ocean_src[512];
+        snprintf(ocean_src, sizeof ocean_src,
+                 "}, {\"name\": \"ocean\", \"kind\": \"ocean\", \"urls\": \"%s/ocean.nc\","
+                 " \"required\": [\"current\"]}],\n  \"initial\"", dir);
+        char buf[9000];
+        CHECK(fo != NULL, "config text");
+        if (fo) {
+            snprintf(buf, sizeof buf, "%.*s%s%s", (int)(fo - text), text, ocean_src,
+                     fo + strlen("}],\n  \"initial\""));
+            struct sph_config *c = NULL;
+            sph_error_clear(&err);
+            CHECK(sph_config_parse(buf, "test", &c, &err) == SPH_OK, "config: %s", err.msg);
+            static char ocean[1024];
+            snprintf(ocean, sizeof ocean, "%s/ocean.nc", dir);
+            static const char *ocean_files[2];
+            ocean_files[0] = ocean;
+            run_out o;
+            snprintf(o.stage, sizeof o.stage, "%s/stage-ocean", dir);
+            forecast_request req;
+            memset(&req, 0, sizeof req);
+            req.cycle_time = EC_CYCLE;
+            req.hours = 6;
+            req.stage_dir = o.stage;
+            req.forcing_files[0] = atm_files;
+            req.forcing_files[1] = ocean_files;
+            forecast_progress prog;
+            sph_error_clear(&o.err);
+            o.rc = c ? forecast_run(c, &req, &prog, NULL, &o.res, &o.err) : -1;
+            CHECK(o.rc == SPH_OK, "forecast with a coarse ocean: %s", o.err.msg);
+            prod_particles q;
+            snprintf(path, sizeof path, "%s/sphice_particles.nc", o.stage);
+            if (o.rc == SPH_OK && products_read_particles(path, EC_CYCLE + 6 * 3600.0, &q, &err) == SPH_OK) {
+                double uw = 0, ue = 0;
+                int nw = 0, ne = 0;
+                for (size_t k = 0; k < q.n; k++) {
+                    if (q.lon[k] < EC_OCEAN_LAND - 0.15) {
+                        uw += q.u_east[k];
+                        nw++;
+                    } else if (q.lon[k] > EC_OCEAN_LAND + 0.06) {
+                        ue += q.u_east[k];
+                        ne++;
+                    }
+                }
+                CHECK(nw > 50 && ne > 10, "particles west %d, east %d", nw, ne);
+                if (nw && ne) {
+                    /* free drift relative to the water (closed form, wind
+                     * towards the north: east component speed sin(turn)) plus
+                     * the current; the particles without ocean data lag (the
+                     * pack's stress couples them to the others) */
+                    double want, turn;
+                    free_drift(&c->model, EC_THICK, 40.3, hypot(EC_WIND_U, EC_WIND_V), &want, &turn);
+                    double drift_e = want * sin(turn * M_PI / 180);
+                    printf("  coarse ocean: east velocity %.4f m/s with the current (free drift + current "
+                           "%.4f), %.4f without\n", uw / nw, EC_CURRENT_E + drift_e, ue / ne);
+                    CHECK_CLOSE(uw / nw, EC_CURRENT_E + drift_e, 0.1, 0, "current carried into the drift");
+                    CHECK(ue / ne < uw / nw - 0.03, "no current where the ocean has no water");
+                }
+                prod_particles_free(&q);
+            }
+            sph_config_free(c);
         }
     }
 

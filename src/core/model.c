@@ -283,7 +283,8 @@ static int mask_cell(const sph_model *m, double x, double y, int *ci, int *cj)
 {
     const sph_landmask *k = &m->mask;
     double fi = floor((x - k->x0) / k->dx), fj = floor((y - k->y0) / k->dy);
-    if (fi < 0 || fj < 0 || fi >= k->nx || fj >= k->ny)
+    /* written so that a NaN position is outside (no out-of-range index) */
+    if (!(fi >= 0 && fj >= 0 && fi < k->nx && fj < k->ny))
         return 0;
     *ci = (int)fi;
     *cj = (int)fj;
@@ -303,7 +304,8 @@ static int is_land(const sph_model *m, double x, double y)
 
 static int outside_open(const sph_model *m, double x, double y)
 {
-    if (!m->has_mask || m->mask.closed_outside)
+    /* a non-finite position is a blow-up for check_health to report, not outflow */
+    if (!m->has_mask || m->mask.closed_outside || !isfinite(x) || !isfinite(y))
         return 0;
     int i, j;
     return !mask_cell(m, x, y, &i, &j);

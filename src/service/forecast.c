@@ -57,7 +57,11 @@ typedef struct engine {
     landmask *lm;            /* lon/lat land mask, NULL: none */
     sph_landmask plane;      /* the model's land mask on the plane */
     unsigned char *plane_land;
-    forcing *forc;
+    forcing *forc[8];        /* one per source: a source that cannot serve a point is known */
+    int forc_kind[8];
+    const char *forc_name[8];
+    size_t nforc;
+    long coast_fallbacks;    /* particle-steps with no ocean/tide data (unresolved coast) */
     ice_raster *raster;      /* cold start raster (or the raster grid) */
     char raster_path[4096];
     sph_model *m;
@@ -67,6 +71,8 @@ typedef struct engine {
     /* per-particle work arrays [cap] */
     double *lon, *lat, *angle, *ue, *vn, *uwe, *vwn, *gxe, *gyn, *ssh;
     double *tair, *qair, *swdn, *lwdn, *sst, *fw;
+    double *q[13];                    /* one source's sample, see sample_source */
+    unsigned char *bad;               /* the source could not serve this particle */
     double *pue, *pvn, *div, *shear;  /* output: east/north velocity, strain invariants */
     long *ids_before;                 /* ids at the last forcing fill (error messages) */
     double *lon_before, *lat_before;
@@ -133,7 +139,11 @@ static void engine_free(engine *e)
     geo_proj_free(e->proj);
     landmask_free(e->lm);
     free(e->plane_land);
-    forcing_close(e->forc);
+    for (size_t k = 0; k < e->nforc; k++)
+        forcing_close(e->forc[k]);
+    for (int k = 0; k < 13; k++)
+        free(e->q[k]);
+    free(e->bad);
     ice_raster_free(e->raster);
     sph_model_free(e->m);
     double *arrays[] = {e->lon, e->lat, e->angle, e->ue, e->vn, e->uwe, e->vwn, e->gxe, e->gyn,
@@ -369,12 +379,120 @@ static int open_forcing(engine *e, sph_error *err)
         for (size_t k = 0; k < src->optional_q.n; k++)
             sp->optional |= (unsigned)config_quantity_flag(src->optional_q.v[k]);
     }
-    if (rc == SPH_OK)
-        rc = forcing_open(&e->forc, specs, nspecs, e->t0, e->t_end, cfg->domain.lon_min,
+    /* one forcing object per source (same checks and messages as opening
+     * them together); currents and SSH are summed over sources here */
+    for (size_t k = 0; k < nspecs && rc == SPH_OK; k++) {
+        rc = forcing_open(&e->forc[k], &specs[k], 1, e->t0, e->t_end, cfg->domain.lon_min,
                           cfg->domain.lon_max, cfg->domain.lat_min, cfg->domain.lat_max, err);
+        if (rc == SPH_OK) {
+            e->forc_kind[k] = specs[k].kind;
+            e->forc_name[k] = specs[k].name;
+            e->nforc = k + 1;
+        }
+    }
+    if (rc == SPH_OK && nspecs == 0)
+        rc = sph_err_set(err, SPH_ERR_CONFIG, "forcing: no source has files for cycle %s", e->cname);
     for (size_t s = 0; s < 8; s++)
         free(maps[s]);
     return rc;
+}
+
+enum { Q_UE, Q_VN, Q_TAIR, Q_QAIR, Q_SWDN, Q_LWDN, Q_UWE, Q_VWN, Q_SSH, Q_GXE, Q_GYN, Q_SST, Q_FW };
+
+static void sample_view(engine *e, size_t k, forcing_sample *s)
+{
+    memset(s, 0, sizeof *s);
+    s->u_east = e->q[Q_UE] + k;
+    s->v_north = e->q[Q_VN] + k;
+    s->tair = e->q[Q_TAIR] + k;
+    s->qair = e->q[Q_QAIR] + k;
+    s->swdn = e->q[Q_SWDN] + k;
+    s->lwdn = e->q[Q_LWDN] + k;
+    s->uw_east = e->q[Q_UWE] + k;
+    s->vw_north = e->q[Q_VWN] + k;
+    s->ssh = e->q[Q_SSH] + k;
+    s->ssh_dx_east = e->q[Q_GXE] + k;
+    s->ssh_dy_north = e->q[Q_GYN] + k;
+    s->sst = e->q[Q_SST] + k;
+    s->fw = e->q[Q_FW] + k;
+}
+
+/* Samples source src at the n particles into e->q. An ocean or tide
+ * source whose grid has no water near some particles (a coast the ocean
+ * model does not resolve) serves the others; those get no current, no
+ * sea-surface slope and the other defaults (e->bad). Any other failure,
+ * or a source that can serve no particle at all, is an error. */
+static int sample_source(engine *e, size_t src, double t, size_t n, unsigned *got, sph_error *err)
+{
+    forcing_sample s;
+    sample_view(e, 0, &s);
+    memset(e->bad, 0, n);
+    sph_error local;
+    sph_error_clear(&local);
+    char when[32];
+    iso(t, when, sizeof when);
+    int rc = forcing_sample_at(e->forc[src], t, n, e->lon, e->lat, &s, &local);
+    if (rc == SPH_OK) {
+        *got = s.provided;
+        return SPH_OK;
+    }
+    if (rc != SPH_ERR_COVERAGE || e->forc_kind[src] == FORCING_ATMOSPHERE || n < 2)
+        return sph_err_set(err, rc, "forcing at %s: %s", when, local.msg);
+    size_t nbad = 0, first_bad = 0;
+    unsigned flags = 0;
+    for (size_t k = 0; k < n; k++) {
+        forcing_sample one;
+        sample_view(e, k, &one);
+        sph_error e1;
+        sph_error_clear(&e1);
+        int r1 = forcing_sample_at(e->forc[src], t, 1, e->lon + k, e->lat + k, &one, &e1);
+        if (r1 == SPH_OK) {
+            flags |= one.provided;
+        } else if (r1 == SPH_ERR_COVERAGE) {
+            if (!nbad++)
+                first_bad = k;
+            e->bad[k] = 1;
+        } else {
+            return sph_err_set(err, r1, "forcing at %s: %s", when, e1.msg);
+        }
+    }
+    if (nbad == n)
+        return sph_err_set(err, rc, "forcing at %s: %s", when, local.msg);
+    if (!e->coast_fallbacks) {
+        char ll[64];
+        fmt_lonlat(e->lon[first_bad], e->lat[first_bad], ll, sizeof ll);
+        log_warn("forecast %s: forcing %s has no water near %zu particle(s) (first at %s, %s): "
+                 "no current or sea-surface slope there (reported once)", e->cname, e->forc_name[src],
+                 nbad, ll, when);
+    }
+    e->coast_fallbacks += (long)nbad;
+    *got = flags;
+    return SPH_OK;
+}
+
+/* Adds one source's sample to the particle forcing: currents and SSH sum
+ * over sources (ocean + tide, as the forcing reader does), other
+ * quantities come from the first source that provides them. */
+static void merge_source(engine *e, size_t n, unsigned got, unsigned before)
+{
+    static const struct { int q; unsigned flag; int sum; } map[] = {
+        {Q_UE, FQ_WIND, 0}, {Q_VN, FQ_WIND, 0}, {Q_TAIR, FQ_TAIR, 0}, {Q_QAIR, FQ_HUMIDITY, 0},
+        {Q_SWDN, FQ_SWDN, 0}, {Q_LWDN, FQ_LWDN, 0}, {Q_UWE, FQ_CURRENT, 1}, {Q_VWN, FQ_CURRENT, 1},
+        {Q_SSH, FQ_SSH, 1}, {Q_GXE, FQ_SSH, 1}, {Q_GYN, FQ_SSH, 1}, {Q_SST, FQ_SST, 0},
+        {Q_FW, FQ_OCEAN_FLUX, 0}};
+    double *dst[13] = {e->ue, e->vn, e->tair, e->qair, e->swdn, e->lwdn, e->uwe, e->vwn, e->ssh, e->gxe,
+                       e->gyn, e->sst, e->fw};
+    for (size_t m = 0; m < sizeof map / sizeof map[0]; m++) {
+        if (!(got & map[m].flag) || (!map[m].sum && (before & map[m].flag)))
+            continue;
+        const double *q = e->q[map[m].q];
+        double *d = dst[map[m].q];
+        for (size_t k = 0; k < n; k++) {
+            if (e->bad[k])
+                continue; /* keeps the default (or the other sources' sum) */
+            d[k] = map[m].sum ? d[k] + q[k] : q[k];
+        }
+    }
 }
 
 /* Fills every live particle's forcing at time t (see docs/engine.md for
@@ -401,30 +519,17 @@ static int fill_forcing(engine *e, double t, sph_error *err)
         e->sst[k] = NAN; /* the thermodynamics takes the freezing point */
         e->fw[k] = NAN;  /* the thermodynamics takes fw_default */
     }
-    forcing_sample s;
-    memset(&s, 0, sizeof s);
-    s.u_east = e->ue;
-    s.v_north = e->vn;
-    s.tair = e->tair;
-    s.qair = e->qair;
-    s.swdn = e->swdn;
-    s.lwdn = e->lwdn;
-    s.uw_east = e->uwe;
-    s.vw_north = e->vwn;
-    s.ssh = e->ssh;
-    s.ssh_dx_east = e->gxe;
-    s.ssh_dy_north = e->gyn;
-    s.sst = e->sst;
-    s.fw = e->fw;
-    char when[32];
-    iso(t, when, sizeof when);
-    sph_error local;
-    sph_error_clear(&local);
-    if (forcing_sample_at(e->forc, t, n, e->lon, e->lat, &s, &local) != SPH_OK)
-        return sph_err_set(err, local.code ? local.code : SPH_ERR_COVERAGE, "forcing at %s: %s", when,
-                           local.msg);
-    e->provided = s.provided;
-    if (e->thermo_on && !(s.provided & FQ_TAIR))
+    unsigned provided = 0;
+    for (size_t src = 0; src < e->nforc; src++) {
+        unsigned got = 0;
+        int rc2 = sample_source(e, src, t, n, &got, err);
+        if (rc2)
+            return rc2;
+        merge_source(e, n, got, provided);
+        provided |= got;
+    }
+    e->provided = provided;
+    if (e->thermo_on && !(provided & FQ_TAIR))
         return sph_err_set(err, SPH_ERR_MISSING_VAR,
                            "forcing: no source provides air_temperature, which the thermodynamics "
                            "needs (add it, or set model.thermo.dt 0)");
@@ -445,14 +550,14 @@ static int fill_forcing(engine *e, double t, sph_error *err)
         P->lat[k] = e->lat[k];
         double T = e->tair[k];
         P->tair[k] = T;
-        if (!(s.provided & FQ_HUMIDITY)) {
+        if (!(provided & FQ_HUMIDITY)) {
             /* DEFAULT_RH over water, the saturation formula of the thermo check */
             double es = DEFAULT_RH * 611.2 * exp(17.62 * T / (243.12 + T));
             e->qair[k] = 0.622 * es / (pa - 0.378 * es);
         }
         P->qair[k] = e->qair[k];
         P->swdn[k] = e->swdn[k];
-        if (!(s.provided & FQ_LWDN)) {
+        if (!(provided & FQ_LWDN)) {
             /* Koenig-Langlo & Augstein (1994): eps = 0.765 + 0.22 N^3 */
             double eps = 0.765 + 0.22 * DEFAULT_CLOUD * DEFAULT_CLOUD * DEFAULT_CLOUD;
             double tk = T + 273.15;
@@ -539,6 +644,9 @@ static int alloc_work(engine *e, sph_error *err)
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         *arrays[k] = xcalloc(c, sizeof(double), &ok);
     e->ids_before = xcalloc(c, sizeof(long), &ok);
+    for (int k = 0; k < 13; k++)
+        e->q[k] = xcalloc(c, sizeof(double), &ok);
+    e->bad = xcalloc(c, 1, &ok);
     return ok ? SPH_OK : sph_err_set(err, SPH_ERR_NOMEM, "forecast: out of memory (%zu particles)", c);
 }
 
