@@ -436,18 +436,24 @@ static void build_ghosts(sph_model *m)
     }
 }
 
+/* A coast pushes but never pulls: ice moving towards it (u.n < 0) sees
+ * the mirrored normal velocity (convergence against the wall); ice moving
+ * away sees its own, so leaving a coast opens water behind it instead of
+ * stretching the parcel (no spurious divergence). Tangentially: free slip
+ * keeps the component, no slip reverses it. */
 static inline void reflect_vec(double nx, double ny, int no_slip, double *u, double *v)
 {
     if (nx == 0.0 && ny == 0.0)
         return;
+    double un = *u * nx + *v * ny;
+    double ut_x = *u - un * nx, ut_y = *v - un * ny;
+    double gn = un < 0.0 ? -un : un;
     if (no_slip) {
-        *u = -*u;
-        *v = -*v;
-    } else {
-        double un = *u * nx + *v * ny;
-        *u -= 2.0 * un * nx;
-        *v -= 2.0 * un * ny;
+        ut_x = -ut_x;
+        ut_y = -ut_y;
     }
+    *u = ut_x + gn * nx;
+    *v = ut_y + gn * ny;
 }
 
 static void ghost_velocity(sph_model *m, double *u, double *v)
