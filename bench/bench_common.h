@@ -17,6 +17,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -93,13 +94,18 @@ static inline void bench_row_print(const bench_row *r)
 
 /* Runs fn(arg, row) in a forked child, which times it, prints the row and
  * exits; the parent waits. A child that dies prints nothing, so the parent
- * writes a row with status "crashed". Returns the child's exit status. */
+ * writes a row with status "crashed". The row comes back in *out if not
+ * NULL (shared memory). Returns 0, or -1 when the child died. */
 typedef void (*bench_fn)(const void *arg, bench_row *row);
 
-static inline int bench_run_forked(const char *problem, bench_fn fn, const void *arg,
-                                   const char *method, const char *config)
+static inline int bench_run_forked_row(const char *problem, bench_fn fn, const void *arg,
+                                       const char *method, const char *config, bench_row *out)
 {
     fflush(stdout);
+    bench_row *shared = mmap(NULL, sizeof(bench_row), PROT_READ | PROT_WRITE,
+                             MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+    if (shared == MAP_FAILED)
+        shared = NULL;
     pid_t pid = fork();
     if (pid == 0) {
         bench_row r;
@@ -114,6 +120,8 @@ static inline int bench_run_forked(const char *problem, bench_fn fn, const void 
         }
         r.rss_mb = bench_peak_rss_mb();
         bench_row_print(&r);
+        if (shared)
+            *shared = r; /* err_name points at string literals: same in both */
         _exit(0);
     }
     int ws = 0;
@@ -124,9 +132,23 @@ static inline int bench_run_forked(const char *problem, bench_fn fn, const void 
         snprintf(r.config, sizeof r.config, "%s", config);
         snprintf(r.status, sizeof r.status, "crashed");
         bench_row_print(&r);
+        if (out)
+            *out = r;
+        if (shared)
+            munmap(shared, sizeof(bench_row));
         return -1;
     }
+    if (out && shared)
+        *out = *shared;
+    if (shared)
+        munmap(shared, sizeof(bench_row));
     return 0;
+}
+
+static inline int bench_run_forked(const char *problem, bench_fn fn, const void *arg,
+                                   const char *method, const char *config)
+{
+    return bench_run_forked_row(problem, fn, arg, method, config, NULL);
 }
 
 #endif
