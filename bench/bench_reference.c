@@ -163,8 +163,10 @@ static void run_coast(const void *arg, bench_row *r)
     if (done < 0) {
         snprintf(r->status, sizeof r->status, "%s:%s", st.code < 0 ? "fatal" : "recoverable",
                  st.quantity);
-        r->err[1] = sph_model_explicit_dt_limit(cc.model);
-        r->err_name[1] = "explicit_dt_limit_s";
+        if (st.code > 0 && strstr(st.what, "explicit")) {
+            r->err[1] = st.limit;
+            r->err_name[1] = "explicit_dt_limit_s";
+        }
         coast_free(&cc);
         return;
     }
