@@ -82,7 +82,7 @@ static inline double coast_conc_from_ratio(double C, double r)
 {
     /* solve A exp(-C (1 - A)) = r for A in (0, 1] (monotone), bisection */
     double lo = 0, hi = 1;
-    for (int i = 0; i < 100; i++) {
+    for (int i = 0; i < 60; i++) {
         double a = 0.5 * (lo + hi);
         if (a * exp(-C * (1 - a)) > r)
             hi = a;
@@ -128,10 +128,10 @@ static inline void coast_solve(coast_analytic *a, const sph_params *p, double ta
     }
     a->Lr = 0;
     double lo = 0, hi = 10 * L0;
-    for (int it = 0; it < 200; it++) {
+    for (int it = 0; it < 60; it++) {
         a->L = 0.5 * (lo + hi);
         double vol = 0;
-        int n = 4000;
+        int n = 2000;
         for (int i = 0; i < n; i++)
             vol += coast_hbar(a, (i + 0.5) * a->L / n) * a->L / n;
         if (vol > V)
@@ -157,3 +157,37 @@ static inline long coast_run(coast_case *c, long max_steps, double ke_tol, sph_s
 }
 
 #endif
+
+/* Places the channel's particles in the analytic steady state: uniform
+ * spacing dx, each particle carrying the analytic mean thickness at its
+ * position (A < 1 at h_i = h0 where the ice has spread, A = 1 and
+ * h_i = hbar where it has ridged), at rest, with the analytic stress in its
+ * EVP memory: isotropic -P/2 without replacement pressure, sigma_yy =
+ * -tau (L - y) with it. Replaces coast_setup's uniform pack. */
+static inline int coast_setup_steady(coast_case *c, const sph_params *prm, double dx, int ncross,
+                                     const coast_analytic *a, double wind)
+{
+    if (coast_setup(c, prm, dx, ncross, a->L, a->h0, wind))
+        return -1;
+    sph_particles *P = sph_model_particles(c->model);
+    for (size_t k = 0; k < P->n; k++) {
+        double y = P->y[k];
+        double hb = coast_hbar(a, y);
+        double A = 1.0, hi = hb;
+        if (!a->replacement && hb < a->h0) {
+            A = hb / a->h0;
+            hi = a->h0;
+        }
+        P->conc[k] = A;
+        P->thick[k] = hi;
+        P->mass[k] = prm->rho_i * hb * dx * dx;
+        if (a->replacement) {
+            P->s22[k] = -a->tau * (a->L - y);
+            P->s11[k] = 0.0;
+        } else {
+            double Pint = prm->P0 * hb * exp(-prm->C * (1.0 - A));
+            P->s11[k] = P->s22[k] = -0.5 * Pint;
+        }
+    }
+    return 0;
+}

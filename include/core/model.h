@@ -3,9 +3,10 @@
  * allocation inside a step: all workspace is allocated by sph_model_create.
  *
  * Momentum (PHYSICS.md eq. 2, per unit area):
- *   M dV/dt = -M f k x V + A (tau_a + tau_w) - M g grad(xi) + div(hbar sigma)
- * Drag is scaled by concentration A (as CICE) so that with M = rho_i A h_i
- * the free drift of loose ice depends on the ice's own thickness h_i.
+ *   M dV/dt = -M f k x V + tau_a + tau_w - M g grad(xi) + div(hbar sigma)
+ * with M = rho_i A h_i the mass per unit area (Hibler 1979; CICE would
+ * scale the drag by A, which changes only the Coriolis/inertia balance of
+ * loose ice).
  */
 #ifndef SPHICE_CORE_MODEL_H
 #define SPHICE_CORE_MODEL_H
@@ -120,12 +121,32 @@ void sph_model_free(sph_model *m);
 sph_particles *sph_model_particles(sph_model *m);
 const sph_params *sph_model_params(const sph_model *m);
 size_t sph_model_capacity(const sph_model *m); /* live particles it can hold */
+/* Mirror ghosts of the last step, stored after the live particles. */
+size_t sph_model_ghosts(const sph_model *m);
 /* Changes reloadable parameters (same capacity and layers). */
 int sph_model_set_params(sph_model *m, const sph_params *p);
 
 /* After particles were placed (positions, mass, thick, conc, sml):
  * computes densities, diagnoses concentration, records the initial mass. */
 int sph_model_init(sph_model *m, sph_status *st);
+
+/* The model's own state outside the particle arrays, for restart files:
+ * with it and every particle array a run continues bit for bit. */
+typedef struct sph_model_clock {
+    double time;         /* seconds since init */
+    long steps;          /* dynamic steps since init */
+    double thermo_accum; /* s of dynamics since the last thermodynamic step */
+    double dens_scale;   /* kernel lattice calibration (summation density; else 1) */
+    sph_budget budget;
+} sph_model_clock;
+void sph_model_get_clock(const sph_model *m, sph_model_clock *c);
+
+/* Instead of sph_model_init, for particles restored with their full state
+ * (dens, dens0, sml0, stress, enthalpy ...) in the order they were saved:
+ * validates them, builds the coast tables and sets the clock. Nothing is
+ * re-diagnosed or reordered, so the next step is the step the saved run
+ * would have taken. */
+int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st);
 
 /* One dynamic step of length params.dt (forcing arrays must be filled),
  * plus thermodynamics when its own step falls due. */

@@ -23,6 +23,8 @@
 #include "core/rheology.h"
 
 #define OMEGA_EARTH 7.292e-5
+/* Bound of lambda_max h^2 / nu of the SPH viscous operator (measured). */
+#define SPH_VISCOUS_EIG 1.25
 #define DEG2RAD (M_PI / 180.0)
 
 struct sph_model {
@@ -76,7 +78,7 @@ void sph_params_default(sph_params *p)
     p->implicit_max_picard = 30;
     p->implicit_tol = 1e-6;
     p->max_substeps = 20000;
-    p->explicit_safety = 0.25;
+    p->explicit_safety = 1.0;
     p->max_neighbours = 96;
     p->physics = SPH_PHYSICS_AUTO;
     p->rheology = SPH_RHEOLOGY_VP;
@@ -261,6 +263,7 @@ double sph_model_time(const sph_model *m) { return m->time; }
 long sph_model_steps(const sph_model *m) { return m->steps; }
 const sph_step_stats *sph_model_stats(const sph_model *m) { return &m->stats; }
 size_t sph_model_capacity(const sph_model *m) { return m->cap; }
+size_t sph_model_ghosts(const sph_model *m) { return m->ng; }
 
 int sph_model_set_params(sph_model *m, const sph_params *p)
 {
@@ -283,7 +286,8 @@ static int mask_cell(const sph_model *m, double x, double y, int *ci, int *cj)
 {
     const sph_landmask *k = &m->mask;
     double fi = floor((x - k->x0) / k->dx), fj = floor((y - k->y0) / k->dy);
-    if (fi < 0 || fj < 0 || fi >= k->nx || fj >= k->ny)
+    /* written so that a NaN position is outside (no out-of-range index) */
+    if (!(fi >= 0 && fj >= 0 && fi < k->nx && fj < k->ny))
         return 0;
     *ci = (int)fi;
     *cj = (int)fj;
@@ -303,7 +307,8 @@ static int is_land(const sph_model *m, double x, double y)
 
 static int outside_open(const sph_model *m, double x, double y)
 {
-    if (!m->has_mask || m->mask.closed_outside)
+    /* a non-finite position is a blow-up for check_health to report, not outflow */
+    if (!m->has_mask || m->mask.closed_outside || !isfinite(x) || !isfinite(y))
         return 0;
     int i, j;
     return !mask_cell(m, x, y, &i, &j);
@@ -336,8 +341,10 @@ static void mark_near_land(sph_model *m, double radius)
 
 /* Nearest land cell (as a rectangle) within radius: distance and the unit
  * normal pointing from the coast into the sea. Returns 0 if none. */
+/* With (exnx, exny) non-zero, only land in front of the first wall's
+ * tangent line through (exx, exy) counts: a second, different wall. */
 static int nearest_coast(const sph_model *m, double x, double y, double radius, double *dist,
-                         double *nx, double *ny, double exnx, double exny)
+                         double *nx, double *ny, double exx, double exy, double exnx, double exny)
 {
     const sph_landmask *k = &m->mask;
     int ci, cj;
@@ -355,8 +362,10 @@ static int nearest_coast(const sph_model *m, double x, double y, double radius, 
             double xl = k->x0 + i * k->dx, yl = k->y0 + j * k->dy;
             double px = fmin(fmax(x, xl), xl + k->dx), py = fmin(fmax(y, yl), yl + k->dy);
             double d = hypot(x - px, y - py);
-            /* a second wall must not face the same way as the first (exn) */
-            if (d > 0.0 && ((x - px) * exnx + (y - py) * exny) / d > 0.5)
+            /* a second wall: its nearest point lies in front of the first
+             * wall (not another point of the same coast) */
+            if ((exnx != 0.0 || exny != 0.0) &&
+                (px - exx) * exnx + (py - exy) * exny <= 1e-6 * k->dx)
                 continue;
             if (d < best && d > 0.0) {
                 best = d;
@@ -411,12 +420,13 @@ static void build_ghosts(sph_model *m)
         double d1, n1x, n1y, d2, n2x, n2y;
         double x = P->x[k], y = P->y[k];
         P->regime[k] &= (unsigned char)~SPH_REGIME_NEAR_COAST;
-        if (!nearest_coast(m, x, y, radius, &d1, &n1x, &n1y, 0.0, 0.0))
+        if (!nearest_coast(m, x, y, radius, &d1, &n1x, &n1y, 0.0, 0.0, 0.0, 0.0))
             continue;
         P->regime[k] |= SPH_REGIME_NEAR_COAST;
         double g1x = x - 2.0 * d1 * n1x, g1y = y - 2.0 * d1 * n1y;
         add_ghost(m, k, g1x, g1y, n1x, n1y, 0.0, 0.0);
-        if (nearest_coast(m, x, y, radius, &d2, &n2x, &n2y, n1x, n1y)) {
+        if (nearest_coast(m, x, y, radius, &d2, &n2x, &n2y, x - d1 * n1x, y - d1 * n1y, n1x,
+                          n1y)) {
             add_ghost(m, k, x - 2.0 * d2 * n2x, y - 2.0 * d2 * n2y, n2x, n2y, 0.0, 0.0);
             /* a corner (walls at an angle) also needs the doubly mirrored ghost;
              * facing walls (a channel) do not */
@@ -663,7 +673,7 @@ static void divergence_pass(sph_model *m, const int *list, size_t count)
  * trapezoidal Coriolis, solved as a 2x2 system:
  *   (1+beta) u' = beta u_p + u_n + dt [a_int + tau_a/(rho h) - g grad xi
  *                 + c R_w (U_w - u') - f k x (u' + u_n)/2]
- * c = rho_w C_w |U_w - u_p| / (rho_i h_i). beta = 0 is a plain implicit
+ * c = rho_w C_w |U_w - u_p| / M. beta = 0 is a plain implicit
  * step; beta > 0 is the mEVP pseudo-time iteration (Kimmritz et al. 2015),
  * whose fixed point is the same time-discrete equation. */
 static inline void momentum(const sph_model *m, size_t k, double beta, double up, double vp,
@@ -671,7 +681,9 @@ static inline void momentum(const sph_model *m, size_t k, double beta, double up
 {
     const sph_particles *P = m->P;
     const sph_params *p = &m->prm;
-    double rho_h = p->rho_i * P->thick[k];
+    /* mass per unit area M = rho_i A h_i: PHYSICS.md eq. 2 applies the
+     * full drag to M (Hibler 1979), so loose ice responds faster */
+    double rho_h = P->dens[k];
     double ua = P->ua[k], va = P->va[k];
     double sa = hypot(ua, va);
     double ta = p->turn_air * DEG2RAD, tw = p->turn_water * DEG2RAD;
@@ -715,7 +727,10 @@ static void free_drift_pass(sph_model *m)
     }
 }
 
-/* Upper bound of the explicit viscous step: dt < safety M h^2 / (zeta_max (1 + e^-2)). */
+/* Explicit viscous step limit. Forward Euler on the viscous operator is
+ * stable for dt < 2 / lambda_max = 2 h^2 / (SPH_VISCOUS_EIG nu), nu =
+ * zeta_max (1 + e^-2) / M; the limit used is safety * h^2 / nu (default
+ * safety 1, inside the bound 1.6). */
 static double explicit_limit(const sph_model *m)
 {
     const sph_particles *P = m->P;
@@ -798,9 +813,13 @@ static int solve_mevp(sph_model *m, sph_status *st)
             m->zeta[k] = z;
             double alpha = p->evp_alpha;
             if (p->evp_adaptive) {
-                /* aEVP (Kimmritz, Losch & Danilov 2016): alpha = beta = sqrt(gamma)
-                 * with gamma the local stiffness of the viscous operator. */
-                double gam = 8.0 * z * (1.0 + 1.0 / (p->ecc * p->ecc)) * dt /
+                /* aEVP (Kimmritz, Losch & Danilov 2016): alpha = beta = 2 sqrt(gamma),
+                 * gamma = dt lambda_max of the SPH viscous operator. Power
+                 * iteration on lattices gives lambda_max h^2 / nu = 0.68-0.74
+                 * (Gaussian, h = dx) and 1.15-1.23 (Wendland C2, cubic spline,
+                 * h = 1.3 dx), nu = zeta (1 + e^-2) / M; SPH_VISCOUS_EIG = 1.25
+                 * bounds them all (docs/dynamics.md). */
+                double gam = SPH_VISCOUS_EIG * z * (1.0 + 1.0 / (p->ecc * p->ecc)) * dt /
                              (P->dens[k] * P->sml[k] * P->sml[k]);
                 alpha = fmax(2.0 * sqrt(gam), 10.0);
             }
@@ -995,6 +1014,57 @@ int sph_model_init(sph_model *m, sph_status *st)
     m->time = 0.0;
     m->thermo_accum = 0.0;
     m->steps = 0;
+    return SPH_STEP_OK;
+}
+
+void sph_model_get_clock(const sph_model *m, sph_model_clock *c)
+{
+    c->time = m->time;
+    c->steps = m->steps;
+    c->thermo_accum = m->thermo_accum;
+    c->dens_scale = m->dens_scale;
+    c->budget = m->budget;
+}
+
+int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    sph_status_clear(st);
+    if (P->n > m->cap)
+        return sph_status_set(st, SPH_STEP_FATAL, -1, "particle count", (double)P->n,
+                              (double)m->cap, "exceeds the model capacity");
+    double sml0_max = 0.0;
+    for (size_t k = 0; k < P->n; k++) {
+        const double must_pos[] = {P->mass[k], P->thick[k], P->sml[k], P->sml0[k], P->dens[k],
+                                   P->dens0[k]};
+        static const char *const names[] = {"mass", "thickness", "smoothing length",
+                                            "reference smoothing length", "density",
+                                            "reference density"};
+        for (int q = 0; q < 6; q++)
+            if (!(must_pos[q] > 0.0) || !isfinite(must_pos[q]))
+                return sph_status_set(st, SPH_STEP_FATAL, P->id[k], names[q], must_pos[q], 0.0,
+                                      "must be positive");
+        if (!(P->conc[k] > 0.0 && P->conc[k] <= 1.0))
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "concentration", P->conc[k],
+                                  1.0, "must be in (0, 1]");
+        if (!isfinite(P->x[k]) || !isfinite(P->y[k]) || !isfinite(P->u[k]) ||
+            !isfinite(P->v[k]))
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "position or velocity",
+                                  P->x[k], 0.0, "is not finite");
+        sml0_max = fmax(sml0_max, P->sml0[k]);
+    }
+    if (!(c->dens_scale > 0.0) || !isfinite(c->time) || !isfinite(c->thermo_accum))
+        return sph_status_set(st, SPH_STEP_FATAL, -1, "clock", c->dens_scale, 0.0,
+                              "is not valid");
+    /* the same radius as sph_model_init used: there every sml equalled sml0 */
+    if (m->has_mask)
+        mark_near_land(m, m->kern.radius * p->sml_max_factor * sml0_max);
+    m->dens_scale = c->dens_scale;
+    m->budget = c->budget;
+    m->time = c->time;
+    m->steps = c->steps;
+    m->thermo_accum = c->thermo_accum;
     return SPH_STEP_OK;
 }
 

@@ -698,6 +698,14 @@ static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, 
                 rc = ftide_open(s, ncid, units, t_ref, !spec->tide_no_nodal,
                                 want & spec->required, err);
             nc_close(ncid);
+            /* Keep only the quantities asked for, as scan_file does for
+             * time series: a source configured for currents alone must not
+             * sample (and fail on) the elevation and its gradient. */
+            for (int w = 0; rc == 0 && w < FV_COUNT; w++)
+                if (s->vars[w] && !(slot_flag((fv_slot)w) & want)) {
+                    fvar_free(s->vars[w]);
+                    s->vars[w] = NULL;
+                }
             return rc;
         }
         nc_close(ncid);

@@ -144,7 +144,7 @@ static const cfg_key config_keys[] = {
        "Explicit solver beyond its stability limit: substep, or refuse (fail)."),
     C_("model.max_substeps", CT_INT, model.max_substeps, "20000", 1, 10000000, R, NULL,
        "Cap on explicit sub-steps per dynamic step; beyond it the step is refused."),
-    C_("model.explicit_safety", CT_DOUBLE, model.explicit_safety, "0.25", 0.001, 10, R, NULL,
+    C_("model.explicit_safety", CT_DOUBLE, model.explicit_safety, "1", 0.001, 10, R, NULL,
        "Explicit solver limit dt < safety x M h^2 / (zeta_max (1 + e^-2))."),
     C_("model.evp.iterations", CT_INT, model.evp_iterations, "120", 1, 10000, R, NULL,
        "mEVP sub-iterations per step."),

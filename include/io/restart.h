@@ -1,0 +1,57 @@
+/* Restart (warm-start) particle files: the complete particle state and
+ * the model's clock, so that a run read back continues bit for bit.
+ *
+ * One netCDF-4 file, written atomically (util/fileio.h: temporary name,
+ * fsync, rename). Dimensions `particle` (n) and `layer` (nlayers).
+ * Variables, all double unless stated, in the particles' slot order (the
+ * order matters for bit-for-bit continuation: the neighbour sort is
+ * stable):
+ *   x, y (m, model plane), u, v (m/s, plane components), mass (kg),
+ *   thick (h_i, m), conc, sml, sml0 (m), dens, dens0 (kg/m^2), snow (m),
+ *   tsurf (deg C), enth(particle, layer) (J/m^3), s11, s22, s12 (N/m),
+ *   id (int64), regime (ubyte flags).
+ * Global attributes: sphice_restart_format = "sphice-restart-1", valid
+ * time (`time`, seconds since 1970 and `time_iso`), the forecast cycle that
+ * wrote it, the PROJ definition of the plane (`projection`), nlayers, and
+ * the model clock (time since init, steps, thermodynamic accumulator,
+ * density calibration, mass budget).
+ *
+ * Reading checks the format, the sizes, the layer count and (when asked)
+ * that the projection is the one of the running model: positions in
+ * metres mean nothing on another plane.
+ */
+#ifndef SPHICE_IO_RESTART_H
+#define SPHICE_IO_RESTART_H
+
+#include <stddef.h>
+#include "core/model.h"
+#include "core/particles.h"
+#include "util/err.h"
+
+#define RESTART_FORMAT "sphice-restart-1"
+
+typedef struct restart_header {
+    double time;             /* valid time of the state, seconds since 1970 */
+    double cycle_time;       /* forecast cycle that wrote it (NaN: unknown) */
+    char projection[2048];   /* geo_proj_definition of the model plane */
+    int nlayers;
+    size_t n;                /* particles */
+    sph_model_clock clock;   /* model state outside the particle arrays */
+} restart_header;
+
+/* Writes the first P->n particles (all state, slot order) and the header
+ * (h->n and h->nlayers are taken from P). */
+int restart_write(const char *path, const sph_particles *P, const restart_header *h,
+                  sph_error *err);
+
+/* Reads the header only (to size the model before reading the particles). */
+int restart_read_header(const char *path, restart_header *h, sph_error *err);
+
+/* Reads the particles into P (P->n is set; P->cap must hold them and
+ * P->nlayers must equal the file's). expect_projection, when not NULL,
+ * must equal the file's projection. Forcing arrays are left alone;
+ * diagnosed arrays other than dens are zeroed. */
+int restart_read(const char *path, const char *expect_projection, restart_header *h,
+                 sph_particles *P, sph_error *err);
+
+#endif

@@ -1,0 +1,352 @@
+/* Restart particle files: see io/restart.h. */
+#include "io/restart.h"
+
+#include <math.h>
+#include <netcdf.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "util/fileio.h"
+#include "util/timeutil.h"
+
+/* The per-particle double arrays, by name. */
+enum { RV_X, RV_Y, RV_U, RV_V, RV_MASS, RV_THICK, RV_CONC, RV_SML, RV_SML0, RV_DENS, RV_DENS0,
+       RV_SNOW, RV_TSURF, RV_S11, RV_S22, RV_S12, RV_N };
+
+static const struct {
+    const char *name, *long_name, *units;
+} rv_spec[RV_N] = {
+    {"x", "position on the model plane, x", "m"},
+    {"y", "position on the model plane, y", "m"},
+    {"u", "velocity, plane x component", "m s-1"},
+    {"v", "velocity, plane y component", "m s-1"},
+    {"mass", "particle ice mass", "kg"},
+    {"thick", "ice thickness h_i", "m"},
+    {"conc", "ice concentration", "1"},
+    {"sml", "smoothing length", "m"},
+    {"sml0", "reference smoothing length", "m"},
+    {"dens", "SPH mass per unit area", "kg m-2"},
+    {"dens0", "reference mass per unit area", "kg m-2"},
+    {"snow", "snow depth", "m"},
+    {"tsurf", "surface temperature", "degC"},
+    {"s11", "vertically integrated stress, xx", "N m-1"},
+    {"s22", "vertically integrated stress, yy", "N m-1"},
+    {"s12", "vertically integrated stress, xy", "N m-1"},
+};
+
+static double *rv_array(const sph_particles *P, int k)
+{
+    switch (k) {
+    case RV_X: return P->x;
+    case RV_Y: return P->y;
+    case RV_U: return P->u;
+    case RV_V: return P->v;
+    case RV_MASS: return P->mass;
+    case RV_THICK: return P->thick;
+    case RV_CONC: return P->conc;
+    case RV_SML: return P->sml;
+    case RV_SML0: return P->sml0;
+    case RV_DENS: return P->dens;
+    case RV_DENS0: return P->dens0;
+    case RV_SNOW: return P->snow;
+    case RV_TSURF: return P->tsurf;
+    case RV_S11: return P->s11;
+    case RV_S22: return P->s22;
+    default: return P->s12;
+    }
+}
+
+/* Clock and budget attributes: name and member. */
+typedef struct {
+    const char *name;
+    size_t offset;
+} clock_att;
+
+#define CA(name, member) {name, offsetof(sph_model_clock, member)}
+static const clock_att clock_atts[] = {
+    CA("model_time_since_init", time),
+    CA("model_thermo_accum", thermo_accum),
+    CA("model_dens_scale", dens_scale),
+    CA("budget_mass_initial", budget.mass_initial),
+    CA("budget_mass", budget.mass),
+    CA("budget_growth", budget.growth),
+    CA("budget_new_ice", budget.new_ice),
+    CA("budget_melt_top", budget.melt_top),
+    CA("budget_melt_bottom", budget.melt_bottom),
+    CA("budget_lateral_melt", budget.lateral_melt),
+    CA("budget_outflow", budget.outflow),
+    CA("budget_area", budget.area),
+    CA("budget_volume", budget.volume),
+    CA("budget_kinetic_energy", budget.kinetic_energy),
+};
+#undef CA
+#define NCLOCK (sizeof clock_atts / sizeof clock_atts[0])
+
+static int nc_fail(int st, const char *what, const char *path, sph_error *err)
+{
+    return sph_err_set(err, SPH_ERR_NETCDF, "restart %s: %s: %s", path, what, nc_strerror(st));
+}
+
+static int put_text(int nc, int var, const char *name, const char *text)
+{
+    return nc_put_att_text(nc, var, name, strlen(text), text);
+}
+
+static int write_body(int nc, const sph_particles *P, const restart_header *h, const char *path,
+                      sph_error *err)
+{
+    int st, d_p, d_l, v[RV_N], v_enth, v_id, v_reg;
+    size_t n = P->n;
+    int nl = P->nlayers;
+#define NC(call, what)                               \
+    do {                                             \
+        if ((st = (call)) != NC_NOERR)               \
+            return nc_fail(st, what, path, err);     \
+    } while (0)
+    NC(nc_set_fill(nc, NC_NOFILL, &st), "set fill");
+    /* a fixed dimension of length 0 would be unlimited: keep it fixed and >= 1 */
+    NC(nc_def_dim(nc, "particle", n > 0 ? n : 1, &d_p), "define dimension");
+    NC(nc_def_dim(nc, "layer", (size_t)nl, &d_l), "define dimension");
+    for (int k = 0; k < RV_N; k++) {
+        NC(nc_def_var(nc, rv_spec[k].name, NC_DOUBLE, 1, &d_p, &v[k]), "define variable");
+        NC(put_text(nc, v[k], "long_name", rv_spec[k].long_name), "write attribute");
+        NC(put_text(nc, v[k], "units", rv_spec[k].units), "write attribute");
+    }
+    int dims2[2] = {d_p, d_l};
+    NC(nc_def_var(nc, "enth", NC_DOUBLE, 2, dims2, &v_enth), "define variable");
+    NC(put_text(nc, v_enth, "long_name", "layer enthalpy, top layer first"), "write attribute");
+    NC(put_text(nc, v_enth, "units", "J m-3"), "write attribute");
+    NC(nc_def_var(nc, "id", NC_INT64, 1, &d_p, &v_id), "define variable");
+    NC(put_text(nc, v_id, "long_name", "particle id"), "write attribute");
+    NC(nc_def_var(nc, "regime", NC_UBYTE, 1, &d_p, &v_reg), "define variable");
+    NC(put_text(nc, v_reg, "long_name", "regime flags (core/particles.h SPH_REGIME_*)"),
+       "write attribute");
+
+    char iso[32];
+    time_format_iso(h->time, iso, sizeof iso);
+    NC(put_text(nc, NC_GLOBAL, "sphice_restart_format", RESTART_FORMAT), "write attribute");
+    NC(put_text(nc, NC_GLOBAL, "title", "sphice particle state (warm start)"), "write attribute");
+    NC(put_text(nc, NC_GLOBAL, "projection", h->projection), "write attribute");
+    NC(put_text(nc, NC_GLOBAL, "time_iso", iso), "write attribute");
+    NC(nc_put_att_double(nc, NC_GLOBAL, "time", NC_DOUBLE, 1, &h->time), "write attribute");
+    NC(nc_put_att_double(nc, NC_GLOBAL, "cycle_time", NC_DOUBLE, 1, &h->cycle_time),
+       "write attribute");
+    NC(nc_put_att_int(nc, NC_GLOBAL, "nlayers", NC_INT, 1, &nl), "write attribute");
+    long long cnt = (long long)n, steps = h->clock.steps, removed = h->clock.budget.removed_particles;
+    NC(nc_put_att_longlong(nc, NC_GLOBAL, "particles", NC_INT64, 1, &cnt), "write attribute");
+    NC(nc_put_att_longlong(nc, NC_GLOBAL, "model_steps", NC_INT64, 1, &steps), "write attribute");
+    NC(nc_put_att_longlong(nc, NC_GLOBAL, "budget_removed_particles", NC_INT64, 1, &removed),
+       "write attribute");
+    for (size_t a = 0; a < NCLOCK; a++) {
+        const double *val = (const double *)((const char *)&h->clock + clock_atts[a].offset);
+        NC(nc_put_att_double(nc, NC_GLOBAL, clock_atts[a].name, NC_DOUBLE, 1, val),
+           "write attribute");
+    }
+    NC(nc_enddef(nc), "end definitions");
+    if (n == 0)
+        return SPH_OK;
+    size_t start[2] = {0, 0}, count[2] = {n, (size_t)nl};
+    for (int k = 0; k < RV_N; k++)
+        NC(nc_put_vara_double(nc, v[k], start, count, rv_array(P, k)), "write");
+    NC(nc_put_vara_double(nc, v_enth, start, count, P->enth), "write");
+    long long *ids = malloc(n * sizeof *ids);
+    if (!ids)
+        return sph_err_set(err, SPH_ERR_NOMEM, "restart %s: out of memory", path);
+    for (size_t k = 0; k < n; k++)
+        ids[k] = P->id[k];
+    st = nc_put_vara_longlong(nc, v_id, start, count, ids);
+    free(ids);
+    if (st != NC_NOERR)
+        return nc_fail(st, "write", path, err);
+    NC(nc_put_vara_uchar(nc, v_reg, start, count, P->regime), "write");
+#undef NC
+    return SPH_OK;
+}
+
+int restart_write(const char *path, const sph_particles *P, const restart_header *h,
+                  sph_error *err)
+{
+    char tmp[4200];
+    atomic_tmp_name(path, tmp, sizeof tmp);
+    int nc, st = nc_create(tmp, NC_NETCDF4 | NC_CLOBBER, &nc);
+    if (st != NC_NOERR)
+        return nc_fail(st, "create", tmp, err);
+    int rc = write_body(nc, P, h, path, err);
+    st = nc_close(nc);
+    if (rc == SPH_OK && st != NC_NOERR)
+        rc = nc_fail(st, "close", path, err);
+    if (rc == SPH_OK && fault_point("restart-write"))
+        rc = sph_err_set(err, SPH_ERR_IO, "restart %s: injected fault (SPHICE_FAULT=restart-write)",
+                         path);
+    if (rc != SPH_OK) {
+        unlink(tmp);
+        return rc;
+    }
+    return atomic_commit(tmp, path, err);
+}
+
+static int get_text_att(int nc, const char *name, char *buf, size_t len)
+{
+    size_t alen;
+    nc_type t;
+    if (nc_inq_att(nc, NC_GLOBAL, name, &t, &alen) != NC_NOERR || t != NC_CHAR || alen >= len)
+        return -1;
+    if (nc_get_att_text(nc, NC_GLOBAL, name, buf) != NC_NOERR)
+        return -1;
+    buf[alen] = '\0';
+    return 0;
+}
+
+static int get_double_att(int nc, const char *name, double *v)
+{
+    size_t alen;
+    if (nc_inq_attlen(nc, NC_GLOBAL, name, &alen) != NC_NOERR || alen != 1)
+        return -1;
+    return nc_get_att_double(nc, NC_GLOBAL, name, v) == NC_NOERR ? 0 : -1;
+}
+
+static int get_ll_att(int nc, const char *name, long long *v)
+{
+    size_t alen;
+    if (nc_inq_attlen(nc, NC_GLOBAL, name, &alen) != NC_NOERR || alen != 1)
+        return -1;
+    return nc_get_att_longlong(nc, NC_GLOBAL, name, v) == NC_NOERR ? 0 : -1;
+}
+
+static int read_header_open(int nc, const char *path, restart_header *h, sph_error *err)
+{
+    char fmt[64];
+    memset(h, 0, sizeof *h);
+    if (get_text_att(nc, "sphice_restart_format", fmt, sizeof fmt) || strcmp(fmt, RESTART_FORMAT))
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "restart %s: not an sphice restart file (attribute "
+                           "sphice_restart_format is not \"%s\")", path, RESTART_FORMAT);
+    long long cnt, steps, removed;
+    int nl;
+    if (get_text_att(nc, "projection", h->projection, sizeof h->projection) ||
+        get_double_att(nc, "time", &h->time) || get_double_att(nc, "cycle_time", &h->cycle_time) ||
+        nc_get_att_int(nc, NC_GLOBAL, "nlayers", &nl) != NC_NOERR ||
+        get_ll_att(nc, "particles", &cnt) || get_ll_att(nc, "model_steps", &steps) ||
+        get_ll_att(nc, "budget_removed_particles", &removed))
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "restart %s: header incomplete (projection, time, nlayers, particles)",
+                           path);
+    for (size_t a = 0; a < NCLOCK; a++) {
+        double *val = (double *)((char *)&h->clock + clock_atts[a].offset);
+        if (get_double_att(nc, clock_atts[a].name, val))
+            return sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: missing attribute %s", path,
+                               clock_atts[a].name);
+    }
+    if (nl < 1 || nl > SPH_MAX_LAYERS || cnt < 0 || !isfinite(h->time))
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "restart %s: nlayers %d, particles %lld or time not valid", path, nl,
+                           cnt);
+    h->nlayers = nl;
+    h->n = (size_t)cnt;
+    h->clock.steps = (long)steps;
+    h->clock.budget.removed_particles = (long)removed;
+    return SPH_OK;
+}
+
+static int open_restart(const char *path, int *nc, sph_error *err)
+{
+    if (access(path, R_OK) != 0)
+        return sph_err_set(err, SPH_ERR_IO, "restart %s: cannot read the file", path);
+    int st = nc_open(path, NC_NOWRITE, nc);
+    if (st != NC_NOERR)
+        return sph_err_set(err, SPH_ERR_NETCDF, "restart %s: cannot open as NetCDF: %s", path,
+                           nc_strerror(st));
+    return SPH_OK;
+}
+
+int restart_read_header(const char *path, restart_header *h, sph_error *err)
+{
+    int nc, rc = open_restart(path, &nc, err);
+    if (rc)
+        return rc;
+    rc = read_header_open(nc, path, h, err);
+    nc_close(nc);
+    return rc;
+}
+
+static int read_body(int nc, const char *path, const restart_header *h, sph_particles *P,
+                     sph_error *err)
+{
+    size_t n = h->n;
+    if (n > P->cap)
+        return sph_err_set(err, SPH_ERR_PARAM, "restart %s: %zu particles, room for %zu", path, n,
+                           P->cap);
+    if (h->nlayers != P->nlayers)
+        return sph_err_set(err, SPH_ERR_CONFIG,
+                           "restart %s: %d thermodynamic layers, the model has %d "
+                           "(model.thermo.nlayers changed: start cold)", path, h->nlayers,
+                           P->nlayers);
+    int d_p, d_l;
+    size_t len_p, len_l;
+    if (nc_inq_dimid(nc, "particle", &d_p) || nc_inq_dimlen(nc, d_p, &len_p) ||
+        nc_inq_dimid(nc, "layer", &d_l) || nc_inq_dimlen(nc, d_l, &len_l) ||
+        len_p < n || len_l != (size_t)h->nlayers)
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "restart %s: dimensions particle/layer do not match the header", path);
+    P->n = 0;
+    if (n == 0)
+        return SPH_OK;
+    size_t start[2] = {0, 0}, count[2] = {n, (size_t)h->nlayers};
+    int v, st;
+    for (int k = 0; k < RV_N; k++) {
+        if ((st = nc_inq_varid(nc, rv_spec[k].name, &v)) != NC_NOERR ||
+            (st = nc_get_vara_double(nc, v, start, count, rv_array(P, k))) != NC_NOERR)
+            return sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable %s: %s", path,
+                               rv_spec[k].name, nc_strerror(st));
+    }
+    if ((st = nc_inq_varid(nc, "enth", &v)) != NC_NOERR ||
+        (st = nc_get_vara_double(nc, v, start, count, P->enth)) != NC_NOERR)
+        return sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable enth: %s", path,
+                           nc_strerror(st));
+    if ((st = nc_inq_varid(nc, "regime", &v)) != NC_NOERR ||
+        (st = nc_get_vara_uchar(nc, v, start, count, P->regime)) != NC_NOERR)
+        return sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable regime: %s", path,
+                           nc_strerror(st));
+    long long *ids = malloc(n * sizeof *ids);
+    if (!ids)
+        return sph_err_set(err, SPH_ERR_NOMEM, "restart %s: out of memory", path);
+    if ((st = nc_inq_varid(nc, "id", &v)) != NC_NOERR ||
+        (st = nc_get_vara_longlong(nc, v, start, count, ids)) != NC_NOERR) {
+        free(ids);
+        return sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable id: %s", path,
+                           nc_strerror(st));
+    }
+    for (size_t k = 0; k < n; k++)
+        P->id[k] = (long)ids[k];
+    free(ids);
+    /* diagnosed by the next step; zero so nothing stale is ever read */
+    memset(P->e11, 0, n * sizeof *P->e11);
+    memset(P->e22, 0, n * sizeof *P->e22);
+    memset(P->e12, 0, n * sizeof *P->e12);
+    memset(P->pres, 0, n * sizeof *P->pres);
+    memset(P->ax, 0, n * sizeof *P->ax);
+    memset(P->ay, 0, n * sizeof *P->ay);
+    P->n = n;
+    return SPH_OK;
+}
+
+int restart_read(const char *path, const char *expect_projection, restart_header *h,
+                 sph_particles *P, sph_error *err)
+{
+    int nc, rc = open_restart(path, &nc, err);
+    if (rc)
+        return rc;
+    rc = read_header_open(nc, path, h, err);
+    if (rc == SPH_OK && expect_projection && strcmp(expect_projection, h->projection))
+        rc = sph_err_set(err, SPH_ERR_CONFIG,
+                         "restart %s: written on the plane \"%s\", the model uses \"%s\" "
+                         "(domain or projection changed: start cold)", path, h->projection,
+                         expect_projection);
+    if (rc == SPH_OK)
+        rc = read_body(nc, path, h, P, err);
+    nc_close(nc);
+    return rc;
+}

@@ -1,0 +1,283 @@
+/* Restart files (io/restart.h): write, read, continue; the continued run
+ * is bit for bit the uninterrupted one. Then the same through the engine:
+ * a forecast warm-started from the restart file an earlier forecast wrote
+ * at the next cycle's time ends with the particles of the earlier
+ * forecast, to the last bit. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "check.h"
+#include "engine_case.h"
+#include "core/model.h"
+#include "io/products.h"
+#include "io/restart.h"
+#include "lattice.h"
+#include "service/config.h"
+#include "service/cycle.h"
+#include "service/forecast.h"
+#include "util/log.h"
+
+static char dir[] = "/tmp/sphice-restart-XXXXXX";
+
+#define NX 14
+#define NY 10
+#define DX 1000.0
+
+/* A wall (land) north of the ice, wind towards it: packed ice, rheology,
+ * ghosts, stress memory, thermodynamics every third step. */
+static void setup_params(sph_params *p)
+{
+    sph_params_default(p);
+    p->dt = 120.0;
+    p->thermo_dt = 360.0;
+    p->thermo.model = SPH_THERMO_AUTO;
+}
+
+static unsigned char land[40 * 40];
+static sph_landmask make_mask(void)
+{
+    sph_landmask m;
+    m.nx = m.ny = 40;
+    m.dx = m.dy = 500.0;
+    m.x0 = -2000.0;
+    m.y0 = -2000.0;
+    for (int j = 0; j < 40; j++)
+        for (int i = 0; i < 40; i++)
+            land[j * 40 + i] = m.y0 + (j + 0.5) * m.dy > NY * DX + 1500.0;
+    m.land = land;
+    m.closed_outside = 0;
+    return m;
+}
+
+static void set_forcing(sph_particles *P)
+{
+    lattice_set_forcing(P, 3.0, 12.0, 0.0, 0.0, 0.0, 0.0);
+    for (size_t k = 0; k < P->n; k++) {
+        P->lat[k] = 40.0;
+        P->tair[k] = -12.0;
+        P->qair[k] = 1.0e-3;
+        P->swdn[k] = 50.0;
+        P->lwdn[k] = 200.0;
+        P->sst[k] = NAN;
+        P->fw[k] = NAN;
+        P->fsens[k] = P->flat[k] = NAN;
+    }
+}
+
+static sph_model *fresh(const sph_params *p, const sph_landmask *mask)
+{
+    sph_model *m = sph_model_create(p, NX * NY, mask);
+    if (!m)
+        return NULL;
+    sph_particles *P = sph_model_particles(m);
+    lattice_fill(P, p, NX, NY, 0.0, 0.0, DX, 0.4, 0.95, 40.0);
+    set_forcing(P);
+    for (size_t k = 0; k < P->n; k++)
+        sph_thermo_init_particle(&p->thermo, P, k, -12.0);
+    sph_status st;
+    if (sph_model_init(m, &st) != SPH_STEP_OK) {
+        sph_model_free(m);
+        return NULL;
+    }
+    return m;
+}
+
+static int steps(sph_model *m, int n)
+{
+    sph_status st;
+    for (int s = 0; s < n; s++) {
+        set_forcing(sph_model_particles(m));
+        if (sph_model_step(m, &st) != SPH_STEP_OK) {
+            fprintf(stderr, "step: %s %g %s\n", st.quantity, st.value, st.what);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+#define SAME(field, count)                                                                    \
+    do {                                                                                      \
+        int same_ = memcmp(A->field, B->field, (count) * sizeof *A->field) == 0;              \
+        CHECK(same_, "%s identical after the restart", #field);                               \
+    } while (0)
+
+static void module_level(void)
+{
+    sph_params p;
+    setup_params(&p);
+    sph_landmask mask = make_mask();
+    const int total = 20, at = 8; /* 8 is not a multiple of the thermodynamic 3 steps */
+    sph_model *a = fresh(&p, &mask), *b = fresh(&p, &mask);
+    CHECK(a && b, "models");
+    if (!a || !b)
+        return;
+    CHECK(steps(a, total) == 0, "uninterrupted run");
+    CHECK(steps(b, at) == 0, "first part");
+    const sph_step_stats *ss = sph_model_stats(a);
+    CHECK(ss->frac_rheology > 0.5, "the case exercises the rheology (%.2f)", ss->frac_rheology);
+
+    char path[1024];
+    snprintf(path, sizeof path, "%s/restart.nc", dir);
+    restart_header h;
+    memset(&h, 0, sizeof h);
+    h.time = 1000.0 + at * p.dt;
+    h.cycle_time = 1000.0;
+    snprintf(h.projection, sizeof h.projection, "+proj=test");
+    sph_model_get_clock(b, &h.clock);
+    sph_error err;
+    sph_error_clear(&err);
+    CHECK(restart_write(path, sph_model_particles(b), &h, &err) == SPH_OK, "write: %s", err.msg);
+    size_t n_b = sph_model_particles(b)->n;
+    sph_model_free(b);
+
+    /* read back into a new model and continue */
+    restart_header r;
+    CHECK(restart_read_header(path, &r, &err) == SPH_OK, "header: %s", err.msg);
+    CHECK(r.n == n_b && r.time == h.time && r.clock.steps == at, "header: %zu particles, steps %ld", r.n,
+          r.clock.steps);
+    sph_model *c = sph_model_create(&p, r.n, &mask);
+    CHECK(c != NULL, "model for the restart");
+    if (!c) {
+        sph_model_free(a);
+        return;
+    }
+    CHECK(restart_read(path, "+proj=test", &r, sph_model_particles(c), &err) == SPH_OK, "read: %s", err.msg);
+    sph_status st;
+    CHECK(sph_model_resume(c, &r.clock, &st) == SPH_STEP_OK, "resume: %s", st.what);
+    CHECK(steps(c, total - at) == 0, "continued run");
+
+    const sph_particles *A = sph_model_particles(a), *B = sph_model_particles(c);
+    CHECK(A->n == B->n, "particles %zu vs %zu", A->n, B->n);
+    if (A->n == B->n) {
+        size_t n = A->n;
+        SAME(x, n);
+        SAME(y, n);
+        SAME(u, n);
+        SAME(v, n);
+        SAME(mass, n);
+        SAME(thick, n);
+        SAME(conc, n);
+        SAME(sml, n);
+        SAME(dens, n);
+        SAME(snow, n);
+        SAME(tsurf, n);
+        SAME(s11, n);
+        SAME(s22, n);
+        SAME(s12, n);
+        SAME(id, n);
+        SAME(enth, n * (size_t)A->nlayers);
+    }
+    const sph_budget *ba = sph_model_budget(a), *bc = sph_model_budget(c);
+    CHECK(ba->mass == bc->mass && ba->growth == bc->growth && ba->new_ice == bc->new_ice,
+          "budget identical after the restart");
+    CHECK(sph_model_time(a) == sph_model_time(c) && sph_model_steps(a) == sph_model_steps(c), "clock");
+
+    /* refusals: another plane, another layer count, not a restart file */
+    sph_error_clear(&err);
+    CHECK(restart_read(path, "+proj=other", &r, sph_model_particles(c), &err) == SPH_ERR_CONFIG &&
+              strstr(err.msg, "restart.nc") && strstr(err.msg, "+proj=other"),
+          "another projection: %s", err.msg);
+    sph_params p2 = p;
+    p2.thermo.nlayers = p.thermo.nlayers + 1;
+    sph_model *d = sph_model_create(&p2, r.n, &mask);
+    sph_error_clear(&err);
+    CHECK(d && restart_read(path, NULL, &r, sph_model_particles(d), &err) == SPH_ERR_CONFIG &&
+              strstr(err.msg, "layers"),
+          "another layer count: %s", err.msg);
+    sph_model_free(d);
+    char other[1024];
+    snprintf(other, sizeof other, "%s/ice.nc", dir);
+    sph_error_clear(&err);
+    CHECK(restart_read_header(other, &r, &err) == SPH_ERR_BAD_DATA && strstr(err.msg, "not an sphice restart"),
+          "not a restart file: %s", err.msg);
+    sph_error_clear(&err);
+    snprintf(other, sizeof other, "%s/missing.nc", dir);
+    CHECK(restart_read_header(other, &r, &err) == SPH_ERR_IO, "missing file: %s", err.msg);
+    sph_model_free(a);
+    sph_model_free(c);
+}
+
+/* ------------------------------------------------------ through the engine */
+
+static const char *atm_files[2];
+
+static int forecast(const struct sph_config *cfg, const char *stage, double cycle, double hours,
+                    const char *warm, forecast_result *res)
+{
+    forecast_request req;
+    memset(&req, 0, sizeof req);
+    req.cycle_time = cycle;
+    req.hours = hours;
+    req.stage_dir = stage;
+    req.warm_start = warm;
+    req.forcing_files[0] = atm_files;
+    forecast_progress prog;
+    sph_error err;
+    sph_error_clear(&err);
+    int rc = forecast_run(cfg, &req, &prog, NULL, res, &err);
+    CHECK(rc == SPH_OK, "forecast %s: %s", stage, err.msg);
+    return rc;
+}
+
+static void engine_level(void)
+{
+    char text[8192];
+    ec_config(text, sizeof text, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "");
+    char *e = strstr(text, "\"every_hours\": 6");
+    CHECK(e != NULL, "config text");
+    if (!e)
+        return;
+    e[15] = '3'; /* cycles every 3 h: the restart is written at +3 h */
+    struct sph_config *cfg = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    CHECK(sph_config_parse(text, "test", &cfg, &err) == SPH_OK, "config: %s", err.msg);
+    if (!cfg)
+        return;
+    char atm[1024], s1[1024], s2[1024], rs[1200], p1[1200], p2[1200];
+    snprintf(atm, sizeof atm, "%s/atm.nc", dir);
+    atm_files[0] = atm;
+    snprintf(s1, sizeof s1, "%s/long", dir);
+    snprintf(s2, sizeof s2, "%s/continued", dir);
+    forecast_result r1, r2;
+    if (forecast(cfg, s1, EC_CYCLE, 6, NULL, &r1) == SPH_OK) {
+        char rname[64];
+        cycle_restart_name(EC_CYCLE + 3 * 3600.0, rname, sizeof rname);
+        snprintf(rs, sizeof rs, "%s/%s", s1, rname);
+        CHECK(access(rs, R_OK) == 0, "restart at +3 h: %s", rs);
+        if (forecast(cfg, s2, EC_CYCLE + 3 * 3600.0, 3, rs, &r2) == SPH_OK) {
+            snprintf(p1, sizeof p1, "%s/sphice_particles.nc", s1);
+            snprintf(p2, sizeof p2, "%s/sphice_particles.nc", s2);
+            prod_particles a, b;
+            double t = EC_CYCLE + 6 * 3600.0;
+            int ra = products_read_particles(p1, t, &a, &err), rb = products_read_particles(p2, t, &b, &err);
+            CHECK(ra == SPH_OK && rb == SPH_OK, "particles: %s", err.msg);
+            if (ra == SPH_OK && rb == SPH_OK) {
+                CHECK(a.n == b.n && a.n > 400, "particles at +6 h: %zu vs %zu", a.n, b.n);
+                int same = a.n == b.n && !memcmp(a.lon, b.lon, a.n * sizeof *a.lon) &&
+                           !memcmp(a.lat, b.lat, a.n * sizeof *a.lat) && !memcmp(a.id, b.id, a.n * sizeof *a.id);
+                CHECK(same, "warm-started forecast ends on the uninterrupted one's positions, bit for bit");
+                CHECK(r2.budget_residual < 1e-10, "residual %g", r2.budget_residual);
+            }
+            prod_particles_free(&a);
+            prod_particles_free(&b);
+        }
+    }
+    sph_config_free(cfg);
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    ec_passive_openmp(argv);
+    sph_log_level = LOG_LVL_WARN;
+    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
+    ec_write_inputs(dir);
+    module_level();
+    engine_level();
+    if (check_failed_ == 0)
+        cycle_remove_tree(dir);
+    return check_summary("test_restart");
+}

@@ -1,0 +1,191 @@
+/* Viscous-plastic rheology: the analytic steady state against a coast is
+ * an equilibrium of the SPH operators; converged stresses lie inside the
+ * yield ellipse; the explicit solver refuses the seed's 60 s step while
+ * mEVP is stable there; explicit sub-stepping works inside its limit. */
+#include <math.h>
+#include <string.h>
+
+#include "check.h"
+#include "core/model.h"
+#include "scenarios.h"
+
+/* At rest without replacement pressure the stress is -P/2 I, so in the
+ * analytic steady state (PHYSICS.md s. 8) the SPH internal force per area
+ * M a_int must cancel the wind stress tau, within 2 % of tau, away from
+ * the wall (its reaction acts within the kernel support) and from the
+ * pack edge (the kernel is truncated there: within its support). */
+static void test_coast_balance(sph_kernel_kind kern, double radius, double hfac)
+{
+    sph_params p;
+    sph_params_default(&p);
+    p.physics = SPH_PHYSICS_FULL;
+    p.kernel = kern;
+    p.kernel_radius = radius;
+    p.sml_factor = hfac;
+    double wind = 9.0, tau = p.rho_a * p.Ca * wind * wind, h0 = 0.5, dx = 1000;
+    coast_analytic a;
+    coast_solve(&a, &p, tau, h0, 40e3);
+    /* the closed form: the ridged part rises with slope 2 tau / P0 */
+    CHECK_CLOSE(coast_hbar(&a, 0) - coast_hbar(&a, 1000), 2 * tau / p.P0 * 1000, 1e-6, 0,
+                "analytic slope 2 tau / P0");
+    coast_case c;
+    CHECK(coast_setup_steady(&c, &p, dx, 6, &a, wind) == 0, "setup");
+    sph_status st;
+    CHECK(sph_model_init(c.model, &st) == 0, "init");
+    CHECK(sph_model_diagnose(c.model, &st) == 0, "diagnose");
+    sph_particles *P = sph_model_particles(c.model);
+    double worst = 0;
+    int n = 0;
+    for (size_t k = 0; k < P->n; k++) {
+        /* the wall's reaction reaches the particles within the kernel
+         * support of the wall (through the mirror ghosts): excluded */
+        double y = P->y[k], h = P->sml[k];
+        if (y < radius * h || y > a.L - radius * h)
+            continue;
+        /* internal force per area M a_y must be +A tau (wind is -y) */
+        double f = P->dens[k] * P->ay[k], want = tau;
+        worst = fmax(worst, fabs(f - want) / tau);
+        n++;
+    }
+    CHECK(n > 50, "interior particles %d", n);
+    CHECK(worst < 0.02, "kernel %d: internal force balances the wind within 2 %% of tau: worst %.4f",
+          (int)kern, worst);
+    coast_free(&c);
+}
+
+/* The analytic steady state (no replacement pressure) is held by the
+ * dynamic model: 12 h of mEVP at the seed's 60 s step, wind on, starting
+ * at rest in the analytic state: the ice stays at rest and its mean
+ * thickness matches the analytic profile within 2 % away from one
+ * smoothing length of the wall and of the pack edge. */
+static void test_coast_steady_state_held(void)
+{
+    sph_params p;
+    sph_params_default(&p);
+    p.physics = SPH_PHYSICS_FULL;
+    p.dt = 60;
+    double wind = 9.0, tau = p.rho_a * p.Ca * wind * wind;
+    coast_analytic a;
+    coast_solve(&a, &p, tau, 0.5, 40e3);
+    coast_case c;
+    CHECK(coast_setup_steady(&c, &p, 1000, 4, &a, wind) == 0, "setup");
+    sph_status st;
+    sph_model_init(c.model, &st);
+    int steps = check_quick() ? 60 : 720, ok = 1;
+    for (int s = 0; s < steps && ok; s++)
+        ok = sph_model_step(c.model, &st) == 0;
+    CHECK(ok, "held run: %s %g %s", st.quantity, st.value, st.what);
+    sph_particles *P = sph_model_particles(c.model);
+    double worst = 0;
+    for (size_t k = 0; k < P->n; k++) {
+        double y = P->y[k];
+        if (y < P->sml[k] || y > a.L - P->sml[k])
+            continue;
+        double want = coast_hbar(&a, y);
+        worst = fmax(worst, fabs(P->dens[k] / p.rho_i - want) / want);
+    }
+    const sph_budget *b = sph_model_budget(c.model);
+    CHECK(worst < 0.02, "thickness profile within 2 %% after 12 h: worst %.4f", worst);
+    CHECK(sqrt(2 * b->kinetic_energy / b->mass) < 0.01, "ice at rest: rms speed %g m/s",
+          sqrt(2 * b->kinetic_energy / b->mass));
+    coast_free(&c);
+}
+
+/* Packed ice pushed and sheared against a coast for a few hours with
+ * mEVP at 60 s: stable, and the stresses lie inside the yield ellipse
+ * ((sI + P/2)/(P/2))^2 + (sII/(P/(2e)))^2 <= 1 (sI, sII: mean and half
+ * difference of the principal stresses, P the strength). */
+static void test_yield_curve_and_mevp_stable(void)
+{
+    sph_params p;
+    sph_params_default(&p);
+    p.physics = SPH_PHYSICS_FULL;
+    p.dt = 60;
+    coast_case c;
+    CHECK(coast_setup(&c, &p, 2000, 8, 40e3, 0.4, 15.0) == 0, "setup");
+    sph_particles *P = sph_model_particles(c.model);
+    lattice_set_forcing(P, 8.0, -12.0, 0, 0, 0, 0);
+    sph_status st;
+    sph_model_init(c.model, &st);
+    int ok = 1;
+    for (int s = 0; s < 240 && ok; s++)
+        ok = sph_model_step(c.model, &st) == 0;
+    CHECK(ok, "mEVP at 60 s is stable: %s %g %s", st.quantity, st.value, st.what);
+    int outside = 0, n = 0;
+    double e = p.ecc;
+    for (size_t k = 0; k < P->n; k++) {
+        if (P->pres[k] <= 0)
+            continue;
+        double sI = 0.5 * (P->s11[k] + P->s22[k]);
+        double sII = sqrt(0.25 * (P->s11[k] - P->s22[k]) * (P->s11[k] - P->s22[k]) +
+                          P->s12[k] * P->s12[k]);
+        double Pk = P->pres[k];
+        double r = pow((sI + Pk / 2) / (Pk / 2), 2) + pow(sII / (Pk / (2 * e)), 2);
+        outside += sqrt(r) > 1.01;
+        n++;
+    }
+    CHECK(n > 0 && outside <= 0.01 * n, "%d of %d particles outside the yield ellipse", outside, n);
+    coast_free(&c);
+}
+
+/* The explicit solver at the seed's 60 s step and 0.02 degree (~2 km)
+ * spacing is far beyond its limit dt < M h^2 / (zeta_max (1 + e^-2)):
+ * refused (recoverable status naming the time step), never run. */
+static void test_explicit_refused_at_60s(void)
+{
+    sph_params p;
+    sph_params_default(&p);
+    p.physics = SPH_PHYSICS_FULL;
+    p.solver = SPH_SOLVER_EXPLICIT;
+    p.dt = 60;
+    coast_case c;
+    coast_setup(&c, &p, 2000, 6, 20e3, 0.35, 10.0);
+    sph_status st;
+    sph_model_init(c.model, &st);
+    int rc = sph_model_step(c.model, &st);
+    double lim = sph_model_explicit_dt_limit(c.model);
+    /* the bound from the formula: P = P0 hbar, zeta_max = P / (2 dmin), M = rho hbar */
+    double nu = p.P0 / (2 * p.delta_min) * (1 + 1 / (p.ecc * p.ecc)) / p.rho_i;
+    CHECK(lim < 1.0 && lim <= 2000.0 * 2000.0 / nu * 1.01, "explicit limit %g s", lim);
+    CHECK(rc == SPH_STEP_RECOVERABLE && !strcmp(st.quantity, "time step") && st.limit < 1.0,
+          "explicit at 60 s refused: rc %d %s %s", rc, st.quantity, st.what);
+    coast_free(&c);
+}
+
+/* Inside its limit (a soft rheology: large Delta_min) the explicit solver
+ * sub-steps and stays stable. */
+static void test_explicit_substeps(void)
+{
+    sph_params p;
+    sph_params_default(&p);
+    p.physics = SPH_PHYSICS_FULL;
+    p.solver = SPH_SOLVER_EXPLICIT;
+    p.delta_min = 1e-4;
+    p.dt = 60;
+    coast_case c;
+    coast_setup(&c, &p, 2000, 6, 20e3, 0.35, 10.0);
+    sph_status st;
+    sph_model_init(c.model, &st);
+    int ok = 1;
+    for (int s = 0; s < 30 && ok; s++)
+        ok = sph_model_step(c.model, &st) == 0;
+    const sph_step_stats *ss = sph_model_stats(c.model);
+    CHECK(ok && ss->substeps > 1, "explicit sub-stepped (%d sub-steps): %s %s", ss->substeps,
+          st.quantity, st.what);
+    CHECK(ss->dt_limit_explicit * ss->substeps >= p.dt * 0.999, "sub-steps cover the step");
+    coast_free(&c);
+}
+
+int main(void)
+{
+    test_coast_balance(SPH_KERNEL_GAUSSIAN, 3.0, 1.0);
+    /* compact kernels at h = 1.5 dx: at 1.3 dx their lattice gradient error
+     * is 2.6-3 % (test_kernel measures it), above the 2 % asked here */
+    test_coast_balance(SPH_KERNEL_WENDLAND_C2, 2.0, 1.5);
+    test_coast_balance(SPH_KERNEL_CUBIC_SPLINE, 2.0, 1.5);
+    test_coast_steady_state_held();
+    test_yield_curve_and_mevp_stable();
+    test_explicit_refused_at_60s();
+    test_explicit_substeps();
+    return check_summary("test_rheology");
+}
