@@ -348,9 +348,12 @@ int main(void)
                   s1->area_km2);
             CHECK(s1->mean_thick < s0->mean_thick, "patch mean thickness %.5f -> %.5f m does not fall",
                   s0->mean_thick, s1->mean_thick);
-            /* free drift spreads more and is less uniform */
-            double gs = s1->area_km2 / s0->area_km2, gf = f1->area_km2 / f0->area_km2;
-            CHECK(gf > gs, "area growth free drift %.4f vs internal stress %.4f: free drift does not spread more",
+            /* free drift spreads more and is less uniform. Spreading is the
+             * area the patch's particles occupy, leads between the floes
+             * included (the footprint sum m / (rho_i A h_i)); the ice area
+             * sum m / (rho_i h_i) changes only by growth, melt and ridging. */
+            double gs = s1->footprint_km2 / s0->footprint_km2, gf = f1->footprint_km2 / f0->footprint_km2;
+            CHECK(gf > gs, "spreading (footprint growth) free drift %.4f vs internal stress %.4f: free drift does not spread more",
                   gf, gs);
             CHECK(f.vel_spread_mean > s.vel_spread_mean,
                   "velocity spread free drift %.5f vs internal stress %.5f m/s: free drift not less uniform",

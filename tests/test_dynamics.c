@@ -211,7 +211,9 @@ static void run_threads(int threads, sph_particles *out)
     sph_params p;
     sph_params_default(&p);
     p.physics = SPH_PHYSICS_FULL;
-    sph_model *m = packed(&p, 20, 2000);
+    p.evp_iterations = 20;
+    /* above the model's threading threshold (4096 particles) */
+    sph_model *m = packed(&p, 66, 2000);
     sph_particles *P = sph_model_particles(m);
     lattice_set_forcing(P, 3, -9, 0.05, 0.1, 0, 0);
     sph_status st;
@@ -229,7 +231,7 @@ static void run_threads(int threads, sph_particles *out)
 
 static void test_determinism(void)
 {
-    sph_particles *a = sph_particles_create(400, 1), *b = sph_particles_create(400, 1);
+    sph_particles *a = sph_particles_create(66 * 66, 1), *b = sph_particles_create(66 * 66, 1);
     run_threads(1, a);
     run_threads(2, b);
     size_t n = a->n;

@@ -183,9 +183,9 @@ int main(int argc, char **argv)
         printf("\n== %s vs %s\n", argv[a + 3], argv[a]);
         double fs = s->times[s->ntimes - 1].footprint_km2 / s->times[0].footprint_km2;
         double ff = f->times[f->ntimes - 1].footprint_km2 / f->times[0].footprint_km2;
-        printf("   ice area growth %.3f vs %.3f: %s\n", gf, gs,
-               gf > gs ? "free drift spreads more (seed)" : "free drift does NOT spread more");
-        printf("   footprint growth %.3f vs %.3f\n", ff, fs);
+        printf("   ice area growth %.3f vs %.3f\n", gf, gs);
+        printf("   spreading (footprint growth, leads included) %.3f vs %.3f: %s\n", ff, fs,
+               ff > fs ? "free drift spreads more (seed)" : "free drift does NOT spread more");
         printf("   velocity spread %.4f vs %.4f m/s: %s\n", f->vel_spread_mean, s->vel_spread_mean,
                f->vel_spread_mean > s->vel_spread_mean ? "free drift less uniform (seed)"
                                                         : "free drift NOT less uniform");

@@ -25,6 +25,11 @@
 #define OMEGA_EARTH 7.292e-5
 /* Bound of lambda_max h^2 / nu of the SPH viscous operator (measured). */
 #define SPH_VISCOUS_EIG 1.25
+/* Threads pay off only above a few thousand particles: the solver runs
+ * thousands of short passes per step, each a fork/join. */
+#define SPH_OMP_WORTH(n) ((n) >= 4096)
+/* Smallest concentration a parcel is diluted to by divergence. */
+#define SPH_CONC_MIN 0.05
 #define DEG2RAD (M_PI / 180.0)
 
 struct sph_model {
@@ -52,6 +57,8 @@ struct sph_model {
     size_t nactive;
     unsigned char *loose; /* per particle: free drift in auto mode */
     double dens_scale;   /* lattice calibration of the truncated kernel */
+    double *fcor;        /* Coriolis parameter per particle, set each step */
+    double cos_air, sin_air, cos_water, sin_water; /* turning angles */
     sph_thermo_work *tw;
     sph_budget budget;
     sph_step_stats stats;
@@ -173,6 +180,14 @@ int sph_params_check(const sph_params *p, const char **name, double *lo, double 
 }
 #undef RANGE
 
+static void set_turning(sph_model *m)
+{
+    m->cos_air = cos(m->prm.turn_air * DEG2RAD);
+    m->sin_air = sin(m->prm.turn_air * DEG2RAD);
+    m->cos_water = cos(m->prm.turn_water * DEG2RAD);
+    m->sin_water = sin(m->prm.turn_water * DEG2RAD);
+}
+
 sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask *mask)
 {
     const char *nm;
@@ -203,13 +218,14 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     m->zeta = calloc(c2, sizeof(double));
     m->vfluct = calloc(c2, sizeof(double));
     m->dvel = calloc(c2, sizeof(double));
+    m->fcor = calloc(c2, sizeof(double));
     m->scratch = calloc(c2 * SPH_MAX_LAYERS, sizeof(double));
     m->order = calloc(c2, sizeof(int));
     m->active = calloc(c2, sizeof(int));
     m->loose = calloc(c2, 1);
     m->tw = sph_thermo_work_create(c2, nl);
     int ok = m->P && m->nb && m->ghost_src && m->ghost_nx && m->ghost_ny && m->ghost_n2x && m->ghost_n2y && m->un && m->vn &&
-             m->zeta && m->vfluct && m->dvel && m->scratch && m->order && m->active && m->loose && m->tw;
+             m->zeta && m->vfluct && m->dvel && m->fcor && m->scratch && m->order && m->active && m->loose && m->tw;
     if (ok && with_mask) {
         size_t nc = (size_t)mask->nx * (size_t)mask->ny;
         m->land = malloc(nc);
@@ -227,6 +243,7 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
         return NULL;
     }
     m->dens_scale = 1.0;
+    set_turning(m);
     return m;
 }
 
@@ -246,6 +263,7 @@ void sph_model_free(sph_model *m)
     free(m->zeta);
     free(m->vfluct);
     free(m->dvel);
+    free(m->fcor);
     free(m->scratch);
     free(m->order);
     free(m->active);
@@ -276,6 +294,7 @@ int sph_model_set_params(sph_model *m, const sph_params *p)
         return SPH_STEP_FATAL;
     m->prm = *p;
     sph_kernel_init(&m->kern, p->kernel, p->kernel_radius);
+    set_turning(m);
     return SPH_STEP_OK;
 }
 
@@ -538,7 +557,7 @@ static void density_pass(sph_model *m)
     const sph_nbr *nb = m->nb;
     size_t n = P->n;
     double scale = m->dens_scale;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
     for (size_t k = 0; k < n; k++) {
         const size_t base = k * (size_t)nb->max_nb;
         double s = 0.0;
@@ -554,7 +573,7 @@ static void diagnose(sph_model *m)
     sph_particles *P = m->P;
     const sph_params *p = &m->prm;
     size_t n = P->n;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
     for (size_t k = 0; k < n; k++) {
         double hbar = P->dens[k] / p->rho_i;
         double A = hbar / P->thick[k];
@@ -603,7 +622,7 @@ static void strain_pass(sph_model *m, const int *list, size_t count)
     const sph_nbr *nb = m->nb;
     const double *u = P->u, *v = P->v, *mass = P->mass;
     int want_fluct = m->prm.rheology == SPH_RHEOLOGY_COLLISION;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
     for (size_t i = 0; i < count; i++) {
         size_t k = list ? (size_t)list[i] : i;
         const size_t base = k * (size_t)nb->max_nb;
@@ -653,7 +672,7 @@ static void divergence_pass(sph_model *m, const int *list, size_t count)
 {
     sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
     for (size_t i = 0; i < count; i++) {
         size_t k = list ? (size_t)list[i] : i;
         const size_t base = k * (size_t)nb->max_nb;
@@ -692,13 +711,13 @@ static inline void momentum(const sph_model *m, size_t k, double beta, double up
     double rho_h = P->dens[k];
     double ua = P->ua[k], va = P->va[k];
     double sa = hypot(ua, va);
-    double ta = p->turn_air * DEG2RAD, tw = p->turn_water * DEG2RAD;
-    double tax = p->rho_a * p->Ca * sa * (ua * cos(ta) - va * sin(ta));
-    double tay = p->rho_a * p->Ca * sa * (ua * sin(ta) + va * cos(ta));
+    double ca = m->cos_air, sna = m->sin_air;
+    double tax = p->rho_a * p->Ca * sa * (ua * ca - va * sna);
+    double tay = p->rho_a * p->Ca * sa * (ua * sna + va * ca);
     double uw = P->uw[k], vw = P->vw[k];
     double c = p->rho_w * p->Cw * hypot(uw - up, vw - vp) / rho_h;
-    double cw = cos(tw), sw = sin(tw);
-    double f = p->coriolis ? 2.0 * OMEGA_EARTH * sin(P->lat[k] * DEG2RAD) : 0.0;
+    double cw = m->cos_water, sw = m->sin_water;
+    double f = m->fcor[k];
     double rx = beta * up + un +
                 dt * (P->ax[k] + tax / rho_h + c * (cw * uw - sw * vw) -
                       p->gravity * P->sshx[k] + 0.5 * f * vn);
@@ -718,7 +737,7 @@ static void free_drift_pass(sph_model *m)
     sph_particles *P = m->P;
     size_t n = P->n;
     double dt = m->prm.dt;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
     for (size_t k = 0; k < n; k++) {
         if (P->regime[k] & SPH_REGIME_RHEOLOGY)
             continue;
@@ -779,14 +798,14 @@ static int solve_explicit(sph_model *m, sph_status *st)
     for (int s = 0; s < nsub; s++) {
         ghost_velocity(m, P->u, P->v);
         strain_pass(m, act, na);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
         for (size_t i = 0; i < na; i++) {
             size_t k = (size_t)act[i];
             m->zeta[k] = target_stress(m, k, &P->s11[k], &P->s22[k], &P->s12[k]);
         }
         ghost_stress(m);
         divergence_pass(m, act, na);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
         for (size_t i = 0; i < na; i++) {
             size_t k = (size_t)act[i];
             double u = P->u[k], v = P->v[k];
@@ -811,7 +830,7 @@ static int solve_mevp(sph_model *m, sph_status *st)
     for (it = 0; it < p->evp_iterations; it++) {
         ghost_velocity(m, P->u, P->v);
         strain_pass(m, act, na);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
         for (size_t i = 0; i < na; i++) {
             size_t k = (size_t)act[i];
             double t11, t22, t12;
@@ -839,7 +858,7 @@ static int solve_mevp(sph_model *m, sph_status *st)
         divergence_pass(m, act, na);
         double r = 0.0;
         /* velocity update; the max change is reduced serially afterwards */
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
         for (size_t i = 0; i < na; i++) {
             size_t k = (size_t)act[i];
             double beta = p->evp_adaptive ? m->scratch[k] : p->evp_beta;
@@ -1155,6 +1174,7 @@ int sph_model_step(sph_model *m, sph_status *st)
         m->un[k] = P->u[k];
         m->vn[k] = P->v[k];
         P->ax[k] = P->ay[k] = 0.0;
+        m->fcor[k] = p->coriolis ? 2.0 * OMEGA_EARTH * sin(P->lat[k] * DEG2RAD) : 0.0;
     }
     free_drift_pass(m);
     if (m->nactive > 0) {
@@ -1176,6 +1196,11 @@ int sph_model_step(sph_model *m, sph_status *st)
             double div = P->e11[k] + P->e22[k];
             double fac = 1.0 + p->dt * div;
             P->dens[k] /= fac > 0.1 ? fac : 0.1;
+            /* a parcel spread below SPH_CONC_MIN is open water with a trace
+             * of ice: its footprint stops growing (docs/dynamics.md) */
+            double floor_dens = SPH_CONC_MIN * p->rho_i * P->thick[k];
+            if (P->dens[k] < floor_dens)
+                P->dens[k] = floor_dens;
         }
     }
     move_and_constrain(m);

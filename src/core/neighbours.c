@@ -128,7 +128,7 @@ int sph_nbr_build(sph_nbr *nb, const sph_kernel *k, size_t nq, const double *x,
 {
     long first_over = -1;
     long pairs = 0;
-#pragma omp parallel for schedule(static) reduction(+ : pairs)
+#pragma omp parallel for schedule(static) reduction(+ : pairs) if (nq >= 4096)
     for (size_t q = 0; q < nq; q++) {
         int cx = (int)((x[q] - nb->x0) / nb->cell), cy = (int)((y[q] - nb->y0) / nb->cell);
         int cnt = 0, over = 0;
