@@ -20,6 +20,7 @@
 #include <time.h>
 
 #include "service/config.h"
+#include "service/forecast.h"
 #include "service/cycle.h"
 #include "service/daemon.h"
 #include "service/history.h"
@@ -405,9 +406,75 @@ static int cmd_check(int argc, char **argv)
             printf("%-12s %-14s %-8s %s\n", items[i].what, items[i].name, found ? "found" : "MISSING",
                    found ? p : e.msg);
     }
-    /* TODO(lead): with the forcing reader on main, open the sources with
-     * forcing_open and add forcing_describe's rows (variables, units,
-     * grid, time span, fill fraction) here. */
+    /* open every source whose files were found and describe what is in them */
+    cJSON *vars = cJSON_AddArrayToObject(root, "variables");
+    int problems = 0;
+    for (size_t s = 0; s < cfg->nforcing; s++) {
+        const char *files[201];
+        char paths[8][4096];
+        size_t nf = 0;
+        for (size_t i = 0; i < cfg->forcing[s].urls.n && nf < 8; i++) {
+            sph_error e;
+            sph_error_clear(&e);
+            if (cycle_expand_template(cfg->forcing[s].urls.v[i], t, paths[nf], sizeof paths[nf], &e))
+                continue;
+            const char *p = !strncmp(paths[nf], "file://", 7) ? paths[nf] + 7 : paths[nf];
+            struct stat st;
+            if (!strstr(p, "://") && stat(p, &st) == 0)
+                files[nf++] = p;
+        }
+        files[nf] = NULL;
+        if (nf == 0)
+            continue;
+        forcing_source_spec spec;
+        forcing_name_map *map = NULL;
+        forcing *f = NULL;
+        sph_error e;
+        sph_error_clear(&e);
+        int rc = forecast_source_spec(cfg, s, files, &spec, &map, &e);
+        if (!rc)
+            rc = forcing_open(&f, &spec, 1, t, t + cfg->schedule.forecast_hours * 3600.0,
+                              cfg->domain.lon_min, cfg->domain.lon_max, cfg->domain.lat_min,
+                              cfg->domain.lat_max, &e);
+        if (rc) {
+            problems++;
+            cJSON *r = cJSON_CreateObject();
+            cJSON_AddStringToObject(r, "source", cfg->forcing[s].name);
+            cJSON_AddStringToObject(r, "problem", e.msg);
+            cJSON_AddItemToArray(vars, r);
+            if (!o.json)
+                printf("PROBLEM      %s\n", e.msg);
+        } else {
+            forcing_var_info info[32];
+            size_t ni = forcing_describe(f, info, 32);
+            for (size_t i = 0; i < ni && i < 32; i++) {
+                char t0[32] = "harmonic", t1[32] = "any time";
+                if (isfinite(info[i].t_first) && fabs(info[i].t_first) < 1e13) {
+                    time_format_iso(info[i].t_first, t0, sizeof t0);
+                    time_format_iso(info[i].t_last, t1, sizeof t1);
+                }
+                cJSON *r = cJSON_CreateObject();
+                cJSON_AddStringToObject(r, "source", info[i].source);
+                cJSON_AddStringToObject(r, "standard_name", info[i].standard_name);
+                cJSON_AddStringToObject(r, "variable", info[i].variable);
+                cJSON_AddStringToObject(r, "file", info[i].file);
+                cJSON_AddStringToObject(r, "units", info[i].units);
+                cJSON_AddStringToObject(r, "grid", info[i].grid);
+                cJSON_AddStringToObject(r, "time_first", t0);
+                cJSON_AddStringToObject(r, "time_last", t1);
+                cJSON_AddNumberToObject(r, "fill_fraction", info[i].fill_fraction);
+                cJSON_AddItemToArray(vars, r);
+                if (!o.json)
+                    printf("variable     %-10s %-44s %-8s %-12s %-30s %s..%s fill %.3f\n",
+                           info[i].source, info[i].standard_name, info[i].variable, info[i].units,
+                           info[i].grid, t0, t1, info[i].fill_fraction);
+            }
+        }
+        forcing_close(f);
+        free(map);
+    }
+    if (problems)
+        missing_required++;
     cJSON_AddBoolToObject(root, "ok", missing_required == 0);
     if (o.json) {
         char *txt = cJSON_Print(root);

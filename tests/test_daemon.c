@@ -231,15 +231,15 @@ static void dump_log(const char *log)
 
 static void scenario_cycles_status_http_reload(void)
 {
-    char dir[512], cfg[600], log[600], forcing[600], tmpl[600];
+    char dir[512], cfg[600], log[600], forcing_path[600], tmpl[600];
     snprintf(dir, sizeof dir, "%s/a", tmp);
     snprintf(cfg, sizeof cfg, "%s/a.json", tmp);
     snprintf(log, sizeof log, "%s/a.log", tmp);
-    snprintf(forcing, sizeof forcing, "%s/atm.nc", tmp);
-    snprintf(tmpl, sizeof tmpl, "%s", forcing);
+    snprintf(forcing_path, sizeof forcing_path, "%s/atm.nc", tmp);
+    snprintf(tmpl, sizeof tmpl, "%s", forcing_path);
     sph_error e;
     sph_error_clear(&e);
-    atomic_write_file(forcing, "forcing", 7, &e);
+    atomic_write_file(forcing_path, "forcing", 7, &e);
     int port = free_port();
     write_config(cfg, dir, port, 1.5, tmpl, "fail", NULL);
     pid_t pid = spawn(cfg, "sleep:0.3", log);
@@ -378,15 +378,15 @@ static void scenario_cycles_status_http_reload(void)
 
 static void scenario_term_and_kill(void)
 {
-    char dir[512], cfg[600], log[600], forcing[600], out[700], state[700];
+    char dir[512], cfg[600], log[600], forcing_path[600], out[700], state[700];
     snprintf(dir, sizeof dir, "%s/b", tmp);
     snprintf(cfg, sizeof cfg, "%s/b.json", tmp);
     snprintf(log, sizeof log, "%s/b.log", tmp);
-    snprintf(forcing, sizeof forcing, "%s/atm.nc", tmp);
+    snprintf(forcing_path, sizeof forcing_path, "%s/atm.nc", tmp);
     snprintf(out, sizeof out, "%s/out", dir);
     snprintf(state, sizeof state, "%s/state/history.sqlite", dir);
     int port = free_port();
-    write_config(cfg, dir, port, 3600, forcing, "fail", NULL);
+    write_config(cfg, dir, port, 3600, forcing_path, "fail", NULL);
     /* previous products: one cycle an hour earlier, by `sphice run` */
     double now = time_now();
     double slot = floor(now / 3600) * 3600;

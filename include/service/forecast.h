@@ -55,6 +55,12 @@ typedef struct forecast_result {
     char products[FC_MAX_PRODUCTS][512]; /* file names relative to stage_dir */
 } forecast_result;
 
+#include "io/forcing.h"
+/* The forcing_source_spec of configured source s over the given local
+ * files (NULL-terminated); *map (caller frees) holds its name map. */
+int forecast_source_spec(const struct sph_config *cfg, size_t s, const char *const *files,
+                         forcing_source_spec *sp, forcing_name_map **map, sph_error *err);
+
 /* Returns SPH_OK, or an error code with one clear line in err. Checks
  * *cancel between steps; when set, stops and returns SPH_ERR_CANCELLED. */
 int forecast_run(const struct sph_config *cfg, const forecast_request *req,

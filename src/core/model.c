@@ -28,6 +28,14 @@
 /* Threads pay off only above a few thousand particles: the solver runs
  * thousands of short passes per step, each a fork/join. */
 #define SPH_OMP_WORTH(n) ((n) >= 4096)
+/* Measured stability envelope (bench_stability, 4-day coast runs):
+ * fixed-parameter mEVP (alpha = beta = 300) blew up or clumped at
+ * dt 300 s below 2 km and at 1800 s; adaptive EVP is stable at dt/dx =
+ * 0.06 s/m and blew up at 0.3 s/m (1 km, 300 s) and clumped at 0.45;
+ * refused above 0.2 s/m (between the two; runs at 0.14 are tested). */
+#define SPH_MEVP_FIXED_DT_MAX 300.0
+#define SPH_MEVP_FIXED_DT_FINE 60.0
+#define SPH_AEVP_DT_PER_M 0.2
 /* Smallest concentration a parcel is diluted to by divergence. */
 #define SPH_CONC_MIN 0.05
 #define DEG2RAD (M_PI / 180.0)
@@ -589,6 +597,37 @@ static void diagnose(sph_model *m)
     }
 }
 
+/* The EVP stress memory can lag behind a strength that fell (divergence,
+ * melt): a stress outside the current yield ellipse is projected back
+ * onto it, S = -P/2 I + (S + P/2 I) / r, r the ellipse radius. Without
+ * this a diluted parcel kept the stress of its packed past and S/M^2
+ * blew up near coasts (demo). VP only: the collision rheology has no
+ * ellipse. */
+static void clamp_stress_memory(sph_model *m)
+{
+    sph_particles *P = m->P;
+    if (m->prm.rheology != SPH_RHEOLOGY_VP)
+        return;
+    double e = m->prm.ecc;
+    for (size_t k = 0; k < P->n; k++) {
+        double Pk = P->pres[k];
+        double a = P->s11[k], b = P->s22[k], c = P->s12[k];
+        if (!(Pk > 0.0)) {
+            P->s11[k] = P->s22[k] = P->s12[k] = 0.0;
+            continue;
+        }
+        double sI = 0.5 * (a + b), sII = sqrt(0.25 * (a - b) * (a - b) + c * c);
+        double x = (sI + 0.5 * Pk) / (0.5 * Pk), y = sII / (0.5 * Pk / e);
+        double r = sqrt(x * x + y * y);
+        if (r > 1.0) {
+            double h = 0.5 * Pk;
+            P->s11[k] = -h + (a + h) / r;
+            P->s22[k] = -h + (b + h) / r;
+            P->s12[k] = c / r;
+        }
+    }
+}
+
 /* Active set: particles that are packed or have a packed neighbour. */
 static void select_active(sph_model *m)
 {
@@ -907,6 +946,7 @@ static int prepare(sph_model *m, sph_status *st)
         P->dens[q] = P->dens[k];
     }
     diagnose(m);
+    clamp_stress_memory(m);
     ghost_stress(m);
     select_active(m);
     return SPH_STEP_OK;
@@ -982,6 +1022,24 @@ int sph_model_init(sph_model *m, sph_status *st)
             return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "position", P->x[k], 0.0,
                                   "is not finite");
     }
+    /* The measured stability envelope (docs/bench.md, bench/run.sh,
+     * docs/bench/stability.csv): outside it a run is refused here, before
+     * anything is computed, rather than written out as a forecast. */
+    double spacing = HUGE_VAL;
+    for (size_t k = 0; k < P->n; k++)
+        spacing = fmin(spacing, P->sml0[k] / p->sml_factor);
+    if (p->physics != SPH_PHYSICS_FREE_DRIFT && p->solver == SPH_SOLVER_MEVP && !p->evp_adaptive &&
+        (p->dt > SPH_MEVP_FIXED_DT_MAX || (p->dt > SPH_MEVP_FIXED_DT_FINE && spacing < 2000.0)))
+        return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "time step", p->dt,
+                              spacing < 2000.0 ? SPH_MEVP_FIXED_DT_FINE : SPH_MEVP_FIXED_DT_MAX,
+                              "is outside the measured stable region of fixed-parameter mEVP "
+                              "(blow-up or clumping measured beyond it); refused");
+    if (p->physics != SPH_PHYSICS_FREE_DRIFT && p->solver == SPH_SOLVER_MEVP && p->evp_adaptive && P->n > 0 &&
+        p->dt > SPH_AEVP_DT_PER_M * spacing)
+        return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "time step", p->dt,
+                              SPH_AEVP_DT_PER_M * spacing,
+                              "is outside the measured stable region of adaptive EVP "
+                              "(dt / spacing above 0.2 s/m; stable at 0.06, blow-up measured at 0.3); refused");
     if (m->has_mask)
         mark_near_land(m, m->kern.radius * p->sml_max_factor * max_sml(P, P->n));
     /* Calibrate the kernel's lattice sum: intended M = rho_i A h_i from the

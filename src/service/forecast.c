@@ -331,6 +331,37 @@ static int plane_box(engine *e, double *xmin, double *xmax, double *ymin, double
 
 /* --------------------------------------------------------------- forcing */
 
+int forecast_source_spec(const struct sph_config *cfg, size_t s, const char *const *files,
+                         forcing_source_spec *sp, forcing_name_map **map, sph_error *err)
+{
+    const cfg_forcing_source *src = &cfg->forcing[s];
+    size_t nfiles = 0;
+    while (files && files[nfiles])
+        nfiles++;
+    memset(sp, 0, sizeof *sp);
+    *map = NULL;
+    sp->name = src->name;
+    sp->kind = (forcing_kind)src->kind;
+    sp->files = files;
+    sp->nfiles = nfiles;
+    if (src->variables.n) {
+        *map = calloc(src->variables.n, sizeof **map);
+        if (!*map)
+            return sph_err_set(err, SPH_ERR_NOMEM, "forcing: out of memory");
+        for (size_t k = 0; k < src->variables.n; k++) {
+            (*map)[k].standard_name = src->variables.key[k];
+            (*map)[k].variable = src->variables.val[k];
+        }
+        sp->map = *map;
+        sp->nmap = src->variables.n;
+    }
+    for (size_t k = 0; k < src->required.n; k++)
+        sp->required |= (unsigned)config_quantity_flag(src->required.v[k]);
+    for (size_t k = 0; k < src->optional_q.n; k++)
+        sp->optional |= (unsigned)config_quantity_flag(src->optional_q.v[k]);
+    return SPH_OK;
+}
+
 static int open_forcing(engine *e, sph_error *err)
 {
     const struct sph_config *cfg = e->cfg;
@@ -355,29 +386,10 @@ static int open_forcing(engine *e, sph_error *err)
                              e->cname);
             break;
         }
-        forcing_source_spec *sp = &specs[nspecs++];
-        memset(sp, 0, sizeof *sp);
-        sp->name = src->name;
-        sp->kind = (forcing_kind)src->kind;
-        sp->files = files;
-        sp->nfiles = nfiles;
-        if (src->variables.n) {
-            maps[s] = calloc(src->variables.n, sizeof *maps[s]);
-            if (!maps[s]) {
-                rc = sph_err_set(err, SPH_ERR_NOMEM, "forcing: out of memory");
-                break;
-            }
-            for (size_t k = 0; k < src->variables.n; k++) {
-                maps[s][k].standard_name = src->variables.key[k];
-                maps[s][k].variable = src->variables.val[k];
-            }
-            sp->map = maps[s];
-            sp->nmap = src->variables.n;
-        }
-        for (size_t k = 0; k < src->required.n; k++)
-            sp->required |= (unsigned)config_quantity_flag(src->required.v[k]);
-        for (size_t k = 0; k < src->optional_q.n; k++)
-            sp->optional |= (unsigned)config_quantity_flag(src->optional_q.v[k]);
+        rc = forecast_source_spec(cfg, s, files, &specs[nspecs], &maps[s], err);
+        if (rc != SPH_OK)
+            break;
+        nspecs++;
     }
     /* one forcing object per source (same checks and messages as opening
      * them together); currents and SSH are summed over sources here */
