@@ -214,6 +214,16 @@ int main(void)
         else
             CHECK(0, "docs/config.md: %s", e.msg);
         free(committed);
+        /* README.md carries the same reference (configuration section) */
+        committed = NULL;
+        sph_error_clear(&e);
+        if (read_file("README.md", &committed, &clen, &e) == 0)
+            /* the README demotes the reference's title line */
+            CHECK(strstr(committed, strchr(doc, '\n')) != NULL,
+                  "README.md's configuration reference is stale: run `sh tools/make-readme.sh`");
+        else
+            CHECK(0, "README.md: %s", e.msg);
+        free(committed);
         cJSON_Delete(j);
         free(eff);
         free(doc);

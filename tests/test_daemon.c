@@ -506,14 +506,16 @@ static void scenario_late_data(void)
     kill(pid, SIGTERM);
     CHECK(wait_exit(pid, 5) == 0, "E exits 0");
 
-    /* stale policy: only the issues of 1 and 2 days ago exist */
+    /* stale policy: only the issues of 2 and 3 days ago exist (so even the
+     * oldest cycle catch-up may pick, up to 24 h back, lacks its own issue,
+     * whatever the time of day) */
     snprintf(dir, sizeof dir, "%s/f", tmp);
     snprintf(cfg, sizeof cfg, "%s/f.json", tmp);
     snprintf(log, sizeof log, "%s/f.log", tmp);
     snprintf(tmpl, sizeof tmpl, "%s/day_%%Y%%j.nc", tmp);
     sph_error e;
     sph_error_clear(&e);
-    for (int k = 1; k <= 2; k++) {
+    for (int k = 2; k <= 3; k++) {
         char p[800];
         cycle_expand_template(tmpl, time_now() - k * 86400.0, p, sizeof p, &e);
         atomic_write_file(p, "old", 3, &e);
