@@ -43,7 +43,8 @@ int cycle_test_engine(const struct sph_config *cfg, const forecast_request *req,
  * when the file is not (yet) there. */
 typedef int (*cycle_fetch_fn)(const char *tmpl, double t, const char *cache_dir, char *local, size_t len,
                               char sha256[65], sph_error *err);
-/* NULL restores the built-in fetcher (local paths and file:// only). */
+/* NULL restores the built-in fetcher (local paths, file://, and
+ * http(s)/ftp downloads through io/fetch.h into paths.cache_dir). */
 void cycle_set_fetcher(cycle_fetch_fn fn);
 
 /* strftime-style expansion with the cycle time: %Y %m %d %H %M %S %j %y %%.

@@ -1,5 +1,6 @@
 /* The forecast cycle state machine (service/cycle.h). */
 #include "service/cycle.h"
+#include "io/fetch.h"
 
 #include <cjson/cJSON.h>
 #include <dirent.h>
@@ -100,21 +101,26 @@ int cycle_remove_tree(const char *path)
     return nftw(path, rm_entry, 16, FTW_DEPTH | FTW_PHYS);
 }
 
-/* The built-in fetcher: local paths and file:// URLs. Downloads come
- * with io/fetch.h (registered by the program through cycle_set_fetcher). */
+/* The built-in fetcher: local paths and file:// URLs as they are, remote
+ * URLs downloaded into the cache (tests may register another one). */
 static int local_fetch(const char *tmpl, double t, const char *cache_dir, char *local, size_t len,
                        char sha256[65], sph_error *err)
 {
-    (void)cache_dir;
     char path[4096];
     int rc = cycle_expand_template(tmpl, t, path, sizeof path, err);
     if (rc)
         return rc;
     const char *p = path;
-    if (!strncmp(p, "file://", 7))
+    if (!strncmp(p, "file://", 7)) {
         p += 7;
-    else if (strstr(p, "://"))
-        return sph_err_set(err, SPH_ERR_DOWNLOAD, "%s: no downloader in this build (io/fetch.h)", path);
+    } else if (strstr(p, "://")) {
+        /* http(s):// and ftp://: libcurl with timeouts, retries, a cache,
+         * conditional requests, validated NetCDF (io/fetch.h) */
+        fetch_options o;
+        fetch_options_default(&o);
+        o.cache_dir = cache_dir;
+        return fetch_url(path, &o, local, len, sha256, err);
+    }
     if (access(p, R_OK) != 0)
         return sph_err_set(err, SPH_ERR_IO, "%s: %s", p, strerror(errno));
     snprintf(local, len, "%s", p);
