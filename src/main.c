@@ -19,6 +19,7 @@
 #include <sys/stat.h>
 #include <time.h>
 
+#include "io/quicklook.h"
 #include "service/config.h"
 #include "service/forecast.h"
 #include "service/cycle.h"
@@ -490,6 +491,7 @@ static int cmd_check(int argc, char **argv)
 
 int main(int argc, char **argv)
 {
+    atexit(quicklook_release_caches);
     if (argc < 2)
         return usage(stderr, 2);
     const char *cmd = argv[1];

@@ -157,7 +157,7 @@ static void test_neighbours_match_brute(void)
     for (size_t i = 0; i < n; i++) {
         x[i] = 1e5 * rand() / (double)RAND_MAX;
         y[i] = 5e4 * rand() / (double)RAND_MAX;
-        h[i] = 1500 + 500 * rand() / (double)RAND_MAX;
+        h[i] = 1500 + 500.0 * rand() / (double)RAND_MAX;
     }
     sph_nbr *a = sph_nbr_create(n, n, 256), *b = sph_nbr_create(n, n, 256);
     double hmax = 2000;

@@ -34,4 +34,8 @@ int quicklook_write_png(const char *path, const prod_grid *g, const double *conc
                         const char *const *st_names, const double *st_lon, const double *st_lat,
                         int nst, double valid_time, const quicklook_opts *o, sph_error *err);
 
+/* Frees cairo's and fontconfig's one-time caches (for leak checkers);
+ * call once at program exit, after the last map. */
+void quicklook_release_caches(void);
+
 #endif

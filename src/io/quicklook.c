@@ -250,3 +250,13 @@ int quicklook_write_png(const char *path, const prod_grid *g, const double *conc
     rc = atomic_commit(tmp, path, err);
     return rc;
 }
+
+/* fontconfig (under cairo's toy text API) keeps a process-wide cache;
+ * FcFini is weak so the program links without fontconfig's headers. */
+extern void FcFini(void) __attribute__((weak));
+void quicklook_release_caches(void)
+{
+    cairo_debug_reset_static_data();
+    if (FcFini)
+        FcFini();
+}
