@@ -2,9 +2,8 @@
  *
  * Hibler viscous-plastic (PHYSICS.md section 3, seed eq. 3):
  *   S = 2 eta e + (zeta - eta) tr(e) I - P_r/2 I
- *   zeta = P / (2 max(Delta, Delta_min)),  eta = zeta / e^2
- * which equals min(P/(2 Delta), zeta_max) with zeta_max = P/(2 Delta_min)
- * (2.5e8 s * P for Delta_min = 2e-9 s^-1). P is the vertically integrated
+ *   zeta = min(P / (2 max(Delta, Delta_min)), zeta_max_factor P),  eta = zeta / e^2
+ * (the two caps coincide for the defaults: 1 / (2 * 2e-9 s^-1) = 2.5e8 s). P is the vertically integrated
  * strength P_int = P0 hbar exp(-C (1 - A)) for both pressure forms: the
  * seed's P0 exp(-C(1-A)) multiplied by the hbar of its div(hbar sigma),
  * and Hibler's P* h exp(-C(1-A)) with h the mean thickness hbar; they
@@ -35,6 +34,8 @@ static inline double sph_vp_stress(const sph_params *p, double P, double e11, do
     double Delta = sqrt(eI * eI + eII2 * inv_e2);
     double Dreg = Delta > p->delta_min ? Delta : p->delta_min;
     double zeta = P / (2.0 * Dreg);
+    if (zeta > p->zeta_max_factor * P) /* both caps honoured; equal for the defaults */
+        zeta = p->zeta_max_factor * P;
     double eta = zeta * inv_e2;
     double Pr = p->replacement_pressure ? 2.0 * zeta * Delta : P;
     double iso = (zeta - eta) * eI - 0.5 * Pr;

@@ -806,7 +806,7 @@ static double explicit_limit(const sph_model *m)
         if (p->rheology == SPH_RHEOLOGY_COLLISION) {
             zmax = m->zeta[k];
         } else {
-            zmax = P->pres[k] / (2.0 * p->delta_min);
+            zmax = fmin(P->pres[k] / (2.0 * p->delta_min), p->zeta_max_factor * P->pres[k]);
         }
         double nu = zmax * (1.0 + 1.0 / (p->ecc * p->ecc)) / P->dens[k];
         if (nu > 0.0)
