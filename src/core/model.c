@@ -814,10 +814,25 @@ static void free_drift_pass(sph_model *m)
             continue;
         P->ax[k] = P->ay[k] = 0.0;
         P->s11[k] = P->s22[k] = P->s12[k] = 0.0;
-        /* two Picard sweeps on the drag speed; steady states are exact */
+        /* Picard sweeps on the lagged drag speed until the velocity settles
+         * (long steps need more than a few: c dt >> 1) */
         double u = m->un[k], v = m->vn[k];
-        for (int it = 0; it < 3; it++)
-            momentum(m, k, 0.0, u, v, m->un[k], m->vn[k], dt, &u, &v);
+        for (int it = 0; it < 60; it++) {
+            double un, vn;
+            momentum(m, k, 0.0, u, v, m->un[k], m->vn[k], dt, &un, &vn);
+            double d = fabs(un - u) + fabs(vn - v);
+            /* the plain lagged iteration oscillates when c dt >> 1 (its
+             * derivative tends to -1); averaging removes that mode */
+            if (it == 0) {
+                u = un;
+                v = vn;
+            } else {
+                u = 0.5 * (u + un);
+                v = 0.5 * (v + vn);
+            }
+            if (d <= 1e-13 * (1.0 + fabs(u) + fabs(v)))
+                break;
+        }
         P->u[k] = u;
         P->v[k] = v;
     }
