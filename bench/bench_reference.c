@@ -150,7 +150,11 @@ static void run_coast(const void *arg, bench_row *r)
     coast_analytic a;
     coast_solve(&a, &p, cc.tau, h0, L0);
     sph_status st;
-    sph_model_init(cc.model, &st);
+    if (sph_model_init(cc.model, &st) != 0) { /* outside the measured envelope */
+        snprintf(r->status, sizeof r->status, "refused:%s", st.quantity);
+        coast_free(&cc);
+        return;
+    }
     sph_particles *P = sph_model_particles(cc.model);
     long steps = (long)ceil(c->days * 86400.0 / c->dt);
     double c0 = bench_cpu(), w0 = bench_wall();

@@ -87,10 +87,15 @@ static void run_envelope(const void *arg, bench_row *r)
     coast_case cc;
     coast_setup(&cc, &p, c->dx, 3, 20 * c->dx, 1.0, c->wind);
     sph_status st;
-    sph_model_init(cc.model, &st);
+    int init_rc = sph_model_init(cc.model, &st);
     long steps = (long)ceil(c->hours * 3600 / c->dt - 1e-9), s;
     double c0 = bench_cpu(), w0 = bench_wall();
     int code = 0;
+    if (init_rc != 0) { /* refused by the measured envelope (or a bad state) */
+        code = init_rc > 0 ? 4 : 2;
+        snprintf(r->status, sizeof r->status, "%s:envelope", code == 4 ? "refused" : "fatal");
+        steps = 0;
+    }
     for (s = 0; s < steps; s++) {
         int rc = sph_model_step(cc.model, &st);
         if (rc != 0) {
