@@ -117,7 +117,7 @@ void sph_params_default(sph_params *p)
     p->zeta_max_factor = 2.5e8;
     p->delta_min = 2.0e-9;
     p->replacement_pressure = 0;
-    p->auto_tolerance = 1.0e-3;
+    p->auto_tolerance = 1.0e-2;
     p->coll_restitution = 0.5;
     p->coll_floe_diameter = 100.0;
     p->coll_max_conc = 0.91;
@@ -1223,6 +1223,13 @@ static void move_and_constrain(sph_model *m)
         P->x[k] = x1;
         P->y[k] = y1;
     }
+}
+
+/* Removes particles that left an open boundary (after the strain pass:
+ * removal reorders the arrays the neighbour lists point into). */
+static void remove_outflow(sph_model *m)
+{
+    sph_particles *P = m->P;
     for (size_t k = P->n; k-- > 0;) {
         if (outside_open(m, P->x[k], P->y[k])) {
             m->budget.outflow += P->mass[k];
@@ -1292,7 +1299,13 @@ int sph_model_step(sph_model *m, sph_status *st)
         if (rc != SPH_STEP_OK)
             return rc;
     }
-    /* final strain rates of every particle, for output and the smoothing length */
+    /* positions first: a move blocked by land zeroes the blocked velocity,
+     * and only the realised motion may compress a parcel (a particle held
+     * at a coast otherwise kept "converging" into land and ridged without
+     * bound) */
+    move_and_constrain(m);
+    /* final strain rates of every particle, for output, continuity and
+     * the smoothing length */
     ghost_velocity(m, P->u, P->v);
     strain_pass(m, NULL, P->n);
     if (!p->summation_density) {
@@ -1308,7 +1321,7 @@ int sph_model_step(sph_model *m, sph_status *st)
                 P->dens[k] = floor_dens;
         }
     }
-    move_and_constrain(m);
+    remove_outflow(m);
     update_sml(m);
     m->time += p->dt;
     m->steps++;

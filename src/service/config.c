@@ -160,7 +160,7 @@ static const cfg_key config_keys[] = {
        "Implicit solver: relative residual."),
     C_("model.physics", CT_ENUM, model.physics, "\"auto\"", 0, 0, R, physics_names,
        "auto (free drift where loose, rheology where packed), full, free_drift."),
-    C_("model.auto_tolerance", CT_DOUBLE, model.auto_tolerance, "1e-3", 0, 1, R, NULL,
+    C_("model.auto_tolerance", CT_DOUBLE, model.auto_tolerance, "1e-2", 0, 1, R, NULL,
        "auto physics: free drift where exp(-C(1-A)) is below this."),
     C_("model.rheology.kind", CT_ENUM, model.rheology, "\"vp\"", 0, 0, R, rheology_names,
        "Rheology: vp (Hibler viscous-plastic) or collision (Shen, Hibler & Lepparanta 1987)."),
