@@ -156,6 +156,53 @@ static inline long coast_run(coast_case *c, long max_steps, double ke_tol, sph_s
     return s;
 }
 
+/* Measured steady state of a replacement-pressure channel (the R300 peer
+ * case), in the quantities the analytic state names:
+ *  - edge: the outermost particle's position plus half its own extent
+ *    along the channel (its area m / M over the channel width per
+ *    particle, dx);
+ *  - the ridged zone: a least-squares line through hbar = M / rho_i of the
+ *    particles that have ridged (hbar > 1.02 h0), leaving out the wall's
+ *    kernel support (y < 2 sml): wall thickness = the line at y = 0, ridged
+ *    length = where the line meets h0.
+ * Returns the number of particles in the fit (0: nothing has ridged). */
+typedef struct coast_measured {
+    double edge, Lr, hwall;
+    int nfit;
+} coast_measured;
+
+static inline int coast_measure_ridged(const coast_case *c, const sph_params *p, double sml,
+                                       coast_measured *out)
+{
+    sph_particles *P = sph_model_particles(c->model);
+    double ymax = -HUGE_VAL, ext = 0.0;
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    int n = 0;
+    for (size_t k = 0; k < P->n; k++) {
+        double y = P->y[k], hb = P->dens[k] / p->rho_i;
+        if (y > ymax) {
+            ymax = y;
+            ext = P->mass[k] / (P->dens[k] * c->dx);
+        }
+        if (y > 2.0 * sml && hb > 1.02 * c->h0) {
+            sx += y;
+            sy += hb;
+            sxx += y * y;
+            sxy += y * hb;
+            n++;
+        }
+    }
+    out->edge = ymax + 0.5 * ext;
+    out->nfit = n;
+    out->Lr = out->hwall = NAN;
+    if (n >= 2) {
+        double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+        out->hwall = (sy - slope * sx) / n;
+        out->Lr = (out->hwall - c->h0) / -slope;
+    }
+    return n;
+}
+
 #endif
 
 /* Places the channel's particles in the analytic steady state: uniform

@@ -42,6 +42,12 @@
 #define SPH_MEVP_FIXED_DT_MAX 300.0
 #define SPH_MEVP_FIXED_DT_FINE 60.0
 #define SPH_AEVP_DT_PER_M 0.2
+/* With replacement pressure: plastic-wave Courant number dt c_p / spacing,
+ * c_p = sqrt(k P0 / rho_i) the uniaxial plastic wave speed of packed ice
+ * (PHYSICS.md s. 8). Measured on the R300 channel (tests/test_r300.c,
+ * docs/dynamics.md): holds its steady state at 0.137 (5 km, 120 s),
+ * drifts with growing kinetic energy at 0.205 (5 km 180 s; 2.5 km 90 s). */
+#define SPH_REPLACEMENT_COURANT_MAX 0.15
 /* Smallest concentration a parcel is diluted to by divergence. */
 #define SPH_CONC_MIN 0.05
 #define DEG2RAD (M_PI / 180.0)
@@ -1087,6 +1093,17 @@ int sph_model_init(sph_model *m, sph_status *st)
                               SPH_AEVP_DT_PER_M * spacing,
                               "is outside the measured stable region of adaptive EVP "
                               "(dt / spacing above 0.2 s/m; stable at 0.06, blow-up measured at 0.3); refused");
+    if (p->physics != SPH_PHYSICS_FREE_DRIFT && p->rheology == SPH_RHEOLOGY_VP &&
+        p->replacement_pressure && P->n > 0) {
+        double k = 0.5 * (1.0 + sqrt(1.0 + 1.0 / (p->ecc * p->ecc)));
+        double cp = sqrt(k * p->P0 / p->rho_i);
+        double dtmax = SPH_REPLACEMENT_COURANT_MAX * spacing / cp;
+        if (p->dt > dtmax)
+            return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "time step", p->dt, dtmax,
+                                  "is outside the measured stable region with replacement pressure "
+                                  "(plastic-wave Courant number dt c_p / spacing above 0.15; "
+                                  "stable at 0.137, drift and growth measured at 0.205); refused");
+    }
     if (m->has_mask)
         mark_near_land(m, m->kern.radius * p->sml_max_factor * max_sml(P, P->n));
     /* Calibrate the kernel's lattice sum: intended M = rho_i A h_i from the

@@ -1,0 +1,154 @@
+/* The peer case R300 (PHYSICS.md section 8), run to steady state with the
+ * adaptive EVP solver at a two-minute step.
+ *
+ * Channel 30 km wide (free-slip walls at x = 0 and x = 30 km), a wall at
+ * y = 0, open beyond the ice; A = 1, h0 = 1 m filling 0..300 km, at rest;
+ * 9 m/s wind towards the wall; Hibler's pressure P* h exp(-C(1-A)) with
+ * P* = 27.5e3, C = 20, e = 2, Delta_min = 2e-9, replacement pressure;
+ * rho_a Ca = 1.3 x 1.2e-3, rho_w Cw = 1026 x 5.5e-3, rho_i = 900; no
+ * Coriolis. The analytic steady state (tests/scenarios.h, coast_solve)
+ * is checked against the peer's published numbers (edge 291.83 km,
+ * ridged zone 61.36 km, wall thickness 1.2662 m), then the model, started
+ * from the uniform pack, must reach it within 1 % in edge position,
+ * ridged-zone length and wall thickness (coast_measure_ridged: a line
+ * through the ridged particles outside the wall's kernel support).
+ *
+ * Numerics: 5 km spacing (6 x 60 particles), Gaussian kernel truncated at
+ * 3 h (the default), h = dx,
+ * aEVP with 250 iterations, dt = 120 s. Steady state: kinetic energy per
+ * mass below 1e-6 m^2/s^2 (rms speed under 1 mm/s) after at least 24 h.
+ * The measured stability limit of this case is between 120 s (holds the
+ * analytic state to 0.2 % over 24 h) and 180 s (drifts, kinetic energy
+ * growing); sph_model_init refuses steps beyond the plastic-wave limit
+ * (docs/dynamics.md), which is checked here too.
+ * SPHICE_QUICK: only the analytic state held for 6 h. */
+#include <time.h>
+
+#include "check.h"
+#include "scenarios.h"
+
+static void r300_params(sph_params *p, double dt)
+{
+    sph_params_default(p);
+    p->pressure_form = SPH_PRESSURE_HIBLER;
+    p->P0 = 27.5e3;
+    p->C = 20.0;
+    p->ecc = 2.0;
+    p->delta_min = 2e-9;
+    p->replacement_pressure = 1;
+    p->rho_a = 1.3;
+    p->Ca = 1.2e-3;
+    p->rho_w = 1026.0;
+    p->Cw = 5.5e-3;
+    p->rho_i = 900.0;
+    p->dt = dt;
+    p->solver = SPH_SOLVER_MEVP;
+    p->evp_adaptive = 1;
+    p->evp_iterations = 250;
+    p->physics = SPH_PHYSICS_FULL;
+    p->kernel = SPH_KERNEL_GAUSSIAN;
+    p->kernel_radius = 3.0;
+    p->sml_factor = 1.0;
+}
+
+#define DX 5000.0
+#define NCROSS 6
+#define WIND 9.0
+#define L0 300e3
+#define H0 1.0
+
+static void check_state(const char *what, coast_case *c, const sph_params *p,
+                        const coast_analytic *a)
+{
+    coast_measured ms;
+    coast_measure_ridged(c, p, DX * p->sml_factor, &ms);
+    double hwall = a->h0 + a->tau / (a->k * a->P0) * a->Lr;
+    printf("%s: edge %.2f km (analytic %.2f), ridged zone %.2f km (%.2f), wall thickness %.4f m "
+           "(%.4f), %d particles in the fit\n",
+           what, ms.edge / 1e3, a->L / 1e3, ms.Lr / 1e3, a->Lr / 1e3, ms.hwall, hwall, ms.nfit);
+    CHECK_CLOSE(ms.edge, a->L, 0.01, 0, "edge position");
+    CHECK_CLOSE(ms.Lr, a->Lr, 0.01, 0, "ridged-zone length");
+    CHECK_CLOSE(ms.hwall, hwall, 0.01, 0, "thickness at the wall");
+}
+
+int main(void)
+{
+    sph_params p;
+    r300_params(&p, 120.0);
+    double tau = p.rho_a * p.Ca * WIND * WIND;
+    coast_analytic a;
+    coast_solve(&a, &p, tau, H0, L0);
+
+    /* The analytic state against the peer's published numbers. */
+    CHECK_CLOSE(a.L, 291.83e3, 0, 10.0, "analytic edge vs PHYSICS.md 291.83 km");
+    CHECK_CLOSE(a.Lr, 61.36e3, 0, 10.0, "analytic ridged zone vs PHYSICS.md 61.36 km");
+    CHECK_CLOSE(a.h0 + a.tau / (a.k * a.P0) * a.Lr, 1.2662, 0, 1e-4,
+                "analytic wall thickness vs PHYSICS.md 1.2662 m");
+
+    sph_status st;
+    /* Held: started in the analytic state, it stays there. */
+    {
+        coast_case c;
+        CHECK(coast_setup_steady(&c, &p, DX, NCROSS, &a, WIND) == 0, "setup steady");
+        CHECK(sph_model_init(c.model, &st) == 0, "init: %s %s", st.quantity, st.what);
+        long steps = (long)((check_quick() ? 6 : 24) * 3600.0 / p.dt), s;
+        for (s = 0; s < steps; s++)
+            if (sph_model_step(c.model, &st) != 0)
+                break;
+        CHECK(s == steps, "held run failed at step %ld: %s %s", s, st.quantity, st.what);
+        sph_particles *P = sph_model_particles(c.model);
+        double worst = 0.0;
+        for (size_t k = 0; k < P->n; k++) {
+            double y = P->y[k];
+            if (y < 2 * DX || y > a.L - 2 * DX)
+                continue;
+            double want = coast_hbar(&a, y);
+            worst = fmax(worst, fabs(P->dens[k] / p.rho_i - want) / want);
+        }
+        printf("analytic state held %ld steps of %.0f s: worst hbar error %.2e\n", steps, p.dt, worst);
+        CHECK(worst < 0.01, "analytic state held within 1 %% (worst %.3g)", worst);
+        coast_free(&c);
+    }
+
+    /* Beyond the plastic-wave limit the run is refused before it starts. */
+    {
+        sph_params q = p;
+        q.dt = 600.0;
+        coast_case c;
+        CHECK(coast_setup(&c, &q, DX, NCROSS, L0, H0, WIND) == 0, "setup");
+        int rc = sph_model_init(c.model, &st);
+        CHECK(rc == SPH_STEP_RECOVERABLE && strcmp(st.quantity, "time step") == 0,
+              "dt 600 s refused (rc %d, %s)", rc, st.quantity);
+        coast_free(&c);
+    }
+
+    if (check_quick())
+        return check_summary("test_r300");
+
+    /* From the uniform pack at rest to the steady state. */
+    coast_case c;
+    CHECK(coast_setup(&c, &p, DX, NCROSS, L0, H0, WIND) == 0, "setup");
+    CHECK(sph_model_init(c.model, &st) == 0, "init: %s %s", st.quantity, st.what);
+    clock_t c0 = clock();
+    long maxsteps = (long)(144 * 3600.0 / p.dt), s;
+    double ke = HUGE_VAL;
+    for (s = 1; s <= maxsteps; s++) {
+        if (sph_model_step(c.model, &st) != 0) {
+            CHECK(0, "step %ld: %s %s", s, st.quantity, st.what);
+            break;
+        }
+        const sph_budget *b = sph_model_budget(c.model);
+        ke = b->kinetic_energy / b->mass;
+        if (s * p.dt >= 24 * 3600.0 && ke < 1e-6)
+            break;
+    }
+    double cpu = (double)(clock() - c0) / CLOCKS_PER_SEC;
+    printf("R300 from rest: steady (KE/mass %.2e m^2/s^2) after %.1f h model time, %ld steps of "
+           "%.0f s, CPU %.1f s (%zu particles)\n",
+           ke, fmin(s, maxsteps) * p.dt / 3600.0, fmin(s, maxsteps) > 0 ? (long)fmin(s, maxsteps) : 0,
+           p.dt, cpu, sph_model_particles(c.model)->n);
+    CHECK(ke < 1e-6, "reached rest (KE/mass %.3g)", ke);
+    check_state("R300 steady state", &c, &p, &a);
+    coast_free(&c);
+    return check_summary("test_r300");
+}
