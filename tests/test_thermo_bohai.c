@@ -15,7 +15,7 @@
  *  - within 30 % of Lebedev, h[cm] = 1.33 FDD^0.58.
  * Reports (does not assert) the comparison with Ma et al. (2023), h[cm] =
  * 1.48 sqrt(FDD), and Zubov (h^2 + 50 h = 8 FDD): the issue asks for 30 %
- * against Ma et al.; the measured excess (about +30 to +45 %) is a known,
+ * against Ma et al.; the measured excess (about +38 to +52 %) is a known,
  * documented discrepancy (docs/thermo.md, "Bohai growth"), not hidden by
  * tuning. SPHICE_MA_STRICT=1 turns it into an assertion. */
 #include "check.h"
@@ -101,6 +101,42 @@ int main(void)
            "(issue 8 asks for 30 %%; see docs/thermo.md)\n", 100.0 * worst_ma);
     printf("days to 300 FDD: %.1f; mean air temperature equivalent %.2f C\n", t / 86400.0,
            Tf - fdd / (t / 86400.0));
+
+    /* Ma et al. (2023) also report cumulative-ice-thickness growth rates:
+     * at -12 C air the largest observed rate falls from 3.5 cm/d to 1.5
+     * cm/d as the ice thickens from 0 to 20 cm. The same column, 20 cm of
+     * level ice, the Bohai forcing above with the air held at -12 C, over
+     * one day: reported beside their 1.5 cm/d (an upper envelope of
+     * observations, so not asserted). Note 1.48 sqrt(FDD) implies
+     * dh/dt = 1.48^2 (Tf - Ta) / (2 h) = 0.56 cm/d there, their own rates
+     * imply a coefficient of about sqrt(2 h rate / (Tf - Ta)) = 2.4. */
+    {
+        P->conc[0] = 1.0;
+        P->thick[0] = 0.20;
+        P->mass[0] = p.rho_i * P->thick[0] * 1e6;
+        sph_thermo_init_particle(&p, P, 0, -8.0);
+        double h1 = 0.0;
+        for (double tt = 0.0; tt < 2 * 86400.0; tt += dt) { /* one day of spin-up, one measured */
+            bohai_forcing(P, 0, tt + 0.5 * dt);
+            P->tair[0] = -12.0;
+            double Tk = -12.0 + 273.15;
+            P->lwdn[0] = 0.78 * SIGMA * Tk * Tk * Tk * Tk;
+            double e = 0.7 * 611.2 * exp(17.62 * -12.0 / (243.12 - 12.0));
+            P->qair[0] = 0.622 * e / (101325.0 - 0.378 * e);
+            if (tt == 86400.0)
+                h1 = P->conc[0] * P->thick[0];
+            if (sph_thermo_step(&p, P, dt, w, &b, &st) != SPH_STEP_OK)
+                break;
+            if (tt + dt >= 2 * 86400.0) {
+                double rate = 100.0 * (P->conc[0] * P->thick[0] - h1);
+                double ma_rate = 1.48 * 1.48 * (Tf + 12.0) / (2.0 * 100.0 * h1);
+                printf("growth at -12 C, %.1f cm of ice: %.2f cm/d (Ma et al. 2023 observed at most "
+                       "1.5 cm/d at 20 cm; their 1.48 sqrt(FDD) law implies %.2f cm/d)\n",
+                       100.0 * h1, rate, ma_rate);
+                CHECK(rate > 0.0 && isfinite(rate), "ice grows at -12 C");
+            }
+        }
+    }
     sph_thermo_work_free(w);
     sph_particles_free(P);
     return check_summary("test_thermo_bohai");
