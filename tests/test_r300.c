@@ -15,7 +15,8 @@
  *
  * Numerics: 5 km spacing (6 x 60 particles), Gaussian kernel truncated at
  * 3 h (the default), h = dx,
- * aEVP with 250 iterations, dt = 120 s. Steady state: kinetic energy per
+ * aEVP with 250 iterations, dt = 60 s (the analytic state is also held
+ * at 120 s). Steady state: kinetic energy per
  * mass below 1e-6 m^2/s^2 (rms speed under 1 mm/s) after at least 24 h.
  * The measured stability limit of this case is between 120 s (holds the
  * analytic state to 0.2 % over 24 h) and 180 s (drifts, kinetic energy
@@ -125,7 +126,10 @@ int main(void)
     if (check_quick())
         return check_summary("test_r300");
 
-    /* From the uniform pack at rest to the steady state. */
+    /* From the uniform pack at rest to the steady state, at the seed's
+     * 60 s (at 120 s the ridged zone comes out 1.4 % short: the time
+     * error of the approach, docs/dynamics.md). */
+    p.dt = 60.0;
     coast_case c;
     CHECK(coast_setup(&c, &p, DX, NCROSS, L0, H0, WIND) == 0, "setup");
     CHECK(sph_model_init(c.model, &st) == 0, "init: %s %s", st.quantity, st.what);
