@@ -1,0 +1,159 @@
+#!/bin/sh
+# The Liaodong Bay demo against a converged reference run of itself
+# (issue 7; docs/bench.md "Liaodong demo"). Called by bench/run.sh
+# (BENCH_ONLY=demo); prints CSV rows (bench/bench_common.h) on stdout.
+#
+# Runs the demo's scene (etc/liaodong-demo.json, cycle 1999-02-07T22:00Z)
+# with variant configurations written here with sed from the demo's own:
+#   reference  physics full, dt 30 s, 300 mEVP iterations, initial.spacing
+#              0.014 deg (about 2x the particles); computed once per bench
+#              output folder and reused while the scene, the settings and
+#              the sphice binary are the same ($BENCH_OUT/demo/reference.key)
+#   full, auto the seed's settings (dt 60 s, 120 iterations, spacing 0.02)
+#   full, auto dt 180 s (inside the adaptive-EVP envelope, 0.2 s/m x spacing)
+# Products: fields, edge and particles only (no maps, GeoJSON, stations), so
+# that CPU time is the model's and the products' it is compared on.
+# Each run's CPU (user + system), wall and peak RSS come from GNU time
+# (/usr/bin/time) of the sphice process. Errors (build/tools/demo_compare)
+# at the last hour against the reference: err = IIEE (15 % threshold, km^2),
+# err2 = RMSE of sivol (ice volume per cell area, m) over cells where either
+# run has ice, err3 = distance between the thick patch's centres (km).
+#
+# Environment: BUILD (build), BENCH_OUT (bench/out), BENCH_QUICK=1 (6 h,
+# seed dt only), DEMO_HOURS (forecast length, 1-96; default 96, 6 quick),
+# DEMO_CONFIG (etc/liaodong-demo.json). Runs one process at a time with
+# OMP_NUM_THREADS=1 (bench/run.sh sets it; set here too).
+set -eu
+BUILD=${BUILD:-build}
+OUT=${BENCH_OUT:-bench/out}
+W="$OUT/demo"
+CONFIG=${DEMO_CONFIG:-etc/liaodong-demo.json}
+CYCLE="1999-02-07T22:00Z"
+QUICK=0
+case "${BENCH_QUICK:-0}" in ''|0) ;; *) QUICK=1 ;; esac
+if [ -n "${DEMO_HOURS:-}" ]; then HOURS=$DEMO_HOURS; elif [ $QUICK = 1 ]; then HOURS=6; else HOURS=96; fi
+REF_DT=30
+REF_ITER=300
+REF_SPACING=0.014
+export OMP_NUM_THREADS=1
+: "${OMP_WAIT_POLICY:=passive}"
+export OMP_WAIT_POLICY
+
+die() { echo "bench_demo: $*" >&2; exit 1; }
+case "$HOURS" in ''|*[!0-9]*) die "DEMO_HOURS=\"$HOURS\": expected whole hours 1 to 96" ;; esac
+[ "$HOURS" -ge 1 ] && [ "$HOURS" -le 96 ] || die "DEMO_HOURS=$HOURS: the scene's forcing covers 96 hours"
+[ -f "$CONFIG" ] && [ -d forcing/liaodong-1999 ] || die "run from the repository root ($CONFIG, forcing/liaodong-1999)"
+[ -x "$BUILD/sphice" ] && [ -x "$BUILD/tools/demo_compare" ] || die "build first (make -j2)"
+[ -x /usr/bin/time ] || die "/usr/bin/time (GNU time, Debian package time) is needed for the CPU times"
+mkdir -p "$W"
+
+# The seed's settings, read from the lines the variants rewrite (each must
+# occur exactly once, in the form the demo's config writes it).
+one() { # PATTERN: the line must occur exactly once
+    n=$(grep -c "$1" "$CONFIG" || true)
+    [ "$n" = 1 ] || die "$CONFIG: expected one line matching '$1', found $n"
+}
+one '^ *"dt": *[0-9.]*,$'
+one '^ *"physics": *"[a-z_]*",$'
+one '^ *"solver": *"mevp",$'
+one '^ *"spacing": *[0-9.]*,$'
+one '^ *"products": *{'
+one '^ *"state_dir": *"[^"]*",$'
+one '^ *"cache_dir": *"[^"]*",$'
+grep -q '"evp"' "$CONFIG" && die "$CONFIG: sets model.evp already; this script adds it"
+SEED_DT=$(sed -n 's/^ *"dt": *\([0-9.]*\),$/\1/p' "$CONFIG")
+SEED_SPACING=$(sed -n 's/^ *"spacing": *\([0-9.]*\),$/\1/p' "$CONFIG")
+SEED_ITER=$("$BUILD/sphice" config-doc | sed -n 's/^| `model.evp.iterations` | int | `\([0-9]*\)`.*/\1/p')
+[ -n "$SEED_ITER" ] || die "could not read the default of model.evp.iterations from sphice config-doc"
+
+# write_config NAME PHYSICS DT ITERATIONS SPACING -> $W/NAME.json
+write_config() {
+    sed -e "s/^\( *\"physics\": *\)\"[a-z_]*\",\$/\1\"$2\",/" \
+        -e "s/^\( *\"dt\": *\)[0-9.]*,\$/\1$3,/" \
+        -e "s/^\( *\"solver\": *\"mevp\",\)\$/\1 \"evp\": { \"iterations\": $4 },/" \
+        -e "s/^\( *\"spacing\": *\)[0-9.]*,\$/\1$5,/" \
+        -e '/^ *"products": *{/s/"\(maps\|geojson\|stations\)": *true/"\1": false/g' \
+        -e "s#^\( *\"state_dir\": *\"\)[^\"]*\"#\1$W/$1.state\"#" \
+        -e "s#^\( *\"cache_dir\": *\"\)[^\"]*\"#\1$W/$1.cache\"#" "$CONFIG" >"$W/$1.json.tmp"
+    grep -q "\"physics\": \"$2\"," "$W/$1.json.tmp" && grep -q "\"dt\": $3," "$W/$1.json.tmp" &&
+        grep -q "\"iterations\": $4 }" "$W/$1.json.tmp" && grep -q "\"spacing\": $5," "$W/$1.json.tmp" ||
+        die "could not write $W/$1.json"
+    mv "$W/$1.json.tmp" "$W/$1.json"
+}
+
+# run_model NAME: runs $W/NAME.json into $W/NAME; sets CPU WALL RSS STATUS
+run_model() {
+    rm -rf "$W/$1" "$W/$1.state" "$W/$1.cache"
+    echo "bench_demo: $1: sphice run $W/$1.json --hours $HOURS" >&2
+    if /usr/bin/time -f '%U %S %e %M' -o "$W/$1.time" \
+            "$BUILD/sphice" run "$W/$1.json" --cycle "$CYCLE" --hours "$HOURS" --out "$W/$1" --force \
+            >"$W/$1.log" 2>&1; then
+        STATUS=ok
+    elif grep -q 'refused' "$W/$1.log"; then
+        STATUS=refused
+    else
+        STATUS=failed
+    fi
+    # GNU time writes "Command exited with non-zero status N" first on failure
+    set -- $(tail -n 1 "$W/$1.time")
+    CPU=$(awk -v u="$1" -v s="$2" 'BEGIN { printf "%.2f", u + s }')
+    WALL=$3
+    RSS=$(awk -v k="$4" 'BEGIN { printf "%.1f", k / 1024 }')
+}
+
+row() { # METHOD CONFIG_STRING IIEE RMSE CENTRE
+    echo "demo,$1,$2,$CPU,$WALL,$RSS,$STATUS,iiee_km2,$3,hbar_rmse_m,$4,patch_centre_km,$5"
+}
+
+# 1. the reference (once per output folder, scene, settings and binary)
+write_config reference full "$REF_DT" "$REF_ITER" "$REF_SPACING"
+KEY="hours=$HOURS $(cat "$W/reference.json" | sha256sum | cut -c1-16) $(sha256sum <"$BUILD/sphice" | cut -c1-16)"
+REF_CFG="dt=$REF_DT;iterations=$REF_ITER;spacing=$REF_SPACING;hours=$HOURS"
+if [ -f "$W/reference.key" ] && [ "$(cat "$W/reference.key")" = "$KEY" ] && [ -f "$W/reference.time" ]; then
+    echo "bench_demo: reusing the reference run in $W/reference ($KEY)" >&2
+    set -- $(tail -n 1 "$W/reference.time")
+    CPU=$(awk -v u="$1" -v s="$2" 'BEGIN { printf "%.2f", u + s }')
+    WALL=$3
+    RSS=$(awk -v k="$4" 'BEGIN { printf "%.1f", k / 1024 }')
+    STATUS=ok
+else
+    rm -f "$W/reference.key"
+    run_model reference
+    [ "$STATUS" = ok ] || { tail -n 20 "$W/reference.log" >&2; die "reference run $STATUS (log $W/reference.log)"; }
+    echo "$KEY" >"$W/reference.key"
+fi
+# the reference's own row: status "reference" (left out of the charts)
+STATUS=reference
+row reference "$REF_CFG" "" "" ""
+
+# 2. the runs compared with it
+if [ $QUICK = 1 ]; then
+    VARIANTS="full:$SEED_DT auto:$SEED_DT"
+else
+    VARIANTS="full:$SEED_DT auto:$SEED_DT full:180 auto:180"
+fi
+for v in $VARIANTS; do
+    phys=${v%%:*}
+    dt=${v#*:}
+    name="${phys}_dt$dt"
+    write_config "$name" "$phys" "$dt" "$SEED_ITER" "$SEED_SPACING"
+    run_model "$name"
+    cfg="dt=$dt;iterations=$SEED_ITER;spacing=$SEED_SPACING;hours=$HOURS"
+    if [ "$STATUS" = ok ]; then
+        # the representation floor: the same comparison at the first output
+        # time (the seeding spacings differ), for the log only
+        "$BUILD/tools/demo_compare" --hours 0 "$W/reference" "$W/$name" 2>&1 >/dev/null | sed 's/^/at t0: /' >&2 || true
+        if errs=$("$BUILD/tools/demo_compare" --hours "$HOURS" "$W/reference" "$W/$name" 2>"$W/$name.compare.txt"); then
+            cat "$W/$name.compare.txt" >&2
+            row "$phys" "$cfg" "$(echo "$errs" | cut -d, -f1)" "$(echo "$errs" | cut -d, -f2)" \
+                "$(echo "$errs" | cut -d, -f3)"
+        else
+            cat "$W/$name.compare.txt" >&2
+            STATUS=compare_failed
+            row "$phys" "$cfg" "" "" ""
+        fi
+    else
+        tail -n 3 "$W/$name.log" >&2
+        row "$phys" "$cfg" "" "" ""
+    fi
+done
