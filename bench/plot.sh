@@ -13,10 +13,15 @@ TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT INT TERM
 
 # A chart per entry: PROBLEM (its primary error, column 9) or
-# PROBLEM:COLUMN:CHART (another error column of the same rows, e.g. the
-# demo's thickness RMSE in column 11, drawn as CHART.png).
-for entry in free_drift coast stefan disc plastic_wave auto_vs_full_error \
-             demo demo:11:demo_hbar_rmse demo:13:demo_patch_centre; do
+# PROBLEM:COLUMN:CHART (another error column of the same rows, drawn as
+# CHART.png): the demo problems (demo, demo_36h_reffull, ...) get their
+# thickness RMSE (column 11) and patch-centre error (13) charted too.
+demos=$(awk -F, 'NR > 1 && $1 ~ /^demo/ { print $1 }' "$CSV" | sort -u)
+extra=""
+for d in $demos; do
+    extra="$extra $d $d:11:${d}_hbar_rmse $d:13:${d}_patch_centre"
+done
+for entry in free_drift coast stefan disc plastic_wave auto_vs_full_error $extra; do
     src=${entry%%:*}
     col=9
     prob=$src
