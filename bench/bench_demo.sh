@@ -14,6 +14,8 @@
 #              same ($BENCH_OUT/demo/hHOURS_ref_PHYSICS/reference.key)
 #   full, auto the seed's settings (dt 60 s, 120 iterations, spacing 0.02)
 #   full, auto dt 180 s (inside the adaptive-EVP envelope, 0.2 s/m x spacing)
+#   free_drift the seed's settings: the floor of what auto can save (no
+#              stress anywhere) and its error
 # or the runs DEMO_VARIANTS lists, "PHYSICS:DT[:ITERATIONS[:SPACING]] ...",
 # e.g. "full:30:300 full:60:120:0.014" (the reference's time settings at the
 # seed's spacing and the reverse: how the error splits between them).
@@ -155,7 +157,7 @@ if [ -n "${DEMO_VARIANTS:-}" ]; then
 elif [ $QUICK = 1 ]; then
     VARIANTS="full:$SEED_DT auto:$SEED_DT"
 else
-    VARIANTS="full:$SEED_DT auto:$SEED_DT full:180 auto:180"
+    VARIANTS="full:$SEED_DT auto:$SEED_DT full:180 auto:180 free_drift:$SEED_DT"
 fi
 for v in $VARIANTS; do
     # PHYSICS:DT[:ITERATIONS[:SPACING]], the seed's values where left out
