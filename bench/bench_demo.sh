@@ -4,14 +4,13 @@
 # (BENCH_ONLY=demo); prints CSV rows (bench/bench_common.h) on stdout.
 #
 # Runs the demo's scene (etc/liaodong-demo.json, cycle 1999-02-07T22:00Z)
-# with variant configurations written here with sed from the demo's own:
-#   reference  physics auto (the demo's own; DEMO_REF_PHYSICS=full for the
-#              full model, which blows up in this scene before 96 h at the
-#              seed's and at finer settings, docs/bench.md), dt 30 s, 300
-#              mEVP iterations, initial.spacing 0.014 deg (about 2x the
-#              particles); computed once per bench output folder and reused
-#              while the scene, the settings and the sphice binary are the
-#              same ($BENCH_OUT/demo/hHOURS_ref_PHYSICS/reference.key)
+# for 36 h (DEMO_HOURS) with variant configurations written here with sed
+# from the demo's own:
+#   reference  physics full, dt 30 s, 300 mEVP iterations, initial.spacing
+#              0.014 deg (about 2x the particles); computed once per bench
+#              output folder and reused while the scene, the settings and
+#              the sphice binary are the same
+#              ($BENCH_OUT/demo/h<HOURS>_ref_<settings>/reference.key)
 #   full, auto the seed's settings (dt 60 s, 120 iterations, spacing 0.02)
 #   full, auto dt 180 s (inside the adaptive-EVP envelope, 0.2 s/m x spacing)
 #   free_drift the seed's settings: the floor of what auto can save (no
@@ -19,8 +18,11 @@
 # or the runs DEMO_VARIANTS lists, "PHYSICS:DT[:ITERATIONS[:SPACING]] ...",
 # e.g. "full:30:300 full:60:120:0.014" (the reference's time settings at the
 # seed's spacing and the reverse: how the error splits between them).
-# The problem column is "demo" for 96 h against the auto reference, else
-# demo_<H>h and/or _reffull.
+# 36 h, not the issue's 96 h: no refined run of this scene reaches 96 h on
+# this core (measured, docs/bench.md: the full and auto references blow up
+# at 44-64 h, full at the seed's settings at 72.7 h); DEMO_HOURS=96 records
+# those failures as rows. The problem column is "demo" for 36 h against the
+# default reference, else demo_<H>h and/or _ref_<settings>.
 # Products: fields, edge and particles only (no maps, GeoJSON, stations), so
 # that CPU time is the model's and the products' it is compared on.
 # Each run's CPU (user + system), wall and peak RSS come from GNU time
@@ -30,27 +32,30 @@
 # run has ice, err3 = distance between the thick patch's centres (km).
 #
 # Environment: BUILD (build), BENCH_OUT (bench/out), BENCH_QUICK=1 (6 h,
-# seed dt only), DEMO_HOURS (forecast length, 1-96; default 96, 6 quick),
-# DEMO_CONFIG (etc/liaodong-demo.json). Runs one process at a time with
+# seed dt only), DEMO_HOURS (forecast length, 1-96; default 36, 6 quick),
+# DEMO_CONFIG (etc/liaodong-demo.json), DEMO_REF_PHYSICS (full or auto),
+# DEMO_REF_DT, DEMO_REF_ITERATIONS, DEMO_REF_SPACING (the reference's
+# settings), DEMO_VARIANTS (above). Runs one process at a time with
 # OMP_NUM_THREADS=1 (bench/run.sh sets it; set here too).
 set -eu
 BUILD=${BUILD:-build}
 OUT=${BENCH_OUT:-bench/out}
-REF_PHYSICS=${DEMO_REF_PHYSICS:-auto}
+REF_PHYSICS=${DEMO_REF_PHYSICS:-full}
 CONFIG=${DEMO_CONFIG:-etc/liaodong-demo.json}
 CYCLE="1999-02-07T22:00Z"
 QUICK=0
 case "${BENCH_QUICK:-0}" in ''|0) ;; *) QUICK=1 ;; esac
-if [ -n "${DEMO_HOURS:-}" ]; then HOURS=$DEMO_HOURS; elif [ $QUICK = 1 ]; then HOURS=6; else HOURS=96; fi
-W="$OUT/demo/h${HOURS}_ref_$REF_PHYSICS"
-# the problem's name: demo (96 h against the default reference), else with
-# the hours and the reference's physics, so charts never mix them
+if [ -n "${DEMO_HOURS:-}" ]; then HOURS=$DEMO_HOURS; elif [ $QUICK = 1 ]; then HOURS=6; else HOURS=36; fi
+REF_DT=${DEMO_REF_DT:-30}
+REF_ITER=${DEMO_REF_ITERATIONS:-300}
+REF_SPACING=${DEMO_REF_SPACING:-0.014}
+W="$OUT/demo/h${HOURS}_ref_${REF_PHYSICS}_dt${REF_DT}_it${REF_ITER}_s$REF_SPACING"
+# the problem's name: demo (36 h against the default reference), else with
+# the hours and the reference's settings, so charts never mix them
 PROBLEM=demo
-[ "$HOURS" = 96 ] || PROBLEM="${PROBLEM}_${HOURS}h"
-[ "$REF_PHYSICS" = auto ] || PROBLEM="${PROBLEM}_ref$REF_PHYSICS"
-REF_DT=30
-REF_ITER=300
-REF_SPACING=0.014
+[ "$HOURS" = 36 ] || PROBLEM="${PROBLEM}_${HOURS}h"
+[ "$REF_PHYSICS:$REF_DT:$REF_ITER:$REF_SPACING" = full:30:300:0.014 ] ||
+    PROBLEM="${PROBLEM}_ref_${REF_PHYSICS}_dt${REF_DT}_it${REF_ITER}_s$REF_SPACING"
 export OMP_NUM_THREADS=1
 : "${OMP_WAIT_POLICY:=passive}"
 export OMP_WAIT_POLICY
@@ -124,7 +129,8 @@ row() { # METHOD CONFIG_STRING IIEE RMSE CENTRE
 
 # 1. the reference (once per output folder, scene, settings and binary)
 write_config reference "$REF_PHYSICS" "$REF_DT" "$REF_ITER" "$REF_SPACING"
-KEY="hours=$HOURS $(cat "$W/reference.json" | sha256sum | cut -c1-16) $(sha256sum <"$BUILD/sphice" | cut -c1-16)"
+# (the key leaves out the state and cache folders, which name $W)
+KEY="hours=$HOURS $(grep -v '"state_dir"\|"cache_dir"' "$W/reference.json" | sha256sum | cut -c1-16) $(sha256sum <"$BUILD/sphice" | cut -c1-16)"
 REF_CFG="physics=$REF_PHYSICS;dt=$REF_DT;iterations=$REF_ITER;spacing=$REF_SPACING;hours=$HOURS"
 REF_OK=1
 if [ -f "$W/reference.key" ] && [ "$(cat "$W/reference.key")" = "$KEY" ] && [ -f "$W/reference.time" ]; then
