@@ -15,9 +15,11 @@
 #   full, auto dt 180 s (inside the adaptive-EVP envelope, 0.2 s/m x spacing)
 #   free_drift the seed's settings: the floor of what auto can save (no
 #              stress anywhere) and its error
-# or the runs DEMO_VARIANTS lists, "PHYSICS:DT[:ITERATIONS[:SPACING]] ...",
-# e.g. "full:30:300 full:60:120:0.014" (the reference's time settings at the
-# seed's spacing and the reverse: how the error splits between them).
+# or the runs DEMO_VARIANTS lists,
+# "PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE]]] ...", e.g.
+# "full:30:300 full:60:120:0.014" (the reference's time settings at the
+# seed's spacing and the reverse: how the error splits between them) or
+# "auto:60:120:0.02:0.1" (model.auto_tolerance 0.1).
 # 36 h, not the issue's 96 h: no refined run of this scene reaches 96 h on
 # this core (measured, docs/bench.md: the full and auto references blow up
 # at 44-64 h, full at the seed's settings at 72.7 h); DEMO_HOURS=96 records
@@ -88,9 +90,11 @@ SEED_SPACING=$(sed -n 's/^ *"spacing": *\([0-9.]*\),$/\1/p' "$CONFIG")
 SEED_ITER=$("$BUILD/sphice" config-doc | sed -n 's/^| `model.evp.iterations` | int | `\([0-9]*\)`.*/\1/p')
 [ -n "$SEED_ITER" ] || die "could not read the default of model.evp.iterations from sphice config-doc"
 
-# write_config NAME PHYSICS DT ITERATIONS SPACING -> $W/NAME.json
+# write_config NAME PHYSICS DT ITERATIONS SPACING [AUTO_TOLERANCE] -> $W/NAME.json
 write_config() {
-    sed -e "s/^\( *\"physics\": *\)\"[a-z_]*\",\$/\1\"$2\",/" \
+    tol_line=""
+    [ -n "${6:-}" ] && tol_line=" \"auto_tolerance\": $6,"
+    sed -e "s/^\( *\"physics\": *\)\"[a-z_]*\",\$/\1\"$2\",$tol_line/" \
         -e "s/^\( *\"dt\": *\)[0-9.]*,\$/\1$3,/" \
         -e "s/^\( *\"solver\": *\"mevp\",\)\$/\1 \"evp\": { \"iterations\": $4 },/" \
         -e "s/^\( *\"spacing\": *\)[0-9.]*,\$/\1$5,/" \
@@ -98,7 +102,8 @@ write_config() {
         -e "s#^\( *\"state_dir\": *\"\)[^\"]*\"#\1$W/$1.state\"#" \
         -e "s#^\( *\"cache_dir\": *\"\)[^\"]*\"#\1$W/$1.cache\"#" "$CONFIG" >"$W/$1.json.tmp"
     grep -q "\"physics\": \"$2\"," "$W/$1.json.tmp" && grep -q "\"dt\": $3," "$W/$1.json.tmp" &&
-        grep -q "\"iterations\": $4 }" "$W/$1.json.tmp" && grep -q "\"spacing\": $5," "$W/$1.json.tmp" ||
+        grep -q "\"iterations\": $4 }" "$W/$1.json.tmp" && grep -q "\"spacing\": $5," "$W/$1.json.tmp" &&
+        { [ -z "${6:-}" ] || grep -q "\"auto_tolerance\": $6," "$W/$1.json.tmp"; } ||
         die "could not write $W/$1.json"
     mv "$W/$1.json.tmp" "$W/$1.json"
 }
@@ -166,19 +171,20 @@ else
     VARIANTS="full:$SEED_DT auto:$SEED_DT full:180 auto:180 free_drift:$SEED_DT"
 fi
 for v in $VARIANTS; do
-    # PHYSICS:DT[:ITERATIONS[:SPACING]], the seed's values where left out
-    IFS=: read -r phys dt iter spacing <<EOV
+    # PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE]]], the seed's values
+    # (and the configured auto_tolerance) where left out
+    IFS=: read -r phys dt iter spacing tol <<EOV
 $v
 EOV
     iter=${iter:-$SEED_ITER}
     spacing=${spacing:-$SEED_SPACING}
-    case "$phys:$dt:$iter:$spacing" in
-        *[!a-z_0-9.:]*|:*|*::*) die "DEMO_VARIANTS entry \"$v\": expected PHYSICS:DT[:ITERATIONS[:SPACING]]" ;;
+    case "$phys:$dt:$iter:$spacing:$tol" in
+        *[!a-z_0-9.:]*|:*|*::?*) die "DEMO_VARIANTS entry \"$v\": expected PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE]]]" ;;
     esac
-    name="${phys}_dt${dt}_it${iter}_s$spacing"
-    write_config "$name" "$phys" "$dt" "$iter" "$spacing"
+    name="${phys}_dt${dt}_it${iter}_s$spacing${tol:+_tol$tol}"
+    write_config "$name" "$phys" "$dt" "$iter" "$spacing" "$tol"
     run_model "$name"
-    cfg="dt=$dt;iterations=$iter;spacing=$spacing;hours=$HOURS"
+    cfg="dt=$dt;iterations=$iter;spacing=$spacing;hours=$HOURS${tol:+;auto_tolerance=$tol}"
     if [ "$STATUS" = ok ] && [ $REF_OK = 0 ]; then
         STATUS=no_reference
         row "$phys" "$cfg" "" "" ""
