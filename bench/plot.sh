@@ -12,10 +12,23 @@ OUT=$2
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT INT TERM
 
-for prob in free_drift coast stefan disc plastic_wave auto_vs_full_error; do
-    awk -F, -v p="$prob" 'NR > 1 && $1 == p && $7 == "ok" && $9 != "" {
-            e = $9 + 0; if (e < 1e-16) e = 1e-16; c = $4 + 0; if (c < 1e-5) c = 1e-5;
-            print $2, c, e, $3 > ("'"$TMP"'/" p "." $2 ".dat"); ylab = $8 }
+# A chart per entry: PROBLEM (its primary error, column 9) or
+# PROBLEM:COLUMN:CHART (another error column of the same rows, drawn as
+# CHART.png): the demo problems (demo, demo_36h_reffull, ...) get their
+# thickness RMSE (column 11) and patch-centre error (13) charted too.
+demos=$(awk -F, 'NR > 1 && $1 ~ /^demo/ { print $1 }' "$CSV" | sort -u)
+extra=""
+for d in $demos; do
+    extra="$extra $d $d:11:${d}_hbar_rmse $d:13:${d}_patch_centre"
+done
+for entry in free_drift coast stefan disc plastic_wave auto_vs_full_error $extra; do
+    src=${entry%%:*}
+    col=9
+    prob=$src
+    case $entry in *:*:*) col=$(echo "$entry" | cut -d: -f2); prob=$(echo "$entry" | cut -d: -f3) ;; esac
+    awk -F, -v s="$src" -v p="$prob" -v col="$col" 'NR > 1 && $1 == s && $7 == "ok" && $col != "" {
+            e = $col + 0; if (e < 1e-16) e = 1e-16; c = $4 + 0; if (c < 1e-5) c = 1e-5;
+            print $2, c, e, $3 > ("'"$TMP"'/" p "." $2 ".dat"); ylab = $(col - 1) }
         END { if (ylab != "") print ylab > ("'"$TMP"'/" p ".ylab") }' "$CSV"
     ls "$TMP/$prob".*.dat >/dev/null 2>&1 || continue
     # Pareto front over every method of the problem

@@ -3,7 +3,8 @@
 # stability envelope, auto vs full). `make bench` runs it after building.
 #   BENCH_QUICK=1  small matrices (CI, ~3 min)
 #   BENCH_OUT=dir  output folder (default bench/out)
-#   BENCH_ONLY="neighbours reference stability auto"  a subset
+#   BENCH_ONLY="neighbours reference stability auto demo"  a subset
+#   DEMO_HOURS=h   the demo problem's forecast length (bench/bench_demo.sh; 36)
 # Writes $BENCH_OUT/results.csv (one row per run, see bench/bench_common.h),
 # $BENCH_OUT/machine.txt, and the charts (bench/plot.sh, needs gnuplot).
 # The accuracy runs use one thread (CPU time comparable with the serial
@@ -13,7 +14,7 @@
 set -eu
 BUILD=${BUILD:-build}
 OUT=${BENCH_OUT:-bench/out}
-ONLY=${BENCH_ONLY:-"neighbours reference stability auto"}
+ONLY=${BENCH_ONLY:-"neighbours reference stability auto demo"}
 mkdir -p "$OUT"
 export OMP_WAIT_POLICY=PASSIVE
 {
@@ -32,6 +33,7 @@ for b in $ONLY; do
     t0=$(date +%s)
     case $b in
     neighbours) "$BUILD/bench/bench_neighbours" >> "$CSV" ;;
+    demo) BUILD="$BUILD" BENCH_OUT="$OUT" sh bench/bench_demo.sh >> "$CSV" ;;
     *) OMP_NUM_THREADS=1 "$BUILD/bench/bench_$b" >> "$CSV" ;;
     esac
     echo "bench: $b took $(( $(date +%s) - t0 )) s" >&2

@@ -147,6 +147,21 @@ static int run_sphice(const char *cfg, double hours, const char *out, double *wa
     return rc;
 }
 
+/* build/tools/demo_compare --hours H REF RUN (bench/bench_demo.sh): its
+ * three numbers (IIEE km^2, hbar RMSE m, patch centre km); -1 on failure. */
+static int demo_compare(const char *ref, const char *run, double hours, double e[3])
+{
+    const char *build = getenv("BUILD") ? getenv("BUILD") : "build";
+    char cmd[2200];
+    snprintf(cmd, sizeof cmd, "%s/tools/demo_compare --hours %g '%s' '%s' 2>/dev/null", build, hours, ref, run);
+    FILE *f = popen(cmd, "r");
+    if (!f)
+        return -1;
+    int n = fscanf(f, "%lf,%lf,%lf", &e[0], &e[1], &e[2]);
+    int st = pclose(f);
+    return n == 3 && st == 0 ? 0 : -1;
+}
+
 static int att_text(int nc, int v, const char *name, char *buf, size_t len)
 {
     size_t n;
@@ -375,6 +390,23 @@ int main(void)
                   "mass budget residual (free drift) %.3g, want < 1e-9", f.budget_residual);
             CHECK(isfinite(s.budget_residual_cycle_json) && isfinite(f.budget_residual_cycle_json),
                   "cycle.json result.budget_residual missing");
+            /* demo_compare (the bench's demo problem): a run against itself
+             * scores zero; IIEE and RMSE are symmetric; the centre error is
+             * the distance between the two runs' patch centres */
+            double same[3], sf[3], fs[3];
+            CHECK(demo_compare(out_stress, out_stress, hours, same) == 0, "demo_compare stress stress");
+            CHECK(demo_compare(out_stress, out_free, hours, sf) == 0, "demo_compare stress freedrift");
+            CHECK(demo_compare(out_free, out_stress, hours, fs) == 0, "demo_compare freedrift stress");
+            CHECK(same[0] == 0 && same[1] == 0 && same[2] == 0, "a run against itself: %g %g %g, want 0 0 0",
+                  same[0], same[1], same[2]);
+            CHECK(sf[0] == fs[0] && sf[1] == fs[1], "not symmetric: IIEE %g / %g, RMSE %g / %g", sf[0], fs[0],
+                  sf[1], fs[1]);
+            double dkm, bearing;
+            demo_bearing(s1->lon_c, s1->lat_c, f1->lon_c, f1->lat_c, &dkm, &bearing);
+            CHECK(fabs(sf[2] - dkm) < 1e-3 * dkm + 1e-6, "centre error %g km, patch centres %g km apart", sf[2],
+                  dkm);
+            printf("test_demo: free drift against internal stress at %g h: IIEE %g km2, hbar RMSE %g m, "
+                   "patch centres %g km apart\n", hours, sf[0], sf[1], sf[2]);
         }
         if (as == 0)
             demo_run_free(&s);
