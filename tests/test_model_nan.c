@@ -1,7 +1,9 @@
 /* A NaN position (a blow-up) inside a step with a land mask: the step
  * reports it (SPH_STEP_FATAL, "is not finite") instead of indexing the
  * mask with (int)NaN (a crash seen on the Liaodong demo with a GSHHG
- * mask), and does not count the particle as outflow. */
+ * mask), and does not count the particle as outflow. A parcel whose mean
+ * thickness M / rho_i passes model.thickness_limit (a numerical pile-up)
+ * fails the step too, naming the particle and the quantity. */
 #include <math.h>
 
 #include "check.h"
@@ -31,6 +33,18 @@ int main(void)
     CHECK(rc == SPH_STEP_FATAL, "step fails (rc %d)", rc);
     CHECK(st.what && strstr(st.what, "not finite"), "names a non-finite value: %s %s", st.quantity, st.what);
     CHECK(sph_model_budget(m)->outflow == 0.0, "not counted as outflow");
+    sph_model_free(m);
+
+    /* the pile-up limit: one parcel at 40 m mean thickness (limit 30 m) */
+    m = sph_model_create(&p, 16, &mask);
+    P = sph_model_particles(m);
+    lattice_fill(P, &p, 4, 4, 0.0, 0.0, 1000.0, 0.3, 0.5, 40.0);
+    CHECK(sph_model_init(m, &st) == SPH_STEP_OK, "init");
+    P->dens[6] = 40.0 * p.rho_i; /* same mass on a smaller footprint */
+    rc = sph_model_step(m, &st);
+    CHECK(rc == SPH_STEP_FATAL && st.quantity && strcmp(st.quantity, "mean thickness") == 0,
+          "pile-up fails the step (rc %d, %s)", rc, st.quantity ? st.quantity : "");
+    CHECK(st.particle >= 0, "names a particle (%ld)", st.particle);
     sph_model_free(m);
     return check_summary("test_model_nan");
 }

@@ -90,6 +90,7 @@ typedef struct sph_params {
     double sml_min_factor, sml_max_factor; /* h kept within [min, max] * h0 */
     /* health */
     double speed_limit;         /* m/s: above is a fatal blow-up */
+    double thickness_limit;     /* m: mean thickness M / rho_i above is a fatal pile-up */
     double mass_tolerance;      /* relative mass change per step no source explains */
     /* thermodynamics */
     double thermo_dt;           /* s (seed: 600); 0 = off */

@@ -139,6 +139,7 @@ void sph_params_default(sph_params *p)
     p->coriolis = 1;
     p->coast_no_slip = 0;
     p->speed_limit = 10.0;
+    p->thickness_limit = 30.0;
     p->mass_tolerance = 1.0e-10;
     p->sml_min_factor = 0.5;
     p->sml_max_factor = 2.0;
@@ -193,6 +194,7 @@ int sph_params_check(const sph_params *p, const char **name, double *lo, double 
     RANGE(turn_water, -90.0, 90.0);
     RANGE(gravity, 0.0, 20.0);
     RANGE(speed_limit, 0.01, 1000.0);
+    RANGE(thickness_limit, 0.1, 1000.0);
     RANGE(mass_tolerance, 0.0, 1.0);
     RANGE(sml_min_factor, 0.1, 1.0);
     RANGE(sml_max_factor, 1.0, 10.0);
@@ -1085,6 +1087,13 @@ static int check_health(sph_model *m, sph_status *st)
         if (sp > p->speed_limit)
             return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "speed", sp, p->speed_limit,
                                   "exceeds the speed limit (numerical blow-up)");
+        /* a parcel ridged without bound (e.g. converging on a coast) is a
+         * numerical pile-up: no sea-ice cover is tens of metres thick */
+        double hbar = P->dens[k] / p->rho_i;
+        if (!(hbar <= p->thickness_limit))
+            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "mean thickness", hbar,
+                                  p->thickness_limit,
+                                  "exceeds the thickness limit (numerical pile-up)");
     }
     const sph_budget *b = &m->budget;
     double expect = b->mass_initial + b->growth + b->new_ice - b->melt_top - b->melt_bottom -

@@ -198,6 +198,9 @@ static const cfg_key config_keys[] = {
        "Coriolis force (off only for channel tests)."),
     C_("model.health.speed_limit", CT_DOUBLE, model.speed_limit, "10", 0.1, 1000, R, NULL,
        "Ice speed above which the run is declared blown up, m/s."),
+    C_("model.health.thickness_limit", CT_DOUBLE, model.thickness_limit, "30", 0.1, 1000, R, NULL,
+       "Mean ice thickness (ice volume per area) of a parcel above which the run is declared "
+       "blown up (a numerical pile-up), m."),
     C_("model.health.mass_tolerance", CT_DOUBLE, model.mass_tolerance, "1e-10", 0, 1, R, NULL,
        "Relative mass change per step no source explains before the run fails."),
     C_("model.thermo.dt", CT_DOUBLE, model.thermo_dt, "600", 0, 86400, R, NULL,

@@ -174,6 +174,7 @@ static int check_params(const struct sph_config *cfg, sph_error *err)
         else if (!strcmp(name, "rho_i")) v = p->rho_i;
         else if (!strcmp(name, "P0")) v = p->P0;
         else if (!strcmp(name, "speed_limit")) v = p->speed_limit;
+        else if (!strcmp(name, "thickness_limit")) v = p->thickness_limit;
         else if (!strcmp(name, "max_neighbours")) v = p->max_neighbours;
         if (isfinite(v))
             return sph_err_set(err, SPH_ERR_PARAM, "model: parameter %s = %g outside [%g, %g]", name, v,
