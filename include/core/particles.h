@@ -47,6 +47,7 @@ typedef struct sph_particles {
     long *id;        /* stable identity (trajectories, replay) */
     double *sml0;    /* h0: reference smoothing length (seed eq. 10) */
     double *dens0;   /* M0: reference density for the variable smoothing length */
+    double *coastc;  /* log M gained by convergence against a coast, not yet released */
 
     /* --- diagnosed by the step --- */
     double *dens;    /* M = sum_j m_j W_kj: mass per unit area, kg/m^2 */

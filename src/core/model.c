@@ -779,6 +779,24 @@ static void strain_pass(sph_model *m, const int *list, size_t count)
     }
 }
 
+/* The coast ghosts' part of particle k's velocity divergence (the strain
+ * pass's sum restricted to ghost neighbours). */
+static double coast_divergence(const sph_model *m, size_t k)
+{
+    const sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    const size_t base = k * (size_t)nb->max_nb, n = P->n;
+    double a = 0.0;
+    for (int q = 0; q < nb->count[k]; q++) {
+        size_t s = base + (size_t)q;
+        size_t j = (size_t)nb->idx[s];
+        if (j < n)
+            continue;
+        a += P->mass[j] * ((P->u[j] - P->u[k]) * nb->gx[s] + (P->v[j] - P->v[k]) * nb->gy[s]);
+    }
+    return a / P->dens[k];
+}
+
 /* Constitutive stress for particle k from its strain rates; returns zeta. */
 static inline double target_stress(const sph_model *m, size_t k, double *s11, double *s22,
                                    double *s12)
@@ -1379,13 +1397,27 @@ int sph_model_step(sph_model *m, sph_status *st)
      * bound) */
     move_and_constrain(m);
     /* final strain rates of every particle, for output, continuity and
-     * the smoothing length */
-    ghost_velocity(m, P->u, P->v, 0);
+     * the smoothing length: ghosts are true mirrors, so compression
+     * against a coast and its release balance (a row oscillating at a wall
+     * does not ratchet up); the release is capped by what the coast
+     * compressed (coastc), so ice leaving a coast opens water behind it
+     * instead of stretching its parcel. */
+    ghost_velocity(m, P->u, P->v, 1);
     strain_pass(m, NULL, P->n);
     if (!p->summation_density) {
         /* continuity in the Lagrangian frame, implicit so M stays positive */
         for (size_t k = 0; k < P->n; k++) {
             double div = P->e11[k] + P->e22[k];
+            if (P->regime[k] & SPH_REGIME_NEAR_COAST) {
+                double dg = coast_divergence(m, k);
+                if (dg < 0.0) {
+                    P->coastc[k] -= p->dt * dg;
+                } else {
+                    double rel = fmin(dg, P->coastc[k] / p->dt);
+                    P->coastc[k] -= p->dt * rel;
+                    div -= dg - rel;
+                }
+            }
             double fac = 1.0 + p->dt * div;
             P->dens[k] /= fac > 0.1 ? fac : 0.1;
             /* a parcel spread below SPH_CONC_MIN is open water with a trace

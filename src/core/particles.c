@@ -10,7 +10,7 @@
     X(x) X(y) X(u) X(v) X(mass) X(thick) X(conc) X(sml) X(snow) X(tsurf) X(s11)    \
     X(s22) X(s12) X(dens) X(e11) X(e22) X(e12) X(pres) X(ax) X(ay) X(lat) X(ua)     \
     X(va) X(uw) X(vw) X(sshx) X(sshy) X(tair) X(qair) X(swdn) X(lwdn) X(sst) X(fw) \
-    X(fsens) X(flat) X(sml0) X(dens0)
+    X(fsens) X(flat) X(sml0) X(dens0) X(coastc)
 
 sph_particles *sph_particles_create(size_t cap, int nlayers)
 {

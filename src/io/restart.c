@@ -14,7 +14,7 @@
 
 /* The per-particle double arrays, by name. */
 enum { RV_X, RV_Y, RV_U, RV_V, RV_MASS, RV_THICK, RV_CONC, RV_SML, RV_SML0, RV_DENS, RV_DENS0,
-       RV_SNOW, RV_TSURF, RV_S11, RV_S22, RV_S12, RV_N };
+       RV_SNOW, RV_TSURF, RV_S11, RV_S22, RV_S12, RV_COASTC, RV_N };
 
 static const struct {
     const char *name, *long_name, *units;
@@ -35,6 +35,7 @@ static const struct {
     {"s11", "vertically integrated stress, xx", "N m-1"},
     {"s22", "vertically integrated stress, yy", "N m-1"},
     {"s12", "vertically integrated stress, xy", "N m-1"},
+    {"coastc", "compression against a coast not yet released (log mass per area)", "1"},
 };
 
 static double *rv_array(const sph_particles *P, int k)
@@ -55,6 +56,7 @@ static double *rv_array(const sph_particles *P, int k)
     case RV_TSURF: return P->tsurf;
     case RV_S11: return P->s11;
     case RV_S22: return P->s22;
+    case RV_COASTC: return P->coastc;
     default: return P->s12;
     }
 }
@@ -297,6 +299,10 @@ static int read_body(int nc, const char *path, const restart_header *h, sph_part
     size_t start[2] = {0, 0}, count[2] = {n, (size_t)h->nlayers};
     int v, st;
     for (int k = 0; k < RV_N; k++) {
+        if (k == RV_COASTC && nc_inq_varid(nc, rv_spec[k].name, &v) != NC_NOERR) {
+            memset(P->coastc, 0, n * sizeof(double)); /* restarts written before it */
+            continue;
+        }
         if ((st = nc_inq_varid(nc, rv_spec[k].name, &v)) != NC_NOERR ||
             (st = nc_get_vara_double(nc, v, start, count, rv_array(P, k))) != NC_NOERR)
             return sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable %s: %s", path,
