@@ -1,12 +1,16 @@
 /* Auto vs full physics (issue 7, "modelling no more than a scene needs").
  *
- * A channel (tests/scenarios.h, free-slip walls, 1 km spacing, 30 particles
- * across and 60 along): packed ice (A = 1, h = 1 m) in the 30 km next to
- * the wall and a loose margin (A = 0.4, h = 0.5 m) beyond it, pushed by a
- * 10 m/s onshore wind for 6 h. Runs: model.physics = auto and = full at the
- * service's settings (dt 300 s, aEVP 120 iterations), and the reference:
- * full physics, dt 60 s, 300 iterations (converged settings). Errors
- * against the reference on a 500 m output grid via sph_model_interpolate
+ * A channel (tests/scenarios.h, free-slip walls, 1 km spacing, NX = 30
+ * particles across and NY = 60 along; BENCH_AUTO_NX, BENCH_AUTO_NY scale
+ * it): packed ice (A = 1, h = 1 m) in the half next to the wall and a
+ * loose margin (A = 0.4, h = 0.5 m) beyond it, pushed by a 10 m/s onshore
+ * wind for 6 h. Runs (aEVP, 120 iterations): full physics at the seed's
+ * 60 s (the full model an operator configures); auto with model.dt = 0
+ * (the service's default: regimes per particle and auto time stepping,
+ * 100 s here); auto's two choices apart (auto regimes at 60 s, full
+ * physics at the auto step); full and auto at 180 s. The reference: full
+ * physics, dt 30 s, 300 iterations (converged settings). Errors against
+ * the reference on a 500 m output grid via sph_model_interpolate
  * (concentration = min(1, M / (rho_i h_i)) as the engine does): IIEE
  * (km^2, 15 % threshold, planar cells), RMSE of the mean thickness
  * hbar = M / rho_i over cells where either run has ice (m), and the
@@ -20,8 +24,7 @@
 #include "../tests/lattice.h"
 #include "../tests/scenarios.h"
 
-#define NX 30
-#define NY 60
+static int NX = 30, NY = 60; /* BENCH_AUTO_NX, BENCH_AUTO_NY */
 #define DX 1000.0
 #define OG_DX 500.0
 
@@ -42,7 +45,10 @@ static void run_case(const void *arg, bench_row *r)
     sph_params p;
     sph_params_default(&p);
     p.physics = c->physics;
-    p.dt = c->dt;
+    /* dt 0: auto time stepping (the service's default), the largest
+     * divisor of the 600 s thermodynamic step within half the measured
+     * stable step at this spacing */
+    p.dt = c->dt > 0 ? c->dt : sph_params_auto_dt(&p, DX, 600.0, NULL);
     p.evp_iterations = c->iterations;
     coast_case cc;
     coast_setup(&cc, &p, DX, NX, NY * DX, 1.0, 10.0);
@@ -59,7 +65,9 @@ static void run_case(const void *arg, bench_row *r)
         coast_free(&cc);
         return;
     }
-    long steps = (long)(6 * 3600 / c->dt);
+    long steps = (long)(6 * 3600 / p.dt + 0.5);
+    r->err_name[1] = "dt_s";
+    r->err[1] = p.dt;
     double fd = 0;
     double c0 = bench_cpu(), w0 = bench_wall();
     for (long s = 0; s < steps; s++) {
@@ -98,30 +106,43 @@ static void run_case(const void *arg, bench_row *r)
 
 int main(void)
 {
+    const char *ex = getenv("BENCH_AUTO_NX"), *ey = getenv("BENCH_AUTO_NY");
+    if (ex && atoi(ex) >= 6)
+        NX = atoi(ex);
+    if (ey && atoi(ey) >= 12)
+        NY = atoi(ey);
     g_nx = (int)(NX * DX / OG_DX);
     g_ny = (int)(NY * DX * 1.2 / OG_DX);
     size_t np = (size_t)g_nx * g_ny;
-    double *mem = mmap(NULL, 6 * np * sizeof(double), PROT_READ | PROT_WRITE,
+    double *mem = mmap(NULL, 4 * np * sizeof(double), PROT_READ | PROT_WRITE,
                        MAP_SHARED | MAP_ANONYMOUS, -1, 0);
     if (mem == MAP_FAILED)
         return 1;
     double *ref_c = mem, *ref_h = mem + np;
-    /* dt 180 s: inside the measured envelope at 1 km (dt/dx <= 0.2 s/m) */
-    auto_case cases[] = {{SPH_PHYSICS_FULL, 60, 300},
+    /* full at the seed's 60 s is the full model an operator configures;
+     * auto with dt 0 is the default (regimes and time step); the other two
+     * split auto's saving between its two choices; dt 180 s is inside the
+     * measured envelope at 1 km (dt/dx <= 0.2 s/m), auto's step is 100 s */
+    auto_case cases[] = {{SPH_PHYSICS_FULL, 30, 300},
+                         {SPH_PHYSICS_FULL, 60, 120},
+                         {SPH_PHYSICS_AUTO, 0, 120},
+                         {SPH_PHYSICS_AUTO, 60, 120},
+                         {SPH_PHYSICS_FULL, 0, 120},
                          {SPH_PHYSICS_FULL, 180, 120},
                          {SPH_PHYSICS_AUTO, 180, 120}};
-    const char *names[] = {"reference_full", "full", "auto"};
-    bench_row rows[3];
-    for (int i = 0; i < (bench_quick() ? 0 : 3); i++) {
-        g_conc = mem + (2 + 2 * (i > 0 ? i - 1 : 0)) * np;
-        g_hbar = g_conc + np;
-        if (i == 0) {
-            g_conc = ref_c;
-            g_hbar = ref_h;
-        }
+    const char *names[] = {"reference_full", "full", "auto", "auto_regimes_only", "full_auto_dt", "full",
+                           "auto"};
+    enum { NCASES = sizeof cases / sizeof cases[0] };
+    bench_row rows[NCASES];
+    for (int i = 0; i < (bench_quick() ? 0 : NCASES); i++) {
+        g_conc = i == 0 ? ref_c : mem + 2 * np;
+        g_hbar = i == 0 ? ref_h : mem + 3 * np;
         char cfg[160];
-        snprintf(cfg, sizeof cfg, "N=%d;dt=%g;iter=%d;hours=6", NX * NY, cases[i].dt,
-                 cases[i].iterations);
+        if (cases[i].dt > 0)
+            snprintf(cfg, sizeof cfg, "N=%d;dt=%g;iter=%d;hours=6", NX * NY, cases[i].dt,
+                     cases[i].iterations);
+        else
+            snprintf(cfg, sizeof cfg, "N=%d;dt=auto;iter=%d;hours=6", NX * NY, cases[i].iterations);
         bench_run_forked_row("auto_vs_full", run_case, &cases[i], names[i], cfg, &rows[i]);
         if (i == 0)
             continue;

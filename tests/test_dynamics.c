@@ -244,6 +244,70 @@ static void test_determinism(void)
     sph_particles_free(b);
 }
 
+/* Auto time stepping: the chosen step divides the interval it must divide,
+ * is no longer than half the measured stable step (docs/bench.md: the
+ * adaptive-EVP bound 0.2 s/m of spacing, the plastic-wave Courant number
+ * 0.15 with replacement pressure) and than f dt = 0.1 at the poles, and is
+ * the largest such step; the model accepts it and refuses a step beyond
+ * the stable one. */
+static void test_auto_dt(void)
+{
+    const double two_omega = 2.0 * 7.292e-5;
+    const double spacings[] = {500.0, 1000.0, 2224.0, 5000.0, 20000.0};
+    const double bases[] = {600.0, 3600.0, 900.0};
+    for (int form = 0; form < 3; form++)
+        for (size_t i = 0; i < sizeof spacings / sizeof spacings[0]; i++)
+            for (size_t j = 0; j < sizeof bases / sizeof bases[0]; j++) {
+                sph_params p;
+                sph_params_default(&p);
+                double stable;
+                if (form == 0) { /* adaptive EVP, seed pressure */
+                    stable = 0.2 * spacings[i];
+                } else if (form == 1) { /* replacement pressure, Hibler's P* */
+                    p.pressure_form = SPH_PRESSURE_HIBLER;
+                    p.P0 = 27.5e3;
+                    p.replacement_pressure = 1;
+                    double k = 0.5 * (1.0 + sqrt(1.0 + 1.0 / (p.ecc * p.ecc)));
+                    stable = fmin(0.2 * spacings[i], 0.15 * spacings[i] / sqrt(k * p.P0 / p.rho_i));
+                } else { /* free drift: only the Coriolis bound */
+                    p.physics = SPH_PHYSICS_FREE_DRIFT;
+                    stable = HUGE_VAL;
+                }
+                double got_stable = sph_params_stable_dt(&p, spacings[i], NULL);
+                CHECK(isinf(stable) ? isinf(got_stable) : fabs(got_stable - stable) < 1e-9 * stable,
+                      "stable step form %d, %g m: %g (want %g)", form, spacings[i], got_stable, stable);
+                double bound = fmin(0.5 * stable, 0.1 / two_omega);
+                double dt = sph_params_auto_dt(&p, spacings[i], bases[j], NULL);
+                double n = bases[j] / dt;
+                CHECK(fabs(n - round(n)) < 1e-9 && n >= 1.0, "auto dt %g divides %g", dt, bases[j]);
+                CHECK(dt <= bound * (1 + 1e-12), "auto dt %g <= bound %g (form %d, %g m)", dt, bound, form,
+                      spacings[i]);
+                CHECK(round(n) == 1.0 || bases[j] / (round(n) - 1.0) > bound,
+                      "auto dt %g is the largest divisor of %g under %g", dt, bases[j], bound);
+            }
+    /* the model takes the auto step and refuses a step beyond the stable one */
+    sph_params p;
+    sph_params_default(&p);
+    p.thermo_dt = 0;
+    p.physics = SPH_PHYSICS_FULL;
+    for (int beyond = 0; beyond < 2; beyond++) {
+        p.dt = beyond ? 1.05 * 0.2 * 1000.0 : sph_params_auto_dt(&p, 1000.0, 600.0, NULL);
+        sph_model *m = sph_model_create(&p, 16, NULL);
+        sph_particles *P = sph_model_particles(m);
+        lattice_fill(P, &p, 4, 4, 0, 0, 1000, 0.9, 1.0, 40);
+        sph_status st;
+        int rc = sph_model_init(m, &st);
+        if (beyond)
+            CHECK(rc == SPH_STEP_RECOVERABLE && !strcmp(st.quantity, "time step"),
+                  "dt %g s beyond the stable 200 s refused (rc %d)", p.dt, rc);
+        else
+            CHECK(rc == SPH_STEP_OK && fabs(p.dt - 100.0) < 1e-9, "auto dt %g s (want 100) accepted (rc %d)",
+                  p.dt, rc);
+        CHECK(fabs(sph_model_spacing(m) - 1000.0) < 1e-6, "spacing %g m", sph_model_spacing(m));
+        sph_model_free(m);
+    }
+}
+
 static void test_bad_parameters(void)
 {
     sph_params p;
@@ -277,6 +341,7 @@ static void test_bad_parameters(void)
 
 int main(void)
 {
+    test_auto_dt();
     test_free_drift();
     test_geostrophic_current();
     test_inertial();

@@ -237,6 +237,44 @@ int main(int argc, char **argv)
           w.res.particles_start, a.res.particles_end);
     CHECK(w.res.budget_residual < 1e-10, "warm budget residual %g", w.res.budget_residual);
 
+    /* ---- auto time stepping (model.dt = 0): the step is the largest
+     * divisor of the thermodynamic step (600 s; output 1 h, cycles 6 h)
+     * within half the measured adaptive-EVP bound, 0.2 s/m x the seeding
+     * lattice's 0.02 deg (docs/bench.md), cold and warm */
+    {
+        struct sph_config *ca = load(0, "[\"wind\", \"tair\"]", "ice.nc");
+        if (ca) {
+            double spacing = 0.02 * 6371000.0 * M_PI / 180.0;
+            double want = 600.0 / ceil(600.0 / (0.5 * 0.2 * spacing));
+            run_out au, aw;
+            run(ca, "stage-auto", 1, NULL, NULL, &au);
+            CHECK(au.rc == SPH_OK, "auto dt run: %s", au.err.msg);
+            CHECK(au.res.dt_auto == 1 && fabs(au.res.dt - want) < 1e-9, "auto dt %g s (want %g s)", au.res.dt,
+                  want);
+            snprintf(path, sizeof path, "%s/sphice_fields.nc", au.stage);
+            int nc;
+            double dtv = 0;
+            char pol[16] = "";
+            size_t pl = 0;
+            if (nc_open(path, NC_NOWRITE, &nc) == NC_NOERR) {
+                CHECK(nc_get_att_double(nc, NC_GLOBAL, "sphice_dt_dynamics", &dtv) == NC_NOERR && dtv == au.res.dt,
+                      "fields file: sphice_dt_dynamics %g", dtv);
+                CHECK(nc_inq_attlen(nc, NC_GLOBAL, "sphice_dt_policy", &pl) == NC_NOERR && pl < sizeof pol &&
+                          nc_get_att_text(nc, NC_GLOBAL, "sphice_dt_policy", pol) == NC_NOERR &&
+                          !strcmp(pol, "auto"),
+                      "fields file: sphice_dt_policy '%s'", pol);
+                nc_close(nc);
+            } else {
+                CHECK(0, "open %s", path);
+            }
+            run_at(ca, "stage-auto-warm", EC_CYCLE + 6 * 3600.0, 1, restart, NULL, &aw);
+            CHECK(aw.rc == SPH_OK && aw.res.dt_auto == 1 && fabs(aw.res.dt - want) < 1e-9,
+                  "auto dt after a warm start: %g s: %s", aw.res.dt, aw.err.msg);
+            CHECK(a.res.dt_auto == 0 && a.res.dt == 300, "a configured dt is used as given (%g s)", a.res.dt);
+            sph_config_free(ca);
+        }
+    }
+
     /* a restart from another plane is refused */
     {
         char text[8192];

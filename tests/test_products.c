@@ -260,7 +260,7 @@ static int full_run(const char *stage, prod_summary *sum, int with_obs)
         CHECK(rc == SPH_OK, "add_time %d: %s", t, err.msg);
         plon[0] += 0.01;
     }
-    prod_run_info ri = { 0.6, 0.4, 1.0, 0.0, 1000, 990, 1e-12 };
+    prod_run_info ri = { 0.6, 0.4, 1.0, 0.0, 1000, 990, 1e-12, 150.0, 1 };
     products_set_run_info(p, &ri);
     if (rc == SPH_OK) {
         rc = products_close(p, sum, &err);
@@ -399,6 +399,14 @@ static void test_full(const char *root)
     double fr = 0, iiee = 0;
     CHECK(nc_get_att_double(nc, NC_GLOBAL, "sphice_regime_fraction_free_drift", &fr) == NC_NOERR &&
               fr == 0.6, "regime fraction");
+    double dtv = 0;
+    char pol[16] = "";
+    size_t pl = 0;
+    CHECK(nc_get_att_double(nc, NC_GLOBAL, "sphice_dt_dynamics", &dtv) == NC_NOERR && dtv == 150.0,
+          "dynamic step attribute %g", dtv);
+    CHECK(nc_inq_attlen(nc, NC_GLOBAL, "sphice_dt_policy", &pl) == NC_NOERR && pl < sizeof pol &&
+              nc_get_att_text(nc, NC_GLOBAL, "sphice_dt_policy", pol) == NC_NOERR && !strcmp(pol, "auto"),
+          "dt policy attribute '%s'", pol);
     CHECK(nc_get_att_double(nc, NC_GLOBAL, "sphice_score_iiee_km2", &iiee) == NC_NOERR,
           "IIEE attribute");
     CHECK(sum.has_scores && fabs(iiee - sum.scores.iiee_km2) < 1e-6 * iiee, "scores in summary");

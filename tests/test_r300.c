@@ -152,9 +152,12 @@ int main(void)
     if (check_quick())
         return check_summary("test_r300");
 
-    /* From the uniform pack at rest to the steady state, at the seed's
-     * 60 s. */
-    p.dt = 60.0;
+    /* From the uniform pack at rest to the steady state, at the step auto
+     * time stepping takes here: half the plastic-wave bound (0.15 x 5 km /
+     * c_p = 132 s) rounded down to a divisor of the 600 s thermodynamic
+     * step, which is the seed's 60 s. */
+    p.dt = sph_params_auto_dt(&p, DX, 600.0, NULL);
+    CHECK(fabs(p.dt - 60.0) < 1e-9, "auto step of R300: %g s (want 60)", p.dt);
     coast_case c;
     CHECK(coast_setup(&c, &p, DX, NCROSS, L0, H0, WIND) == 0, "setup");
     CHECK(sph_model_init(c.model, &st) == 0, "init: %s %s", st.quantity, st.what);

@@ -112,6 +112,26 @@ typedef struct sph_landmask {
     int closed_outside;      /* 1: the grid edge is a wall, not an open boundary */
 } sph_landmask;
 
+/* The measured stability envelope (docs/bench.md): the largest dynamic
+ * step, s, inside the stable region measured for p's solver and rheology
+ * at the initial particle spacing `spacing` (m); HUGE_VAL where nothing was
+ * measured to bound it (free drift; the explicit solver, which sub-steps
+ * itself; the implicit solver). *why (may be NULL) gets the message a
+ * refusal gives. sph_model_init refuses a step above it. */
+double sph_params_stable_dt(const sph_params *p, double spacing, const char **why);
+
+/* Auto time stepping (model.dt = 0): the step is base / n for the smallest
+ * whole n with base / n <= SPH_AUTO_DT_SAFETY x the stable step and
+ * f dt <= SPH_AUTO_DT_CORIOLIS at the poles' f. base is the interval the
+ * step must divide (thermodynamic step, output interval); base <= 0 takes
+ * the bound itself. The safety factor is a measurement, not a guess: the
+ * demo at 0.53 of the adaptive-EVP bound stays within 2.4 % of its
+ * errors at the seed's 60 s (docs/bench.md). *why names the bound that
+ * decided. */
+#define SPH_AUTO_DT_SAFETY 0.5
+#define SPH_AUTO_DT_CORIOLIS 0.1
+double sph_params_auto_dt(const sph_params *p, double spacing, double base, const char **why);
+
 typedef struct sph_model sph_model;
 
 /* Creates a model able to hold `cap` particles. The land mask (may be
@@ -124,6 +144,9 @@ const sph_params *sph_model_params(const sph_model *m);
 size_t sph_model_capacity(const sph_model *m); /* live particles it can hold */
 /* Mirror ghosts of the last step, stored after the live particles. */
 size_t sph_model_ghosts(const sph_model *m);
+/* Smallest initial particle spacing of the placed particles, m:
+ * min over particles of sml0 (sml before sph_model_init) / sml_factor. */
+double sph_model_spacing(const sph_model *m);
 /* Changes reloadable parameters (same capacity and layers). */
 int sph_model_set_params(sph_model *m, const sph_params *p);
 

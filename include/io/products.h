@@ -74,6 +74,8 @@ typedef struct prod_run_info {
     double frac_free_drift, frac_rheology, frac_zero_layer, frac_multi_layer;
     long particles_start, particles_end;
     double budget_residual;     /* relative mass budget residual */
+    double dt;                  /* dynamic step used, s */
+    int dt_auto;                /* 1: chosen by auto time stepping (model.dt = 0) */
 } prod_run_info;
 
 /* Gridded fields at one output time: nlat*nlon doubles, row-major, south

@@ -27,6 +27,8 @@ typedef struct forecast_progress {
     volatile double percent;     /* 0..100 */
     volatile long particles;
     volatile double frac_free_drift, frac_rheology, frac_zero_layer, frac_multi_layer;
+    volatile double dt;          /* dynamic step in use, s (auto or configured) */
+    volatile int dt_auto;
 } forecast_progress;
 
 typedef struct forecast_request {
@@ -50,6 +52,8 @@ typedef struct forecast_result {
     double iiee_km2, aee_km2, me_km2, edge_displacement_km, conc_bias, conc_rmse, skill_persistence;
     double frac_free_drift, frac_rheology, frac_zero_layer, frac_multi_layer;
     double budget_residual;      /* relative mass budget residual */
+    double dt;                   /* dynamic step used, s */
+    int dt_auto;                 /* 1: chosen by auto time stepping */
     char start_mode[16];         /* "cold", "warm", "reinit" */
     int nproducts;
     char products[FC_MAX_PRODUCTS][512]; /* file names relative to stage_dir */

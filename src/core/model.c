@@ -347,6 +347,76 @@ int sph_model_set_params(sph_model *m, const sph_params *p)
 }
 
 /* ------------------------------------------------------------------ */
+/* the stability envelope and auto time stepping                       */
+
+double sph_params_stable_dt(const sph_params *p, double spacing, const char **why)
+{
+    double lim = HUGE_VAL;
+    const char *w = "no measured stability bound (free drift, or a solver that sub-steps or is implicit)";
+    if (p->physics == SPH_PHYSICS_FREE_DRIFT || !(spacing > 0.0)) {
+        if (why)
+            *why = w;
+        return lim;
+    }
+    if (p->solver == SPH_SOLVER_MEVP && !p->evp_adaptive) {
+        lim = spacing < 2000.0 ? SPH_MEVP_FIXED_DT_FINE : SPH_MEVP_FIXED_DT_MAX;
+        w = "is outside the measured stable region of fixed-parameter mEVP "
+            "(blow-up or clumping measured beyond it); refused";
+    }
+    if (p->solver == SPH_SOLVER_MEVP && p->evp_adaptive && SPH_AEVP_DT_PER_M * spacing < lim) {
+        lim = SPH_AEVP_DT_PER_M * spacing;
+        w = "is outside the measured stable region of adaptive EVP "
+            "(dt / spacing above 0.2 s/m; stable at 0.06, blow-up measured at 0.3); refused";
+    }
+    if (p->rheology == SPH_RHEOLOGY_VP && p->replacement_pressure) {
+        double k = 0.5 * (1.0 + sqrt(1.0 + 1.0 / (p->ecc * p->ecc)));
+        double cp = sqrt(k * p->P0 / p->rho_i);
+        double d = cp > 0.0 ? SPH_REPLACEMENT_COURANT_MAX * spacing / cp : HUGE_VAL;
+        if (d < lim) {
+            lim = d;
+            w = "is outside the measured stable region with replacement pressure "
+                "(plastic-wave Courant number dt c_p / spacing above 0.15; "
+                "stable at 0.137, drift and growth measured at 0.205); refused";
+        }
+    }
+    if (why)
+        *why = w;
+    return lim;
+}
+
+double sph_params_auto_dt(const sph_params *p, double spacing, double base, const char **why)
+{
+    const char *w = NULL;
+    double stable = sph_params_stable_dt(p, spacing, &w);
+    double bound = SPH_AUTO_DT_SAFETY * stable;
+    const char *b = "half the measured stable step";
+    double cor = SPH_AUTO_DT_CORIOLIS / (2.0 * OMEGA_EARTH);
+    if (!(bound <= cor)) {
+        bound = cor;
+        b = "the Coriolis accuracy bound f dt <= 0.1";
+    }
+    if (!(base > 0.0) || !isfinite(base))
+        base = bound;
+    double n = ceil(base / bound - 1e-9);
+    if (n < 1.0)
+        n = 1.0;
+    if (why)
+        *why = n == 1.0 && base < bound ? "the step it must divide (thermodynamics, output)" : b;
+    return base / n;
+}
+
+double sph_model_spacing(const sph_model *m)
+{
+    const sph_particles *P = m->P;
+    double s = HUGE_VAL;
+    for (size_t k = 0; k < P->n; k++) {
+        double h = P->sml0[k] > 0.0 ? P->sml0[k] : P->sml[k];
+        s = fmin(s, h / m->prm.sml_factor);
+    }
+    return s;
+}
+
+/* ------------------------------------------------------------------ */
 /* land mask                                                           */
 
 static int mask_cell(const sph_model *m, double x, double y, int *ci, int *cj)
@@ -1153,32 +1223,11 @@ int sph_model_init(sph_model *m, sph_status *st)
     /* The measured stability envelope (docs/bench.md, bench/run.sh,
      * docs/bench/stability.csv): outside it a run is refused here, before
      * anything is computed, rather than written out as a forecast. */
-    double spacing = HUGE_VAL;
-    for (size_t k = 0; k < P->n; k++)
-        spacing = fmin(spacing, P->sml0[k] / p->sml_factor);
-    if (p->physics != SPH_PHYSICS_FREE_DRIFT && p->solver == SPH_SOLVER_MEVP && !p->evp_adaptive &&
-        (p->dt > SPH_MEVP_FIXED_DT_MAX || (p->dt > SPH_MEVP_FIXED_DT_FINE && spacing < 2000.0)))
-        return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "time step", p->dt,
-                              spacing < 2000.0 ? SPH_MEVP_FIXED_DT_FINE : SPH_MEVP_FIXED_DT_MAX,
-                              "is outside the measured stable region of fixed-parameter mEVP "
-                              "(blow-up or clumping measured beyond it); refused");
-    if (p->physics != SPH_PHYSICS_FREE_DRIFT && p->solver == SPH_SOLVER_MEVP && p->evp_adaptive && P->n > 0 &&
-        p->dt > SPH_AEVP_DT_PER_M * spacing)
-        return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "time step", p->dt,
-                              SPH_AEVP_DT_PER_M * spacing,
-                              "is outside the measured stable region of adaptive EVP "
-                              "(dt / spacing above 0.2 s/m; stable at 0.06, blow-up measured at 0.3); refused");
-    if (p->physics != SPH_PHYSICS_FREE_DRIFT && p->rheology == SPH_RHEOLOGY_VP &&
-        p->replacement_pressure && P->n > 0) {
-        double k = 0.5 * (1.0 + sqrt(1.0 + 1.0 / (p->ecc * p->ecc)));
-        double cp = sqrt(k * p->P0 / p->rho_i);
-        double dtmax = SPH_REPLACEMENT_COURANT_MAX * spacing / cp;
-        if (p->dt > dtmax)
-            return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "time step", p->dt, dtmax,
-                                  "is outside the measured stable region with replacement pressure "
-                                  "(plastic-wave Courant number dt c_p / spacing above 0.15; "
-                                  "stable at 0.137, drift and growth measured at 0.205); refused");
-    }
+    double spacing = sph_model_spacing(m);
+    const char *why = NULL;
+    double dtmax = sph_params_stable_dt(p, spacing, &why);
+    if (P->n > 0 && p->dt > dtmax)
+        return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "time step", p->dt, dtmax, why);
     if (m->has_mask)
         mark_near_land(m, m->kern.radius * p->sml_max_factor * max_sml(P, P->n));
     /* Calibrate the kernel's lattice sum: intended M = rho_i A h_i from the
@@ -1279,6 +1328,10 @@ int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st)
     if (!(c->dens_scale > 0.0) || !isfinite(c->time) || !isfinite(c->thermo_accum))
         return sph_status_set(st, SPH_STEP_FATAL, -1, "clock", c->dens_scale, 0.0,
                               "is not valid");
+    const char *why = NULL;
+    double dtmax = sph_params_stable_dt(p, sph_model_spacing(m), &why);
+    if (P->n > 0 && p->dt > dtmax)
+        return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "time step", p->dt, dtmax, why);
     /* the same radius as sph_model_init used: there every sml equalled sml0 */
     if (m->has_mask)
         mark_near_land(m, m->kern.radius * p->sml_max_factor * sml0_max);

@@ -789,6 +789,11 @@ static int fields_finish(prod_writer *p, sph_error *err)
                        p->run.frac_multi_layer), "write attribute to");
         NCT(put_double(nc, NC_GLOBAL, "sphice_mass_budget_residual", p->run.budget_residual),
             "write attribute to");
+        if (p->run.dt > 0.0) {
+            NCT(put_double(nc, NC_GLOBAL, "sphice_dt_dynamics", p->run.dt), "write attribute to");
+            NCT(prod_put_text(nc, NC_GLOBAL, "sphice_dt_policy", p->run.dt_auto ? "auto" : "configured"),
+                "write attribute to");
+        }
         long long ps = p->run.particles_start, pe = p->run.particles_end;
         NCT(nc_put_att_longlong(nc, NC_GLOBAL, "sphice_particles_start", NC_INT64, 1, &ps),
             "write attribute to");

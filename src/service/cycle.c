@@ -456,6 +456,15 @@ static cJSON *result_json(const forecast_result *r)
     NUM("edge_distance_nm", r->edge_distance_nm);
     NUM("budget_residual", r->budget_residual);
     NUM("wall_seconds", r->wall_seconds);
+    if (r->dt > 0) {
+        NUM("dt", r->dt);
+        cJSON_AddStringToObject(o, "dt_policy", r->dt_auto ? "auto" : "configured");
+        cJSON *rg = cJSON_AddObjectToObject(o, "regimes");
+        cJSON_AddNumberToObject(rg, "free_drift", r->frac_free_drift);
+        cJSON_AddNumberToObject(rg, "rheology", r->frac_rheology);
+        cJSON_AddNumberToObject(rg, "zero_layer", r->frac_zero_layer);
+        cJSON_AddNumberToObject(rg, "multi_layer", r->frac_multi_layer);
+    }
 #undef NUM
     return o;
 }

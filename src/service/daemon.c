@@ -172,6 +172,10 @@ static char *status_json(svc *s)
         cJSON_AddNumberToObject(rg, "rheology", s->prog.frac_rheology);
         cJSON_AddNumberToObject(rg, "zero_layer", s->prog.frac_zero_layer);
         cJSON_AddNumberToObject(rg, "multi_layer", s->prog.frac_multi_layer);
+        if (s->prog.dt > 0) {
+            cJSON_AddNumberToObject(cur, "dt", s->prog.dt);
+            cJSON_AddStringToObject(cur, "dt_policy", s->prog.dt_auto ? "auto" : "configured");
+        }
     } else {
         cJSON_AddNullToObject(root, "current");
     }

@@ -67,6 +67,9 @@ typedef struct engine {
     sph_model *m;
     size_t cap;
     int thermo_on;
+    sph_params prm;          /* the model's parameters: config, dt resolved */
+    int dt_auto;             /* model.dt = 0: auto time stepping */
+    double dt_base;          /* the interval the auto step divides, s */
     unsigned provided;       /* forcing quantities found at the first sample */
     /* per-particle work arrays [cap] */
     double *lon, *lat, *angle, *ue, *vn, *uwe, *vwn, *gxe, *gyn, *ssh;
@@ -159,13 +162,13 @@ static void engine_free(engine *e)
 
 /* ------------------------------------------------------------ parameters */
 
-static int check_params(const struct sph_config *cfg, sph_error *err)
+static int check_params(const struct sph_config *cfg, const sph_params *prm, sph_error *err)
 {
     const char *name = "";
     double lo = 0, hi = 0;
-    if (sph_params_check(&cfg->model, &name, &lo, &hi) != SPH_STEP_OK) {
+    if (sph_params_check(prm, &name, &lo, &hi) != SPH_STEP_OK) {
         /* report the offending value: find it by name among the common ones */
-        const sph_params *p = &cfg->model;
+        const sph_params *p = prm;
         double v = NAN;
         if (!strcmp(name, "dt")) v = p->dt;
         else if (!strcmp(name, "thermo_dt")) v = p->thermo_dt;
@@ -185,6 +188,52 @@ static int check_params(const struct sph_config *cfg, sph_error *err)
         sph_thermo_params_check(&cfg->model.thermo, &name, &lo, &hi) != SPH_STEP_OK)
         return sph_err_set(err, SPH_ERR_PARAM, "model.thermo: parameter %s outside [%g, %g]", name, lo,
                            hi);
+    return SPH_OK;
+}
+
+/* Whole seconds shared by the thermodynamic step, the output interval and
+ * the distance to the next cycle (its restart): the auto step divides it,
+ * so none of them falls between two steps. 0 when none is whole. */
+static double auto_dt_base(const engine *e, double t_next)
+{
+    const double iv[3] = {e->thermo_on ? e->cfg->model.thermo_dt : 0.0,
+                          e->cfg->output.interval_hours * 3600.0, t_next - e->t0};
+    long g = 0;
+    for (int i = 0; i < 3; i++) {
+        if (!(iv[i] >= 1.0) || fabs(iv[i] - round(iv[i])) > 1e-6)
+            continue;
+        long a = lround(iv[i]), b = g;
+        while (b) {
+            long t = a % b;
+            a = b;
+            b = t;
+        }
+        g = a;
+    }
+    return (double)g;
+}
+
+/* Auto time stepping: the step from the measured envelope at the placed
+ * particles' spacing (sph_params_auto_dt), before the model's envelope
+ * check in sph_model_init / sph_model_resume. */
+static int resolve_dt(engine *e, sph_error *err)
+{
+    if (!e->dt_auto)
+        return SPH_OK;
+    double spacing = sph_model_spacing(e->m);
+    const char *why = "";
+    double stable = sph_params_stable_dt(&e->prm, spacing, NULL);
+    e->prm.dt = sph_params_auto_dt(&e->prm, spacing, e->dt_base, &why);
+    if (e->thermo_on && e->prm.dt > e->cfg->model.thermo_dt)
+        e->prm.dt = e->cfg->model.thermo_dt;
+    if (sph_model_set_params(e->m, &e->prm) != SPH_STEP_OK)
+        return sph_err_set(err, SPH_ERR_PARAM, "model: auto time step %g s not accepted", e->prm.dt);
+    if (isfinite(stable))
+        log_info("forecast %s: auto time step %g s (spacing %.0f m, measured stable step %.0f s; set by %s)",
+                 e->cname, e->prm.dt, spacing, stable, why);
+    else
+        log_info("forecast %s: auto time step %g s (spacing %.0f m, no stability bound; set by %s)", e->cname,
+                 e->prm.dt, spacing, why);
     return SPH_OK;
 }
 
@@ -708,7 +757,7 @@ static int cold_start(engine *e, sph_error *err)
     if ((rc = seed_count(e->raster, e->proj, e->lm, &so, &count, err)))
         return rc;
     e->cap = count > 0 ? count : 1;
-    e->m = sph_model_create(&cfg->model, e->cap, &e->plane);
+    e->m = sph_model_create(&e->prm, e->cap, &e->plane);
     if (!e->m)
         return sph_err_set(err, SPH_ERR_NOMEM, "model: cannot create a model for %zu particles", e->cap);
     sph_particles *P = sph_model_particles(e->m);
@@ -735,6 +784,8 @@ static int cold_start(engine *e, sph_error *err)
         return rc;
     for (size_t k = 0; k < P->n; k++)
         sph_thermo_init_particle(&cfg->model.thermo, P, k, P->tair[k]);
+    if ((rc = resolve_dt(e, err)))
+        return rc;
     sph_status st;
     if (sph_model_init(e->m, &st) != SPH_STEP_OK) {
         char what[256];
@@ -749,14 +800,13 @@ static int cold_start(engine *e, sph_error *err)
 
 static int warm_start(engine *e, sph_error *err)
 {
-    const struct sph_config *cfg = e->cfg;
     const char *path = e->req->warm_start;
     restart_header h;
     int rc = restart_read_header(path, &h, err);
     if (rc)
         return rc;
     e->cap = h.n > 0 ? h.n : 1;
-    e->m = sph_model_create(&cfg->model, e->cap, &e->plane);
+    e->m = sph_model_create(&e->prm, e->cap, &e->plane);
     if (!e->m)
         return sph_err_set(err, SPH_ERR_NOMEM, "model: cannot create a model for %zu particles", e->cap);
     sph_particles *P = sph_model_particles(e->m);
@@ -778,6 +828,8 @@ static int warm_start(engine *e, sph_error *err)
     for (size_t k = 0; k < P->n; k++)
         mass += P->mass[k];
     c.budget.mass_initial = c.budget.mass = mass;
+    if ((rc = resolve_dt(e, err)))
+        return rc;
     sph_status st;
     if (sph_model_resume(e->m, &c, &st) != SPH_STEP_OK) {
         char what[256];
@@ -1073,7 +1125,14 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         rc = sph_err_set(er, SPH_ERR_PARAM, "forecast: no stage directory");
         goto fail;
     }
-    if ((rc = check_params(cfg, er)))
+    /* the model's parameters; model.dt = 0 is resolved once the particles
+     * are placed (resolve_dt), checked meanwhile with a valid stand-in */
+    e->prm = cfg->model;
+    e->dt_auto = cfg->model.dt == 0.0; /* negative: refused by check_params */
+    e->dt_base = auto_dt_base(e, schedule_next(cfg, e->t0));
+    if (e->dt_auto)
+        e->prm.dt = e->dt_base > 0.0 ? e->dt_base : 60.0;
+    if ((rc = check_params(cfg, &e->prm, er)))
         goto fail;
     if (!(cfg->domain.lon_max > cfg->domain.lon_min) || !(cfg->domain.lat_max > cfg->domain.lat_min)) {
         rc = sph_err_set(er, SPH_ERR_CONFIG, "config: domain: lon_max/lat_max must exceed lon_min/lat_min");
@@ -1134,7 +1193,9 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     snprintf(e->restart_path, sizeof e->restart_path, "%s/%s", req->stage_dir, rname);
 
     /* 6. time loop */
-    const double dt = cfg->model.dt;
+    const double dt = e->prm.dt;
+    prog->dt = dt;
+    prog->dt_auto = e->dt_auto;
     const long nsteps = (long)ceil(hours * 3600.0 / dt - 1e-9);
     const double out_dt = cfg->output.interval_hours * 3600.0;
     long restart_step = (long)ceil((t_next - e->t0) / dt - 1e-9);
@@ -1212,6 +1273,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     info.particles_start = res->particles_start;
     info.particles_end = (long)P->n;
     info.budget_residual = resid;
+    info.dt = dt;
+    info.dt_auto = e->dt_auto;
     products_set_run_info(e->pw, &info);
     prod_summary sum;
     rc = products_close(e->pw, &sum, er);
@@ -1238,6 +1301,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     res->frac_rheology = info.frac_rheology;
     res->frac_zero_layer = info.frac_zero_layer;
     res->frac_multi_layer = info.frac_multi_layer;
+    res->dt = dt;
+    res->dt_auto = e->dt_auto;
     res->budget_residual = resid;
     snprintf(res->start_mode, sizeof res->start_mode, "%.15s", e->start_mode);
     int np = 0;
