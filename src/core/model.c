@@ -767,7 +767,9 @@ static void clamp_stress_memory(sph_model *m)
     if (m->prm.rheology != SPH_RHEOLOGY_VP)
         return;
     double e = m->prm.ecc;
-    for (size_t k = 0; k < P->n; k++) {
+    size_t n = P->n;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
         double Pk = P->pres[k];
         double a = P->s11[k], b = P->s22[k], c = P->s12[k];
         if (!(Pk > 0.0)) {
@@ -792,6 +794,7 @@ static void select_active(sph_model *m)
     sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
     size_t n = P->n, na = 0;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
     for (size_t k = 0; k < n; k++) {
         int act = 0;
         if (m->prm.physics != SPH_PHYSICS_FREE_DRIFT) {
@@ -804,9 +807,10 @@ static void select_active(sph_model *m)
         }
         P->regime[k] &= (unsigned char)~(SPH_REGIME_FREE_DRIFT | SPH_REGIME_RHEOLOGY);
         P->regime[k] |= act ? SPH_REGIME_RHEOLOGY : SPH_REGIME_FREE_DRIFT;
-        if (act)
-            m->active[na++] = (int)k;
     }
+    for (size_t k = 0; k < n; k++) /* serial: the list in particle order */
+        if (P->regime[k] & SPH_REGIME_RHEOLOGY)
+            m->active[na++] = (int)k;
     m->nactive = na;
 }
 
@@ -1348,7 +1352,9 @@ static void move_and_constrain(sph_model *m)
 {
     sph_particles *P = m->P;
     double dt = m->prm.dt;
-    for (size_t k = 0; k < P->n; k++) {
+    size_t n = P->n;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
         double x0 = P->x[k], y0 = P->y[k];
         double x1 = x0 + 0.5 * dt * (m->un[k] + P->u[k]);
         double y1 = y0 + 0.5 * dt * (m->vn[k] + P->v[k]);
@@ -1390,7 +1396,9 @@ static void update_sml(sph_model *m)
     const sph_params *p = &m->prm;
     if (!p->variable_sml)
         return;
-    for (size_t k = 0; k < P->n; k++) {
+    size_t n = P->n;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
         double div = P->e11[k] + P->e22[k];
         double h = P->sml0[k] * sqrt(P->dens0[k] / P->dens[k]) * (1.0 + 0.5 * p->dt * div);
         double lo = p->sml_min_factor * P->sml0[k], hi = p->sml_max_factor * P->sml0[k];
@@ -1427,7 +1435,9 @@ int sph_model_step(sph_model *m, sph_status *st)
     int rc = prepare(m, st);
     if (rc != SPH_STEP_OK)
         return rc;
-    for (size_t k = 0; k < P->n; k++) {
+    size_t n = P->n;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
         m->un[k] = P->u[k];
         m->vn[k] = P->v[k];
         P->ax[k] = P->ay[k] = 0.0;
@@ -1459,7 +1469,8 @@ int sph_model_step(sph_model *m, sph_status *st)
     strain_pass(m, NULL, P->n);
     if (!p->summation_density) {
         /* continuity in the Lagrangian frame, implicit so M stays positive */
-        for (size_t k = 0; k < P->n; k++) {
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+        for (size_t k = 0; k < n; k++) {
             double div = P->e11[k] + P->e22[k];
             if (P->regime[k] & SPH_REGIME_NEAR_COAST) {
                 double dg = coast_divergence(m, k);
