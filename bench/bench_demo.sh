@@ -12,6 +12,8 @@
 #              the sphice binary are the same
 #              ($BENCH_OUT/demo/h<HOURS>_ref_<settings>/reference.key)
 #   full, auto the seed's settings (dt 60 s, 120 iterations, spacing 0.02)
+#   full, auto dt 0: auto time stepping (model.dt = 0, the service's
+#              default; 200 s here), labelled dt=auto:<step used>
 #   full, auto dt 180 s (inside the adaptive-EVP envelope, 0.2 s/m x spacing)
 #   free_drift the seed's settings: the floor of what auto can save (no
 #              stress anywhere) and its error
@@ -168,7 +170,7 @@ if [ -n "${DEMO_VARIANTS:-}" ]; then
 elif [ $QUICK = 1 ]; then
     VARIANTS="full:$SEED_DT auto:$SEED_DT"
 else
-    VARIANTS="full:$SEED_DT auto:$SEED_DT full:180 auto:180 free_drift:$SEED_DT"
+    VARIANTS="full:$SEED_DT auto:0 auto:$SEED_DT full:0 full:180 auto:180 free_drift:$SEED_DT"
 fi
 for v in $VARIANTS; do
     # PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE]]], the seed's values
@@ -184,7 +186,12 @@ EOV
     name="${phys}_dt${dt}_it${iter}_s$spacing${tol:+_tol$tol}"
     write_config "$name" "$phys" "$dt" "$iter" "$spacing" "$tol"
     run_model "$name"
-    cfg="dt=$dt;iterations=$iter;spacing=$spacing;hours=$HOURS${tol:+;auto_tolerance=$tol}"
+    dtl=$dt
+    if [ "$dt" = 0 ]; then # auto time stepping: the step the run took (cycle.json)
+        used=$(sed -n 's/^[[:space:]]*"dt":[[:space:]]*\([0-9.]*\),*$/\1/p' "$W/$name"/*/cycle.json 2>/dev/null | head -1)
+        dtl="auto${used:+:$used}"
+    fi
+    cfg="dt=$dtl;iterations=$iter;spacing=$spacing;hours=$HOURS${tol:+;auto_tolerance=$tol}"
     if [ "$STATUS" = ok ] && [ $REF_OK = 0 ]; then
         STATUS=no_reference
         row "$phys" "$cfg" "" "" ""
