@@ -4,7 +4,7 @@
 #   BENCH_QUICK=1  small matrices (CI, ~3 min)
 #   BENCH_OUT=dir  output folder (default bench/out)
 #   BENCH_ONLY="neighbours reference stability auto demo"  a subset
-#   DEMO_HOURS=h   the demo problem's forecast length (bench/bench_demo.sh; 36)
+#   DEMO_HOURS=h   the demo problem's forecast length (bench/bench_demo.sh; 96)
 # Writes $BENCH_OUT/results.csv (one row per run, see bench/bench_common.h),
 # $BENCH_OUT/machine.txt, and the charts (bench/plot.sh, needs gnuplot).
 # The accuracy runs use one thread (CPU time comparable with the serial
