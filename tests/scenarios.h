@@ -203,7 +203,135 @@ static inline int coast_measure_ridged(const coast_case *c, const sph_params *p,
     return n;
 }
 
-#endif
+/* Plastic wave (PHYSICS.md section 8, linearised uniaxial plastic
+ * compression): packed ice (A = 1, h = 1 m, P* = 27.5e3, replacement
+ * pressure, no drag, wind or Coriolis), 500 km of a channel 3 particles
+ * wide at spacing dx, converging uniformly at 3e-5 s^-1 (v = -eps (y - yc):
+ * every particle on the yield curve, stress initialised there; eps well
+ * above the wave's own strain rates, c_p AMP / W = 3e-6 s^-1, so no part
+ * of it unloads), with a 0.5 % Gaussian thickness bump (width 10 km) at
+ * yc. The bump splits into two waves; *speed is the speed of one wave's
+ * peak relative to the ice (least squares over 1 to 2.5 h), *cp the
+ * analytic sqrt(k P* / rho_i). prm gives the kernel, smoothing, solver,
+ * iterations, dt and max_neighbours. Returns 0, or the model's rc (with
+ * *st) when init refused or a step failed. */
+static inline int plastic_wave_run(const sph_params *prm, double dx, double *speed, double *cp,
+                                   sph_status *st)
+{
+    sph_params pp = *prm;
+    sph_params *p = &pp;
+    p->physics = SPH_PHYSICS_FULL;
+    p->replacement_pressure = 1;
+    p->pressure_form = SPH_PRESSURE_SEED;
+    p->P0 = 27.5e3;
+    p->Cw = 0.0;
+    /* pack from Y0 to Y0 + L0, converging uniformly on yc at EPS s^-1 */
+    const double L0 = 500e3, Y0 = 100e3, yc = Y0 + 0.5 * L0, EPS = 3e-5, AMP = 0.005, W = 10e3;
+    const double h0 = 1.0;
+    coast_case cc;
+    coast_setup(&cc, p, dx, 3, L0 + Y0, h0, 0.0);
+    sph_particles *P = sph_model_particles(cc.model);
+    double kk = 0.5 * (1 + sqrt(1 + 1 / (p->ecc * p->ecc)));
+    double cp_ = sqrt(kk * p->P0 / p->rho_i);
+    double *y0 = malloc(P->n * sizeof(double));
+    long *ids = malloc(P->n * sizeof(long));
+    size_t n = 0;
+    for (size_t k = 0; k < P->n; k++) {
+        if (P->y[k] < Y0)
+            continue;
+        double y = P->y[k], h = h0 * (1.0 + AMP * exp(-(y - yc) * (y - yc) / (W * W)));
+        P->x[n] = P->x[k];
+        P->y[n] = y;
+        P->u[n] = 0.0;
+        P->v[n] = -EPS * (y - yc);
+        P->thick[n] = h;
+        P->conc[n] = 1.0;
+        P->mass[n] = p->rho_i * h * dx * dx;
+        P->sml[n] = P->sml0[n] = P->sml[k];
+        P->lat[n] = P->lat[k];
+        P->id[n] = P->id[k];
+        P->ua[n] = P->va[n] = P->uw[n] = P->vw[n] = P->sshx[n] = P->sshy[n] = 0.0;
+        /* on the yield curve in uniaxial compression (e_yy < 0, e_xx = 0) */
+        double Pn = p->P0 * h, rr = sqrt(1 + 1 / (p->ecc * p->ecc));
+        P->s22[n] = -kk * Pn;
+        P->s11[n] = -0.5 * Pn * (1 + (1 - 1 / (p->ecc * p->ecc)) / rr);
+        P->s12[n] = 0.0;
+        y0[n] = y;
+        ids[n] = P->id[n];
+        n++;
+    }
+    P->n = n;
+    int rc = sph_model_init(cc.model, st);
+    if (rc != 0) { /* outside the measured envelope */
+        free(y0);
+        free(ids);
+        coast_free(&cc);
+        return rc;
+    }
+    /* rows of the initial lattice within +-100 km of yc */
+    const int nrow = 2 * (int)(100e3 / dx) + 1;
+    double *rsum = malloc((size_t)nrow * sizeof(double)), *rcnt = malloc((size_t)nrow * sizeof(double));
+    double T = 2.5 * 3600.0;
+    long steps = (long)(T / p->dt + 0.5);
+    double st_sum = 0, sy = 0, stt = 0, sty = 0;
+    int np = 0;
+    for (long s = 1; s <= steps; s++) {
+        rc = sph_model_step(cc.model, st);
+        if (rc != 0)
+            break;
+        double t = s * p->dt;
+        if (t < 3600.0 || s % 8)
+            continue;
+        /* the front: the peak of the right-moving pulse, in the
+         * particles' initial positions (Lagrangian labels xi): hbar
+         * averaged across the channel per lattice row, the largest row
+         * between 5 and 85 km from yc, refined by a parabola through it
+         * and its neighbours. Every particle keeps its velocity -eps xi
+         * (no forces but the wave's), so y - yc = xi (1 - eps t), and a
+         * wave at speed c relative to the ice moves in labels as
+         * d xi / d tau = c with tau = -ln(1 - eps t) / eps: the speed is
+         * the slope of xi_front against tau. */
+        for (int b = 0; b < nrow; b++)
+            rsum[b] = rcnt[b] = 0.0;
+        for (size_t k = 0; k < P->n; k++) {
+            size_t q = 0;
+            while (q < n && ids[q] != P->id[k])
+                q++;
+            if (q == n)
+                continue;
+            int b = (int)floor((y0[q] - yc) / dx + 0.5) + nrow / 2;
+            if (b >= 0 && b < nrow) {
+                rsum[b] += P->dens[k] / p->rho_i;
+                rcnt[b] += 1.0;
+            }
+        }
+        int best = -1;
+        for (int b = nrow / 2 + (int)ceil(5e3 / dx); b < nrow - 1 && (b - nrow / 2) * dx <= 85e3; b++)
+            if (rcnt[b] > 0 && (best < 0 || rsum[b] / rcnt[b] > rsum[best] / rcnt[best]))
+                best = b;
+        if (best > 0 && rcnt[best - 1] > 0 && rcnt[best + 1] > 0) {
+            double fm = rsum[best - 1] / rcnt[best - 1], f0 = rsum[best] / rcnt[best],
+                   fp = rsum[best + 1] / rcnt[best + 1];
+            double den = fm - 2 * f0 + fp, off = den < 0 ? 0.5 * (fm - fp) / den : 0.0;
+            double front = (best - nrow / 2 + off) * dx;
+            t = -log(1.0 - EPS * t) / EPS;
+            st_sum += t;
+            sy += front;
+            stt += t * t;
+            sty += t * front;
+            np++;
+        }
+    }
+    *speed = np > 2 ? (np * sty - st_sum * sy) / (np * stt - st_sum * st_sum) : NAN;
+    *cp = cp_;
+    free(y0);
+    free(ids);
+    free(rsum);
+    free(rcnt);
+    coast_free(&cc);
+    return rc;
+}
+
 
 /* Places the channel's particles in the analytic steady state: uniform
  * spacing dx, each particle carrying the analytic mean thickness at its
@@ -238,3 +366,5 @@ static inline int coast_setup_steady(coast_case *c, const sph_params *prm, doubl
     }
     return 0;
 }
+
+#endif

@@ -152,6 +152,28 @@ int main(void)
     if (check_quick())
         return check_summary("test_r300");
 
+    /* The plastic wave (PHYSICS.md section 8): in packed ice compressing
+     * on the yield curve a thickness bump splits into waves travelling at
+     * c_p = sqrt(k P* / rho_i) relative to the ice. 2 km spacing, Gaussian
+     * kernel h = dx, aEVP 120 iterations, at the auto step (half the
+     * plastic-wave bound, 26 s); bench_stability measures it for other
+     * kernels and spacings (docs/bench.md). */
+    {
+        sph_params q;
+        sph_params_default(&q);
+        q.replacement_pressure = 1;
+        q.P0 = 27.5e3;
+        q.physics = SPH_PHYSICS_FULL;
+        q.dt = sph_params_auto_dt(&q, 2000.0, 600.0, NULL);
+        double speed = NAN, cp = NAN;
+        int rc = plastic_wave_run(&q, 2000.0, &speed, &cp, &st);
+        CHECK(rc == 0, "plastic wave run: rc %d %s", rc, st.quantity);
+        printf("plastic wave at dt %.0f s: %.3f m/s against c_p %.3f m/s (%+.1f %%)\n", q.dt, speed, cp,
+               100.0 * (speed - cp) / cp);
+        CHECK_CLOSE(cp, 5.69, 0, 0.005, "c_p vs PHYSICS.md 5.69 m/s");
+        CHECK_CLOSE(speed, cp, 0.05, 0, "plastic wave speed within 5 %% of c_p");
+    }
+
     /* From the uniform pack at rest to the steady state, at the step auto
      * time stepping takes here: half the plastic-wave bound (0.15 x 5 km /
      * c_p = 132 s) rounded down to a divisor of the 600 s thermodynamic
