@@ -18,8 +18,13 @@
  * Scaled down from the 1e5-particle case of the issue (1800 particles) to
  * fit the 2-core time budget; the cost ratio is per particle-step.
  * BENCH_AUTO_HOURS sets the model time (6 h); BENCH_AUTO_NOREF=1 skips the
- * two references and the error rows (cost only: the 1e5-particle case,
- * BENCH_AUTO_NX=250 BENCH_AUTO_NY=400, whose references do not fit). */
+ * two references and the error rows (cost only); BENCH_AUTO_NOSAME=1 the
+ * same-spacing reference; BENCH_AUTO_REF_DT, BENCH_AUTO_REF_ITER and
+ * BENCH_AUTO_REF_THREADS set the converged reference's step (30 s),
+ * iterations (300) and threads (1). The 1e5-particle case (docs/bench.md):
+ * BENCH_AUTO_NX=250 BENCH_AUTO_NY=400 BENCH_AUTO_HOURS=1
+ * BENCH_AUTO_NOSAME=1 BENCH_AUTO_REF_DT=60 BENCH_AUTO_REF_ITER=120
+ * BENCH_AUTO_REF_THREADS=2. */
 #include <omp.h>
 
 #include "bench_common.h"
@@ -33,6 +38,7 @@ static double HOURS = 6;     /* BENCH_AUTO_HOURS */
 #define OG_DX 500.0
 
 typedef struct auto_case {
+    int threads;
     double dx; /* particle spacing, m */
     sph_physics_mode physics;
     double dt;
@@ -46,7 +52,7 @@ static int g_nx, g_ny;
 static void run_case(const void *arg, bench_row *r)
 {
     const auto_case *c = arg;
-    omp_set_num_threads(1);
+    omp_set_num_threads(c->threads > 0 ? c->threads : 1);
     const double dx = c->dx;
     const int nx = (int)(NX * DX / dx + 0.5);
     sph_params p;
@@ -164,17 +170,30 @@ int main(void)
      * 750 m spacing (1.8 times the particles, auto step 75 s). Its
      * same-spacing error row compares it with the 1 km reference and is
      * left out. */
-    auto_case cases[] = {{DX / 2, SPH_PHYSICS_FULL, 30, 300}, {DX, SPH_PHYSICS_FULL, 30, 300},
-                         {DX, SPH_PHYSICS_FULL, 60, 120},     {DX, SPH_PHYSICS_AUTO, 0, 120},
-                         {DX, SPH_PHYSICS_AUTO, 60, 120},     {DX, SPH_PHYSICS_FULL, 0, 120},
-                         {DX, SPH_PHYSICS_FULL, 180, 120},    {DX, SPH_PHYSICS_AUTO, 180, 120},
-                         {0.75 * DX, SPH_PHYSICS_AUTO, 0, 120}};
+    auto_case cases[] = {{1, DX / 2, SPH_PHYSICS_FULL, 30, 300}, {1, DX, SPH_PHYSICS_FULL, 30, 300},
+                         {1, DX, SPH_PHYSICS_FULL, 60, 120},     {1, DX, SPH_PHYSICS_AUTO, 0, 120},
+                         {1, DX, SPH_PHYSICS_AUTO, 60, 120},     {1, DX, SPH_PHYSICS_FULL, 0, 120},
+                         {1, DX, SPH_PHYSICS_FULL, 180, 120},    {1, DX, SPH_PHYSICS_AUTO, 180, 120},
+                         {1, 0.75 * DX, SPH_PHYSICS_AUTO, 0, 120}};
+    /* The converged reference's time step, iterations and threads
+     * (BENCH_AUTO_REF_DT, _ITER, _THREADS; its CPU time is not compared) */
+    const char *rd = getenv("BENCH_AUTO_REF_DT"), *ri = getenv("BENCH_AUTO_REF_ITER"),
+               *rt = getenv("BENCH_AUTO_REF_THREADS");
+    if (rd && atof(rd) > 0)
+        cases[0].dt = atof(rd);
+    if (ri && atoi(ri) > 0)
+        cases[0].iterations = atoi(ri);
+    if (rt && atoi(rt) > 0)
+        cases[0].threads = atoi(rt);
     const char *names[] = {"reference_full", "reference_full_same_dx", "full", "auto",
                            "auto_regimes_only", "full_auto_dt", "full", "auto", "auto_finer"};
     enum { NCASES = sizeof cases / sizeof cases[0] };
     bench_row rows[NCASES];
     int noref = getenv("BENCH_AUTO_NOREF") && atoi(getenv("BENCH_AUTO_NOREF"));
+    int nosame = getenv("BENCH_AUTO_NOSAME") && atoi(getenv("BENCH_AUTO_NOSAME"));
     for (int i = noref ? 2 : 0; i < (bench_quick() ? 0 : NCASES); i++) {
+        if (i == 1 && nosame)
+            continue;
         g_conc = i == 0 ? ref_c : i == 1 ? same_c : mem + 4 * np;
         g_hbar = i == 0 ? ref_h : i == 1 ? same_h : mem + 5 * np;
         char cfg[160], dts[32];
@@ -189,7 +208,7 @@ int main(void)
         if (i == 0 || noref)
             continue;
         error_row(&rows[i], "auto_vs_full_error", ref_c, ref_h, np);
-        if (i >= 2 && cases[i].dx == DX)
+        if (i >= 2 && cases[i].dx == DX && !nosame)
             error_row(&rows[i], "auto_vs_full_error_same_dx", same_c, same_h, np);
     }
     return 0;
