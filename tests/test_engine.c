@@ -263,6 +263,14 @@ int main(int argc, char **argv)
                           nc_get_att_text(nc, NC_GLOBAL, "sphice_dt_policy", pol) == NC_NOERR &&
                           !strcmp(pol, "auto"),
                       "fields file: sphice_dt_policy '%s'", pol);
+                /* the solver's effort, as auto chose it: iterations per
+                 * step within the configured cap, written as attributes */
+                double mit = -1, stl = -1;
+                CHECK(nc_get_att_double(nc, NC_GLOBAL, "sphice_solver_mean_iterations", &mit) == NC_NOERR &&
+                          mit == au.res.solver_iterations && mit >= 0 && mit <= 120 &&
+                          nc_get_att_double(nc, NC_GLOBAL, "sphice_solver_stalled_fraction", &stl) == NC_NOERR &&
+                          stl == au.res.solver_stalled && stl >= 0 && stl <= 1,
+                      "fields file: solver iterations %g, stalled %g", mit, stl);
                 nc_close(nc);
             } else {
                 CHECK(0, "open %s", path);

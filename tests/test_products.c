@@ -260,7 +260,7 @@ static int full_run(const char *stage, prod_summary *sum, int with_obs)
         CHECK(rc == SPH_OK, "add_time %d: %s", t, err.msg);
         plon[0] += 0.01;
     }
-    prod_run_info ri = { 0.6, 0.4, 1.0, 0.0, 1000, 990, 1e-12, 150.0, 1 };
+    prod_run_info ri = { 0.6, 0.4, 1.0, 0.0, 1000, 990, 1e-12, 150.0, 1, 37.5, 0.25 };
     products_set_run_info(p, &ri);
     if (rc == SPH_OK) {
         rc = products_close(p, sum, &err);
@@ -399,6 +399,12 @@ static void test_full(const char *root)
     double fr = 0, iiee = 0;
     CHECK(nc_get_att_double(nc, NC_GLOBAL, "sphice_regime_fraction_free_drift", &fr) == NC_NOERR &&
               fr == 0.6, "regime fraction");
+    double mit = 0, stl = 0;
+    CHECK(nc_get_att_double(nc, NC_GLOBAL, "sphice_solver_mean_iterations", &mit) == NC_NOERR &&
+              mit == 37.5 &&
+              nc_get_att_double(nc, NC_GLOBAL, "sphice_solver_stalled_fraction", &stl) == NC_NOERR &&
+              stl == 0.25,
+          "solver attributes %g %g", mit, stl);
     double dtv = 0;
     char pol[16] = "";
     size_t pl = 0;

@@ -54,6 +54,8 @@ typedef struct forecast_result {
     double budget_residual;      /* relative mass budget residual */
     double dt;                   /* dynamic step used, s */
     int dt_auto;                 /* 1: chosen by auto time stepping */
+    double solver_iterations;    /* mean stress-solver iterations per step */
+    double solver_stalled;       /* fraction of steps stopped at an mEVP stall (auto) */
     char start_mode[16];         /* "cold", "warm", "reinit" */
     int nproducts;
     char products[FC_MAX_PRODUCTS][512]; /* file names relative to stage_dir */

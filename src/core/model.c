@@ -109,6 +109,7 @@ void sph_params_default(sph_params *p)
     p->evp_alpha = 300.0;
     p->evp_beta = 300.0;
     p->evp_tol = 1e-7;
+    p->evp_stall_window = 20;
     p->implicit_max_picard = 30;
     p->implicit_tol = 1e-6;
     p->max_substeps = 20000;
@@ -169,6 +170,7 @@ int sph_params_check(const sph_params *p, const char **name, double *lo, double 
     RANGE(evp_alpha, 1.0, 1e6);
     RANGE(evp_beta, 1.0, 1e6);
     RANGE(evp_tol, 0.0, 1.0);
+    RANGE(evp_stall_window, 0, 100000);
     RANGE(max_substeps, 1, 10000000);
     RANGE(explicit_safety, 1e-3, 10.0);
     RANGE(max_neighbours, 8, 4096);
@@ -1061,6 +1063,12 @@ static int solve_mevp(sph_model *m, sph_status *st)
     size_t na = m->nactive;
     int it;
     double resid = 0.0;
+    /* auto: stall detection on the RMS velocity change (the maximum is
+     * dominated by single particles and is no measure of progress) */
+    const int win = p->physics == SPH_PHYSICS_AUTO ? p->evp_stall_window : 0;
+    double rms_ref = 0.0;
+    int it_ref = 0;
+    m->stats.stalled = 0;
     for (it = 0; it < p->evp_iterations; it++) {
         ghost_velocity(m, P->u, P->v, 1);
         strain_pass(m, act, na);
@@ -1102,8 +1110,12 @@ static int solve_mevp(sph_model *m, sph_status *st)
             P->u[k] = u;
             P->v[k] = v;
         }
-        for (size_t i = 0; i < na; i++)
-            r = fmax(r, m->dvel[(size_t)act[i]]);
+        double s2 = 0.0;
+        for (size_t i = 0; i < na; i++) {
+            double d = m->dvel[(size_t)act[i]];
+            r = fmax(r, d);
+            s2 += d * d;
+        }
         resid = r;
         if (!isfinite(r))
             return sph_status_set(st, SPH_STEP_FATAL, -1, "mEVP residual", r, 0.0,
@@ -1111,6 +1123,17 @@ static int solve_mevp(sph_model *m, sph_status *st)
         if (r < p->evp_tol) {
             it++;
             break;
+        }
+        if (win > 0) {
+            double rms = sqrt(s2 / (double)na);
+            if (it == 0 || rms < SPH_EVP_STALL_FACTOR * rms_ref) {
+                rms_ref = rms;
+                it_ref = it;
+            } else if (it - it_ref >= win) {
+                m->stats.stalled = 1;
+                it++;
+                break;
+            }
         }
     }
     m->stats.iterations = it;
@@ -1431,6 +1454,7 @@ int sph_model_step(sph_model *m, sph_status *st)
     st->step = m->steps;
     m->stats.substeps = 1;
     m->stats.iterations = 0;
+    m->stats.stalled = 0;
     m->stats.residual = 0.0;
     int rc = prepare(m, st);
     if (rc != SPH_STEP_OK)

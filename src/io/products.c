@@ -787,6 +787,10 @@ static int fields_finish(prod_writer *p, sph_error *err)
             "write attribute to");
         NCT(put_double(nc, NC_GLOBAL, "sphice_regime_fraction_multi_layer",
                        p->run.frac_multi_layer), "write attribute to");
+        NCT(put_double(nc, NC_GLOBAL, "sphice_solver_mean_iterations", p->run.solver_iterations),
+            "write attribute to");
+        NCT(put_double(nc, NC_GLOBAL, "sphice_solver_stalled_fraction", p->run.solver_stalled),
+            "write attribute to");
         NCT(put_double(nc, NC_GLOBAL, "sphice_mass_budget_residual", p->run.budget_residual),
             "write attribute to");
         if (p->run.dt > 0.0) {

@@ -464,6 +464,9 @@ static cJSON *result_json(const forecast_result *r)
         cJSON_AddNumberToObject(rg, "rheology", r->frac_rheology);
         cJSON_AddNumberToObject(rg, "zero_layer", r->frac_zero_layer);
         cJSON_AddNumberToObject(rg, "multi_layer", r->frac_multi_layer);
+        cJSON *sv = cJSON_AddObjectToObject(o, "solver");
+        cJSON_AddNumberToObject(sv, "mean_iterations", r->solver_iterations);
+        cJSON_AddNumberToObject(sv, "stalled_fraction", r->solver_stalled);
     }
 #undef NUM
     return o;

@@ -1206,7 +1206,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
                  e->cname, restart_step * dt);
     int nout = 0;
     double next_out = e->t0;
-    double sum_fd = 0, sum_rh = 0, sum_zl = 0, sum_ml = 0;
+    double sum_fd = 0, sum_rh = 0, sum_zl = 0, sum_ml = 0, sum_it = 0, sum_stall = 0;
     long nstat = 0;
     prog->phase = FC_PHASE_RUNNING;
     if ((rc = write_output(e, e->t0, er)))
@@ -1234,6 +1234,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         sum_rh += ss->frac_rheology;
         sum_zl += ss->frac_zero_layer;
         sum_ml += ss->frac_multi_layer;
+        sum_it += ss->iterations;
+        sum_stall += ss->stalled;
         nstat++;
         prog->model_time = t1;
         prog->percent = 100.0 * (double)(s + 1) / (double)nsteps;
@@ -1269,6 +1271,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         info.frac_rheology = sum_rh / nstat;
         info.frac_zero_layer = sum_zl / nstat;
         info.frac_multi_layer = sum_ml / nstat;
+        info.solver_iterations = sum_it / nstat;
+        info.solver_stalled = sum_stall / nstat;
     }
     info.particles_start = res->particles_start;
     info.particles_end = (long)P->n;
@@ -1301,6 +1305,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     res->frac_rheology = info.frac_rheology;
     res->frac_zero_layer = info.frac_zero_layer;
     res->frac_multi_layer = info.frac_multi_layer;
+    res->solver_iterations = info.solver_iterations;
+    res->solver_stalled = info.solver_stalled;
     res->dt = dt;
     res->dt_auto = e->dt_auto;
     res->budget_residual = resid;
