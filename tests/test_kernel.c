@@ -173,13 +173,23 @@ static void test_neighbours_match_brute(void)
         }
         /* same sets: mark b's, look up a's */
         for (int s = 0; s < a->count[q]; s++) {
-            int j = a->idx[q * 256 + s], found = 0;
+            int j = a->idx[a->off[q] + (size_t)s], found = 0;
             for (int t = 0; t < b->count[q]; t++)
-                found |= b->idx[q * 256 + t] == j;
+                found |= b->idx[b->off[q] + (size_t)t] == j;
             same &= found;
         }
     }
     CHECK(same, "cell-grid neighbour lists equal the O(N^2) lists");
+    /* the lists are packed: each inside the storage, none overlapping the
+     * next one's slots (query particles' lists follow in index order) */
+    int packed = 1;
+    for (size_t q = 0; q < n; q++) {
+        size_t end = a->off[q] + (size_t)a->count[q];
+        packed &= end <= n * 256;
+        if (q + 1 < n)
+            packed &= end <= a->off[q + 1];
+    }
+    CHECK(packed, "neighbour lists packed without overlap");
     CHECK(a->pairs == b->pairs, "pair counts %ld vs %ld", a->pairs, b->pairs);
     sph_nbr_free(a);
     sph_nbr_free(b);

@@ -9,6 +9,12 @@
  * W_kj and gradient grad_k W_kj are cached (positions do not move within
  * a dynamic step, so the solver iterations reuse them).
  *
+ * Storage: particle k's pairs are the slots off[k] .. off[k] + count[k] - 1.
+ * Lists are packed one after another within each thread's block of query
+ * particles (a block of m particles owns m * max_nb slots), so the solver
+ * passes stream through memory; which slots a list occupies depends on
+ * the thread count, its contents and order do not.
+ *
  * All memory is allocated by sph_nbr_create; builds allocate nothing.
  */
 #ifndef SPHICE_CORE_NEIGHBOURS_H
@@ -22,6 +28,7 @@ typedef struct sph_nbr {
     size_t cap_all;  /* particles the grid can hold (query + ghosts) */
     int max_nb;      /* list capacity per particle */
     int *count;      /* [cap] neighbours of each query particle (self included) */
+    size_t *off;     /* [cap] first slot of each query particle's list */
     int *idx;        /* [cap * max_nb] */
     double *w;       /* [cap * max_nb] W_kj */
     double *gx, *gy; /* [cap * max_nb] grad_k W_kj */

@@ -727,7 +727,7 @@ static void density_pass(sph_model *m)
     double scale = m->dens_scale;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
     for (size_t k = 0; k < n; k++) {
-        const size_t base = k * (size_t)nb->max_nb;
+        const size_t base = nb->off[k];
         double s = 0.0;
         for (int q = 0; q < nb->count[k]; q++)
             s += P->mass[nb->idx[base + q]] * nb->w[base + q];
@@ -800,7 +800,7 @@ static void select_active(sph_model *m)
     for (size_t k = 0; k < n; k++) {
         int act = 0;
         if (m->prm.physics != SPH_PHYSICS_FREE_DRIFT) {
-            const size_t base = k * (size_t)nb->max_nb;
+            const size_t base = nb->off[k];
             for (int q = 0; q < nb->count[k] && !act; q++) {
                 int j = nb->idx[base + q];
                 size_t src = (size_t)j < n ? (size_t)j : (size_t)m->ghost_src[(size_t)j - n];
@@ -828,7 +828,7 @@ static void strain_pass(sph_model *m, const int *list, size_t count)
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
     for (size_t i = 0; i < count; i++) {
         size_t k = list ? (size_t)list[i] : i;
-        const size_t base = k * (size_t)nb->max_nb;
+        const size_t base = nb->off[k];
         double a11 = 0, a22 = 0, a12 = 0, fl = 0, wsum = 0;
         for (int q = 0; q < nb->count[k]; q++) {
             size_t s = base + (size_t)q;
@@ -861,7 +861,7 @@ static double coast_divergence(const sph_model *m, size_t k)
 {
     const sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
-    const size_t base = k * (size_t)nb->max_nb, n = P->n;
+    const size_t base = nb->off[k], n = P->n;
     double a = 0.0;
     for (int q = 0; q < nb->count[k]; q++) {
         size_t s = base + (size_t)q;
@@ -896,7 +896,7 @@ static void divergence_pass(sph_model *m, const int *list, size_t count)
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
     for (size_t i = 0; i < count; i++) {
         size_t k = list ? (size_t)list[i] : i;
-        const size_t base = k * (size_t)nb->max_nb;
+        const size_t base = nb->off[k];
         double iMk2 = 1.0 / (P->dens[k] * P->dens[k]);
         double tk11 = P->s11[k] * iMk2, tk22 = P->s22[k] * iMk2, tk12 = P->s12[k] * iMk2;
         double ax = 0, ay = 0;
@@ -1750,7 +1750,7 @@ static int sph_solve_implicit(sph_model *m, sph_status *st)
         for (size_t q = n; q < m->cap; q++) /* unused rows: identity, zero strain */
             coo_add(m->Kt, 2 * q, 2 * q, 1.0), coo_add(m->Kt, 2 * q + 1, 2 * q + 1, 1.0);
         for (size_t k = 0; k < n; k++) {
-            const size_t base = k * (size_t)nb->max_nb;
+            const size_t base = nb->off[k];
             double iMk = 1.0 / P->dens[k], iMk2 = iMk * iMk;
             for (int s = 0; s < nb->count[k]; s++) {
                 size_t sl = base + (size_t)s;

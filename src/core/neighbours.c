@@ -3,6 +3,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <omp.h>
 
 sph_nbr *sph_nbr_create(size_t cap, size_t cap_all, int max_nb)
 {
@@ -17,6 +18,7 @@ sph_nbr *sph_nbr_create(size_t cap, size_t cap_all, int max_nb)
     nb->max_cells = 4 * cap_all + 64;
     size_t pairs = cap * (size_t)max_nb;
     nb->count = calloc(cap, sizeof(int));
+    nb->off = calloc(cap ? cap : 1, sizeof(size_t));
     nb->idx = malloc(pairs * sizeof(int));
     nb->w = malloc(pairs * sizeof(double));
     nb->gx = malloc(pairs * sizeof(double));
@@ -24,7 +26,7 @@ sph_nbr *sph_nbr_create(size_t cap, size_t cap_all, int max_nb)
     nb->cell_start = calloc(nb->max_cells + 1, sizeof(int));
     nb->sorted = calloc(cap_all, sizeof(int));
     nb->cell_of = calloc(cap_all, sizeof(int));
-    if (!nb->count || !nb->idx || !nb->w || !nb->gx || !nb->gy || !nb->cell_start ||
+    if (!nb->count || !nb->off || !nb->idx || !nb->w || !nb->gx || !nb->gy || !nb->cell_start ||
         !nb->sorted || !nb->cell_of) {
         sph_nbr_free(nb);
         return NULL;
@@ -37,6 +39,7 @@ void sph_nbr_free(sph_nbr *nb)
     if (!nb)
         return;
     free(nb->count);
+    free(nb->off);
     free(nb->idx);
     free(nb->w);
     free(nb->gx);
@@ -100,8 +103,22 @@ void sph_nbr_grid(sph_nbr *nb, size_t n, const double *x, const double *y, doubl
     start[0] = 0;
 }
 
+/* The calling thread's block of query particles [*q0, *q1) (the static
+ * schedule's contiguous split) and the first slot of its storage: the
+ * block owns max_nb slots per particle, so its lists, packed one after
+ * another, never reach the next block's. Outside a parallel region the
+ * block is everything. */
+static void block_range(const sph_nbr *nb, size_t nq, size_t *q0, size_t *q1, size_t *slot)
+{
+    size_t nth = (size_t)omp_get_num_threads(), t = (size_t)omp_get_thread_num();
+    size_t chunk = nq / nth, rem = nq % nth;
+    *q0 = t * chunk + (t < rem ? t : rem);
+    *q1 = *q0 + chunk + (t < rem ? 1 : 0);
+    *slot = *q0 * (size_t)nb->max_nb;
+}
+
 static inline void add_pair(sph_nbr *nb, const sph_kernel *k, size_t q, int j, const double *x,
-                            const double *y, const double *h, int *cnt, int *over)
+                            const double *y, const double *h, size_t base, int *cnt, int *over)
 {
     double dx = x[q] - x[j], dy = y[q] - y[j];
     double r2 = dx * dx + dy * dy;
@@ -115,7 +132,7 @@ static inline void add_pair(sph_nbr *nb, const sph_kernel *k, size_t q, int j, c
     }
     double W, F;
     sph_kernel_eval(k, r2, hh, &W, &F);
-    size_t s = q * (size_t)nb->max_nb + (size_t)*cnt;
+    size_t s = base + (size_t)*cnt;
     nb->idx[s] = j;
     nb->w[s] = W;
     nb->gx[s] = F * dx;
@@ -128,10 +145,14 @@ int sph_nbr_build(sph_nbr *nb, const sph_kernel *k, size_t nq, const double *x,
 {
     long first_over = -1;
     long pairs = 0;
-#pragma omp parallel for schedule(static) reduction(+ : pairs) if (nq >= 4096)
-    for (size_t q = 0; q < nq; q++) {
+#pragma omp parallel reduction(+ : pairs) if (nq >= 4096)
+    {
+    size_t q0, q1, cursor;
+    block_range(nb, nq, &q0, &q1, &cursor);
+    for (size_t q = q0; q < q1; q++) {
         int cx = (int)((x[q] - nb->x0) / nb->cell), cy = (int)((y[q] - nb->y0) / nb->cell);
         int cnt = 0, over = 0;
+        nb->off[q] = cursor;
         for (int oy = -1; oy <= 1; oy++) {
             int yy = cy + oy;
             if (yy < 0 || yy >= nb->ncy)
@@ -142,16 +163,18 @@ int sph_nbr_build(sph_nbr *nb, const sph_kernel *k, size_t nq, const double *x,
                     continue;
                 int c = yy * nb->ncx + xx;
                 for (int s = nb->cell_start[c]; s < nb->cell_start[c + 1]; s++)
-                    add_pair(nb, k, q, nb->sorted[s], x, y, h, &cnt, &over);
+                    add_pair(nb, k, q, nb->sorted[s], x, y, h, cursor, &cnt, &over);
             }
         }
         nb->count[q] = cnt;
+        cursor += (size_t)cnt;
         pairs += cnt;
         if (over) {
 #pragma omp critical(sph_nbr_over)
             if (first_over < 0 || (long)q < first_over)
                 first_over = (long)q;
         }
+    }
     }
     nb->pairs = pairs;
     if (overflow)
@@ -164,18 +187,24 @@ int sph_nbr_build_brute(sph_nbr *nb, const sph_kernel *k, size_t nq, size_t n,
 {
     long first_over = -1;
     long pairs = 0;
-#pragma omp parallel for schedule(static) reduction(+ : pairs)
-    for (size_t q = 0; q < nq; q++) {
+#pragma omp parallel reduction(+ : pairs)
+    {
+    size_t q0, q1, cursor;
+    block_range(nb, nq, &q0, &q1, &cursor);
+    for (size_t q = q0; q < q1; q++) {
         int cnt = 0, over = 0;
+        nb->off[q] = cursor;
         for (size_t j = 0; j < n; j++)
-            add_pair(nb, k, q, (int)j, x, y, h, &cnt, &over);
+            add_pair(nb, k, q, (int)j, x, y, h, cursor, &cnt, &over);
         nb->count[q] = cnt;
+        cursor += (size_t)cnt;
         pairs += cnt;
         if (over) {
 #pragma omp critical(sph_nbr_over)
             if (first_over < 0 || (long)q < first_over)
                 first_over = (long)q;
         }
+    }
     }
     nb->pairs = pairs;
     if (overflow)
