@@ -60,10 +60,10 @@ typedef struct sph_params {
     double evp_alpha, evp_beta; /* fixed mEVP parameters */
     double evp_tol;             /* m/s: stop iterating when no velocity changes more */
     int evp_stall_window;       /* auto physics: stop iterating when the RMS velocity change
-                                   has not fallen by SPH_EVP_STALL_FACTOR in this many
-                                   iterations (a limit cycle: more iterations do not move
-                                   the solution); 0 = off. Full physics always iterates to
-                                   evp_tol or evp_iterations. */
+                                   has reached no new minimum in this many iterations (a
+                                   limit cycle: more iterations do not move the solution);
+                                   0 = off. Full physics always iterates to evp_tol or
+                                   evp_iterations. */
     double explicit_safety;     /* explicit limit dt < safety * M h^2 / (zeta + eta) */
     int max_neighbours;         /* neighbour list capacity (more = clumping, an error) */
     int implicit_max_picard;    /* Picard iterations */
@@ -134,9 +134,6 @@ double sph_params_stable_dt(const sph_params *p, double spacing, const char **wh
  * errors at the seed's 60 s (docs/bench.md). *why names the bound that
  * decided. */
 #define SPH_AUTO_DT_SAFETY 0.5
-/* The fall in the RMS velocity change per evp_stall_window iterations below
- * which the auto mode calls the mEVP iteration stalled (docs/dynamics.md). */
-#define SPH_EVP_STALL_FACTOR 0.9
 #define SPH_AUTO_DT_CORIOLIS 0.1
 double sph_params_auto_dt(const sph_params *p, double spacing, double base, const char **why);
 

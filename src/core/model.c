@@ -109,7 +109,7 @@ void sph_params_default(sph_params *p)
     p->evp_alpha = 300.0;
     p->evp_beta = 300.0;
     p->evp_tol = 1e-7;
-    p->evp_stall_window = 20;
+    p->evp_stall_window = 40;
     p->implicit_max_picard = 30;
     p->implicit_tol = 1e-6;
     p->max_substeps = 20000;
@@ -1064,7 +1064,8 @@ static int solve_mevp(sph_model *m, sph_status *st)
     int it;
     double resid = 0.0;
     /* auto: stall detection on the RMS velocity change (the maximum is
-     * dominated by single particles and is no measure of progress) */
+     * dominated by single particles and is no measure of progress): no new
+     * minimum in win iterations */
     const int win = p->physics == SPH_PHYSICS_AUTO ? p->evp_stall_window : 0;
     double rms_ref = 0.0;
     int it_ref = 0;
@@ -1126,7 +1127,7 @@ static int solve_mevp(sph_model *m, sph_status *st)
         }
         if (win > 0) {
             double rms = sqrt(s2 / (double)na);
-            if (it == 0 || rms < SPH_EVP_STALL_FACTOR * rms_ref) {
+            if (it == 0 || rms < rms_ref) {
                 rms_ref = rms;
                 it_ref = it;
             } else if (it - it_ref >= win) {

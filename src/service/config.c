@@ -155,9 +155,9 @@ static const cfg_key config_keys[] = {
     C_("model.evp.beta", CT_DOUBLE, model.evp_beta, "300", 1, 1e6, R, NULL, "Fixed mEVP beta."),
     C_("model.evp.tol", CT_DOUBLE, model.evp_tol, "1e-7", 0, 1, R, NULL,
        "mEVP: stop iterating when no particle's velocity changes by more than this, m/s."),
-    C_("model.evp.stall_window", CT_INT, model.evp_stall_window, "20", 0, 100000, R, NULL,
-       "auto physics: stop the mEVP iteration when its RMS velocity change has not fallen "
-       "by 10 % in this many iterations (a limit cycle; 0: off)."),
+    C_("model.evp.stall_window", CT_INT, model.evp_stall_window, "40", 0, 100000, R, NULL,
+       "auto physics: stop the mEVP iteration when its RMS velocity change has reached no "
+       "new minimum in this many iterations (a limit cycle; 0: off)."),
     C_("model.implicit.max_picard", CT_INT, model.implicit_max_picard, "30", 1, 1000, R, NULL,
        "Implicit solver: Picard iterations."),
     C_("model.implicit.tol", CT_DOUBLE, model.implicit_tol, "1e-6", 1e-14, 1, R, NULL,
