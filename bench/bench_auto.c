@@ -7,8 +7,9 @@
  * wind for 6 h. Runs (aEVP, 120 iterations): full physics at the seed's
  * 60 s (the full model an operator configures); auto with model.dt = 0
  * (the service's default: regimes per particle and auto time stepping,
- * 100 s here); auto's two choices apart (auto regimes at 60 s, full
- * physics at the auto step); full and auto at 180 s. The reference: full
+ * 100 s here); auto without its mEVP stall stop; auto's two choices
+ * apart (auto regimes at 60 s, full physics at the auto step); full and
+ * auto at 180 s. The reference: full
  * physics, dt 30 s, 300 iterations (converged settings). Errors against
  * the reference on a 500 m output grid via sph_model_interpolate
  * (concentration = min(1, M / (rho_i h_i)) as the engine does): IIEE
@@ -24,7 +25,10 @@
  * iterations (300) and threads (1). The 1e5-particle case (docs/bench.md):
  * BENCH_AUTO_NX=250 BENCH_AUTO_NY=400 BENCH_AUTO_HOURS=1
  * BENCH_AUTO_NOSAME=1 BENCH_AUTO_REF_DT=60 BENCH_AUTO_REF_ITER=120
- * BENCH_AUTO_REF_THREADS=2. */
+ * BENCH_AUTO_REF_THREADS=2. BENCH_AUTO_PACKED=1: packed ice everywhere (no
+ * loose margin; problems auto_vs_full_packed*). BENCH_AUTO_ONLY: the case
+ * indices to run (e.g. "0,2,3,4,6"). err of a run row: mean solver
+ * iterations per step. */
 #include <omp.h>
 
 #include "bench_common.h"
@@ -34,6 +38,7 @@
 
 static int NX = 30, NY = 60; /* BENCH_AUTO_NX, BENCH_AUTO_NY */
 static double HOURS = 6;     /* BENCH_AUTO_HOURS */
+static int PACKED = 0;       /* BENCH_AUTO_PACKED: packed ice everywhere, no loose margin */
 #define DX 1000.0
 #define OG_DX 500.0
 
@@ -43,6 +48,7 @@ typedef struct auto_case {
     sph_physics_mode physics;
     double dt;
     int iterations;
+    int stall; /* mEVP stall window of the auto mode: -1 the default, 0 off */
 } auto_case;
 
 /* Output fields written by the child into shared memory. */
@@ -63,10 +69,12 @@ static void run_case(const void *arg, bench_row *r)
      * stable step at this spacing */
     p.dt = c->dt > 0 ? c->dt : sph_params_auto_dt(&p, dx, 600.0, NULL);
     p.evp_iterations = c->iterations;
+    if (c->stall >= 0)
+        p.evp_stall_window = c->stall;
     coast_case cc;
     coast_setup(&cc, &p, dx, nx, NY * DX, 1.0, 10.0);
     sph_particles *P = sph_model_particles(cc.model);
-    for (size_t k = 0; k < P->n; k++)
+    for (size_t k = 0; k < P->n && !PACKED; k++)
         if (P->y[k] > NY * DX / 2) {
             P->conc[k] = 0.4;
             P->thick[k] = 0.5;
@@ -81,7 +89,7 @@ static void run_case(const void *arg, bench_row *r)
     long steps = (long)(HOURS * 3600 / p.dt + 0.5);
     r->err_name[1] = "dt_s";
     r->err[1] = p.dt;
-    double fd = 0;
+    double fd = 0, iters = 0;
     double c0 = bench_cpu(), w0 = bench_wall();
     for (long s = 0; s < steps; s++) {
         if (sph_model_step(cc.model, &st) != 0) {
@@ -89,6 +97,7 @@ static void run_case(const void *arg, bench_row *r)
             break;
         }
         fd += sph_model_stats(cc.model)->frac_free_drift;
+        iters += sph_model_stats(cc.model)->iterations;
     }
     r->cpu_s = bench_cpu() - c0;
     r->wall_s = bench_wall() - w0;
@@ -110,11 +119,32 @@ static void run_case(const void *arg, bench_row *r)
     }
     r->err_name[2] = "frac_free_drift";
     r->err[2] = fd / steps;
+    r->err_name[0] = "mean_iterations";
+    r->err[0] = iters / steps;
     free(px);
     free(py);
     free(th);
     free(dn);
     coast_free(&cc);
+}
+
+/* BENCH_AUTO_ONLY: a comma-separated list of case indices to run (all by
+ * default; 0 is the converged reference, 1 the same-spacing one). */
+static int case_wanted(int i)
+{
+    const char *only = getenv("BENCH_AUTO_ONLY");
+    if (!only || !*only)
+        return 1;
+    for (const char *q = only; *q;) {
+        char *end;
+        long v = strtol(q, &end, 10);
+        if (end == q)
+            return 0;
+        if (v == i)
+            return 1;
+        q = *end == ',' ? end + 1 : end;
+    }
+    return 0;
 }
 
 /* Errors of one run's fields against a reference's, as an extra row. */
@@ -149,6 +179,11 @@ int main(void)
         NY = atoi(ey);
     if (eh && atof(eh) > 0)
         HOURS = atof(eh);
+    PACKED = getenv("BENCH_AUTO_PACKED") && atoi(getenv("BENCH_AUTO_PACKED"));
+    const char *prob = PACKED ? "auto_vs_full_packed" : "auto_vs_full";
+    char prob_err[64], prob_same[64];
+    snprintf(prob_err, sizeof prob_err, "%s_error", prob);
+    snprintf(prob_same, sizeof prob_same, "%s_error_same_dx", prob);
     g_nx = (int)(NX * DX / OG_DX);
     g_ny = (int)(NY * DX * 1.2 / OG_DX);
     size_t np = (size_t)g_nx * g_ny;
@@ -170,11 +205,11 @@ int main(void)
      * 750 m spacing (1.8 times the particles, auto step 75 s). Its
      * same-spacing error row compares it with the 1 km reference and is
      * left out. */
-    auto_case cases[] = {{1, DX / 2, SPH_PHYSICS_FULL, 30, 300}, {1, DX, SPH_PHYSICS_FULL, 30, 300},
-                         {1, DX, SPH_PHYSICS_FULL, 60, 120},     {1, DX, SPH_PHYSICS_AUTO, 0, 120},
-                         {1, DX, SPH_PHYSICS_AUTO, 60, 120},     {1, DX, SPH_PHYSICS_FULL, 0, 120},
-                         {1, DX, SPH_PHYSICS_FULL, 180, 120},    {1, DX, SPH_PHYSICS_AUTO, 180, 120},
-                         {1, 0.75 * DX, SPH_PHYSICS_AUTO, 0, 120}};
+    auto_case cases[] = {{1, DX / 2, SPH_PHYSICS_FULL, 30, 300, -1}, {1, DX, SPH_PHYSICS_FULL, 30, 300, -1},
+                         {1, DX, SPH_PHYSICS_FULL, 60, 120, -1},     {1, DX, SPH_PHYSICS_AUTO, 0, 120, -1},
+                         {1, DX, SPH_PHYSICS_AUTO, 0, 120, 0},       {1, DX, SPH_PHYSICS_AUTO, 60, 120, -1},
+                         {1, DX, SPH_PHYSICS_FULL, 0, 120, -1},      {1, DX, SPH_PHYSICS_FULL, 180, 120, -1},
+                         {1, DX, SPH_PHYSICS_AUTO, 180, 120, -1},    {1, 0.75 * DX, SPH_PHYSICS_AUTO, 0, 120, -1}};
     /* The converged reference's time step, iterations and threads
      * (BENCH_AUTO_REF_DT, _ITER, _THREADS; its CPU time is not compared) */
     const char *rd = getenv("BENCH_AUTO_REF_DT"), *ri = getenv("BENCH_AUTO_REF_ITER"),
@@ -185,14 +220,14 @@ int main(void)
         cases[0].iterations = atoi(ri);
     if (rt && atoi(rt) > 0)
         cases[0].threads = atoi(rt);
-    const char *names[] = {"reference_full", "reference_full_same_dx", "full", "auto",
+    const char *names[] = {"reference_full", "reference_full_same_dx", "full", "auto", "auto_no_stall",
                            "auto_regimes_only", "full_auto_dt", "full", "auto", "auto_finer"};
     enum { NCASES = sizeof cases / sizeof cases[0] };
     bench_row rows[NCASES];
     int noref = getenv("BENCH_AUTO_NOREF") && atoi(getenv("BENCH_AUTO_NOREF"));
     int nosame = getenv("BENCH_AUTO_NOSAME") && atoi(getenv("BENCH_AUTO_NOSAME"));
     for (int i = noref ? 2 : 0; i < (bench_quick() ? 0 : NCASES); i++) {
-        if (i == 1 && nosame)
+        if ((i == 1 && nosame) || !case_wanted(i))
             continue;
         g_conc = i == 0 ? ref_c : i == 1 ? same_c : mem + 4 * np;
         g_hbar = i == 0 ? ref_h : i == 1 ? same_h : mem + 5 * np;
@@ -201,18 +236,18 @@ int main(void)
             snprintf(dts, sizeof dts, "%g", cases[i].dt);
         else
             snprintf(dts, sizeof dts, "auto");
-        snprintf(cfg, sizeof cfg, "N=%d;dx=%g;dt=%s;iter=%d;hours=%g",
+        snprintf(cfg, sizeof cfg, "N=%d;dx=%g;dt=%s;iter=%d;hours=%g%s",
                  (int)(NX * DX / cases[i].dx + 0.5) * (int)(NY * DX / cases[i].dx + 0.5), cases[i].dx,
-                 dts, cases[i].iterations, HOURS);
-        bench_run_forked_row("auto_vs_full", run_case, &cases[i], names[i], cfg, &rows[i]);
+                 dts, cases[i].iterations, HOURS, cases[i].stall == 0 ? ";stall=off" : "");
+        bench_run_forked_row(prob, run_case, &cases[i], names[i], cfg, &rows[i]);
         /* errors only of a completed run against a completed reference
          * (a failed run leaves the previous run's fields behind) */
         if (i == 0 || noref || strcmp(rows[i].status, "ok") != 0)
             continue;
         if (strcmp(rows[0].status, "ok") == 0)
-            error_row(&rows[i], "auto_vs_full_error", ref_c, ref_h, np);
+            error_row(&rows[i], prob_err, ref_c, ref_h, np);
         if (i >= 2 && cases[i].dx == DX && !nosame && strcmp(rows[1].status, "ok") == 0)
-            error_row(&rows[i], "auto_vs_full_error_same_dx", same_c, same_h, np);
+            error_row(&rows[i], prob_same, same_c, same_h, np);
     }
     return 0;
 }

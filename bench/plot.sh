@@ -23,7 +23,9 @@ for d in $demos; do
 done
 for entry in free_drift coast stefan disc plastic_wave \
     auto_vs_full_error:11:auto_vs_full_hbar_rmse \
-    auto_vs_full_error_same_dx:11:auto_vs_full_same_dx_hbar_rmse $extra; do
+    auto_vs_full_error_same_dx:11:auto_vs_full_same_dx_hbar_rmse \
+    auto_vs_full_packed_error:11:auto_vs_full_packed_hbar_rmse \
+    auto_vs_full_packed_error_same_dx:11:auto_vs_full_packed_same_dx_hbar_rmse $extra; do
     src=${entry%%:*}
     col=9
     prob=$src

@@ -34,6 +34,9 @@ for b in $ONLY; do
     case $b in
     neighbours) "$BUILD/bench/bench_neighbours" >> "$CSV" ;;
     demo) BUILD="$BUILD" BENCH_OUT="$OUT" sh bench/bench_demo.sh >> "$CSV" ;;
+    auto) # the channel half packed, then packed everywhere
+        OMP_NUM_THREADS=1 "$BUILD/bench/bench_auto" >> "$CSV"
+        BENCH_AUTO_PACKED=1 OMP_NUM_THREADS=1 "$BUILD/bench/bench_auto" >> "$CSV" ;;
     *) OMP_NUM_THREADS=1 "$BUILD/bench/bench_$b" >> "$CSV" ;;
     esac
     echo "bench: $b took $(( $(date +%s) - t0 )) s" >&2
