@@ -15,7 +15,10 @@
  * Then the seed's O(N^2) sph_nbr_build_brute against sph_nbr_build at 1e4
  * and 3e4 particles (same lists; ratio of times).
  *
- * Every configuration runs in its own child process (peak RSS per run).
+ * Every configuration runs in its own child process (peak RSS per run);
+ * ns_per_particle_step is the median repetition's wall time (the passes
+ * are repeated 200 / 20 / 4 times for diagnose and 25 / 5 / 3 for steps at
+ * 1e4 / 1e5 / 1e6); interactions_per_s uses the same median.
  * Output: CSV rows (see bench_common.h) with
  *   perf,<kernel>,N=..;threads=..;pass=.., cpu_s, wall_s, rss, ok,
  *   ns_per_particle_step, interactions_per_s, neighbours_per_particle.
