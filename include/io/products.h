@@ -76,7 +76,8 @@ typedef struct prod_run_info {
     double budget_residual;     /* relative mass budget residual */
     double dt;                  /* dynamic step used, s */
     int dt_auto;                /* 1: chosen by auto time stepping (model.dt = 0) */
-    double solver_iterations;   /* mean mEVP iterations per step (0: no iterative solve) */
+    double solver_iterations;   /* mean stress-solver iterations per step: mEVP, or Picard
+                                   for the implicit solver (0: no stress solve) */
     double solver_stalled;      /* fraction of steps the auto mode stopped at a stall */
 } prod_run_info;
 
