@@ -170,11 +170,12 @@ static sph_model *packed(sph_params *p, int nx, double dx)
     return m;
 }
 
-static void test_conservation(void)
+static void test_conservation(int gradient_correction)
 {
     sph_params p;
     sph_params_default(&p);
     p.physics = SPH_PHYSICS_FULL;
+    p.gradient_correction = gradient_correction;
     sph_model *m = packed(&p, 15, 2000);
     sph_particles *P = sph_model_particles(m);
     sph_status st;
@@ -345,7 +346,8 @@ int main(void)
     test_free_drift();
     test_geostrophic_current();
     test_inertial();
-    test_conservation();
+    test_conservation(0);
+    test_conservation(1); /* the corrected gradient stays antisymmetric */
     test_determinism();
     test_bad_parameters();
     return check_summary("test_dynamics");

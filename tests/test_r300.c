@@ -13,8 +13,10 @@
  * wall thickness (coast_measure_ridged: a line through the ridged
  * particles outside the wall's kernel support), with the thickness
  * profile within 2 % of the analytic one beyond one smoothing length of
- * the wall and the edge; the ridged-zone length (+2.7 %) is a known
- * discrepancy, asserted with SPHICE_R300_STRICT=1.
+ * the wall and the edge. The ridged-zone length is within 1 % with the
+ * kernel gradient correction (model.gradient_correction, asserted); with
+ * the plain SPH gradient (the default) it is +2.7 %, a known bias,
+ * printed, asserted with SPHICE_R300_STRICT=1.
  *
  * Numerics: 5 km spacing (6 x 60 particles), Gaussian kernel truncated at
  * 3 h (the default), h = dx,
@@ -86,11 +88,15 @@ static void check_state(const char *what, coast_case *c, const sph_params *p,
     }
     printf("%s: thickness profile within %.2f %% of the analytic one\n", what, 100.0 * worst);
     CHECK(worst < 0.02, "thickness profile within 2 %% (worst %.4f)", worst);
-    /* The ridged zone's length follows the slope of the ridged profile,
-     * which comes out about 3.5 % shallower than tau / (k P*) (the
-     * profile itself is within 1 %): a known discrepancy, asserted with
-     * SPHICE_R300_STRICT=1 (docs/dynamics.md). */
-    if (getenv("SPHICE_R300_STRICT"))
+    /* The ridged zone's length follows the slope of the ridged profile.
+     * With the plain SPH gradient that slope comes out about 3 % shallower
+     * than tau / (k P*) (the variable smoothing length shrinks h across
+     * the channel under uniaxial compression, and the operator's
+     * second moment departs from I): +2.7 %, printed, asserted with
+     * SPHICE_R300_STRICT=1. With the kernel gradient correction
+     * (model.gradient_correction) it is asserted within 1 %
+     * (docs/dynamics.md). */
+    if (p->gradient_correction || getenv("SPHICE_R300_STRICT"))
         CHECK_CLOSE(ms.Lr, a->Lr, 0.01, 0, "ridged-zone length");
     else if (fabs(ms.Lr - a->Lr) > 0.01 * a->Lr)
         printf("KNOWN DISCREPANCY: ridged-zone length %+.1f %% from the analytic %.2f km (issue 2 "
@@ -221,7 +227,12 @@ int main(void)
      * state with fewer iterations. */
     p.dt = sph_params_auto_dt(&p, DX, 600.0, NULL);
     CHECK(fabs(p.dt - 60.0) < 1e-9, "auto step of R300: %g s (want 60)", p.dt);
-    long st_full, st_auto;
+    long st_full, st_auto, st_gc;
+    /* The issue's 1 % on all three measures: the kernel gradient
+     * correction on, everything else as below. */
+    p.gradient_correction = 1;
+    from_rest("R300 steady state, gradient correction", &p, &a, &st_gc);
+    p.gradient_correction = 0;
     double it_full = from_rest("R300 steady state", &p, &a, &st_full);
     p.physics = SPH_PHYSICS_AUTO;
     double it_auto = from_rest("R300 steady state, auto", &p, &a, &st_auto);

@@ -48,6 +48,8 @@ typedef struct sph_params {
     sph_kernel_kind kernel;
     double kernel_radius;       /* support radius in units of h (Gaussian truncation; seed box 4h -> 2) */
     int variable_sml;           /* seed eq. 10 variable smoothing length */
+    int gradient_correction;    /* kernel gradient correction (Bonet & Lok 1999) in the
+                                   strain rates and the stress divergence */
     int summation_density;      /* 1: M = sum_j m_j W_kj every step (seed);
                                    0: M evolved by continuity dM/dt = -M div V
                                    from the seeded rho_i A h_i (default: no lattice

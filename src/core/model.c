@@ -87,6 +87,8 @@ struct sph_model {
     gsl_vector *xv, *bv, *dv;
     gsl_splinalg_itersolve *gmres;
     double *ghost_G; /* per ghost: 2x2 velocity map and 3x3 stress map */
+    double *binv;    /* [6*c2] gradient correction per particle: B^-1 of the strain
+                        rates (b11, b12, b22), then of the stress divergence */
     sph_budget budget;
     sph_step_stats stats;
     double time, thermo_accum;
@@ -100,6 +102,7 @@ void sph_params_default(sph_params *p)
     p->kernel = SPH_KERNEL_GAUSSIAN;
     p->kernel_radius = 3.0;
     p->variable_sml = 1;
+    p->gradient_correction = 0;
     p->summation_density = 0;
     p->sml_factor = 1.0;
     p->solver = SPH_SOLVER_MEVP;
@@ -251,6 +254,7 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     m->zeta = calloc(c2, sizeof(double));
     m->vfluct = calloc(c2, sizeof(double));
     m->dvel = calloc(c2, sizeof(double));
+    m->binv = calloc(6 * c2, sizeof(double));
     m->fcor = calloc(c2, sizeof(double));
     m->scratch = calloc(c2 * SPH_MAX_LAYERS, sizeof(double));
     m->order = calloc(c2, sizeof(int));
@@ -258,7 +262,7 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     m->loose = calloc(c2, 1);
     m->tw = sph_thermo_work_create(c2, nl);
     int ok = m->P && m->nb && m->ghost_src && m->ghost_nx && m->ghost_ny && m->ghost_n2x && m->ghost_n2y && m->un && m->vn &&
-             m->zeta && m->vfluct && m->dvel && m->fcor && m->scratch && m->order && m->active && m->loose && m->tw;
+             m->zeta && m->vfluct && m->dvel && m->binv && m->fcor && m->scratch && m->order && m->active && m->loose && m->tw;
     if (ok && with_mask) {
         size_t nc = (size_t)mask->nx * (size_t)mask->ny;
         m->land = malloc(nc);
@@ -300,6 +304,7 @@ void sph_model_free(sph_model *m)
     free(m->zeta);
     free(m->vfluct);
     free(m->dvel);
+    free(m->binv);
     free(m->fcor);
     free(m->scratch);
     free(m->order);
@@ -825,11 +830,12 @@ static void strain_pass(sph_model *m, const int *list, size_t count)
     const sph_nbr *nb = m->nb;
     const double *u = P->u, *v = P->v, *mass = P->mass;
     int want_fluct = m->prm.rheology == SPH_RHEOLOGY_COLLISION;
+    const int gc = m->prm.gradient_correction;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
     for (size_t i = 0; i < count; i++) {
         size_t k = list ? (size_t)list[i] : i;
         const size_t base = nb->off[k];
-        double a11 = 0, a22 = 0, a12 = 0, fl = 0, wsum = 0;
+        double a11 = 0, a22 = 0, a12 = 0, a21 = 0, fl = 0, wsum = 0;
         for (int q = 0; q < nb->count[k]; q++) {
             size_t s = base + (size_t)q;
             int j = nb->idx[s];
@@ -837,7 +843,12 @@ static void strain_pass(sph_model *m, const int *list, size_t count)
             double gx = nb->gx[s], gy = nb->gy[s];
             a11 += mass[j] * du * gx;
             a22 += mass[j] * dv * gy;
-            a12 += mass[j] * (dv * gx + du * gy);
+            if (gc) { /* the two off-diagonal gradients apart */
+                a12 += mass[j] * dv * gx;
+                a21 += mass[j] * du * gy;
+            } else {
+                a12 += mass[j] * (dv * gx + du * gy);
+            }
             if (want_fluct) {
                 double wj = mass[j] / P->dens[j] * nb->w[s];
                 fl += wj * (du * du + dv * dv);
@@ -845,6 +856,16 @@ static void strain_pass(sph_model *m, const int *list, size_t count)
             }
         }
         double iM = 1.0 / P->dens[k];
+        if (gc) {
+            /* velocity gradient G_ab = sum_j m_j dv_a g_b / M_k, i.e.
+             * [[a11, a21], [a12, a22]]; corrected: G B_k^-1 */
+            const double *bi = m->binv + 6 * k;
+            double g11 = a11 * bi[0] + a21 * bi[1], g12 = a11 * bi[1] + a21 * bi[2];
+            double g21 = a12 * bi[0] + a22 * bi[1], g22 = a12 * bi[1] + a22 * bi[2];
+            a11 = g11;
+            a22 = g22;
+            a12 = g12 + g21;
+        }
         P->e11[k] = a11 * iM;
         P->e22[k] = a22 * iM;
         P->e12[k] = 0.5 * a12 * iM;
@@ -868,7 +889,9 @@ static double coast_divergence(const sph_model *m, size_t k)
         size_t j = (size_t)nb->idx[s];
         if (j < n)
             continue;
-        a += P->mass[j] * ((P->u[j] - P->u[k]) * nb->gx[s] + (P->v[j] - P->v[k]) * nb->gy[s]);
+        const double *bi = m->binv + 6 * k;
+        double gx = bi[0] * nb->gx[s] + bi[1] * nb->gy[s], gy = bi[1] * nb->gx[s] + bi[2] * nb->gy[s];
+        a += P->mass[j] * ((P->u[j] - P->u[k]) * gx + (P->v[j] - P->v[k]) * gy);
     }
     return a / P->dens[k];
 }
@@ -893,6 +916,7 @@ static void divergence_pass(sph_model *m, const int *list, size_t count)
 {
     sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
+    const int gc = m->prm.gradient_correction;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
     for (size_t i = 0; i < count; i++) {
         size_t k = list ? (size_t)list[i] : i;
@@ -900,15 +924,32 @@ static void divergence_pass(sph_model *m, const int *list, size_t count)
         double iMk2 = 1.0 / (P->dens[k] * P->dens[k]);
         double tk11 = P->s11[k] * iMk2, tk22 = P->s22[k] * iMk2, tk12 = P->s12[k] * iMk2;
         double ax = 0, ay = 0;
-        for (int q = 0; q < nb->count[k]; q++) {
-            size_t s = base + (size_t)q;
-            int j = nb->idx[s];
-            double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
-            double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
-                   t12 = P->s12[j] * iMj2 + tk12;
-            double gx = nb->gx[s], gy = nb->gy[s];
-            ax += P->mass[j] * (t11 * gx + t12 * gy);
-            ay += P->mass[j] * (t12 * gx + t22 * gy);
+        if (gc) { /* (B_k^-1 + B_j^-1)/2 grad W: still antisymmetric in k, j */
+            const double *bk = m->binv + 6 * k + 3;
+            for (int q = 0; q < nb->count[k]; q++) {
+                size_t s = base + (size_t)q;
+                int j = nb->idx[s];
+                double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
+                double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
+                       t12 = P->s12[j] * iMj2 + tk12;
+                double gx0 = nb->gx[s], gy0 = nb->gy[s];
+                const double *bj = m->binv + 6 * (size_t)j + 3;
+                double gx = 0.5 * ((bk[0] + bj[0]) * gx0 + (bk[1] + bj[1]) * gy0);
+                double gy = 0.5 * ((bk[1] + bj[1]) * gx0 + (bk[2] + bj[2]) * gy0);
+                ax += P->mass[j] * (t11 * gx + t12 * gy);
+                ay += P->mass[j] * (t12 * gx + t22 * gy);
+            }
+        } else {
+            for (int q = 0; q < nb->count[k]; q++) {
+                size_t s = base + (size_t)q;
+                int j = nb->idx[s];
+                double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
+                double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
+                       t12 = P->s12[j] * iMj2 + tk12;
+                double gx = nb->gx[s], gy = nb->gy[s];
+                ax += P->mass[j] * (t11 * gx + t12 * gy);
+                ay += P->mass[j] * (t12 * gx + t22 * gy);
+            }
         }
         P->ax[k] = ax;
         P->ay[k] = ay;
@@ -1142,6 +1183,78 @@ static int solve_mevp(sph_model *m, sph_status *st)
     return SPH_STEP_OK;
 }
 
+
+/* Kernel gradient correction (model.gradient_correction; Bonet & Lok
+ * 1999, Randles & Libersky 1996). The SPH gradient of a linear field is
+ * B_k times the true one, B_k = sum_j V_j (-F_kj) d d^T (d = r_k - r_j);
+ * B = I only on a regular lattice with a kernel whose lattice sums are
+ * exact. Where the smoothing length varies (seed eq. 10 under uniaxial
+ * compression shrinks h across the flow too) or spacing is anisotropic,
+ * B departs from I by a few per cent, and the resting stress gradient a
+ * uniform wind needs comes out that much steeper (R300: ridged zone
+ * +2.7 % without, +0.6 % with; docs/dynamics.md). With the correction
+ * the strain rates use B_k^-1 grad W_kj, with V_j = m_j / M_k (the strain
+ * pass's weights: exact for a linear velocity field), and the symmetric
+ * stress divergence (B_k^-1 + B_j^-1)/2 grad W_kj with V_j = m_j / M_j
+ * (the divergence's own consistency weights), which stays antisymmetric
+ * in k, j: internal forces still sum to zero. B^-1 = I where the
+ * correction is off, and where B is ill-conditioned (det B < 1/4: a
+ * corner, a particle with few neighbours). Ghosts take their source's
+ * B^-1, mirrored. */
+static void invert_moment(double b11, double b12, double b22, double *bi)
+{
+    double det = b11 * b22 - b12 * b12;
+    if (det > 0.25 && b11 > 0.0 && b22 > 0.0) {
+        bi[0] = b22 / det;
+        bi[1] = -b12 / det;
+        bi[2] = b11 / det;
+    } else {
+        bi[0] = 1.0;
+        bi[1] = 0.0;
+        bi[2] = 1.0;
+    }
+}
+
+static void gradient_correction_pass(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    const size_t n = P->n;
+    const int on = m->prm.gradient_correction;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
+        double b11 = 0, b12 = 0, b22 = 0, c11 = 0, c12 = 0, c22 = 0;
+        const size_t base = nb->off[k];
+        for (int q = 0; on && q < nb->count[k]; q++) {
+            size_t s = base + (size_t)q;
+            int j = nb->idx[s];
+            double dx = P->x[k] - P->x[j], dy = P->y[k] - P->y[j];
+            double t11 = -nb->gx[s] * dx, t12 = -nb->gx[s] * dy, t22 = -nb->gy[s] * dy;
+            b11 += P->mass[j] * t11;
+            b12 += P->mass[j] * t12;
+            b22 += P->mass[j] * t22;
+            double V = P->mass[j] / P->dens[j];
+            c11 += V * t11;
+            c12 += V * t12;
+            c22 += V * t22;
+        }
+        double iM = 1.0 / P->dens[k];
+        invert_moment(b11 * iM, b12 * iM, b22 * iM, m->binv + 6 * k);
+        invert_moment(c11, c12, c22, m->binv + 6 * k + 3);
+    }
+    for (size_t g = 0; g < m->ng; g++) {
+        size_t q = n + g, k = (size_t)m->ghost_src[g];
+        for (int h = 0; h < 6; h += 3) {
+            double a = m->binv[6 * k + h], b = m->binv[6 * k + h + 1], c = m->binv[6 * k + h + 2];
+            reflect_tensor(m->ghost_nx[g], m->ghost_ny[g], &a, &b, &c);
+            reflect_tensor(m->ghost_n2x[g], m->ghost_n2y[g], &a, &b, &c);
+            m->binv[6 * q + h] = a;
+            m->binv[6 * q + h + 1] = b;
+            m->binv[6 * q + h + 2] = c;
+        }
+    }
+}
+
 /* Neighbours, density and diagnosis at the current positions. */
 static int prepare(sph_model *m, sph_status *st)
 {
@@ -1165,6 +1278,7 @@ static int prepare(sph_model *m, sph_status *st)
         P->dens[q] = P->dens[k];
     }
     diagnose(m);
+    gradient_correction_pass(m);
     clamp_stress_memory(m);
     ghost_stress(m);
     select_active(m);
@@ -1756,7 +1870,12 @@ static int sph_solve_implicit(sph_model *m, sph_status *st)
             for (int s = 0; s < nb->count[k]; s++) {
                 size_t sl = base + (size_t)s;
                 size_t j = (size_t)nb->idx[sl];
-                double gx = nb->gx[sl], gy = nb->gy[sl];
+                /* strain: B_k^-1 grad W; divergence: (B_k^-1 + B_j^-1)/2 grad W */
+                const double *bs = m->binv + 6 * k, *bk = bs + 3, *bj = m->binv + 6 * j + 3;
+                double gx0 = nb->gx[sl], gy0 = nb->gy[sl];
+                double gx = bs[0] * gx0 + bs[1] * gy0, gy = bs[1] * gx0 + bs[2] * gy0;
+                double hx = 0.5 * ((bk[0] + bj[0]) * gx0 + (bk[1] + bj[1]) * gy0);
+                double hy = 0.5 * ((bk[1] + bj[1]) * gx0 + (bk[2] + bj[2]) * gy0);
                 double w = P->mass[j] * iMk;
                 /* strain rows of k: coefficients on (u_j, v_j) and (u_k, v_k) */
                 double c[3][2] = {{w * gx, 0.0}, {0.0, w * gy}, {0.5 * w * gy, 0.5 * w * gx}};
@@ -1782,10 +1901,10 @@ static int sph_solve_implicit(sph_model *m, sph_status *st)
                 }
                 /* divergence rows of k: on S_j (through Q for mirrors) and S_k */
                 double mj = P->mass[j], iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
-                double dj[2][3] = {{mj * gx * iMj2, 0.0, mj * gy * iMj2},
-                                   {0.0, mj * gy * iMj2, mj * gx * iMj2}};
-                double dk[2][3] = {{mj * gx * iMk2, 0.0, mj * gy * iMk2},
-                                   {0.0, mj * gy * iMk2, mj * gx * iMk2}};
+                double dj[2][3] = {{mj * hx * iMj2, 0.0, mj * hy * iMj2},
+                                   {0.0, mj * hy * iMj2, mj * hx * iMj2}};
+                double dk[2][3] = {{mj * hx * iMk2, 0.0, mj * hy * iMk2},
+                                   {0.0, mj * hy * iMk2, mj * hx * iMk2}};
                 for (int r = 0; r < 2; r++)
                     for (int cc = 0; cc < 3; cc++) {
                         if (Q) {
