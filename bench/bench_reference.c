@@ -126,6 +126,7 @@ typedef struct coast_cfg {
     sph_kernel_kind kernel;
     sph_solver_kind solver;
     int iterations, adaptive;
+    int gc; /* model.gradient_correction */
 } coast_cfg;
 
 static void run_coast(const void *arg, bench_row *r)
@@ -141,6 +142,7 @@ static void run_coast(const void *arg, bench_row *r)
     p.solver = c->solver;
     p.evp_iterations = c->iterations;
     p.evp_adaptive = c->adaptive;
+    p.gradient_correction = c->gc;
     double L0 = 100e3, h0 = 1.0, wind = 10.0;
     coast_case cc;
     if (coast_setup(&cc, &p, c->dx, 5, L0, h0, wind) != 0) {
@@ -194,8 +196,8 @@ static void problem_coast(void)
     double days = q ? 2 : 4;
     /* dt inside the replacement-pressure envelope (plastic-wave Courant
      * number <= 0.15: 87 s at 2 km for P0 = 1e4) unless marked outside */
-    coast_cfg base = {2000, 60, days, SPH_KERNEL_GAUSSIAN, SPH_SOLVER_MEVP, 120, 1};
-    coast_cfg list[16];
+    coast_cfg base = {2000, 60, days, SPH_KERNEL_GAUSSIAN, SPH_SOLVER_MEVP, 120, 1, 0};
+    coast_cfg list[20];
     int n = 0;
     list[n++] = base;
     coast_cfg c = base;
@@ -212,13 +214,18 @@ static void problem_coast(void)
         c = base, c.adaptive = 0, list[n++] = c;
         c = base, c.adaptive = 0, c.iterations = 300, list[n++] = c;
         c = base, c.solver = SPH_SOLVER_EXPLICIT, list[n++] = c;
+        /* the kernel gradient correction (method suffix _gc) */
+        c = base, c.gc = 1, list[n++] = c;
+        c = base, c.gc = 1, c.iterations = 300, list[n++] = c;
+        c = base, c.gc = 1, c.dx = 4000, c.dt = 120, list[n++] = c;
+        c = base, c.gc = 1, c.kernel = SPH_KERNEL_WENDLAND_C2, list[n++] = c;
     }
     for (int i = 0; i < n; i++) {
         char cfg[160], meth[64];
         c = list[i];
-        snprintf(meth, sizeof meth, "sph_%s_%s",
+        snprintf(meth, sizeof meth, "sph_%s_%s%s",
                  c.solver == SPH_SOLVER_EXPLICIT ? "explicit" : c.adaptive ? "aevp" : "mevp",
-                 c.kernel == SPH_KERNEL_GAUSSIAN ? "gaussian" : "wendland");
+                 c.kernel == SPH_KERNEL_GAUSSIAN ? "gaussian" : "wendland", c.gc ? "_gc" : "");
         snprintf(cfg, sizeof cfg, "dx=%g;dt=%g;iter=%d;days=%g", c.dx, c.dt, c.iterations, c.days);
         bench_run_forked("coast", run_coast, &c, meth, cfg);
     }
