@@ -64,20 +64,31 @@ static void test_normalisation(void)
  * vanish by symmetry); the strain rate of U = a x + b y, V = c x + d y is
  * exact up to the second-moment error eps2 = -sum_j dx^2 x_j^2 F_j - 1.
  * Both moments are computed here from the formulas above. */
+/* The three kernels at the smoothing lengths the lattice tests use, and
+ * parameters for operator tests on a fixed lattice (free drift, fixed h,
+ * no thermodynamics). */
+static const sph_kernel_kind lattice_kinds[] = {SPH_KERNEL_GAUSSIAN, SPH_KERNEL_WENDLAND_C2,
+                                                SPH_KERNEL_CUBIC_SPLINE};
+static const double lattice_factors[] = {1.0, 1.3, 1.3};
+
+static void lattice_params(sph_params *p, int a)
+{
+    sph_params_default(p);
+    p->kernel = lattice_kinds[a];
+    p->kernel_radius = 3.0;
+    p->sml_factor = lattice_factors[a];
+    p->physics = SPH_PHYSICS_FREE_DRIFT;
+    p->variable_sml = 0;
+    p->thermo_dt = 0;
+}
+
 static void test_lattice_operators(void)
 {
-    const sph_kernel_kind kinds[] = {SPH_KERNEL_GAUSSIAN, SPH_KERNEL_WENDLAND_C2,
-                                     SPH_KERNEL_CUBIC_SPLINE};
-    const double factors[] = {1.0, 1.3, 1.3};
+    const sph_kernel_kind *kinds = lattice_kinds;
+    const double *factors = lattice_factors;
     for (int a = 0; a < 3; a++) {
         sph_params p;
-        sph_params_default(&p);
-        p.kernel = kinds[a];
-        p.kernel_radius = 3.0;
-        p.sml_factor = factors[a];
-        p.physics = SPH_PHYSICS_FREE_DRIFT;
-        p.variable_sml = 0;
-        p.thermo_dt = 0;
+        lattice_params(&p, a);
         double dx = 1000.0, h = factors[a] * dx;
         int nx = 21;
         sph_model *m = sph_model_create(&p, (size_t)(nx * nx), NULL);
@@ -207,20 +218,12 @@ static void test_neighbours_match_brute(void)
  * second moment; at corners, det B < 1/4, it falls back to plain SPH). */
 static void test_gradient_correction(void)
 {
-    const sph_kernel_kind kinds[] = {SPH_KERNEL_GAUSSIAN, SPH_KERNEL_WENDLAND_C2,
-                                     SPH_KERNEL_CUBIC_SPLINE};
-    const double factors[] = {1.0, 1.3, 1.3};
+    const double *factors = lattice_factors;
     for (int a = 0; a < 3; a++) {
         double worst[2] = {0.0, 0.0};
         for (int gc = 0; gc < 2; gc++) {
             sph_params p;
-            sph_params_default(&p);
-            p.kernel = kinds[a];
-            p.kernel_radius = 3.0;
-            p.sml_factor = factors[a];
-            p.physics = SPH_PHYSICS_FREE_DRIFT;
-            p.variable_sml = 0;
-            p.thermo_dt = 0;
+            lattice_params(&p, a);
             p.gradient_correction = gc;
             double dx = 1000.0;
             int nx = 15;

@@ -924,32 +924,22 @@ static void divergence_pass(sph_model *m, const int *list, size_t count)
         double iMk2 = 1.0 / (P->dens[k] * P->dens[k]);
         double tk11 = P->s11[k] * iMk2, tk22 = P->s22[k] * iMk2, tk12 = P->s12[k] * iMk2;
         double ax = 0, ay = 0;
-        if (gc) { /* (B_k^-1 + B_j^-1)/2 grad W: still antisymmetric in k, j */
-            const double *bk = m->binv + 6 * k + 3;
-            for (int q = 0; q < nb->count[k]; q++) {
-                size_t s = base + (size_t)q;
-                int j = nb->idx[s];
-                double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
-                double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
-                       t12 = P->s12[j] * iMj2 + tk12;
-                double gx0 = nb->gx[s], gy0 = nb->gy[s];
+        const double *bk = m->binv + 6 * k + 3;
+        for (int q = 0; q < nb->count[k]; q++) {
+            size_t s = base + (size_t)q;
+            int j = nb->idx[s];
+            double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
+            double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
+                   t12 = P->s12[j] * iMj2 + tk12;
+            double gx = nb->gx[s], gy = nb->gy[s];
+            if (gc) { /* (B_k^-1 + B_j^-1)/2 grad W: still antisymmetric in k, j */
                 const double *bj = m->binv + 6 * (size_t)j + 3;
-                double gx = 0.5 * ((bk[0] + bj[0]) * gx0 + (bk[1] + bj[1]) * gy0);
-                double gy = 0.5 * ((bk[1] + bj[1]) * gx0 + (bk[2] + bj[2]) * gy0);
-                ax += P->mass[j] * (t11 * gx + t12 * gy);
-                ay += P->mass[j] * (t12 * gx + t22 * gy);
+                double cx = 0.5 * ((bk[0] + bj[0]) * gx + (bk[1] + bj[1]) * gy);
+                gy = 0.5 * ((bk[1] + bj[1]) * gx + (bk[2] + bj[2]) * gy);
+                gx = cx;
             }
-        } else {
-            for (int q = 0; q < nb->count[k]; q++) {
-                size_t s = base + (size_t)q;
-                int j = nb->idx[s];
-                double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
-                double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
-                       t12 = P->s12[j] * iMj2 + tk12;
-                double gx = nb->gx[s], gy = nb->gy[s];
-                ax += P->mass[j] * (t11 * gx + t12 * gy);
-                ay += P->mass[j] * (t12 * gx + t22 * gy);
-            }
+            ax += P->mass[j] * (t11 * gx + t12 * gy);
+            ay += P->mass[j] * (t12 * gx + t22 * gy);
         }
         P->ax[k] = ax;
         P->ay[k] = ay;
