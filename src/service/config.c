@@ -138,7 +138,7 @@ static const cfg_key config_keys[] = {
     C_("model.variable_sml", CT_BOOL, model.variable_sml, "true", 0, 0, R, NULL,
        "Variable smoothing length (seed eq. 10)."),
     C_("model.gradient_correction", CT_BOOL, model.gradient_correction, "false", 0, 0, R, NULL,
-       "Kernel gradient correction (Bonet & Lok 1999) in the strain rates and the stress divergence: linear fields exact where the smoothing length varies; R300's ridged zone +0.7 % instead of +2.7 % (docs/dynamics.md)."),
+       "Kernel gradient correction (Bonet & Lok 1999) in the strain rates and the stress divergence: linear fields exact where the smoothing length varies; R300's ridged zone +0.47 % instead of +2.7 %; off by default until the benchmark matrix is re-run with it (docs/dynamics.md)."),
     C_("model.sml_factor", CT_DOUBLE, model.sml_factor, "1", 0.1, 10, R, NULL,
        "Initial smoothing length h0 = sml_factor x initial particle spacing."),
     C_("model.solver", CT_ENUM, model.solver, "\"mevp\"", 0, 0, R, solver_names,
