@@ -255,6 +255,10 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     m->vfluct = calloc(c2, sizeof(double));
     m->dvel = calloc(c2, sizeof(double));
     m->binv = calloc(6 * c2, sizeof(double));
+    for (size_t q = 0; m->binv && q < 2 * c2; q++) { /* B^-1 = I: no correction */
+        m->binv[3 * q] = 1.0;
+        m->binv[3 * q + 2] = 1.0;
+    }
     m->fcor = calloc(c2, sizeof(double));
     m->scratch = calloc(c2 * SPH_MAX_LAYERS, sizeof(double));
     m->order = calloc(c2, sizeof(int));
@@ -1182,7 +1186,7 @@ static int solve_mevp(sph_model *m, sph_status *st)
  * compression shrinks h across the flow too) or spacing is anisotropic,
  * B departs from I by a few per cent, and the resting stress gradient a
  * uniform wind needs comes out that much steeper (R300: ridged zone
- * +2.7 % without, +0.6 % with; docs/dynamics.md). With the correction
+ * +2.7 % without, +0.47 % with; docs/dynamics.md). With the correction
  * the strain rates use B_k^-1 grad W_kj, with V_j = m_j / M_k (the strain
  * pass's weights: exact for a linear velocity field), and the symmetric
  * stress divergence (B_k^-1 + B_j^-1)/2 grad W_kj with V_j = m_j / M_j
@@ -1210,12 +1214,13 @@ static void gradient_correction_pass(sph_model *m)
     sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
     const size_t n = P->n;
-    const int on = m->prm.gradient_correction;
+    if (!m->prm.gradient_correction)
+        return; /* binv stays the identity sph_model_create set */
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
     for (size_t k = 0; k < n; k++) {
         double b11 = 0, b12 = 0, b22 = 0, c11 = 0, c12 = 0, c22 = 0;
         const size_t base = nb->off[k];
-        for (int q = 0; on && q < nb->count[k]; q++) {
+        for (int q = 0; q < nb->count[k]; q++) {
             size_t s = base + (size_t)q;
             int j = nb->idx[s];
             double dx = P->x[k] - P->x[j], dy = P->y[k] - P->y[j];
