@@ -99,9 +99,10 @@ static forcing *open1(const forcing_source_spec *spec, double t1, sph_error *err
 /* Atmosphere in several shapes: every shape reads to the same values. */
 static void test_shapes(void)
 {
-    static const char *names[] = {"plain", "lon360", "latdesc", "swapped", "depth",
-                                  "noleap", "360day", "netcdf4"};
-    for (int variant = 0; variant < 8; variant++) {
+    static const char *names[] = {"plain",   "lon360", "latdesc", "swapped",
+                                  "depth",   "noleap", "360day",  "netcdf4",
+                                  "depth-5", "s_rho",  "plev"};
+    for (int variant = 0; variant < 11; variant++) {
         tgrid g = regular();
         int fmt = 0;
         switch (variant) {
@@ -114,6 +115,11 @@ static void test_shapes(void)
         case 6: g.time_units = "days since 2021-01-01"; g.calendar = "360_day"; g.tv0 = 30;
                 g.dtv = 1.0 / 24; break;
         case 7: fmt = NC_NETCDF4; break;
+        /* several levels: the reader must take the one nearest the surface
+         * (the others hold the field + 50) */
+        case 8: g.depth = 5; g.zkind = 1; break;
+        case 9: g.depth = 4; g.zkind = 2; break;
+        case 10: g.depth = 3; g.zkind = 3; break;
         }
         tvar v[] = {
             {"u", "eastward_wind", "m s-1", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(UW, C_NONE)},

@@ -97,6 +97,23 @@ int main(void)
     CHECK(strstr(err.msg, "cannot be converted to 'm s-1'") != NULL, "%s", err.msg);
     unlink(p);
 
+    /* several levels along a dimension that has no vertical coordinate
+     * (an ensemble member, say): which one is meant cannot be told */
+    snprintf(p, sizeof p, "%s/levels.nc", dir);
+    {
+        tgrid g = grid();
+        g.depth = 3;
+        tvar v[] = {
+            {"u10", NULL, "m s-1", NC_DOUBLE, 0, 0, 0, 0, 0, field, 0},
+            {"v10", NULL, "m s-1", NC_DOUBLE, 0, 0, 0, 0, 0, field, 0},
+        };
+        tnc_write(p, &g, v, 2, 0, 4, 0);
+    }
+    rc = try_open(p, T0 + 3600, -10, 9, &err, NULL);
+    EXPECT(rc, err, p, "levels without a vertical coordinate");
+    CHECK(strstr(err.msg, "dimension 'depth' (3 values) is neither time") != NULL, "%s", err.msg);
+    unlink(p);
+
     snprintf(p, sizeof p, "%s/short.nc", dir);
     write_atm(p, "u10", "m s-1", 0);
     rc = try_open(p, T0 + 10 * 3600, -10, 9, &err, NULL);

@@ -27,10 +27,19 @@ typedef struct tgrid {
     int curvilinear;               /* 2-D lat/lon from the rotation below */
     double rot_deg, clat;          /* curvilinear: rotation and centre latitude */
     int angle_var;                 /* write angle(y, x) in radians */
-    int depth;                     /* singleton depth dimension after time */
+    int depth;                     /* levels of a depth dimension after time (0: none) */
+    int zkind;                     /* its coordinate: 0 none, 1 depth positive down from
+                                      0.49 m, 2 ROMS s_rho (-1..0, surface last),
+                                      3 air pressure in hPa, ascending (surface last) */
     const char *time_units, *calendar;
     double tv0, dtv;               /* time coordinate values tv0 + k dtv */
 } tgrid;
+
+/* The level that holds the field; the others hold it + 50. */
+static inline int tgrid_surface(const tgrid *g)
+{
+    return g->zkind == 2 || g->zkind == 3 ? g->depth - 1 : 0;
+}
 
 /* Node coordinates. Curvilinear: local east/north offsets (degrees of
  * latitude) rotated by rot_deg; lon = E / cos(clat), lat = clat + N. */
@@ -70,8 +79,22 @@ static inline void tnc_write(const char *path, const tgrid *g, const tvar *vars,
     const char *xn = g->curvilinear ? "x" : "lon", *yn = g->curvilinear ? "y" : "lat";
     NCW(nc_def_dim(nc, xn, g->nx, &dx));
     NCW(nc_def_dim(nc, yn, g->ny, &dy));
-    if (g->depth)
-        NCW(nc_def_dim(nc, "depth", 1, &dz));
+    int vz = -1;
+    if (g->depth) {
+        static const char *zn[] = {"depth", "depth", "s_rho", "plev"};
+        NCW(nc_def_dim(nc, zn[g->zkind], (size_t)g->depth, &dz));
+        if (g->zkind > 0)
+            NCW(nc_def_var(nc, zn[g->zkind], NC_DOUBLE, 1, &dz, &vz));
+        if (g->zkind == 1) {
+            NCW(nc_put_att_text(nc, vz, "units", 1, "m"));
+            NCW(nc_put_att_text(nc, vz, "positive", 4, "down"));
+        } else if (g->zkind == 2) {
+            NCW(nc_put_att_text(nc, vz, "standard_name", 21, "ocean_s_coordinate_g2"));
+            NCW(nc_put_att_text(nc, vz, "positive", 2, "up"));
+        } else if (g->zkind == 3) {
+            NCW(nc_put_att_text(nc, vz, "units", 3, "hPa"));
+        }
+    }
     NCW(nc_def_var(nc, "time", NC_DOUBLE, 1, &dt, &vt));
     NCW(nc_put_att_text(nc, vt, "units", strlen(g->time_units), g->time_units));
     if (g->calendar)
@@ -124,6 +147,13 @@ static inline void tnc_write(const char *path, const tgrid *g, const tvar *vars,
             NCW(nc_put_att_text(nc, ids[v], "coordinates", 15, "nav_lon nav_lat"));
     }
     NCW(nc_enddef(nc));
+    if (vz >= 0)
+        for (size_t z = 0; z < (size_t)g->depth; z++) {
+            double zv = g->zkind == 1   ? 0.494 * pow(3.0, (double)z)
+                        : g->zkind == 2 ? -1.0 + ((double)z + 0.5) / g->depth
+                                        : 1000.0 - 150.0 * (double)(g->depth - 1 - (int)z);
+            NCW(nc_put_var1_double(nc, vz, &z, &zv));
+        }
     size_t n = g->nx * g->ny;
     double *lon = malloc(n * sizeof *lon), *lat = malloc(n * sizeof *lat);
     for (size_t j = 0; j < g->ny; j++)
@@ -170,21 +200,33 @@ static inline void tnc_write(const char *path, const tgrid *g, const tvar *vars,
                     size_t q = g->swap && !g->curvilinear ? i * g->ny + j : j * g->nx + i;
                     buf[q] = x;
                 }
-            size_t start[4] = {k, 0, 0, 0}, count[4] = {1, 1, 1, 1};
-            int nd = 0;
-            start[nd] = k;
-            count[nd++] = 1;
-            if (g->depth) {
-                start[nd] = 0;
+            for (int z = 0; z < (g->depth ? g->depth : 1); z++) {
+                size_t start[4] = {k, 0, 0, 0}, count[4] = {1, 1, 1, 1};
+                int nd = 0;
+                start[nd] = k;
                 count[nd++] = 1;
+                if (g->depth) {
+                    start[nd] = (size_t)z;
+                    count[nd++] = 1;
+                }
+                size_t a = g->swap && !g->curvilinear ? g->nx : g->ny;
+                size_t b = g->swap && !g->curvilinear ? g->ny : g->nx;
+                start[nd] = 0;
+                count[nd++] = a;
+                start[nd] = 0;
+                count[nd++] = b;
+                /* levels other than the surface: the field + 50 (packed: 50 / scale) */
+                double off = z == tgrid_surface(g) ? 0.0
+                             : vars[v].type == NC_SHORT ? 50.0 / vars[v].scale : 50.0;
+                int fl = vars[v].has_fill;
+                for (size_t q = 0; q < n && off != 0.0; q++)
+                    if (!fl || buf[q] != vars[v].fill)
+                        buf[q] += off;
+                NCW(nc_put_vara_double(nc, ids[v], start, count, buf));
+                for (size_t q = 0; q < n && off != 0.0; q++)
+                    if (!fl || buf[q] != vars[v].fill)
+                        buf[q] -= off;
             }
-            size_t a = g->swap && !g->curvilinear ? g->nx : g->ny;
-            size_t b = g->swap && !g->curvilinear ? g->ny : g->nx;
-            start[nd] = 0;
-            count[nd++] = a;
-            start[nd] = 0;
-            count[nd++] = b;
-            NCW(nc_put_vara_double(nc, ids[v], start, count, buf));
         }
     }
     free(buf);

@@ -419,6 +419,13 @@ static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsign
             break;
         }
         v->grid = g;
+        char level[256];
+        rc = fgrid_level(s, path, ncid, varid, vf, level, sizeof level, err);
+        if (rc)
+            break;
+        if (level[0] && v->nvfiles == 0)
+            log_info("forcing '%s': variable '%s' read at the level nearest the surface: %s",
+                     path, v->varname, level);
         rc = read_var_atts(s, v, path, ncid, varid, vf, units, err);
         if (rc)
             break;
@@ -445,7 +452,7 @@ static int read_slice(forcing *f, fvar *v, size_t ti, double *dst, sph_error *er
     size_t start[FORCING_MAX_DIMS], count[FORCING_MAX_DIMS];
     size_t nx = v->grid->nx, ny = v->grid->ny, n = nx * ny;
     for (int d = 0; d < vf->ndims; d++) {
-        start[d] = 0;
+        start[d] = vf->level[d];
         count[d] = 1;
     }
     if (vf->tdim >= 0)

@@ -198,6 +198,93 @@ static int setup_regular(fgrid *g, const fsource *s, const char *path, sph_error
     return 0;
 }
 
+static int is_pressure_units(const char *u)
+{
+    static const char *const list[] = {"Pa", "hPa", "kPa", "mbar", "millibar", "mb", "bar",
+                                       "atm", NULL};
+    return units_is(u, list);
+}
+
+static int is_vertical(int ncid, int cv)
+{
+    static const char *const std[] = {
+        "depth", "height", "altitude", "air_pressure", "sea_water_pressure",
+        "model_level_number", "ocean_s_coordinate", "ocean_s_coordinate_g1",
+        "ocean_s_coordinate_g2", "ocean_sigma_coordinate", "ocean_sigma_z_coordinate",
+        "ocean_double_sigma_coordinate", "atmosphere_sigma_coordinate",
+        "atmosphere_hybrid_sigma_pressure_coordinate", "atmosphere_hybrid_height_coordinate",
+        "atmosphere_sleve_coordinate", NULL};
+    static const char *const len_units[] = {"m", "meter", "meters", "metre", "metres", "km",
+                                            "cm", "dbar", "decibar", NULL};
+    char buf[128];
+    if (fnc_text_att(ncid, cv, "axis", buf, sizeof buf) == 0)
+        return strcasecmp(buf, "Z") == 0;
+    if (fnc_text_att(ncid, cv, "positive", buf, sizeof buf) == 0)
+        return 1;
+    if (fnc_text_att(ncid, cv, "standard_name", buf, sizeof buf) == 0 && units_is(buf, std))
+        return 1;
+    if (fnc_text_att(ncid, cv, "units", buf, sizeof buf) == 0 &&
+        (units_is(buf, len_units) || is_pressure_units(buf)))
+        return 1;
+    return 0;
+}
+
+int fgrid_level(fsource *s, const char *path, int ncid, int varid, fvfile *vf, char *what,
+                size_t len, sph_error *err)
+{
+    int dimids[NC_MAX_VAR_DIMS];
+    char vname[NC_MAX_NAME + 1] = "?", dname[NC_MAX_NAME + 1] = "?";
+    nc_inq_varname(ncid, varid, vname);
+    nc_inq_vardimid(ncid, varid, dimids);
+    what[0] = '\0';
+    for (int d = 0; d < vf->ndims; d++) {
+        vf->level[d] = 0;
+        if (d == vf->tdim || d == vf->ydim || d == vf->xdim)
+            continue;
+        size_t n = 0;
+        nc_inq_dimlen(ncid, dimids[d], &n);
+        nc_inq_dimname(ncid, dimids[d], dname);
+        if (n <= 1)
+            continue;
+        int cv = coord_var(ncid, dimids[d]);
+        if (cv < 0 || !is_vertical(ncid, cv))
+            return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                                "variable '%s': dimension '%s' (%zu values) is neither time, "
+                                "latitude, longitude nor a vertical coordinate; give one level",
+                                vname, dname, n);
+        double *z = malloc(n * sizeof *z);
+        if (!z)
+            return forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
+        if (nc_get_var_double(ncid, cv, z) != NC_NOERR) {
+            free(z);
+            return forcing_fail(err, s, path, SPH_ERR_NETCDF,
+                                "cannot read the vertical coordinate '%s'", dname);
+        }
+        char units[64] = "", sn[128] = "";
+        fnc_text_att(ncid, cv, "units", units, sizeof units);
+        fnc_text_att(ncid, cv, "standard_name", sn, sizeof sn);
+        int pressure = is_pressure_units(units) || strcmp(sn, "air_pressure") == 0;
+        size_t best = n;
+        for (size_t k = 0; k < n; k++) {
+            if (!isfinite(z[k]))
+                continue;
+            if (best == n || (pressure ? z[k] > z[best] : fabs(z[k]) < fabs(z[best])))
+                best = k;
+        }
+        if (best == n) {
+            free(z);
+            return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                                "vertical coordinate '%s' has no finite value", dname);
+        }
+        vf->level[d] = best;
+        size_t used = strlen(what);
+        snprintf(what + used, len - used, "%s%s = %g%s%s (index %zu of %zu)", used ? ", " : "",
+                 dname, z[best], units[0] ? " " : "", units, best, n);
+        free(z);
+    }
+    return 0;
+}
+
 int fgrid_read(fsource *s, const char *path, int ncid, int varid, fvfile *vf, fgrid **out,
                sph_error *err)
 {

@@ -48,6 +48,8 @@ typedef struct fvfile {
     int ndims;
     int tdim, ydim, xdim;  /* positions in the variable's dimensions; tdim -1 if none */
     int transpose;         /* x dimension comes before y in the file */
+    size_t level[FORCING_MAX_DIMS]; /* start index along the other dimensions: the
+                                       level nearest the surface (fgrid_level) */
     double scale, offset;  /* unpacking */
     int has_fill;
     double fill;
@@ -124,6 +126,15 @@ struct forcing {
 int fgrid_read(fsource *s, const char *path, int ncid, int varid, fvfile *vf, fgrid **out,
                sph_error *err);
 void fgrid_free(fgrid *g);
+/* For every dimension of the variable other than time, latitude and
+ * longitude: the index to read. Length 1: 0. Longer: the dimension must
+ * have a vertical coordinate variable (axis "Z", a "positive" attribute, a
+ * length or pressure unit, or a vertical standard_name), and the level
+ * nearest the surface is taken: the largest air pressure, otherwise the
+ * value nearest 0 (depth positive down, height, ROMS s_rho, FVCOM
+ * siglay). Sets vf->level; *what describes the choice ("" if none). */
+int fgrid_level(fsource *s, const char *path, int ncid, int varid, fvfile *vf, char *what,
+                size_t len, sph_error *err);
 /* Locates n points; sets g->ok[p]. Returns the number of points outside. */
 size_t fgrid_stencils(fgrid *g, unsigned long stamp, size_t n, const double *lon,
                       const double *lat);
