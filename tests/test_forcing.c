@@ -9,8 +9,8 @@
 
 #include <unistd.h>
 
-enum { UW, VW, TA, TD, SW, UC, VC, SSH };
-enum { C_NONE = 0, C_K = 1, C_CM = 2, C_KT = 3, C_J = 4 };
+enum { UW, VW, TA, TD, SW, UC, VC, SSH, RH };
+enum { C_NONE = 0, C_K = 1, C_CM = 2, C_KT = 3, C_J = 4, C_PCT = 5 };
 #define W(q, c) ((q) | ((c) << 8))
 
 static char dir[64];
@@ -37,6 +37,7 @@ static double phys(int q, double lon, double lat, double k)
     case UC: return 0.1 + 0.01 * lon + 0.02 * y;
     case VC: return -0.05 + 0.02 * lon - 0.01 * y + 0.01 * k;
     case SSH: return 0.01 * lon + 0.02 * y;
+    case RH: return 0.75 + 0.01 * lon - 0.02 * y + 0.02 * k;
     }
     return NAN;
 }
@@ -50,6 +51,7 @@ static double filev(int which, double lon, double lat, size_t k)
     case C_CM: return x * 100.0;
     case C_KT: return x / (1852.0 / 3600.0);
     case C_J: return x * 3600.0;
+    case C_PCT: return x * 100.0;
     }
     return x;
 }
@@ -161,6 +163,73 @@ static void test_shapes(void)
         forcing_close(f);
         unlink(p);
     }
+}
+
+/* Specific humidity from relative humidity over water and air temperature
+ * (IFS saturation pressure, Part IV eq. 7.5, at T instead of Td). */
+static double q_from_rh(double rh, double t_c, double p)
+{
+    double t = t_c + 273.15;
+    double e = rh * 611.21 * exp(17.502 * (t - 273.16) / (t - 32.19));
+    return 0.621981 * e / (p - (1 - 0.621981) * e);
+}
+
+/* CMIP/GFS-like humidity: relative humidity in percent ("hurs"); with a
+ * dew point beside it the dew point wins; without air temperature it is
+ * refused. */
+static void test_relative_humidity(void)
+{
+    tgrid g = regular();
+    tvar v[] = {
+        {"uas", "eastward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, filev, W(UW, 0)},
+        {"vas", "northward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, filev, W(VW, 0)},
+        {"tas", "air_temperature", "K", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(TA, C_K)},
+        {"hurs", NULL, "%", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(RH, C_PCT)},
+        {"td", "dew_point_temperature", "degC", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(TD, 0)},
+    };
+    char p[128];
+    path(p, sizeof p, "rh.nc");
+    for (int variant = 0; variant < 3; variant++) {
+        /* 0: tas + hurs; 1: tas + hurs + td; 2: hurs alone (no tas) */
+        tvar vv[5];
+        size_t nv = 0;
+        vv[nv++] = v[0];
+        vv[nv++] = v[1];
+        if (variant != 2)
+            vv[nv++] = v[2];
+        vv[nv++] = v[3];
+        if (variant == 1)
+            vv[nv++] = v[4];
+        tnc_write(p, &g, vv, nv, 0, 4, 0);
+        const char *files[] = {p};
+        forcing_source_spec spec = {.name = "cmip", .kind = FORCING_ATMOSPHERE, .files = files,
+                                    .nfiles = 1, .required = FQ_WIND | FQ_HUMIDITY};
+        sph_error err;
+        forcing *f = open1(&spec, T0 + 3 * 3600, &err);
+        if (variant == 2) {
+            CHECK(f == NULL && strstr(err.msg, "relative_humidity ('hurs') found but no "
+                                               "air_temperature") && strstr(err.msg, p),
+                  "relative humidity without air temperature: %s", err.msg);
+            forcing_close(f);
+            continue;
+        }
+        CHECK(f != NULL, "rh open: %s", err.msg);
+        if (!f)
+            continue;
+        double q[NP];
+        forcing_sample s = {.qair = q};
+        double k = 1.25;
+        CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &s, &err) == 0, "%s", err.msg);
+        for (size_t i = 0; i < NP; i++) {
+            double want = variant == 0
+                              ? q_from_rh(phys(RH, plon[i], plat[i], k), phys(TA, plon[i], plat[i], k),
+                                          101325.0)
+                              : qsat_from_dew(phys(TD, plon[i], plat[i], k), 101325.0);
+            CHECK_CLOSE(q[i], want, 1e-12, 0, variant == 0 ? "q from rh" : "dew point over rh");
+        }
+        forcing_close(f);
+    }
+    unlink(p);
 }
 
 /* ERA5-like: packed shorts, mapped names, K, accumulated J m-2, land fill. */
@@ -431,6 +500,7 @@ int main(void)
     }
     test_shapes();
     test_era5();
+    test_relative_humidity();
     test_curvilinear();
     test_ocean();
     test_files_and_cache();

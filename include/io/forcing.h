@@ -29,7 +29,7 @@ typedef enum {
 typedef enum {
     FQ_WIND = 1 << 0,      /* eastward_wind, northward_wind */
     FQ_TAIR = 1 << 1,      /* air_temperature */
-    FQ_HUMIDITY = 1 << 2,  /* specific_humidity or dew_point_temperature */
+    FQ_HUMIDITY = 1 << 2,  /* specific_humidity, dew_point_temperature or relative_humidity */
     FQ_SWDN = 1 << 3,      /* surface_downwelling_shortwave_flux_in_air */
     FQ_LWDN = 1 << 4,      /* surface_downwelling_longwave_flux_in_air */
     FQ_CURRENT = 1 << 5,   /* eastward/northward_sea_water_velocity */
@@ -69,7 +69,7 @@ typedef struct forcing_source_spec {
 typedef struct forcing_sample {
     double *u_east, *v_north;       /* wind */
     double *tair;                   /* deg C */
-    double *qair;                   /* kg/kg (from dew point if needed) */
+    double *qair;                   /* kg/kg (from dew point or relative humidity if needed) */
     double *swdn, *lwdn;            /* W/m^2 */
     double *uw_east, *vw_north;     /* current (sum of ocean and tide sources) */
     double *ssh;                    /* m (sum of sources) */

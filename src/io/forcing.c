@@ -36,6 +36,7 @@ static const struct slot_def {
                  "sea_surface_height_above_sea_level"}, NULL, "m", 0},
     [FV_SST] = {{"sea_surface_temperature"}, NULL, "degC", 0},
     [FV_FW] = {{"upward_sea_ice_basal_heat_flux"}, NULL, "W m-2", 1},
+    [FV_RH] = {{"relative_humidity"}, NULL, "1", 0},
 };
 
 /* Built-in names of known products, tried after the spec's map. */
@@ -48,6 +49,7 @@ static const forcing_name_map default_names[] = {
     {"sea_surface_height_above_geoid", "zos"},
     {"eastward_sea_water_velocity", "water_u"}, {"northward_sea_water_velocity", "water_v"},
     {"sea_surface_height_above_geoid", "surf_el"},
+    {"relative_humidity", "hurs"},  {"relative_humidity", "rh2m"},
 };
 
 const forcing_name_map *forcing_default_names(size_t *n)
@@ -356,7 +358,7 @@ static unsigned slot_flag(fv_slot w)
     switch (w) {
     case FV_UWIND: case FV_VWIND: return FQ_WIND;
     case FV_TAIR: return FQ_TAIR;
-    case FV_DEW: case FV_QAIR: case FV_PSURF: return FQ_HUMIDITY;
+    case FV_DEW: case FV_QAIR: case FV_RH: case FV_PSURF: return FQ_HUMIDITY;
     case FV_SW: return FQ_SWDN;
     case FV_LW: return FQ_LWDN;
     case FV_UCUR: case FV_VCUR: return FQ_CURRENT;
@@ -376,7 +378,8 @@ static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsign
     if (rc != NC_NOERR)
         return forcing_fail(err, s, path, SPH_ERR_NETCDF, "cannot open: %s", nc_strerror(rc));
     for (int w = 0; w < FV_COUNT && rc == 0; w++) {
-        if (!(slot_flag((fv_slot)w) & want))
+        /* air temperature also where humidity may come as relative humidity */
+        if (!(slot_flag((fv_slot)w) & want) && !(w == FV_TAIR && (want & FQ_HUMIDITY)))
             continue;
         int varid, grid_rel;
         char sn[96], tried[256];
@@ -720,12 +723,25 @@ static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, 
     for (size_t i = 0; i < s->npaths; i++)
         if (scan_file(s, spec, (int)i, want, units, err))
             return err->code;
-    /* Humidity: specific humidity when present, else dew point. */
+    /* Humidity: specific humidity when present, else dew point, else
+     * relative humidity (which needs the air temperature of the same source). */
     if (s->vars[FV_QAIR] && s->vars[FV_DEW]) {
         fvar_free(s->vars[FV_DEW]);
         s->vars[FV_DEW] = NULL;
     }
-    if (!s->vars[FV_DEW] && s->vars[FV_PSURF]) {
+    if ((s->vars[FV_QAIR] || s->vars[FV_DEW]) && s->vars[FV_RH]) {
+        fvar_free(s->vars[FV_RH]);
+        s->vars[FV_RH] = NULL;
+    }
+    if (s->vars[FV_RH] && !s->vars[FV_TAIR])
+        return forcing_fail(err, s, s->vars[FV_RH]->file0, SPH_ERR_MISSING_VAR,
+                            "relative_humidity ('%s') found but no air_temperature to convert it",
+                            s->vars[FV_RH]->varname);
+    if (s->vars[FV_TAIR] && !(want & FQ_TAIR) && !s->vars[FV_RH]) {
+        fvar_free(s->vars[FV_TAIR]);
+        s->vars[FV_TAIR] = NULL;
+    }
+    if (!s->vars[FV_DEW] && !s->vars[FV_RH] && s->vars[FV_PSURF]) {
         fvar_free(s->vars[FV_PSURF]);
         s->vars[FV_PSURF] = NULL;
     }
@@ -733,7 +749,8 @@ static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, 
         unsigned fl = slot_flag((fv_slot)w);
         if (!(fl & spec->required) || s->vars[w] || w == FV_PSURF)
             continue;
-        if ((w == FV_DEW && s->vars[FV_QAIR]) || (w == FV_QAIR && s->vars[FV_DEW]))
+        if ((w == FV_DEW || w == FV_QAIR || w == FV_RH) &&
+            (s->vars[FV_QAIR] || s->vars[FV_DEW] || s->vars[FV_RH]))
             continue;
         /* Report the first missing one with the names tried. */
         char tried[256] = "", sn[96];
@@ -748,8 +765,8 @@ static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, 
         else
             snprintf(where, sizeof where, "%s", s->paths[0]);
         const char *what = slot_defs[w].std[0];
-        if (w == FV_QAIR || w == FV_DEW)
-            what = "specific_humidity or dew_point_temperature";
+        if (w == FV_QAIR || w == FV_DEW || w == FV_RH)
+            what = "specific_humidity, dew_point_temperature or relative_humidity";
         return forcing_fail(err, s, where, SPH_ERR_MISSING_VAR,
                             "variable for %s not found (looked for standard_name%s%s%s)", what,
                             tried[0] ? " and mapped name " : "", tried,
@@ -929,6 +946,17 @@ static double specific_humidity(double td_c, double p)
     return eps * e / (p - (1 - eps) * e);
 }
 
+/* Specific humidity from relative humidity (0..1, over water) and air
+ * temperature (deg C): the vapour pressure is rh times the saturation
+ * pressure above, so rh = 1 gives the dew-point formula at Td = T. */
+static double specific_humidity_rh(double rh, double t_c, double p)
+{
+    double t = t_c + 273.15;
+    double e = rh * 611.21 * exp(17.502 * (t - 273.16) / (t - 32.19));
+    const double eps = 0.621981;
+    return eps * e / (p - (1 - eps) * e);
+}
+
 static void put(double *dst, const double *src, size_t n, int add)
 {
     if (!dst)
@@ -974,12 +1002,16 @@ int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const d
                 return err->code;
             out->provided |= FQ_TAIR;
         }
-        if ((v[FV_QAIR] || v[FV_DEW]) && !(out->provided & FQ_HUMIDITY) && out->qair) {
+        if ((v[FV_QAIR] || v[FV_DEW] || v[FV_RH]) && !(out->provided & FQ_HUMIDITY) &&
+            out->qair) {
             if (v[FV_QAIR]) {
                 if (sample_var(f, v[FV_QAIR], t, n, lon, lat, out->qair, NULL, NULL, err))
                     return err->code;
             } else {
-                if (sample_var(f, v[FV_DEW], t, n, lon, lat, A, NULL, NULL, err))
+                fvar *hv = v[FV_DEW] ? v[FV_DEW] : v[FV_RH];
+                if (sample_var(f, hv, t, n, lon, lat, A, NULL, NULL, err))
+                    return err->code;
+                if (!v[FV_DEW] && sample_var(f, v[FV_TAIR], t, n, lon, lat, C, NULL, NULL, err))
                     return err->code;
                 if (v[FV_PSURF]) {
                     if (sample_var(f, v[FV_PSURF], t, n, lon, lat, B, NULL, NULL, err))
@@ -989,7 +1021,8 @@ int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const d
                         B[p] = 101325.0;
                 }
                 for (size_t p = 0; p < n; p++)
-                    out->qair[p] = specific_humidity(A[p], B[p]);
+                    out->qair[p] = v[FV_DEW] ? specific_humidity(A[p], B[p])
+                                             : specific_humidity_rh(A[p], C[p], B[p]);
             }
             out->provided |= FQ_HUMIDITY;
         }

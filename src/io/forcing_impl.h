@@ -17,7 +17,7 @@
 /* One physical field a source can supply. */
 typedef enum {
     FV_UWIND = 0, FV_VWIND, FV_TAIR, FV_DEW, FV_QAIR, FV_PSURF, FV_SW, FV_LW,
-    FV_UCUR, FV_VCUR, FV_SSH, FV_SST, FV_FW, FV_COUNT
+    FV_UCUR, FV_VCUR, FV_SSH, FV_SST, FV_FW, FV_RH, FV_COUNT
 } fv_slot;
 
 /* A grid in canonical layout: node (i, j) is element j * nx + i, i along
