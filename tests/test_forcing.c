@@ -232,6 +232,60 @@ static void test_relative_humidity(void)
     unlink(p);
 }
 
+/* GFS from NOMADS OPeNDAP (GrADS-written): no standard_name, lower-case
+ * units ("k", "w/m^2", "pa", "%"), longitudes 0..360, time in "days since
+ * 1-1-1" of the standard (Julian before 1582) calendar. 2021-02-01T00Z is
+ * day 737823 there: proleptic Gregorian ordinal 737822 (Python's
+ * date.toordinal, day 1 = 0001-01-01) minus 1, plus the 2 days by which
+ * the Julian 0001-01-01 precedes the Gregorian one. */
+static void test_gfs(void)
+{
+    tgrid g = regular();
+    g.lon0 = 0;
+    g.dlon = 1;
+    g.nx = 360;
+    g.lon360 = 1;
+    g.time_units = "days since 1-1-1 00:00:0.0";
+    g.calendar = NULL;
+    g.tv0 = 737823.0;
+    g.dtv = 1.0 / 24;
+    tvar v[] = {
+        {"ugrd10m", NULL, "m/s", NC_FLOAT, 0, 0, 0, 0, 0, filev, W(UW, 0)},
+        {"vgrd10m", NULL, "m/s", NC_FLOAT, 0, 0, 0, 0, 0, filev, W(VW, 0)},
+        {"tmp2m", NULL, "k", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(TA, C_K)},
+        {"rh2m", NULL, "%", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(RH, C_PCT)},
+        {"dswrfsfc", NULL, "w/m^2", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(SW, 0)},
+    };
+    char p[128];
+    path(p, sizeof p, "gfs.nc");
+    tnc_write(p, &g, v, 5, 0, 4, 0);
+    const char *files[] = {p};
+    forcing_source_spec spec = {.name = "gfs", .kind = FORCING_ATMOSPHERE, .files = files,
+                                .nfiles = 1,
+                                .required = FQ_WIND | FQ_TAIR | FQ_HUMIDITY | FQ_SWDN};
+    sph_error err;
+    forcing *f = open1(&spec, T0 + 3 * 3600, &err);
+    CHECK(f != NULL, "gfs open: %s", err.msg);
+    if (!f)
+        return;
+    double u[NP], vv[NP], ta[NP], q[NP], sw[NP];
+    forcing_sample s = {.u_east = u, .v_north = vv, .tair = ta, .qair = q, .swdn = sw};
+    double k = 2.5;
+    CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &s, &err) == 0, "%s", err.msg);
+    for (size_t i = 0; i < NP; i++) {
+        CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, 1e-5, "gfs u (float)");
+        CHECK_CLOSE(vv[i], phys(VW, plon[i], plat[i], k), 0, 1e-5, "gfs v (float)");
+        CHECK_CLOSE(ta[i], phys(TA, plon[i], plat[i], k), 0, 1e-9, "gfs tmp2m in k");
+        CHECK_CLOSE(sw[i], phys(SW, plon[i], plat[i], k), 0, 1e-9, "gfs dswrfsfc in w/m^2");
+        CHECK_CLOSE(q[i],
+                    q_from_rh(phys(RH, plon[i], plat[i], k), phys(TA, plon[i], plat[i], k),
+                              101325.0),
+                    1e-12, 0, "gfs q from rh2m in %");
+    }
+    forcing_close(f);
+    unlink(p);
+}
+
 /* ERA5-like: packed shorts, mapped names, K, accumulated J m-2, land fill. */
 static void test_era5(void)
 {
@@ -501,6 +555,7 @@ int main(void)
     test_shapes();
     test_era5();
     test_relative_humidity();
+    test_gfs();
     test_curvilinear();
     test_ocean();
     test_files_and_cache();

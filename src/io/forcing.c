@@ -50,6 +50,12 @@ static const forcing_name_map default_names[] = {
     {"eastward_sea_water_velocity", "water_u"}, {"northward_sea_water_velocity", "water_v"},
     {"sea_surface_height_above_geoid", "surf_el"},
     {"relative_humidity", "hurs"},  {"relative_humidity", "rh2m"},
+    /* GFS over NOMADS OPeNDAP (GrADS names, no standard_name) */
+    {"eastward_wind", "ugrd10m"},   {"northward_wind", "vgrd10m"},
+    {"air_temperature", "tmp2m"},   {"dew_point_temperature", "dpt2m"},
+    {"surface_air_pressure", "pressfc"},
+    {"surface_downwelling_shortwave_flux_in_air", "dswrfsfc"},
+    {"surface_downwelling_longwave_flux_in_air", "dlwrfsfc"},
 };
 
 const forcing_name_map *forcing_default_names(size_t *n)

@@ -55,6 +55,11 @@ static const char *alias(const char *s)
         {"degree_K", "K"},     {"kg/kg", "1"},       {"kg kg-1", "1"},    {"kg kg**-1", "1"},
         {"kg.kg-1", "1"},      {"psu", "1"},         {"kts", "knot"},     {"kn", "knot"},
         {"fraction", "1"},     {"-", "1"},
+        /* GrADS / NOMADS (GFS over OPeNDAP) write units in lower case:
+         * "k" and "w/m^2" are no udunits units, "mb" would be millibarn */
+        {"k", "K"},            {"pa", "Pa"},         {"hpa", "hPa"},      {"mb", "hPa"},
+        {"w/m^2", "W m-2"},    {"w/m2", "W m-2"},    {"w m-2", "W m-2"},  {"w m**-2", "W m-2"},
+        {"j/m^2", "J m-2"},    {"j m-2", "J m-2"},   {"j m**-2", "J m-2"},
     };
     for (size_t i = 0; i < sizeof table / sizeof table[0]; i++)
         if (strcasecmp(s, table[i].from) == 0)
