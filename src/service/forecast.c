@@ -790,6 +790,9 @@ static int cold_start(engine *e, sph_error *err)
     if (sph_model_init(e->m, &st) != SPH_STEP_OK) {
         char what[256];
         fmt_status(&st, what, sizeof what);
+        if (st.particle < 0) /* no particle at fault: the settings (model.dt) */
+            return sph_err_set(err, SPH_ERR_CONFIG, "model settings: %s (initial field %s)", what,
+                               e->raster_path);
         return sph_err_set(err, SPH_ERR_BAD_DATA, "initial field %s: particle %ld: %s", e->raster_path,
                            st.particle, what);
     }
@@ -834,6 +837,8 @@ static int warm_start(engine *e, sph_error *err)
     if (sph_model_resume(e->m, &c, &st) != SPH_STEP_OK) {
         char what[256];
         fmt_status(&st, what, sizeof what);
+        if (st.particle < 0)
+            return sph_err_set(err, SPH_ERR_CONFIG, "model settings: %s (warm start %s)", what, path);
         return sph_err_set(err, SPH_ERR_BAD_DATA, "warm start %s: particle %ld: %s", path, st.particle, what);
     }
     if ((rc = alloc_work(e, err)))
