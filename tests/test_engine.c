@@ -399,6 +399,17 @@ int main(int argc, char **argv)
         sph_config_free(c);
     }
     {
+        /* a step outside the measured stability envelope (0.2 s/m x the
+         * 0.02 deg spacing, about 340 s here) is the settings' fault */
+        struct sph_config *c = load(600, "[\"wind\", \"tair\"]", "ice.nc");
+        run_out o;
+        run(c, "stage-envelope", 6, NULL, NULL, &o);
+        expect_failure(&o, SPH_ERR_CONFIG, "model settings: time step 600 is outside the measured stable region",
+                       "dt outside the envelope");
+        CHECK(strstr(o.err.msg, "particle -1") == NULL, "no particle -1: %s", o.err.msg);
+        sph_config_free(c);
+    }
+    {
         /* a blow-up: ice far beyond the speed limit in a 10 m/s wind */
         struct sph_config *c = load(300, "[\"wind\", \"tair\"]", "ice.nc");
         c->model.speed_limit = 0.05;
