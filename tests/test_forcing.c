@@ -286,6 +286,90 @@ static void test_gfs(void)
     unlink(p);
 }
 
+/* ERA5 as the old CDS wrote it when a request spanned final ERA5 and
+ * the preliminary ERA5T: an expver dimension (1, 5), each time valid in
+ * one of the two and _FillValue in the other (here: the first two hours
+ * in expver 1, the rest in expver 5). The reader merges them. */
+static void test_era5_expver(void)
+{
+    tgrid g = regular();
+    char p[128];
+    path(p, sizeof p, "era5_expver.nc");
+    int nc, dt, de, dy, dx, vt, ve, vy, vx, vu, vv;
+    NCW(nc_create(p, NC_CLOBBER, &nc));
+    NCW(nc_def_dim(nc, "time", NC_UNLIMITED, &dt));
+    NCW(nc_def_dim(nc, "expver", 2, &de));
+    NCW(nc_def_dim(nc, "latitude", g.ny, &dy));
+    NCW(nc_def_dim(nc, "longitude", g.nx, &dx));
+    NCW(nc_def_var(nc, "time", NC_DOUBLE, 1, &dt, &vt));
+    NCW(nc_put_att_text(nc, vt, "units", strlen(g.time_units), g.time_units));
+    NCW(nc_def_var(nc, "expver", NC_INT, 1, &de, &ve));
+    NCW(nc_def_var(nc, "latitude", NC_DOUBLE, 1, &dy, &vy));
+    NCW(nc_put_att_text(nc, vy, "units", 13, "degrees_north"));
+    NCW(nc_def_var(nc, "longitude", NC_DOUBLE, 1, &dx, &vx));
+    NCW(nc_put_att_text(nc, vx, "units", 12, "degrees_east"));
+    int d4[4] = {dt, de, dy, dx};
+    float fill = -32767.0f;
+    NCW(nc_def_var(nc, "u10", NC_FLOAT, 4, d4, &vu));
+    NCW(nc_def_var(nc, "v10", NC_FLOAT, 4, d4, &vv));
+    for (int q = 0; q < 2; q++) {
+        int id = q ? vv : vu;
+        NCW(nc_put_att_text(nc, id, "units", 7, "m s**-1"));
+        NCW(nc_put_att_float(nc, id, "_FillValue", NC_FLOAT, 1, &fill));
+    }
+    NCW(nc_enddef(nc));
+    int ev[2] = {1, 5};
+    NCW(nc_put_var_int(nc, ve, ev));
+    for (size_t i = 0; i < g.nx; i++) {
+        double x = g.lon0 + (double)i * g.dlon;
+        NCW(nc_put_var1_double(nc, vx, &i, &x));
+    }
+    for (size_t j = 0; j < g.ny; j++) {
+        double y = g.lat0 + (double)j * g.dlat;
+        NCW(nc_put_var1_double(nc, vy, &j, &y));
+    }
+    float *buf = malloc(g.nx * g.ny * sizeof *buf);
+    for (size_t k = 0; k < 4; k++) {
+        double tv = g.tv0 + (double)k * g.dtv;
+        NCW(nc_put_var1_double(nc, vt, &k, &tv));
+        for (size_t e = 0; e < 2; e++)
+            for (int q = 0; q < 2; q++) {
+                int valid = (k < 2) == (e == 0);
+                for (size_t j = 0; j < g.ny; j++)
+                    for (size_t i = 0; i < g.nx; i++)
+                        buf[j * g.nx + i] =
+                            valid ? (float)filev(q ? VW : UW, g.lon0 + (double)i * g.dlon,
+                                                 g.lat0 + (double)j * g.dlat, k)
+                                  : fill;
+                size_t st[4] = {k, e, 0, 0}, ct[4] = {1, 1, g.ny, g.nx};
+                NCW(nc_put_vara_float(nc, q ? vv : vu, st, ct, buf));
+            }
+    }
+    free(buf);
+    NCW(nc_close(nc));
+    const char *files[] = {p};
+    forcing_source_spec spec = {.name = "era5", .kind = FORCING_ATMOSPHERE, .files = files,
+                                .nfiles = 1, .required = FQ_WIND};
+    sph_error err;
+    forcing *f = open1(&spec, T0 + 3 * 3600, &err);
+    CHECK(f != NULL, "era5 expver open: %s", err.msg);
+    if (!f)
+        return;
+    /* 0.5: expver 1 only; 1.5: expver 1 then 5; 2.5: expver 5 only */
+    for (double k = 0.5; k < 3.0; k += 1.0) {
+        double u[NP], vv2[NP];
+        forcing_sample smp = {.u_east = u, .v_north = vv2};
+        CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &smp, &err) == 0, "%s",
+              err.msg);
+        for (size_t i = 0; i < NP; i++) {
+            CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, 1e-5, "expver-merged u");
+            CHECK_CLOSE(vv2[i], phys(VW, plon[i], plat[i], k), 0, 1e-5, "expver-merged v");
+        }
+    }
+    forcing_close(f);
+    unlink(p);
+}
+
 /* ERA5-like: packed shorts, mapped names, K, accumulated J m-2, land fill. */
 static void test_era5(void)
 {
@@ -556,6 +640,7 @@ int main(void)
     test_era5();
     test_relative_humidity();
     test_gfs();
+    test_era5_expver();
     test_curvilinear();
     test_ocean();
     test_files_and_cache();

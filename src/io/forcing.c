@@ -415,6 +415,7 @@ static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsign
         v->vfiles = nvf;
         fvfile *vf = &v->vfiles[v->nvfiles];
         memset(vf, 0, sizeof *vf);
+        vf->merge_dim = -1;
         vf->file = fi;
         vf->varid = varid;
         fgrid *g = NULL;
@@ -433,8 +434,7 @@ static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsign
         if (rc)
             break;
         if (level[0] && v->nvfiles == 0)
-            log_info("forcing '%s': variable '%s' read at the level nearest the surface: %s",
-                     path, v->varname, level);
+            log_info("forcing '%s': variable '%s': %s", path, v->varname, level);
         rc = read_var_atts(s, v, path, ncid, varid, vf, units, err);
         if (rc)
             break;
@@ -449,7 +449,9 @@ static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsign
 
 /* ---- slices ---- */
 
-static int read_slice(forcing *f, fvar *v, size_t ti, double *dst, sph_error *err)
+/* One horizontal slice at time index ti; along a merged dimension
+ * (vf->merge_dim) at index mi. */
+static int read_slice_at(forcing *f, fvar *v, size_t ti, size_t mi, double *dst, sph_error *err)
 {
     fsource *s = v->src;
     const ftime *ft = v->ntimes ? &v->times[ti] : NULL;
@@ -461,7 +463,7 @@ static int read_slice(forcing *f, fvar *v, size_t ti, double *dst, sph_error *er
     size_t start[FORCING_MAX_DIMS], count[FORCING_MAX_DIMS];
     size_t nx = v->grid->nx, ny = v->grid->ny, n = nx * ny;
     for (int d = 0; d < vf->ndims; d++) {
-        start[d] = vf->level[d];
+        start[d] = d == vf->merge_dim ? mi : vf->level[d];
         count[d] = 1;
     }
     if (vf->tdim >= 0)
@@ -511,6 +513,35 @@ static int read_slice(forcing *f, fvar *v, size_t ti, double *dst, sph_error *er
         dst[p] = missing ? NAN : x;
     }
     return 0;
+}
+
+/* A slice; along a merged dimension (ERA5's expver) the first valid
+ * value at each point, in index order. */
+static int read_slice(forcing *f, fvar *v, size_t ti, double *dst, sph_error *err)
+{
+    const ftime *ft = v->ntimes ? &v->times[ti] : NULL;
+    const fvfile *vf = &v->vfiles[ft ? ft->vf : 0];
+    int rc = read_slice_at(f, v, ti, 0, dst, err);
+    if (rc || vf->merge_dim < 0)
+        return rc;
+    size_t n = v->grid->nx * v->grid->ny;
+    double *tmp = NULL;
+    for (size_t mi = 1; mi < vf->merge_n && rc == 0; mi++) {
+        size_t holes = 0;
+        for (size_t p = 0; p < n; p++)
+            holes += isnan(dst[p]);
+        if (holes == 0)
+            break;
+        if (!tmp && !(tmp = malloc(n * sizeof *tmp)))
+            return forcing_fail(err, v->src, v->src->paths[vf->file], SPH_ERR_NOMEM,
+                                "out of memory");
+        rc = read_slice_at(f, v, ti, mi, tmp, err);
+        for (size_t p = 0; rc == 0 && p < n; p++)
+            if (isnan(dst[p]))
+                dst[p] = tmp[p];
+    }
+    free(tmp);
+    return rc;
 }
 
 static int alloc_slot(fvar *v, int k)

@@ -246,6 +246,15 @@ int fgrid_level(fsource *s, const char *path, int ncid, int varid, fvfile *vf, c
         nc_inq_dimname(ncid, dimids[d], dname);
         if (n <= 1)
             continue;
+        if (strcmp(dname, "expver") == 0) {
+            vf->merge_dim = d;
+            vf->merge_n = n;
+            size_t used = strlen(what);
+            snprintf(what + used, len - used,
+                     "%sexpver merged (the first valid of its %zu values at each point)",
+                     used ? ", " : "", n);
+            continue;
+        }
         int cv = coord_var(ncid, dimids[d]);
         if (cv < 0 || !is_vertical(ncid, cv))
             return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
@@ -278,8 +287,9 @@ int fgrid_level(fsource *s, const char *path, int ncid, int varid, fvfile *vf, c
         }
         vf->level[d] = best;
         size_t used = strlen(what);
-        snprintf(what + used, len - used, "%s%s = %g%s%s (index %zu of %zu)", used ? ", " : "",
-                 dname, z[best], units[0] ? " " : "", units, best, n);
+        snprintf(what + used, len - used,
+                 "%sthe level nearest the surface, %s = %g%s%s (index %zu of %zu)",
+                 used ? ", " : "", dname, z[best], units[0] ? " " : "", units, best, n);
         free(z);
     }
     return 0;

@@ -50,6 +50,8 @@ typedef struct fvfile {
     int transpose;         /* x dimension comes before y in the file */
     size_t level[FORCING_MAX_DIMS]; /* start index along the other dimensions: the
                                        level nearest the surface (fgrid_level) */
+    int merge_dim;         /* ERA5's expver: the first valid value along it; -1 none */
+    size_t merge_n;
     double scale, offset;  /* unpacking */
     int has_fill;
     double fill;
@@ -132,7 +134,9 @@ void fgrid_free(fgrid *g);
  * length or pressure unit, or a vertical standard_name), and the level
  * nearest the surface is taken: the largest air pressure, otherwise the
  * value nearest 0 (depth positive down, height, ROMS s_rho, FVCOM
- * siglay). Sets vf->level; *what describes the choice ("" if none). */
+ * siglay). A dimension named expver (ERA5 mixed with ERA5T) is merged:
+ * the first valid value along it. Sets vf->level and vf->merge_dim; *what
+ * describes the choice ("" if none). */
 int fgrid_level(fsource *s, const char *path, int ncid, int varid, fvfile *vf, char *what,
                 size_t len, sph_error *err);
 /* Locates n points; sets g->ok[p]. Returns the number of points outside. */

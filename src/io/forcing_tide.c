@@ -127,6 +127,7 @@ int ftide_open(fsource *s, int ncid, cf_units *units, double t_ref, int nodal, u
         v->src = s;
         v->which = tide_vars[q].w;
         v->nvfiles = 1;
+        v->vfiles[0].merge_dim = -1;
         v->slot_k[0] = v->slot_k[1] = (size_t)-1;
         snprintf(v->standard_name, sizeof v->standard_name, "%s", tide_vars[q].std);
         snprintf(v->varname, sizeof v->varname, "%s", tide_vars[q].amp);
