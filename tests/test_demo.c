@@ -379,7 +379,9 @@ int main(void)
                       gf, gs);
             else if (!(gf > gs))
                 printf("test_demo: KNOWN DISCREPANCY with the seed: free drift spreads %.4f, internal stress %.4f "
-                       "(seed: free drift spreads more); asserted with SPHICE_SEED_STRICT=1\n", gf, gs);
+                       "(RMS radius about the centre x%.4f against x%.4f; seed: free drift spreads more); "
+                       "asserted with SPHICE_SEED_STRICT=1\n",
+                       gf, gs, f1->radius_km / f0->radius_km, s1->radius_km / s0->radius_km);
             CHECK(f.vel_spread_mean > s.vel_spread_mean,
                   "velocity spread free drift %.5f vs internal stress %.5f m/s: free drift not less uniform",
                   f.vel_spread_mean, s.vel_spread_mean);

@@ -53,6 +53,7 @@ typedef struct demo_time {
     double lon_c, lat_c;         /* mass-weighted centre */
     double u_c, v_c;             /* mass-weighted mean velocity, m/s */
     double vel_spread;           /* m/s */
+    double radius_km;            /* mass-weighted RMS distance from the centre */
 } demo_time;
 
 typedef struct demo_run {
@@ -329,18 +330,22 @@ static int demo_analyse(const char *dir, double rho_i, demo_run *r, sph_error *e
             d->lat_c = atan2(zs, hypot(xs, ys)) * 180 / M_PI;
             d->u_c = us / msum;
             d->v_c = vs / msum;
-            double var = 0;
+            double var = 0, r2 = 0;
+            const double km = 6371.0 * M_PI / 180, cl = cos(d->lat_c * M_PI / 180);
             for (size_t i = 0; i < p.n; i++) {
                 if (!bsearch(&p.id[i], ids, (size_t)r->n_patch, sizeof *ids, demo_cmp_long) ||
                     !(p.mass[i] > 0) || !(p.thick[i] > 0))
                     continue;
                 double du = p.u_east[i] - d->u_c, dv = p.v_north[i] - d->v_c;
                 var += p.mass[i] * (du * du + dv * dv);
+                double ex = (p.lon[i] - d->lon_c) * cl * km, ny = (p.lat[i] - d->lat_c) * km;
+                r2 += p.mass[i] * (ex * ex + ny * ny);
             }
             d->vel_spread = sqrt(var / msum);
+            d->radius_km = sqrt(r2 / msum);
         } else {
             d->area_km2 = d->footprint_km2 = d->mean_thick = d->mean_conc = d->lon_c = d->lat_c = NAN;
-            d->u_c = d->v_c = d->vel_spread = NAN;
+            d->u_c = d->v_c = d->vel_spread = d->radius_km = NAN;
         }
         prod_particles_free(&p);
         memset(&p, 0, sizeof p);

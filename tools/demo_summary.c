@@ -94,6 +94,7 @@ static cJSON *run_json(const char *label, const char *dir, const demo_run *r, do
         cJSON_AddItemToObject(e, "area_km2", num_or_null(d->area_km2));
         cJSON_AddItemToObject(e, "area_ratio", num_or_null(d->area_km2 / t0->area_km2));
         cJSON_AddItemToObject(e, "footprint_km2", num_or_null(d->footprint_km2));
+        cJSON_AddItemToObject(e, "radius_km", num_or_null(d->radius_km));
         cJSON_AddItemToObject(e, "mean_thickness_m", num_or_null(d->mean_thick));
         cJSON_AddItemToObject(e, "mean_concentration", num_or_null(d->mean_conc));
         cJSON_AddItemToObject(e, "centre_lon", num_or_null(d->lon_c));
@@ -186,11 +187,16 @@ int main(int argc, char **argv)
         printf("   ice area growth %.3f vs %.3f\n", gf, gs);
         printf("   spreading (footprint growth, leads included) %.3f vs %.3f: %s\n", ff, fs,
                ff > fs ? "free drift spreads more (seed)" : "free drift does NOT spread more");
+        double rs = s->times[s->ntimes - 1].radius_km / s->times[0].radius_km;
+        double rf = f->times[f->ntimes - 1].radius_km / f->times[0].radius_km;
+        printf("   spreading (RMS radius about the centre) %.3f vs %.3f: %s\n", rf, rs,
+               rf > rs ? "free drift spreads more (seed)" : "free drift does NOT spread more");
         printf("   velocity spread %.4f vs %.4f m/s: %s\n", f->vel_spread_mean, s->vel_spread_mean,
                f->vel_spread_mean > s->vel_spread_mean ? "free drift less uniform (seed)"
                                                         : "free drift NOT less uniform");
         cJSON *c = cJSON_AddObjectToObject(root, "comparison");
         cJSON_AddItemToObject(c, "area_ratio_second_over_first", num_or_null(gf / gs));
+        cJSON_AddItemToObject(c, "radius_growth_second_over_first", num_or_null(rf / rs));
         cJSON_AddItemToObject(c, "velocity_spread_second_over_first",
                               num_or_null(f->vel_spread_mean / s->vel_spread_mean));
     }
