@@ -94,6 +94,16 @@ static void test_units(void)
     CHECK(cf_units_convertible(u, "J m**-2", "J m-2"), "J m-2");
     CHECK(cf_units_linear(u, "kg kg**-1", "1", &a, &b) == 0, "kg kg**-1");
     CHECK(cf_units_linear(u, "bananas per hour", "m s-1", &a, &b) == -1, "unknown");
+    /* GrADS (GFS over NOMADS) lower case: k, pa, mb (millibar: 100 Pa; not
+     * udunits' millibarn, an area), w/m^2; and percent for humidity */
+    CHECK(cf_units_linear(u, "k", "degC", &a, &b) == 0, "k");
+    CHECK_CLOSE(a * 273.15 + b, 0.0, 0, 1e-12, "273.15 k");
+    CHECK(cf_units_linear(u, "mb", "Pa", &a, &b) == 0, "mb");
+    CHECK_CLOSE(a, 100.0, 1e-14, 0, "mb factor");
+    CHECK(cf_units_linear(u, "pa", "Pa", &a, &b) == 0 && a == 1.0, "pa");
+    CHECK(cf_units_linear(u, "w/m^2", "W m-2", &a, &b) == 0 && a == 1.0, "w/m^2");
+    CHECK(cf_units_linear(u, "%", "1", &a, &b) == 0, "percent");
+    CHECK_CLOSE(a, 0.01, 1e-14, 0, "percent factor");
     cf_units_free(u);
     cf_units_free(NULL);
 }
