@@ -104,6 +104,16 @@ static void test_units(void)
     CHECK(cf_units_linear(u, "w/m^2", "W m-2", &a, &b) == 0 && a == 1.0, "w/m^2");
     CHECK(cf_units_linear(u, "%", "1", &a, &b) == 0, "percent");
     CHECK_CLOSE(a, 0.01, 1e-14, 0, "percent factor");
+    /* udunits alone reads "degrees Celsius" as an angle (pi/180) times
+     * Celsius: aliased, and any temperature slope other than 1 or 5/9 is
+     * refused rather than applied */
+    CHECK(cf_units_linear(u, "degrees Celsius", "degC", &a, &b) == 0, "degrees Celsius");
+    CHECK_CLOSE(a * 5.0 + b, 5.0, 0, 1e-12, "5 degrees Celsius");
+    CHECK(cf_units_linear(u, "degrees Fahrenheit", "degC", &a, &b) == 0, "degrees Fahrenheit");
+    CHECK_CLOSE(a * 212.0 + b, 100.0, 0, 1e-9, "212 F");
+    CHECK(cf_units_linear(u, "deg K", "degC", &a, &b) == 0, "deg K");
+    CHECK(cf_units_linear(u, "arcminute Celsius", "degC", &a, &b) == -2, "angle times Celsius refused");
+    CHECK(cf_units_linear(u, "(0 - 1)", "1", &a, &b) == 0 && a == 1.0, "ERA5 (0 - 1)");
     cf_units_free(u);
     cf_units_free(NULL);
 }

@@ -60,6 +60,15 @@ static const char *alias(const char *s)
         {"k", "K"},            {"pa", "Pa"},         {"hpa", "hPa"},      {"mb", "hPa"},
         {"w/m^2", "W m-2"},    {"w/m2", "W m-2"},    {"w m-2", "W m-2"},  {"w m**-2", "W m-2"},
         {"j/m^2", "J m-2"},    {"j m-2", "J m-2"},   {"j m**-2", "J m-2"},
+        /* udunits reads "degrees Celsius" as an angle times Celsius (a
+         * factor pi/180): spell the temperatures out */
+        {"degrees Celsius", "degC"}, {"degree Celsius", "degC"}, {"degrees_Celsius", "degC"},
+        {"deg K", "K"},        {"deg_K", "K"},       {"degrees K", "K"},  {"degree K", "K"},
+        {"degrees Kelvin", "K"}, {"degree Kelvin", "K"}, {"degrees_Kelvin", "K"},
+        {"degrees Fahrenheit", "degF"}, {"degree Fahrenheit", "degF"}, {"degrees F", "degF"},
+        {"deg F", "degF"},
+        /* ERA5's fractions (sea-ice cover, cloud cover) */
+        {"(0 - 1)", "1"},      {"(0-1)", "1"},       {"0-1", "1"},
     };
     for (size_t i = 0; i < sizeof table / sizeof table[0]; i++)
         if (strcasecmp(s, table[i].from) == 0)
@@ -104,6 +113,13 @@ int cf_units_linear(cf_units *u, const char *from, const char *to, double *a, do
         /* Affine check: the converter must agree with a*x+b far from 0..1. */
         if (!(fabs(y2 - (1000.0 * *a + *b)) <= 1e-9 * (fabs(y2) + 1.0)))
             rc = -3;
+        /* A temperature converts to another with slope 1 (K, degC) or 5/9
+         * (degF, degR); any other slope is a misread compound such as an
+         * angle times a temperature ("degrees Celsius" not aliased). */
+        if (rc == 0 && ut_are_convertible(ut, ut_get_unit_by_name(u->sys, "kelvin")) &&
+            !(fabs(*a - 1.0) < 1e-9 || fabs(*a - 5.0 / 9.0) < 1e-9 ||
+              fabs(*a - 9.0 / 5.0) < 1e-9))
+            rc = -2;
         cv_free(cv);
     }
     ut_free(uf);
