@@ -35,6 +35,10 @@ static double conc_pct(int i, int j)
 }
 static double thick_m(int i, int j) { return round(100 * (0.05 + 0.3 * (lat_of(j) - 40.0))) / 100; }
 
+/* thickness as written by write_nc: units and the factor from metres */
+static const char *thick_units = "m";
+static double thick_factor = 1.0;
+
 static void write_nc(const char *path, int percent, int descending, int with_thick, int fmt)
 {
     int ncid, d[3], vlat, vlon, vt, vc, vh;
@@ -61,7 +65,7 @@ static void write_nc(const char *path, int percent, int descending, int with_thi
     }
     if (with_thick) {
         nc_def_var(ncid, "sithick", NC_FLOAT, 3, d, &vh);
-        nc_put_att_text(ncid, vh, "units", 1, "m");
+        nc_put_att_text(ncid, vh, "units", strlen(thick_units), thick_units);
     }
     nc_enddef(ncid);
     double t = 6, lat[NLAT], lon[NLON];
@@ -80,7 +84,7 @@ static void write_nc(const char *path, int percent, int descending, int with_thi
             int k = jj * NLON + i;
             cs[k] = missing_cell(i, j) ? -32767 : (short)lround(conc_pct(i, j) * 100);
             cf[k] = missing_cell(i, j) ? NAN : (float)(conc_pct(i, j) / 100);
-            hf[k] = (float)thick_m(i, j);
+            hf[k] = (float)(thick_m(i, j) * thick_factor);
         }
     }
     if (percent)
@@ -226,6 +230,37 @@ int main(void)
         CHECK(isnan(r->conc[4 * NLON + 3]), "declared NaN fill is missing");
         CHECK_CLOSE(r->valid_time, 918453600.0, 0, 1e-6, "valid time 1999-02-08T06:00Z");
         ice_raster_free(r);
+    }
+
+    /* Thickness in other length units (udunits2), and in a unit that is
+     * not a length: one line naming the file and the units. */
+    {
+        static const struct { const char *units; double factor; } tu[] = {
+            {"cm", 100.0}, {"mm", 1000.0}, {"inch", 1.0 / 0.0254}};
+        char pth[512];
+        snprintf(pth, sizeof pth, "%s/thick_units.nc", dir);
+        for (int q = 0; q < 3; q++) {
+            thick_units = tu[q].units;
+            thick_factor = tu[q].factor;
+            write_nc(pth, 0, 0, 1, 0);
+            ice_raster *ru = NULL;
+            sph_error_clear(&err);
+            CHECK(ice_raster_read(pth, NULL, &ru, &err) == SPH_OK, "%s: %s", tu[q].units, err.msg);
+            if (ru)
+                CHECK_CLOSE(ru->thick[9 * NLON + 20], thick_m(20, 9), 1e-6, 0, tu[q].units);
+            ice_raster_free(ru);
+        }
+        thick_units = "K";
+        thick_factor = 1.0;
+        write_nc(pth, 0, 0, 1, 0);
+        ice_raster *ru = NULL;
+        sph_error_clear(&err);
+        CHECK(ice_raster_read(pth, NULL, &ru, &err) == SPH_ERR_UNITS && ru == NULL &&
+                  strstr(err.msg, pth) && strstr(err.msg, "thickness units 'K' are not a length"),
+              "thickness in K: %s", err.msg);
+        ice_raster_free(ru);
+        thick_units = "m";
+        unlink(pth);
     }
 
     double want = expected_mass(THRESH);

@@ -14,7 +14,9 @@
  *    thickness comes from a second grid of the same geometry
  *    (ice_raster_options.thickness_path) or from the default.
  * Concentration is percent when the units are "%"/"percent" or any value
- * exceeds 1.5, else a fraction; stored as a fraction 0..1.
+ * exceeds 1.5, else a fraction; stored as a fraction 0..1. Thickness in
+ * any length unit udunits2 knows (cm, mm, inch; none means m); a unit
+ * that is not a length is an error naming the file.
  *
  * Missing values (fill / NODATA) mean "no information" (usually land) and
  * are stored as NaN in conc; missing or absent thickness where there is

@@ -9,6 +9,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include "io/cf.h"
 #include "io/fetch.h"
 #include "util/fileio.h"
 #include "util/log.h"
@@ -317,8 +318,20 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
             rc = read_field(ncid, vt, path, "thickness", nlat, nlon, tmp, err);
             double to_m = 1;
             char units[64];
-            if (att_text(ncid, vt, "units", units, sizeof units) && strcmp(units, "cm") == 0)
-                to_m = 0.01;
+            /* any length unit (udunits2: cm, mm, inch, ...); none means m */
+            if (rc == SPH_OK && att_text(ncid, vt, "units", units, sizeof units) &&
+                strcmp(units, "m") != 0) {
+                cf_units *cu = NULL;
+                double a = 1, b = 0;
+                rc = cf_units_create(&cu, err);
+                if (rc == SPH_OK && (cf_units_linear(cu, units, "m", &a, &b) != 0 || b != 0.0 ||
+                                     !(a > 0.0)))
+                    rc = sph_err_set(err, SPH_ERR_UNITS,
+                                     "ice raster %s: thickness units '%s' are not a length", path,
+                                     units);
+                cf_units_free(cu);
+                to_m = a;
+            }
             for (size_t j = 0; rc == SPH_OK && j < nlat; j++)
                 for (size_t i = 0; i < nlon; i++)
                     r->thick[j * nlon + i] =
