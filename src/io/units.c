@@ -116,10 +116,12 @@ int cf_units_linear(cf_units *u, const char *from, const char *to, double *a, do
         /* A temperature converts to another with slope 1 (K, degC) or 5/9
          * (degF, degR); any other slope is a misread compound such as an
          * angle times a temperature ("degrees Celsius" not aliased). */
-        if (rc == 0 && ut_are_convertible(ut, ut_get_unit_by_name(u->sys, "kelvin")) &&
+        ut_unit *kelvin = rc == 0 ? ut_get_unit_by_name(u->sys, "kelvin") : NULL;
+        if (kelvin && ut_are_convertible(ut, kelvin) &&
             !(fabs(*a - 1.0) < 1e-9 || fabs(*a - 5.0 / 9.0) < 1e-9 ||
               fabs(*a - 9.0 / 5.0) < 1e-9))
             rc = -2;
+        ut_free(kelvin);
         cv_free(cv);
     }
     ut_free(uf);
