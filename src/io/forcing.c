@@ -970,23 +970,14 @@ static void rotate(const fgrid *g, size_t n, double *u, double *v)
     }
 }
 
-/* Specific humidity (kg/kg) from dew point (deg C) and pressure (Pa), with
- * the saturation vapour pressure over water of the IFS (ECMWF IFS
- * documentation Cy47r3 Part IV eq. 7.5, Tetens with Buck's coefficients):
- *   e = 611.21 exp(17.502 (Td - 273.16) / (Td - 32.19)),  Td in K
- *   q = 0.621981 e / (p - 0.378019 e)   (epsilon = R_dry / R_vap) */
-static double specific_humidity(double td_c, double p)
-{
-    double td = td_c + 273.15;
-    double e = 611.21 * exp(17.502 * (td - 273.16) / (td - 32.19));
-    const double eps = 0.621981;
-    return eps * e / (p - (1 - eps) * e);
-}
-
-/* Specific humidity from relative humidity (0..1, over water) and air
- * temperature (deg C): the vapour pressure is rh times the saturation
- * pressure above, so rh = 1 gives the dew-point formula at Td = T. */
-static double specific_humidity_rh(double rh, double t_c, double p)
+/* Specific humidity (kg/kg) from relative humidity rh (0..1, over water),
+ * temperature t_c (deg C) and pressure (Pa), with the saturation vapour
+ * pressure over water of the IFS (ECMWF IFS documentation Cy47r3 Part IV
+ * eq. 7.5, Tetens with Buck's coefficients):
+ *   e = rh 611.21 exp(17.502 (T - 273.16) / (T - 32.19)),  T in K
+ *   q = 0.621981 e / (p - 0.378019 e)   (epsilon = R_dry / R_vap)
+ * From a dew point: rh = 1 at T = Td. */
+static double specific_humidity(double rh, double t_c, double p)
 {
     double t = t_c + 273.15;
     double e = rh * 611.21 * exp(17.502 * (t - 273.16) / (t - 32.19));
@@ -1058,8 +1049,8 @@ int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const d
                         B[p] = 101325.0;
                 }
                 for (size_t p = 0; p < n; p++)
-                    out->qair[p] = v[FV_DEW] ? specific_humidity(A[p], B[p])
-                                             : specific_humidity_rh(A[p], C[p], B[p]);
+                    out->qair[p] = v[FV_DEW] ? specific_humidity(1.0, A[p], B[p])
+                                             : specific_humidity(A[p], C[p], B[p]);
             }
             out->provided |= FQ_HUMIDITY;
         }

@@ -728,6 +728,14 @@ static void particle_where(const engine *e, long id, char *buf, size_t len)
         snprintf(buf, len, "all particles");
 }
 
+/* A refusal by the model that the configuration causes, not the input:
+ * the step outside the measured stability envelope (no particle at fault).
+ * A bad clock or particle count stays the file's fault. */
+static int settings_fault(const sph_status *st)
+{
+    return st->particle < 0 && strcmp(st->quantity, "time step") == 0;
+}
+
 static int cold_start(engine *e, sph_error *err)
 {
     const struct sph_config *cfg = e->cfg;
@@ -790,7 +798,7 @@ static int cold_start(engine *e, sph_error *err)
     if (sph_model_init(e->m, &st) != SPH_STEP_OK) {
         char what[256];
         fmt_status(&st, what, sizeof what);
-        if (st.particle < 0) /* no particle at fault: the settings (model.dt) */
+        if (settings_fault(&st))
             return sph_err_set(err, SPH_ERR_CONFIG, "model settings: %s (initial field %s)", what,
                                e->raster_path);
         return sph_err_set(err, SPH_ERR_BAD_DATA, "initial field %s: particle %ld: %s", e->raster_path,
@@ -837,7 +845,7 @@ static int warm_start(engine *e, sph_error *err)
     if (sph_model_resume(e->m, &c, &st) != SPH_STEP_OK) {
         char what[256];
         fmt_status(&st, what, sizeof what);
-        if (st.particle < 0)
+        if (settings_fault(&st))
             return sph_err_set(err, SPH_ERR_CONFIG, "model settings: %s (warm start %s)", what, path);
         return sph_err_set(err, SPH_ERR_BAD_DATA, "warm start %s: particle %ld: %s", path, st.particle, what);
     }
