@@ -368,12 +368,14 @@ int main(void)
              * included (the footprint sum m / (rho_i A h_i)); the ice area
              * sum m / (rho_i h_i) changes only by growth, melt and ridging. */
             double gs = s1->footprint_km2 / s0->footprint_km2, gf = f1->footprint_km2 / f0->footprint_km2;
-            /* KNOWN DISCREPANCY (issue 6 left open): in sphice the packed
-             * thick patch's pressure pushes it into the thin ice around it,
-             * so it spreads more WITH internal stress than in free drift,
-             * where the smooth synthetic forcing barely separates its
-             * particles. Asserted only with SPHICE_SEED_STRICT=1; always
-             * printed. */
+            /* KNOWN DISCREPANCY (issue 6 blocked on it): in sphice the
+             * packed thick patch's pressure pushes it into the thin ice
+             * around it, so it spreads more WITH internal stress than in
+             * free drift, where the smooth synthetic forcing barely
+             * separates its particles. test_spreading shows where the
+             * finding holds (shear across the patch) and why the rheology
+             * cannot make the area grow less than free drift's. Asserted
+             * only with SPHICE_SEED_STRICT=1; always printed. */
             if (getenv("SPHICE_SEED_STRICT"))
                 CHECK(gf > gs, "spreading (footprint growth) free drift %.4f vs internal stress %.4f: free drift does not spread more",
                       gf, gs);
