@@ -7,7 +7,7 @@
  * wind for 6 h. Runs (aEVP, 120 iterations): full physics at the seed's
  * 60 s (the full model an operator configures); auto with model.dt = 0
  * (the service's default: regimes per particle and auto time stepping,
- * 100 s here); auto without its mEVP stall stop; auto's two choices
+ * 120 s here); auto without its mEVP stall stop; auto's two choices
  * apart (auto regimes at 60 s, full physics at the auto step); full and
  * auto at 180 s. The reference: full
  * physics, dt 30 s, 300 iterations (converged settings). Errors against
@@ -201,8 +201,8 @@ int main(void)
      * auto with dt 0 is the default (regimes and time step); the other
      * two split auto's saving between its two choices; dt 180 s is inside
      * the measured envelope at 1 km (dt/dx <= 0.2 s/m), auto's step is
-     * 100 s. The last run spends auto's saving on resolution: auto at
-     * 750 m spacing (1.8 times the particles, auto step 75 s). Its
+     * 120 s. The last run spends auto's saving on resolution: auto at
+     * 750 m spacing (1.8 times the particles, auto step 85.7 s). Its
      * same-spacing error row compares it with the 1 km reference and is
      * left out. */
     auto_case cases[] = {{1, DX / 2, SPH_PHYSICS_FULL, 30, 300, -1}, {1, DX, SPH_PHYSICS_FULL, 30, 300, -1},

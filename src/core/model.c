@@ -404,8 +404,9 @@ double sph_params_auto_dt(const sph_params *p, double spacing, double base, cons
 {
     const char *w = NULL;
     double stable = sph_params_stable_dt(p, spacing, &w);
-    double bound = SPH_AUTO_DT_SAFETY * stable;
-    const char *b = "half the measured stable step";
+    int rp = p->rheology == SPH_RHEOLOGY_VP && p->replacement_pressure;
+    double bound = (rp ? SPH_AUTO_DT_SAFETY_RP : SPH_AUTO_DT_SAFETY) * stable;
+    const char *b = rp ? "half the measured stable step" : "0.6 of the measured stable step";
     double cor = SPH_AUTO_DT_CORIOLIS / (2.0 * OMEGA_EARTH);
     if (!(bound <= cor)) {
         bound = cor;

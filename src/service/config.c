@@ -120,7 +120,7 @@ static const cfg_key config_keys[] = {
 
     /* model: every member of sph_params */
     C_("model.dt", CT_DOUBLE, model.dt, "0", 0, 3600, R, NULL,
-       "Dynamic time step, s; 0 = auto: the largest step within half the measured stability envelope (and f dt <= 0.1) that divides the thermodynamic step and the output interval (docs/dynamics.md). A number is used as given (refused if outside the envelope)."),
+       "Dynamic time step, s; 0 = auto: the largest step within 0.6 of the measured stability envelope (half with replacement pressure; and f dt <= 0.1) that divides the thermodynamic step and the output interval (docs/dynamics.md). A number is used as given (refused if outside the envelope)."),
     C_("model.kernel", CT_ENUM, model.kernel, "\"gaussian\"", 0, 0, R, kernel_names,
        "SPH kernel: gaussian (seed), wendland_c2, cubic_spline."),
     C_("model.kernel_radius", CT_DOUBLE, model.kernel_radius, "3", 1, 5, R, NULL,
