@@ -100,6 +100,14 @@ static void forcing_at(int kind, double x, double y, double *ua, double *va, dou
     }
 }
 
+/* Free drift without Coriolis or turning: ice speed / wind speed. */
+static double wind_factor(void)
+{
+    sph_params p;
+    sph_params_default(&p);
+    return sqrt(p.rho_a * p.Ca / (p.rho_w * p.Cw));
+}
+
 /* Runs the patch; s0, s1: statistics at the start and the end; rms_err:
  * RMS distance of the particles from the free-drift kinematics of SHEAR
  * (m; NaN otherwise). Returns 0 or the step's error. */
@@ -131,9 +139,8 @@ static int run(int kind, sph_physics_mode physics, int gc, patch_stats *s0, patc
         /* start at the free-drift velocity: the water's; with wind, the
          * steady free drift without Coriolis, u = sqrt(rho_a Ca /
          * (rho_w Cw)) U_a */
-        double r = sqrt(p.rho_a * p.Ca / (p.rho_w * p.Cw));
-        P->u[k] = uw + r * ua;
-        P->v[k] = vw + r * va;
+        P->u[k] = uw + wind_factor() * ua;
+        P->v[k] = vw + wind_factor() * va;
     }
     sph_status st;
     int rc = sph_model_init(m, &st);
@@ -167,49 +174,61 @@ static int run(int kind, sph_physics_mode physics, int gc, patch_stats *s0, patc
     return rc;
 }
 
+/* Both runs of one forcing: free drift (f) and full physics (s); growth
+ * of the area (a) and of the RMS radius (g) from start to end. */
+typedef struct pair {
+    patch_stats f0, f1, s0, s1;
+    double af, as, gf, gs;
+    double err_f; /* free drift's distance from the shear kinematics, m */
+} pair;
+
+static int run_pair(int kind, pair *q)
+{
+    double err_s;
+    if (run(kind, SPH_PHYSICS_FREE_DRIFT, 0, &q->f0, &q->f1, &q->err_f) != 0 ||
+        run(kind, SPH_PHYSICS_FULL, 0, &q->s0, &q->s1, &err_s) != 0)
+        return -1;
+    q->af = q->f1.area / q->f0.area;
+    q->as = q->s1.area / q->s0.area;
+    q->gf = sqrt(q->f1.r2 / q->f0.r2);
+    q->gs = sqrt(q->s1.r2 / q->s0.r2);
+    return 0;
+}
+
 int main(void)
 {
     const double t = HOURS * 3600.0;
-    patch_stats f0, f1, s0, s1;
-    double err_f, err_s;
+    pair q;
 
     /* 1. shear */
-    if (run(SHEAR, SPH_PHYSICS_FREE_DRIFT, 0, &f0, &f1, &err_f) == 0 &&
-        run(SHEAR, SPH_PHYSICS_FULL, 0, &s0, &s1, &err_s) == 0) {
+    if (run_pair(SHEAR, &q) == 0) {
         /* <y'^2> of the lattice: its mean square distance about the centre
          * is <x'^2> + <y'^2> with both equal (a square lattice) */
-        double want = f0.r2 + GAMMA * GAMMA * t * t * 0.5 * f0.r2;
-        double gf = sqrt(f1.r2 / f0.r2), gs = sqrt(s1.r2 / s0.r2);
+        double want = q.f0.r2 + GAMMA * GAMMA * t * t * 0.5 * q.f0.r2;
         printf("shear: RMS radius x%.4f free drift (kinematics x%.4f; particles %.3g m from it), x%.4f with "
                "stress; area x%.4f / x%.4f; velocity spread %.4f / %.4f m/s\n",
-               gf, sqrt(want / f0.r2), err_f, gs, f1.area / f0.area, s1.area / s0.area, f1.vsd, s1.vsd);
-        CHECK_CLOSE(f1.r2, want, 1e-9, 0, "free drift: mean square radius against the shear kinematics");
-        CHECK(err_f < 1e-6 * DX, "free drift: particles %.3g m from the kinematics", err_f);
-        CHECK(gs < gf, "with stress the patch spreads less in shear: RMS radius x%.4f against free drift's x%.4f",
-              gs, gf);
-        CHECK(s1.vsd < f1.vsd, "with stress the velocities are more uniform: %.4f against %.4f m/s", s1.vsd,
-              f1.vsd);
-        CHECK(s1.area >= f1.area, "with stress the area grows at least as much (dilatancy): x%.4f against x%.4f",
-              s1.area / s0.area, f1.area / f0.area);
+               q.gf, sqrt(want / q.f0.r2), q.err_f, q.gs, q.af, q.as, q.f1.vsd, q.s1.vsd);
+        CHECK_CLOSE(q.f1.r2, want, 1e-9, 0, "free drift: mean square radius against the shear kinematics");
+        CHECK(q.err_f < 1e-6 * DX, "free drift: particles %.3g m from the kinematics", q.err_f);
+        CHECK(q.gs < q.gf, "with stress the patch spreads less in shear: RMS radius x%.4f against free drift's x%.4f",
+              q.gs, q.gf);
+        CHECK(q.s1.vsd < q.f1.vsd, "with stress the velocities are more uniform: %.4f against %.4f m/s", q.s1.vsd,
+              q.f1.vsd);
+        CHECK(q.as >= q.af, "with stress the area grows at least as much (dilatancy): x%.4f against x%.4f", q.as,
+              q.af);
     }
 
     /* 2. divergence */
-    if (run(DIVERGE, SPH_PHYSICS_FREE_DRIFT, 0, &f0, &f1, &err_f) == 0 &&
-        run(DIVERGE, SPH_PHYSICS_FULL, 0, &s0, &s1, &err_s) == 0) {
-        double af = f1.area / f0.area, as = s1.area / s0.area;
-        double gf = sqrt(f1.r2 / f0.r2), gs = sqrt(s1.r2 / s0.r2);
+    if (run_pair(DIVERGE, &q) == 0) {
         /* free drift: u = r U_a = r D (x - c), so every distance from the
          * centre grows as exp(r D t) (less a lag of the drag's time scale,
          * minutes, against the 12 h) */
-        sph_params p;
-        sph_params_default(&p);
-        double r = sqrt(p.rho_a * p.Ca / (p.rho_w * p.Cw));
-        double want = exp(r * WIND_DIV * t);
+        double want = exp(wind_factor() * WIND_DIV * t);
         printf("divergence: RMS radius x%.4f free drift (kinematics x%.4f), x%.4f with stress; area x%.4f / x%.4f\n",
-               gf, want, gs, af, as);
-        CHECK_CLOSE(gf, want, 0.005, 0, "free drift: RMS radius against exp(r D t)");
-        CHECK_CLOSE(gs, gf, 0.005, 0, "no tensile strength: RMS radius with stress equals free drift's");
-        CHECK(as >= af, "no tensile strength: area with stress x%.4f, free drift x%.4f", as, af);
+               q.gf, want, q.gs, q.af, q.as);
+        CHECK_CLOSE(q.gf, want, 0.005, 0, "free drift: RMS radius against exp(r D t)");
+        CHECK_CLOSE(q.gs, q.gf, 0.005, 0, "no tensile strength: RMS radius with stress equals free drift's");
+        CHECK(q.as >= q.af, "no tensile strength: area with stress x%.4f, free drift x%.4f", q.as, q.af);
         /* the area through the continuity concentration: at the patch's
          * free edge the kernel is deficient and the SPH divergence of the
          * default operator falls short (x1.27 against x1.33); the kernel
@@ -219,25 +238,21 @@ int main(void)
         double e;
         if (run(DIVERGE, SPH_PHYSICS_FREE_DRIFT, 1, &g0, &g1, &e) == 0) {
             printf("divergence, gradient correction: area x%.4f free drift (kinematics x%.4f; x%.4f without)\n",
-                   g1.area / g0.area, want * want, af);
+                   g1.area / g0.area, want * want, q.af);
             CHECK_CLOSE(g1.area / g0.area, want * want, 0.01, 0,
                         "free drift with gradient correction: area against exp(2 r D t)");
         }
     }
+
     /* 3. convergence */
-    if (run(CONVERGE, SPH_PHYSICS_FREE_DRIFT, 0, &f0, &f1, &err_f) == 0 &&
-        run(CONVERGE, SPH_PHYSICS_FULL, 0, &s0, &s1, &err_s) == 0) {
-        double af = f1.area / f0.area, as = s1.area / s0.area;
-        double gf = sqrt(f1.r2 / f0.r2), gs = sqrt(s1.r2 / s0.r2);
-        sph_params p;
-        sph_params_default(&p);
-        double want = exp(-sqrt(p.rho_a * p.Ca / (p.rho_w * p.Cw)) * WIND_DIV * t);
+    if (run_pair(CONVERGE, &q) == 0) {
+        double want = exp(-wind_factor() * WIND_DIV * t);
         printf("convergence: RMS radius x%.4f free drift (kinematics x%.4f), x%.4f with stress; area x%.4f / "
                "x%.4f\n",
-               gf, want, gs, af, as);
-        CHECK_CLOSE(gf, want, 0.005, 0, "free drift: RMS radius against exp(-r D t)");
-        CHECK(gs > gf, "stress resists convergence: RMS radius x%.4f against free drift's x%.4f", gs, gf);
-        CHECK(as > af, "stress resists convergence: area x%.4f against free drift's x%.4f", as, af);
+               q.gf, want, q.gs, q.af, q.as);
+        CHECK_CLOSE(q.gf, want, 0.005, 0, "free drift: RMS radius against exp(-r D t)");
+        CHECK(q.gs > q.gf, "stress resists convergence: RMS radius x%.4f against free drift's x%.4f", q.gs, q.gf);
+        CHECK(q.as > q.af, "stress resists convergence: area x%.4f against free drift's x%.4f", q.as, q.af);
     }
     return check_summary("test_spreading");
 }
