@@ -130,7 +130,7 @@ static int run(int kind, sph_physics_mode physics, int gc, patch_stats *s0, patc
         return -1;
     sph_particles *P = sph_model_particles(m);
     lattice_fill(P, &p, NSIDE, NSIDE, 0.0, 0.0, DX, 0.35, 0.95, 40.6);
-    double *x0 = malloc(n * sizeof *x0), *y0 = malloc(n * sizeof *y0);
+    double x0[NSIDE * NSIDE], y0[NSIDE * NSIDE]; /* start positions by particle id */
     double ua, va, uw, vw;
     for (size_t k = 0; k < n; k++) {
         x0[P->id[k]] = P->x[k];
@@ -168,8 +168,6 @@ static int run(int kind, sph_physics_mode physics, int gc, patch_stats *s0, patc
         *rms_err = sqrt(e2 / (double)P->n);
     }
     CHECK(P->n == n, "particles %zu of %zu", P->n, n);
-    free(x0);
-    free(y0);
     sph_model_free(m);
     return rc;
 }
