@@ -28,7 +28,8 @@ VERSION := 0.1.0
 GITREV  := $(shell git rev-parse --short=12 HEAD 2>/dev/null || echo unknown)
 
 BUILD   ?= build
-LIB_SRC := $(wildcard src/util/*.c src/core/*.c src/io/*.c src/service/*.c)
+# each layer may hold rooms one folder deep (src/core/rheology/, src/io/inputs/ ...)
+LIB_SRC := $(wildcard src/util/*.c $(foreach l,core io service,src/$(l)/*.c src/$(l)/*/*.c))
 LIB_OBJ := $(LIB_SRC:%.c=$(BUILD)/%.o)
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
@@ -74,9 +75,9 @@ tools: $(TOOL_BIN)
 
 # The core must never include I/O or service headers, nor do I/O itself.
 layers:
-	@bad=$$(grep -nE '#include *"(io|service|util)/|#include *<(stdio|netcdf|curl/curl|cjson/cJSON|sqlite3|microhttpd|cairo)\.h>' src/core/*.c include/core/*.h || true); \
+	@bad=$$(grep -nE '#include *"(io|service|util)/|#include *<(stdio|netcdf|curl/curl|cjson/cJSON|sqlite3|microhttpd|cairo)\.h>' src/core/*.c src/core/*/*.c src/core/*.h src/core/*/*.h include/core/*.h 2>/dev/null || true); \
 	if [ -n "$$bad" ]; then echo "layers: core includes I/O or service headers:"; echo "$$bad"; exit 1; fi; \
-	bad=$$(grep -nE '#include *"service/' src/io/*.c src/util/*.c include/io/*.h include/util/*.h 2>/dev/null || true); \
+	bad=$$(grep -nE '#include *"service/' src/io/*.c src/io/*/*.c src/io/*.h src/io/*/*.h src/util/*.c include/io/*.h include/util/*.h 2>/dev/null || true); \
 	if [ -n "$$bad" ]; then echo "layers: io/util include service headers:"; echo "$$bad"; exit 1; fi; \
 	echo "layers: ok"
 
