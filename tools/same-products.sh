@@ -7,7 +7,7 @@
 set -eu
 [ $# -eq 2 ] || { echo "usage: $0 DIR_A DIR_B" >&2; exit 2; }
 a=$1; b=$2
-volatile='date_created|date_modified|date_issued|history|git|software_version|sphice_version|wall|elapsed|created|seconds_cpu|run_seconds|config_path|_NCProperties'
+volatile='date_created|date_modified|date_issued|history|git|software_version|sphice_version|wall|elapsed|created|seconds_cpu|run_seconds|config_path|_NCProperties|config_sha256'
 strip() { grep -vE "$volatile" | sed -e "s#$a#DIR#g" -e "s#$b#DIR#g"; }
 rc=0; n=0
 for fa in "$a"/*; do
