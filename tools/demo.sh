@@ -1,7 +1,7 @@
 #!/bin/sh
-# The Liaodong Bay 1999 demo (make demo; docs/demo.md). Run from the
-# repository root. Installs missing Debian packages when it can (root, or
-# password-less sudo), builds, runs the synthetic 1999-02-08..12 scene twice
+# The Liaodong Bay 1999 demo (sh tools/demo.sh, or make demo; docs/demo.md),
+# from any folder. Installs missing Debian packages (as root, or through
+# sudo), builds, runs the synthetic 1999-02-08..12 scene twice
 # (with internal stress, as etc/liaodong-demo.json says, and in free drift),
 # times each run and prints the thick patch's numbers
 # (build/tools/demo_summary) and where the quick-look maps are.
@@ -27,8 +27,9 @@ CONFIG="${DEMO_CONFIG:-etc/liaodong-demo.json}"
 
 die() { echo "demo: $*" >&2; exit 1; }
 
+cd "$(dirname "$0")/.."
 if [ ! -f "$CONFIG" ] || [ ! -d forcing/liaodong-1999 ]; then
-    die "run me from the repository root (make demo): $CONFIG or forcing/liaodong-1999 not found"
+    die "$CONFIG or forcing/liaodong-1999 not found under $(pwd)"
 fi
 case "$HOURS" in
     ''|*[!0-9.]*) die "DEMO_HOURS=\"$HOURS\": expected a number of hours (1 to 96)" ;;
@@ -36,16 +37,9 @@ esac
 awk -v h="$HOURS" 'BEGIN { exit !(h > 0 && h <= 96) }' ||
     die "DEMO_HOURS=$HOURS: the scene's forcing covers 96 hours (1 to 96)"
 
-# 1. packages (only when something is missing and we may install)
+# 1. packages (only when something is missing; as root, or through sudo)
 if [ -z "${DEMO_SKIP_DEPS:-}" ]; then
-    if [ "$(id -u)" -eq 0 ]; then
-        sh tools/install-deps.sh || echo "demo: package install failed; trying to build anyway" >&2
-    elif command -v sudo >/dev/null 2>&1 && sudo -n true 2>/dev/null; then
-        sh tools/install-deps.sh || echo "demo: package install failed; trying to build anyway" >&2
-    else
-        echo "demo: not root and no password-less sudo: skipping tools/install-deps.sh" \
-             "(run it yourself if the build fails)"
-    fi
+    sh tools/install-deps.sh || die "the Debian packages could not be installed (tools/install-deps.sh)"
 fi
 
 # 2. build (a no-op after make demo)

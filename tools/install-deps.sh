@@ -1,9 +1,11 @@
 #!/bin/sh
 # Installs the Debian packages sphice needs to build, test and run its demo.
-# Idempotent: does nothing when every package is already present.
-# Usage (as root): tools/install-deps.sh
+# Idempotent: does nothing when every package is already present. Works as
+# root (apt-get directly) or as a user with sudo (asks sudo for apt-get
+# only); says in one line what to do when it can be neither.
+# Usage: sh tools/install-deps.sh
 set -eu
-PKGS="build-essential pkg-config libnetcdf-dev netcdf-bin libcurl4-openssl-dev \
+PKGS="build-essential make pkg-config libnetcdf-dev netcdf-bin libcurl4-openssl-dev \
 libcjson-dev libgsl-dev libproj-dev proj-data libudunits2-dev libmicrohttpd-dev \
 libsqlite3-dev sqlite3 libssl-dev libcairo2-dev libsystemd-dev gmt-gshhg-high gnuplot-nox \
 valgrind curl systemd"
@@ -17,8 +19,20 @@ if [ -z "$missing" ]; then
 fi
 echo "install-deps: installing:$missing"
 SUDO=""
-[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+if [ "$(id -u)" -ne 0 ]; then
+    if ! command -v sudo >/dev/null 2>&1; then
+        echo "install-deps: not root and sudo is not installed: run 'sh tools/install-deps.sh' as root (missing:$missing)" >&2
+        exit 1
+    fi
+    SUDO="sudo"
+fi
 export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -q
-# shellcheck disable=SC2086
-$SUDO apt-get install -y -q --no-install-recommends $missing
+if [ -n "$SUDO" ]; then
+    sudo apt-get update -q
+    # shellcheck disable=SC2086
+    sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends $missing
+else
+    apt-get update -q
+    # shellcheck disable=SC2086
+    apt-get install -y -q --no-install-recommends $missing
+fi
