@@ -109,13 +109,30 @@ demo-forcing: $(BUILD)/tools/gen_liaodong
 bench: all $(BENCH_BIN)
 	sh bench/run.sh
 
+# Everything goes under $(DESTDIR)$(PREFIX) unless a directory is given:
+# SYSCONFDIR (default PREFIX/etc; PREFIX=/usr gives /etc), UNITDIR,
+# SYSUSERSDIR, DOCDIR. The configuration is installed as *.example and
+# copied to sphice.json only where none exists: an operator's file is never
+# overwritten. The units' Documentation= points at DOCDIR/README.md.
+SYSCONFDIR  ?= $(if $(filter /usr,$(PREFIX)),/etc,$(PREFIX)/etc)
+UNITDIR     ?= $(PREFIX)/lib/systemd/system
+SYSUSERSDIR ?= $(PREFIX)/lib/sysusers.d
+DOCDIR      ?= $(PREFIX)/share/doc/sphice
 install: all
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/sphice $(DESTDIR)/etc/sphice \
-	           $(DESTDIR)$(PREFIX)/lib/systemd/system
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(SYSCONFDIR)/sphice $(DESTDIR)$(UNITDIR) \
+	           $(DESTDIR)$(SYSUSERSDIR) $(DESTDIR)$(DOCDIR)/docs
 	install -m 755 $(BUILD)/sphice $(DESTDIR)$(PREFIX)/bin/sphice
-	install -m 644 etc/*.json $(DESTDIR)/etc/sphice/
-	for u in systemd/*.service systemd/*.timer; do [ -f "$$u" ] && \
-	  sed 's#@PREFIX@#$(PREFIX)#g' "$$u" > $(DESTDIR)$(PREFIX)/lib/systemd/system/$$(basename $$u); done; true
+	for c in etc/*.json; do install -m 644 "$$c" $(DESTDIR)$(SYSCONFDIR)/sphice/$$(basename $$c).example; done
+	[ -e $(DESTDIR)$(SYSCONFDIR)/sphice/sphice.json ] || \
+	  install -m 644 etc/sphice.json $(DESTDIR)$(SYSCONFDIR)/sphice/sphice.json
+	for u in systemd/*.service systemd/*.timer; do \
+	  sed -e 's#@PREFIX@#$(PREFIX)#g' -e 's#@SYSCONFDIR@#$(SYSCONFDIR)#g' -e 's#@DOCDIR@#$(DOCDIR)#g' \
+	    "$$u" > $(DESTDIR)$(UNITDIR)/$$(basename $$u) || exit 1; done
+	install -m 644 systemd/sphice.sysusers $(DESTDIR)$(SYSUSERSDIR)/sphice.conf
+	install -m 644 README.md $(DESTDIR)$(DOCDIR)/README.md
+	install -m 644 docs/*.md $(DESTDIR)$(DOCDIR)/docs/
+	@echo "installed under $(DESTDIR)$(PREFIX) (configuration: $(DESTDIR)$(SYSCONFDIR)/sphice);" \
+	  "create the service user with: systemd-sysusers"
 
 clean:
 	rm -rf build build-asan

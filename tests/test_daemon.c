@@ -552,7 +552,7 @@ static void scenario_units(void)
     char cmd[2048];
     snprintf(cmd, sizeof cmd,
              "set -e; d=%s/units; mkdir -p $d; for u in systemd/*.service systemd/*.timer; do "
-             "sed 's#@PREFIX@/bin/sphice#%s#g; s#@PREFIX@#/usr/local#g' $u > $d/$(basename $u); done; "
+             "sed 's#@PREFIX@/bin/sphice#%s#g; s#@PREFIX@#/usr/local#g; s#@DOCDIR@#/usr/local/share/doc/sphice#g; s#@SYSCONFDIR@#/usr/local/etc#g' $u > $d/$(basename $u); done; "
              "cd $d && systemd-analyze verify sphice.service sphice-forecast.service sphice-forecast.timer",
              tmp, exe);
     CHECK(system(cmd) == 0, "systemd-analyze verify accepts the units");
