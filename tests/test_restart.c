@@ -4,6 +4,7 @@
  * at the next cycle's time ends with the particles of the earlier
  * forecast, to the last bit. */
 #include <math.h>
+#include <netcdf.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -199,6 +200,124 @@ static void module_level(void)
     sph_model_free(c);
 }
 
+/* ------------------------------------------------- every field of the list */
+
+/* The variables of format sphice-restart-1, in file order (the baseline
+ * demo's restart file): new fields may follow, these never move. */
+static const char *const format1[] = {"x", "y", "u", "v", "mass", "thick", "conc", "sml", "sml0",
+                                      "dens", "dens0", "snow", "tsurf", "s11", "s22", "s12",
+                                      "coastc", "enth", "id", "regime"};
+#define NFORMAT1 (sizeof format1 / sizeof format1[0])
+
+/* A distinct value for (field, particle, layer) in the field's type. */
+static void put_value(sph_particles *P, int f, size_t k, size_t j, int salt)
+{
+    size_t c = sph_particles_field_count(P, f), e = k * c + j;
+    long w = (f * 131 + (long)k * 7 + (long)j * 3 + salt * 17) % 251 + 1;
+    void *a = sph_particles_field(P, f);
+    switch (sph_particle_fields[f].type) {
+    case SPH_FIELD_DOUBLE: ((double *)a)[e] = (double)w / 3.0 - 40.0; break;
+    case SPH_FIELD_LONG: ((long *)a)[e] = w * 100000000007L; break;
+    default: ((unsigned char *)a)[e] = (unsigned char)w; break;
+    }
+}
+
+static void fill_all(sph_particles *P, size_t n, int salt)
+{
+    for (int f = 0; f < SPH_PARTICLE_NFIELDS; f++)
+        for (size_t k = 0; k < n; k++)
+            for (size_t j = 0; j < sph_particles_field_count(P, f); j++)
+                put_value(P, f, k, j, salt);
+}
+
+static int zeroed(const void *a, size_t bytes)
+{
+    const unsigned char *b = a;
+    for (size_t i = 0; i < bytes; i++)
+        if (b[i])
+            return 0;
+    return 1;
+}
+
+static void every_field(void)
+{
+    enum { N = 23, NL = 3 };
+    sph_particles *W = sph_particles_create(N, NL), *R = sph_particles_create(N, NL),
+                  *F = sph_particles_create(N, NL);
+    CHECK(W && R && F, "particle sets");
+    if (!W || !R || !F)
+        goto done;
+    W->n = N;
+    fill_all(W, N, 1);
+    fill_all(R, N, 2); /* what reading must replace, zero or leave alone */
+    fill_all(F, N, 2);
+    char path[1024];
+    snprintf(path, sizeof path, "%s/fields.nc", dir);
+    restart_header h;
+    memset(&h, 0, sizeof h);
+    h.time = 5000.0;
+    h.cycle_time = 1000.0;
+    snprintf(h.projection, sizeof h.projection, "+proj=test");
+    sph_error err;
+    sph_error_clear(&err);
+    CHECK(restart_write(path, W, &h, &err) == SPH_OK, "write: %s", err.msg);
+
+    /* the file's variables: format 1 first, in its order, then the rest of the list's */
+    int nc, nvars = 0;
+    if (nc_open(path, NC_NOWRITE, &nc) == NC_NOERR) {
+        nc_inq_nvars(nc, &nvars);
+        CHECK(nvars >= (int)NFORMAT1, "%d variables", nvars);
+        for (int v = 0; v < nvars && v < (int)NFORMAT1; v++) {
+            char name[NC_MAX_NAME + 1];
+            nc_type t;
+            nc_inq_var(nc, v, name, &t, NULL, NULL, NULL);
+            nc_type want = !strcmp(name, "id") ? NC_INT64 : !strcmp(name, "regime") ? NC_UBYTE : NC_DOUBLE;
+            CHECK(!strcmp(name, format1[v]) && t == want, "variable %d: %s (want %s)", v, name, format1[v]);
+        }
+        nc_close(nc);
+    } else {
+        CHECK(0, "open %s", path);
+    }
+
+    restart_header r;
+    CHECK(restart_read(path, "+proj=test", &r, R, &err) == SPH_OK, "read: %s", err.msg);
+    CHECK(R->n == N, "read %zu particles", R->n);
+    int nwritten = 0;
+    for (int f = 0; f < SPH_PARTICLE_NFIELDS; f++) {
+        const sph_particle_field *d = &sph_particle_fields[f];
+        size_t bytes = N * sph_particles_field_count(R, f) * d->size;
+        const void *got = sph_particles_field(R, f);
+        if (d->restart != SPH_RESTART_NO) {
+            nwritten++;
+            CHECK(!memcmp(got, sph_particles_field(W, f), bytes), "%s restored bit for bit", d->name);
+        } else if (d->tag == SPH_FIELD_DIAGNOSTIC) {
+            CHECK(zeroed(got, bytes), "diagnosed %s zeroed", d->name);
+        } else {
+            CHECK(!memcmp(got, sph_particles_field(F, f), bytes), "%s left alone", d->name);
+        }
+        if (d->tag == SPH_FIELD_STATE)
+            CHECK(d->restart != SPH_RESTART_NO, "state field %s is in the restart file", d->name);
+    }
+    CHECK(nwritten == nvars, "one variable per restart field (%d, %d)", nwritten, nvars);
+
+    /* a file written before coastc existed: it reads as zero */
+    if (nc_open(path, NC_WRITE, &nc) == NC_NOERR) {
+        int v;
+        int ok = nc_redef(nc) == NC_NOERR && nc_inq_varid(nc, "coastc", &v) == NC_NOERR &&
+                 nc_rename_var(nc, v, "coastc_later") == NC_NOERR;
+        CHECK(nc_close(nc) == NC_NOERR && ok, "rename coastc");
+        fill_all(R, N, 2);
+        sph_error_clear(&err);
+        CHECK(restart_read(path, NULL, &r, R, &err) == SPH_OK, "read without coastc: %s", err.msg);
+        CHECK(zeroed(R->coastc, N * sizeof *R->coastc), "coastc absent: zero");
+        CHECK(!memcmp(R->s12, W->s12, N * sizeof *R->s12), "the rest restored");
+    }
+done:
+    sph_particles_free(W);
+    sph_particles_free(R);
+    sph_particles_free(F);
+}
+
 /* ------------------------------------------------------ through the engine */
 
 static const char *atm_files[2];
@@ -276,6 +395,7 @@ int main(int argc, char **argv)
     CHECK(mkdtemp(dir) != NULL, "mkdtemp");
     ec_write_inputs(dir);
     module_level();
+    every_field();
     engine_level();
     if (check_failed_ == 0)
         cycle_remove_tree(dir);

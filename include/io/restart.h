@@ -3,13 +3,14 @@
  *
  * One netCDF-4 file, written atomically (util/fileio.h: temporary name,
  * fsync, rename). Dimensions `particle` (n) and `layer` (nlayers).
- * Variables, all double unless stated, in the particles' slot order (the
- * order matters for bit-for-bit continuation: the neighbour sort is
- * stable):
+ * Variables: the fields of SPH_PARTICLE_FIELDS (core/particles.h) with
+ * restart YES or OPT, in list order, named, typed (double, int64, ubyte)
+ * and described as there; particles in slot order (the order matters for
+ * bit-for-bit continuation: the neighbour sort is stable). Today:
  *   x, y (m, model plane), u, v (m/s, plane components), mass (kg),
  *   thick (h_i, m), conc, sml, sml0 (m), dens, dens0 (kg/m^2), snow (m),
- *   tsurf (deg C), enth(particle, layer) (J/m^3), s11, s22, s12 (N/m),
- *   id (int64), regime (ubyte flags).
+ *   tsurf (deg C), s11, s22, s12 (N/m), coastc, enth(particle, layer)
+ *   (J/m^3), id (int64), regime (ubyte flags).
  * Global attributes: sphice_restart_format = "sphice-restart-1", valid
  * time (`time`, seconds since 1970 and `time_iso`), the forecast cycle that
  * wrote it, the PROJ definition of the plane (`projection`), nlayers, and

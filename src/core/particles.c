@@ -4,13 +4,20 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Every per-particle double array, in one list so create/free/copy/remove
- * can never drift apart. */
-#define SPH_DOUBLE_FIELDS(X)                                                          \
-    X(x) X(y) X(u) X(v) X(mass) X(thick) X(conc) X(sml) X(snow) X(tsurf) X(s11)    \
-    X(s22) X(s12) X(dens) X(e11) X(e22) X(e12) X(pres) X(ax) X(ay) X(lat) X(ua)     \
-    X(va) X(uw) X(vw) X(sshx) X(sshy) X(tair) X(qair) X(swdn) X(lwdn) X(sst) X(fw) \
-    X(fsens) X(flat) X(sml0) X(dens0) X(coastc)
+/* Everything below iterates SPH_PARTICLE_FIELDS (core/particles.h), so that
+ * create/free/copy/remove/permute can never drift apart from the struct. */
+
+#define SPH_PF_TYPE_(name)                                                               \
+    _Generic(((sph_particles *)0)->name, double *: SPH_FIELD_DOUBLE, long *: SPH_FIELD_LONG, \
+             unsigned char *: SPH_FIELD_UCHAR)
+#define INFO_(name, type, count, tag, restart, units, long_name)                             \
+    {#name, units, long_name, SPH_FIELD_##tag, SPH_RESTART_##restart, SPH_PF_TYPE_(name), \
+     sizeof(type), SPH_FIELD_LAYERED_##count},
+const sph_particle_field sph_particle_fields[SPH_PARTICLE_NFIELDS] = {
+    SPH_PARTICLE_FIELDS(INFO_)
+};
+#undef INFO_
+#undef SPH_PF_TYPE_
 
 sph_particles *sph_particles_create(size_t cap, int nlayers)
 {
@@ -22,12 +29,10 @@ sph_particles *sph_particles_create(size_t cap, int nlayers)
     p->cap = cap;
     p->nlayers = nlayers;
     int ok = 1;
-#define ALLOC_(f) ok &= (p->f = calloc(cap, sizeof(double))) != NULL;
-    SPH_DOUBLE_FIELDS(ALLOC_)
+#define ALLOC_(name, type, count, ...) \
+    ok &= (p->name = calloc(cap * SPH_FIELD_COUNT(p, count), sizeof(type))) != NULL;
+    SPH_PARTICLE_FIELDS(ALLOC_)
 #undef ALLOC_
-    ok &= (p->enth = calloc(cap * (size_t)nlayers, sizeof(double))) != NULL;
-    ok &= (p->id = calloc(cap, sizeof(long))) != NULL;
-    ok &= (p->regime = calloc(cap, 1)) != NULL;
     if (!ok) {
         sph_particles_free(p);
         return NULL;
@@ -43,25 +48,24 @@ void sph_particles_free(sph_particles *p)
 {
     if (!p)
         return;
-#define FREE_(f) free(p->f);
-    SPH_DOUBLE_FIELDS(FREE_)
+#define FREE_(name, ...) free(p->name);
+    SPH_PARTICLE_FIELDS(FREE_)
 #undef FREE_
-    free(p->enth);
-    free(p->id);
-    free(p->regime);
     free(p);
 }
 
 void sph_particles_copy_one(sph_particles *dst, size_t d, const sph_particles *src, size_t s)
 {
-#define COPY_(f) dst->f[d] = src->f[s];
-    SPH_DOUBLE_FIELDS(COPY_)
+    /* layered fields: as many layers as both sets have */
+#define COPY_(name, type, count, ...)                                                       \
+    if (!SPH_FIELD_LAYERED_##count) {                                                       \
+        dst->name[d] = src->name[s];                                                        \
+    } else {                                                                                \
+        size_t cd_ = SPH_FIELD_COUNT(dst, count), cs_ = SPH_FIELD_COUNT(src, count);        \
+        memmove(dst->name + d * cd_, src->name + s * cs_, (cd_ < cs_ ? cd_ : cs_) * sizeof(type)); \
+    }
+    SPH_PARTICLE_FIELDS(COPY_)
 #undef COPY_
-    int nl = dst->nlayers < src->nlayers ? dst->nlayers : src->nlayers;
-    memcpy(dst->enth + d * (size_t)dst->nlayers, src->enth + s * (size_t)src->nlayers,
-           (size_t)nl * sizeof(double));
-    dst->id[d] = src->id[s];
-    dst->regime[d] = src->regime[s];
 }
 
 void sph_particles_remove(sph_particles *p, size_t k)
@@ -77,22 +81,37 @@ void sph_particles_remove(sph_particles *p, size_t k)
 void sph_particles_permute(sph_particles *p, const int *order, double *scratch)
 {
     size_t n = p->n;
-#define PERM_(f)                                      \
-    for (size_t i = 0; i < n; i++)                    \
-        scratch[i] = p->f[order[i]];                  \
-    memcpy(p->f, scratch, n * sizeof(double));
-    SPH_DOUBLE_FIELDS(PERM_)
+#define PERM_(name, type, count, ...)                                                       \
+    {                                                                                       \
+        size_t c_ = SPH_FIELD_COUNT(p, count);                                              \
+        type *s_ = (type *)(void *)scratch;                                                 \
+        if (c_ == 1)                                                                        \
+            for (size_t i = 0; i < n; i++)                                                  \
+                s_[i] = p->name[order[i]];                                                  \
+        else                                                                                \
+            for (size_t i = 0; i < n; i++)                                                  \
+                memcpy(s_ + i * c_, p->name + (size_t)order[i] * c_, c_ * sizeof(type));    \
+        memcpy(p->name, s_, n * c_ * sizeof(type));                                         \
+    }
+    SPH_PARTICLE_FIELDS(PERM_)
 #undef PERM_
-    size_t nl = (size_t)p->nlayers;
-    for (size_t i = 0; i < n; i++)
-        memcpy(scratch + i * nl, p->enth + (size_t)order[i] * nl, nl * sizeof(double));
-    memcpy(p->enth, scratch, n * nl * sizeof(double));
-    long *ids = (long *)scratch;
-    for (size_t i = 0; i < n; i++)
-        ids[i] = p->id[order[i]];
-    memcpy(p->id, ids, n * sizeof(long));
-    unsigned char *rg = (unsigned char *)scratch;
-    for (size_t i = 0; i < n; i++)
-        rg[i] = p->regime[order[i]];
-    memcpy(p->regime, rg, n);
+}
+
+void *sph_particles_field(const sph_particles *p, int k)
+{
+    switch (k) {
+#define CASE_(name, ...) \
+    case SPH_PF_##name:  \
+        return p->name;
+        SPH_PARTICLE_FIELDS(CASE_)
+#undef CASE_
+    default:
+        return NULL;
+    }
+}
+
+size_t sph_particles_field_count(const sph_particles *p, int k)
+{
+    return k >= 0 && k < SPH_PARTICLE_NFIELDS && sph_particle_fields[k].layered ? (size_t)p->nlayers
+                                                                                   : 1;
 }

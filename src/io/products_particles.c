@@ -10,9 +10,19 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/particles.h"
 #include "util/timeutil.h"
 
-enum { PT_TIME, PT_LON, PT_LAT, PT_U, PT_V, PT_THICK, PT_CONC, PT_MASS, PT_NVARS };
+/* The file's variables: the coordinates time, lon, lat, then the particle
+ * fields of SPH_PARTICLE_PRODUCT_FIELDS (core/particles.h), in its order. */
+enum { PT_TIME, PT_LON, PT_LAT, PT_NCOORDS };
+enum { PT_NVARS = PT_NCOORDS + SPH_PARTICLE_NPRODUCT_FIELDS };
+_Static_assert(PT_NVARS <= sizeof ((prod_writer *)0)->pt_v / sizeof(int),
+               "prod_writer.pt_v holds every particle product variable");
+#define PT_IS_FIELD_(field, ...)                                                \
+    _Static_assert(sizeof ((sph_particles *)0)->field > 0, #field " is a particle field");
+SPH_PARTICLE_PRODUCT_FIELDS(PT_IS_FIELD_)
+#undef PT_IS_FIELD_
 
 static const struct {
     const char *name, *standard_name, *long_name, *units;
@@ -20,11 +30,10 @@ static const struct {
     { "time", "time", "valid time", "seconds since 1970-01-01 00:00:00" },
     { "lon", "longitude", "particle longitude", "degrees_east" },
     { "lat", "latitude", "particle latitude", "degrees_north" },
-    { "u", "eastward_sea_ice_velocity", "eastward particle velocity", "m s-1" },
-    { "v", "northward_sea_ice_velocity", "northward particle velocity", "m s-1" },
-    { "thickness", "sea_ice_thickness", "particle ice thickness h_i", "m" },
-    { "concentration", "sea_ice_area_fraction", "particle ice concentration", "1" },
-    { "mass", NULL, "particle ice mass", "kg" },
+#define PT_SPEC_(field, member, name, standard_name, long_name, units) \
+    { name, standard_name, long_name, units },
+    SPH_PARTICLE_PRODUCT_FIELDS(PT_SPEC_)
+#undef PT_SPEC_
 };
 
 #define NCP(call, what)                                                  \
@@ -186,9 +195,10 @@ int prod_particles_add(prod_writer *p, double t, const prod_particles_view *pv, 
         st = nc_put_vara_double(p->pt_nc, p->pt_v[PT_LON], &start, &count, pv->lon);
     if (st == NC_NOERR)
         st = nc_put_vara_double(p->pt_nc, p->pt_v[PT_LAT], &start, &count, pv->lat);
-    const double *src[PT_NVARS] = { NULL, NULL, NULL, pv->u_east, pv->v_north,
-                                    pv->thick, pv->conc, pv->mass };
-    for (int v = PT_U; v < PT_NVARS && st == NC_NOERR; v++) {
+#define PT_VIEW_(field, member, ...) pv->member,
+    const double *src[PT_NVARS] = { NULL, NULL, NULL, SPH_PARTICLE_PRODUCT_FIELDS(PT_VIEW_) };
+#undef PT_VIEW_
+    for (int v = PT_NCOORDS; v < PT_NVARS && st == NC_NOERR; v++) {
         for (size_t k = 0; k < n; k++)
             f[k] = src[v] && isfinite(src[v][k]) ? (float)src[v][k] : NC_FILL_FLOAT;
         st = nc_put_vara_float(p->pt_nc, p->pt_v[v], &start, &count, f);
@@ -228,11 +238,9 @@ void prod_particles_free(prod_particles *p)
         return;
     free(p->lon);
     free(p->lat);
-    free(p->u_east);
-    free(p->v_north);
-    free(p->mass);
-    free(p->thick);
-    free(p->conc);
+#define PT_FREE_(field, member, ...) free(p->member);
+    SPH_PARTICLE_PRODUCT_FIELDS(PT_FREE_)
+#undef PT_FREE_
     free(p->id);
     memset(p, 0, sizeof *p);
 }
@@ -298,17 +306,16 @@ int products_read_particles(const char *path, double t, prod_particles *out, sph
     out->time = want;
     out->lon = malloc(n * sizeof(double));
     out->lat = malloc(n * sizeof(double));
-    out->u_east = malloc(n * sizeof(double));
-    out->v_north = malloc(n * sizeof(double));
-    out->mass = malloc(n * sizeof(double));
-    out->thick = malloc(n * sizeof(double));
-    out->conc = malloc(n * sizeof(double));
+    int fields_ok = 1;
+#define PT_ALLOC_(field, member, ...) \
+    fields_ok &= (out->member = malloc(n * sizeof(double))) != NULL;
+    SPH_PARTICLE_PRODUCT_FIELDS(PT_ALLOC_)
+#undef PT_ALLOC_
     out->id = malloc(n * sizeof(long));
     tix = malloc(n * sizeof *tix);
     tid = malloc((ntraj ? ntraj : 1) * sizeof *tid);
     fb = malloc(n * sizeof *fb);
-    if (!out->lon || !out->lat || !out->u_east || !out->v_north || !out->mass || !out->thick ||
-        !out->conc || !out->id || !tix || !tid || !fb) {
+    if (!out->lon || !out->lat || !fields_ok || !out->id || !tix || !tid || !fb) {
         rc = sph_err_set(err, SPH_ERR_NOMEM, "read %s: out of memory", path);
         goto done;
     }
@@ -325,11 +332,12 @@ int products_read_particles(const char *path, double t, prod_particles *out, sph
         st = nc_inq_varid(nc, "lat", &v_lat);
     if (st == NC_NOERR)
         st = nc_get_vara_double(nc, v_lat, &a, &n, out->lat);
-    const char *fnames[5] = { "u", "v", "thickness", "concentration", "mass" };
-    double *dst[5] = { out->u_east, out->v_north, out->thick, out->conc, out->mass };
-    for (int q = 0; q < 5 && st == NC_NOERR; q++) {
+#define PT_DST_(field, member, ...) out->member,
+    double *dst[SPH_PARTICLE_NPRODUCT_FIELDS] = { SPH_PARTICLE_PRODUCT_FIELDS(PT_DST_) };
+#undef PT_DST_
+    for (int q = 0; q < SPH_PARTICLE_NPRODUCT_FIELDS && st == NC_NOERR; q++) {
         int v;
-        st = nc_inq_varid(nc, fnames[q], &v);
+        st = nc_inq_varid(nc, pt_specs[PT_NCOORDS + q].name, &v);
         if (st == NC_NOERR)
             st = nc_get_vara_float(nc, v, &a, &n, fb);
         for (size_t k = 0; k < n && st == NC_NOERR; k++)

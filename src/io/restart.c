@@ -5,59 +5,34 @@
 #include <netcdf.h>
 #include <stddef.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
 #include "util/fileio.h"
 #include "util/timeutil.h"
 
-/* The per-particle double arrays, by name. */
-enum { RV_X, RV_Y, RV_U, RV_V, RV_MASS, RV_THICK, RV_CONC, RV_SML, RV_SML0, RV_DENS, RV_DENS0,
-       RV_SNOW, RV_TSURF, RV_S11, RV_S22, RV_S12, RV_COASTC, RV_N };
+/* The restart file's particle variables are the fields of
+ * SPH_PARTICLE_FIELDS (core/particles.h) with restart YES or OPT, in list
+ * order; the NetCDF type follows the C type. */
+static const nc_type rv_nctype[] = {
+    [SPH_FIELD_DOUBLE] = NC_DOUBLE, [SPH_FIELD_LONG] = NC_INT64, [SPH_FIELD_UCHAR] = NC_UBYTE};
 
-static const struct {
-    const char *name, *long_name, *units;
-} rv_spec[RV_N] = {
-    {"x", "position on the model plane, x", "m"},
-    {"y", "position on the model plane, y", "m"},
-    {"u", "velocity, plane x component", "m s-1"},
-    {"v", "velocity, plane y component", "m s-1"},
-    {"mass", "particle ice mass", "kg"},
-    {"thick", "ice thickness h_i", "m"},
-    {"conc", "ice concentration", "1"},
-    {"sml", "smoothing length", "m"},
-    {"sml0", "reference smoothing length", "m"},
-    {"dens", "SPH mass per unit area", "kg m-2"},
-    {"dens0", "reference mass per unit area", "kg m-2"},
-    {"snow", "snow depth", "m"},
-    {"tsurf", "surface temperature", "degC"},
-    {"s11", "vertically integrated stress, xx", "N m-1"},
-    {"s22", "vertically integrated stress, yy", "N m-1"},
-    {"s12", "vertically integrated stress, xy", "N m-1"},
-    {"coastc", "compression against a coast not yet released (log mass per area)", "1"},
-};
-
-static double *rv_array(const sph_particles *P, int k)
+static int rv_put(int nc, int var, int type, const size_t *start, const size_t *count,
+                  const void *a)
 {
-    switch (k) {
-    case RV_X: return P->x;
-    case RV_Y: return P->y;
-    case RV_U: return P->u;
-    case RV_V: return P->v;
-    case RV_MASS: return P->mass;
-    case RV_THICK: return P->thick;
-    case RV_CONC: return P->conc;
-    case RV_SML: return P->sml;
-    case RV_SML0: return P->sml0;
-    case RV_DENS: return P->dens;
-    case RV_DENS0: return P->dens0;
-    case RV_SNOW: return P->snow;
-    case RV_TSURF: return P->tsurf;
-    case RV_S11: return P->s11;
-    case RV_S22: return P->s22;
-    case RV_COASTC: return P->coastc;
-    default: return P->s12;
+    switch (type) {
+    case SPH_FIELD_DOUBLE: return nc_put_vara_double(nc, var, start, count, a);
+    case SPH_FIELD_LONG: return nc_put_vara_long(nc, var, start, count, a);
+    default: return nc_put_vara_uchar(nc, var, start, count, a);
+    }
+}
+
+static int rv_get(int nc, int var, int type, const size_t *start, const size_t *count, void *a)
+{
+    switch (type) {
+    case SPH_FIELD_DOUBLE: return nc_get_vara_double(nc, var, start, count, a);
+    case SPH_FIELD_LONG: return nc_get_vara_long(nc, var, start, count, a);
+    default: return nc_get_vara_uchar(nc, var, start, count, a);
     }
 }
 
@@ -100,7 +75,7 @@ static int put_text(int nc, int var, const char *name, const char *text)
 static int write_body(int nc, const sph_particles *P, const restart_header *h, const char *path,
                       sph_error *err)
 {
-    int st, d_p, d_l, v[RV_N], v_enth, v_id, v_reg;
+    int st, d_p, d_l, v[SPH_PARTICLE_NFIELDS];
     size_t n = P->n;
     int nl = P->nlayers;
 #define NC(call, what)                               \
@@ -112,20 +87,17 @@ static int write_body(int nc, const sph_particles *P, const restart_header *h, c
     /* a fixed dimension of length 0 would be unlimited: keep it fixed and >= 1 */
     NC(nc_def_dim(nc, "particle", n > 0 ? n : 1, &d_p), "define dimension");
     NC(nc_def_dim(nc, "layer", (size_t)nl, &d_l), "define dimension");
-    for (int k = 0; k < RV_N; k++) {
-        NC(nc_def_var(nc, rv_spec[k].name, NC_DOUBLE, 1, &d_p, &v[k]), "define variable");
-        NC(put_text(nc, v[k], "long_name", rv_spec[k].long_name), "write attribute");
-        NC(put_text(nc, v[k], "units", rv_spec[k].units), "write attribute");
-    }
     int dims2[2] = {d_p, d_l};
-    NC(nc_def_var(nc, "enth", NC_DOUBLE, 2, dims2, &v_enth), "define variable");
-    NC(put_text(nc, v_enth, "long_name", "layer enthalpy, top layer first"), "write attribute");
-    NC(put_text(nc, v_enth, "units", "J m-3"), "write attribute");
-    NC(nc_def_var(nc, "id", NC_INT64, 1, &d_p, &v_id), "define variable");
-    NC(put_text(nc, v_id, "long_name", "particle id"), "write attribute");
-    NC(nc_def_var(nc, "regime", NC_UBYTE, 1, &d_p, &v_reg), "define variable");
-    NC(put_text(nc, v_reg, "long_name", "regime flags (core/particles.h SPH_REGIME_*)"),
-       "write attribute");
+    for (int k = 0; k < SPH_PARTICLE_NFIELDS; k++) {
+        const sph_particle_field *f = &sph_particle_fields[k];
+        if (f->restart == SPH_RESTART_NO)
+            continue;
+        NC(nc_def_var(nc, f->name, rv_nctype[f->type], f->layered ? 2 : 1, dims2, &v[k]),
+           "define variable");
+        NC(put_text(nc, v[k], "long_name", f->long_name), "write attribute");
+        if (f->units)
+            NC(put_text(nc, v[k], "units", f->units), "write attribute");
+    }
 
     char iso[32];
     time_format_iso(h->time, iso, sizeof iso);
@@ -151,19 +123,10 @@ static int write_body(int nc, const sph_particles *P, const restart_header *h, c
     if (n == 0)
         return SPH_OK;
     size_t start[2] = {0, 0}, count[2] = {n, (size_t)nl};
-    for (int k = 0; k < RV_N; k++)
-        NC(nc_put_vara_double(nc, v[k], start, count, rv_array(P, k)), "write");
-    NC(nc_put_vara_double(nc, v_enth, start, count, P->enth), "write");
-    long long *ids = malloc(n * sizeof *ids);
-    if (!ids)
-        return sph_err_set(err, SPH_ERR_NOMEM, "restart %s: out of memory", path);
-    for (size_t k = 0; k < n; k++)
-        ids[k] = P->id[k];
-    st = nc_put_vara_longlong(nc, v_id, start, count, ids);
-    free(ids);
-    if (st != NC_NOERR)
-        return nc_fail(st, "write", path, err);
-    NC(nc_put_vara_uchar(nc, v_reg, start, count, P->regime), "write");
+    for (int k = 0; k < SPH_PARTICLE_NFIELDS; k++)
+        if (sph_particle_fields[k].restart != SPH_RESTART_NO)
+            NC(rv_put(nc, v[k], sph_particle_fields[k].type, start, count,
+                      sph_particles_field(P, k)), "write");
 #undef NC
     return SPH_OK;
 }
@@ -298,43 +261,25 @@ static int read_body(int nc, const char *path, const restart_header *h, sph_part
         return SPH_OK;
     size_t start[2] = {0, 0}, count[2] = {n, (size_t)h->nlayers};
     int v, st;
-    for (int k = 0; k < RV_N; k++) {
-        if (k == RV_COASTC && nc_inq_varid(nc, rv_spec[k].name, &v) != NC_NOERR) {
-            memset(P->coastc, 0, n * sizeof(double)); /* restarts written before it */
+    for (int k = 0; k < SPH_PARTICLE_NFIELDS; k++) {
+        const sph_particle_field *f = &sph_particle_fields[k];
+        void *a = sph_particles_field(P, k);
+        size_t bytes = n * sph_particles_field_count(P, k) * f->size;
+        if (f->restart == SPH_RESTART_NO) {
+            /* diagnosed by the next step; zero so nothing stale is ever read */
+            if (f->tag == SPH_FIELD_DIAGNOSTIC)
+                memset(a, 0, bytes);
             continue;
         }
-        if ((st = nc_inq_varid(nc, rv_spec[k].name, &v)) != NC_NOERR ||
-            (st = nc_get_vara_double(nc, v, start, count, rv_array(P, k))) != NC_NOERR)
+        if (f->restart == SPH_RESTART_OPT && nc_inq_varid(nc, f->name, &v) != NC_NOERR) {
+            memset(a, 0, bytes); /* restarts written before it */
+            continue;
+        }
+        if ((st = nc_inq_varid(nc, f->name, &v)) != NC_NOERR ||
+            (st = rv_get(nc, v, f->type, start, count, a)) != NC_NOERR)
             return sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable %s: %s", path,
-                               rv_spec[k].name, nc_strerror(st));
+                               f->name, nc_strerror(st));
     }
-    if ((st = nc_inq_varid(nc, "enth", &v)) != NC_NOERR ||
-        (st = nc_get_vara_double(nc, v, start, count, P->enth)) != NC_NOERR)
-        return sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable enth: %s", path,
-                           nc_strerror(st));
-    if ((st = nc_inq_varid(nc, "regime", &v)) != NC_NOERR ||
-        (st = nc_get_vara_uchar(nc, v, start, count, P->regime)) != NC_NOERR)
-        return sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable regime: %s", path,
-                           nc_strerror(st));
-    long long *ids = malloc(n * sizeof *ids);
-    if (!ids)
-        return sph_err_set(err, SPH_ERR_NOMEM, "restart %s: out of memory", path);
-    if ((st = nc_inq_varid(nc, "id", &v)) != NC_NOERR ||
-        (st = nc_get_vara_longlong(nc, v, start, count, ids)) != NC_NOERR) {
-        free(ids);
-        return sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable id: %s", path,
-                           nc_strerror(st));
-    }
-    for (size_t k = 0; k < n; k++)
-        P->id[k] = (long)ids[k];
-    free(ids);
-    /* diagnosed by the next step; zero so nothing stale is ever read */
-    memset(P->e11, 0, n * sizeof *P->e11);
-    memset(P->e22, 0, n * sizeof *P->e22);
-    memset(P->e12, 0, n * sizeof *P->e12);
-    memset(P->pres, 0, n * sizeof *P->pres);
-    memset(P->ax, 0, n * sizeof *P->ax);
-    memset(P->ay, 0, n * sizeof *P->ay);
     P->n = n;
     return SPH_OK;
 }
