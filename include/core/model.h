@@ -1,5 +1,5 @@
-/* The SPH sea-ice model: parameters and the step-from-outside driver API
- * (create / set up / step / check / free). No I/O, no logging, and no
+/* The SPH sea-ice model: the step-from-outside driver API (create / set
+ * up / step / check / free; its parameters: core/params.h). No I/O, no logging, and no
  * allocation inside a step: all workspace is allocated by sph_model_create.
  *
  * Momentum (PHYSICS.md eq. 2, per unit area):
@@ -14,100 +14,8 @@
 #include <stddef.h>
 #include "core/particles.h"
 #include "core/status.h"
+#include "core/params.h" /* sph_params, the parameter table; the kinds */
 #include "core/thermo.h"
-
-typedef enum { SPH_KERNEL_GAUSSIAN = 0, SPH_KERNEL_WENDLAND_C2, SPH_KERNEL_CUBIC_SPLINE } sph_kernel_kind;
-
-typedef enum {
-    SPH_SOLVER_EXPLICIT = 0, /* sub-stepped to its own stability limit */
-    SPH_SOLVER_MEVP,         /* modified / adaptive EVP */
-    SPH_SOLVER_IMPLICIT      /* Picard with GSL sparse GMRES */
-} sph_solver_kind;
-
-typedef enum {
-    SPH_RHEOLOGY_VP = 0,     /* Hibler viscous-plastic */
-    SPH_RHEOLOGY_COLLISION   /* Shen, Hibler & Lepparanta (1987) */
-} sph_rheology_kind;
-
-typedef enum {
-    SPH_PRESSURE_SEED = 0,   /* P = P0 exp(-C(1-A)), integrated hbar P */
-    SPH_PRESSURE_HIBLER      /* P = P* hbar exp(-C(1-A)) */
-} sph_pressure_form;
-
-typedef enum {
-    SPH_PHYSICS_AUTO = 0,    /* per particle: free drift where loose, rheology where packed */
-    SPH_PHYSICS_FULL,        /* rheology everywhere */
-    SPH_PHYSICS_FREE_DRIFT   /* internal stress off */
-} sph_physics_mode;
-
-typedef enum { SPH_UNSTABLE_SUBSTEP = 0, SPH_UNSTABLE_REFUSE } sph_unstable_policy;
-
-typedef struct sph_params {
-    /* numerics */
-    double dt;                  /* dynamic step, s (seed: 60) */
-    sph_kernel_kind kernel;
-    double kernel_radius;       /* support radius in units of h (Gaussian truncation; seed box 4h -> 2) */
-    int variable_sml;           /* seed eq. 10 variable smoothing length */
-    int gradient_correction;    /* kernel gradient correction (Bonet & Lok 1999) in the
-                                   strain rates and the stress divergence */
-    int summation_density;      /* 1: M = sum_j m_j W_kj every step (seed);
-                                   0: M evolved by continuity dM/dt = -M div V
-                                   from the seeded rho_i A h_i (default: no lattice
-                                   noise, exact edges; see docs/dynamics.md) */
-    double sml_factor;          /* h0 = sml_factor * initial spacing */
-    sph_solver_kind solver;
-    sph_unstable_policy unstable; /* explicit solver beyond its limit */
-    int evp_iterations;         /* mEVP sub-iterations per step */
-    int evp_adaptive;           /* aEVP: local alpha = beta from the stability bound */
-    double evp_alpha, evp_beta; /* fixed mEVP parameters */
-    double evp_tol;             /* m/s: stop iterating when no velocity changes more */
-    int evp_stall_window;       /* auto physics: stop iterating when the RMS velocity change
-                                   has reached no new minimum in this many iterations (a
-                                   limit cycle: more iterations do not move the solution);
-                                   0 = off. Full physics always iterates to evp_tol or
-                                   evp_iterations. */
-    double explicit_safety;     /* explicit limit dt < safety * M h^2 / (zeta + eta) */
-    int max_neighbours;         /* neighbour list capacity (more = clumping, an error) */
-    int implicit_max_picard;    /* Picard iterations */
-    double implicit_tol;        /* relative residual */
-    int max_substeps;           /* explicit solver sub-step cap per dynamic step */
-    /* rheology */
-    sph_physics_mode physics;
-    sph_rheology_kind rheology;
-    sph_pressure_form pressure_form;
-    double P0;                  /* N/m^2: seed 1.0e4; Hibler P* 2.75e4 */
-    double C;                   /* concentration parameter, 20 */
-    double ecc;                 /* ellipse ratio e, 2 */
-    double zeta_max_factor;     /* zeta_max = factor * P, 2.5e8 s */
-    double delta_min;           /* s^-1, 2e-9 */
-    int replacement_pressure;   /* Hibler/Kreyscher replacement pressure */
-    double auto_tolerance;      /* auto: free drift where exp(-C(1-A)) < tol */
-    /* collision rheology (Shen, Hibler & Lepparanta 1987) */
-    double coll_restitution;    /* e_r */
-    double coll_floe_diameter;  /* d = D, m */
-    double coll_max_conc;       /* C0 */
-    double coll_vfluct_min;     /* m/s: floor of v' (v' = kernel-weighted RMS deviation) */
-    /* momentum */
-    double rho_i, rho_a, rho_w; /* kg/m^3 */
-    double Ca, Cw;              /* drag coefficients */
-    double turn_air, turn_water;/* turning angles, degrees (+ to the right in the NH) */
-    double gravity;             /* m/s^2 */
-    int coriolis;               /* 0 disables (channel tests) */
-    int coast_no_slip;          /* 1: ghosts reverse velocity; 0: free slip */
-    double sml_min_factor, sml_max_factor; /* h kept within [min, max] * h0 */
-    /* health */
-    double speed_limit;         /* m/s: above is a fatal blow-up */
-    double thickness_limit;     /* m: mean thickness M / rho_i above is a fatal pile-up */
-    double mass_tolerance;      /* relative mass change per step no source explains */
-    /* thermodynamics */
-    double thermo_dt;           /* s (seed: 600); 0 = off */
-    sph_thermo_params thermo;
-} sph_params;
-
-void sph_params_default(sph_params *p);
-/* Range-checks every parameter. On failure returns SPH_STEP_FATAL and
- * names the parameter and its allowed range in *name, *lo, *hi. */
-int sph_params_check(const sph_params *p, const char **name, double *lo, double *hi);
 
 /* Land mask on a regular grid of the projected plane. Cells are land
  * (1) or sea (0); outside the grid is open boundary (particles leaving are

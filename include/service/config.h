@@ -2,9 +2,11 @@
  *
  * Every key has a path ("model.rheology.P0"), a type, a default (or is
  * required), bounds, a reloadable flag and one documentation line. That one
- * table (config.c: `config_keys`) drives parsing, validation, defaults, the
- * key reference (`sphice config-doc`) and the effective configuration shown
- * by GET /status. Unknown keys and wrong types are errors naming the key.
+ * table (config.c: the service's own keys, and the model.* keys from the
+ * core's parameter table, core/params.h) drives parsing, validation,
+ * defaults, the key reference (`sphice config-doc`) and the effective
+ * configuration shown by GET /status. Unknown keys and wrong types are
+ * errors naming the key.
  *
  * The parsed struct keeps its members plain: numbers, enums, malloc'd
  * strings and arrays, all freed by sph_config_free. The engine reads:

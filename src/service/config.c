@@ -4,12 +4,16 @@
  * Invariant: after a successful parse every member named by the table holds
  * either the file's value or the table's default; required keys (default
  * NULL) were present. Defaults are JSON text parsed by the same code as the
- * file, so a default can never bypass validation. */
+ * file, so a default can never bypass validation. The model.* keys are the
+ * core's parameter table (core/params.h): their defaults are that table's
+ * defaults written as JSON (sph_param_default_json), their bounds its
+ * bounds, save the service's own overrides (model_overrides). */
 #include "service/config.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -17,10 +21,6 @@
 
 #include "util/fileio.h"
 #include "util/log.h"
-
-_Static_assert(sizeof(sph_kernel_kind) == sizeof(int), "enums are stored as int");
-_Static_assert(sizeof(sph_solver_kind) == sizeof(int), "enums are stored as int");
-_Static_assert(sizeof(sph_thermo_model) == sizeof(int), "enums are stored as int");
 
 typedef enum { CT_BOOL, CT_INT, CT_DOUBLE, CT_STRING, CT_ENUM, CT_TODLIST, CT_STRLIST,
                CT_DBLLIST, CT_STRMAP, CT_OBJARRAY } cfg_type;
@@ -53,13 +53,6 @@ typedef struct cfg_table {
 #define C_(path, type, member, def, lo, hi, fl, names, doc) \
     K(struct sph_config, path, type, member, def, lo, hi, fl, names, doc)
 
-static const char *const kernel_names[] = {"gaussian", "wendland_c2", "cubic_spline", NULL};
-static const char *const solver_names[] = {"explicit", "mevp", "implicit", NULL};
-static const char *const unstable_names[] = {"substep", "refuse", NULL};
-static const char *const physics_names[] = {"auto", "full", "free_drift", NULL};
-static const char *const rheology_names[] = {"vp", "collision", NULL};
-static const char *const pressure_names[] = {"seed", "hibler", NULL};
-static const char *const thermo_names[] = {"off", "zero_layer", "multi_layer", "auto", NULL};
 static const char *const fkind_names[] = {"atmosphere", "ocean", "tide", NULL};
 static const char *const init_format_names[] = {"netcdf", "esri", NULL};
 static const char *const reinit_names[] = {"warm", "cold", "newer_raster", NULL};
@@ -102,7 +95,7 @@ static const cfg_table station_table = {station_keys, sizeof station_keys / size
                                         sizeof(cfg_station)};
 
 #define R CF_RELOAD
-static const cfg_key config_keys[] = {
+static const cfg_key head_keys[] = {
     C_("log_level", CT_ENUM, log_level, "\"info\"", 0, 0, R, level_names,
        "Log level: error, warn, info, debug."),
     C_("engine", CT_ENUM, engine, "\"forecast\"", 0, 0, CF_TEST, engine_names,
@@ -118,108 +111,12 @@ static const cfg_key config_keys[] = {
     C_("domain.projection", CT_STRING, domain.projection, "\"auto\"", 1, 511, R, NULL,
        "\"auto\" (local transverse Mercator at the domain centre) or a PROJ string."),
 
-    /* model: every member of sph_params */
-    C_("model.dt", CT_DOUBLE, model.dt, "0", 0, 3600, R, NULL,
-       "Dynamic time step, s; 0 = auto: the largest step within 0.6 of the measured stability envelope (half with replacement pressure; and f dt <= 0.1) that divides the thermodynamic step and the output interval (docs/dynamics.md). A number is used as given (refused if outside the envelope)."),
-    C_("model.kernel", CT_ENUM, model.kernel, "\"gaussian\"", 0, 0, R, kernel_names,
-       "SPH kernel: gaussian (seed), wendland_c2, cubic_spline."),
-    C_("model.kernel_radius", CT_DOUBLE, model.kernel_radius, "3", 1, 5, R, NULL,
-       "Gaussian kernel truncation radius in units of h (the seed's 4h box is 2); compact kernels use 2."),
-    C_("model.summation_density", CT_BOOL, model.summation_density, "false", 0, 0, R, NULL,
-       "Mass per area by SPH summation every step (seed); false: evolved by continuity from the seeded field (default, stable)."),
-    C_("model.max_neighbours", CT_INT, model.max_neighbours, "96", 8, 4096, R, NULL,
-       "Neighbour list capacity per particle; exceeding it is reported as particle clumping."),
-    C_("model.sml_min_factor", CT_DOUBLE, model.sml_min_factor, "0.5", 0.1, 1, R, NULL,
-       "Variable smoothing length kept above this times h0."),
-    C_("model.sml_max_factor", CT_DOUBLE, model.sml_max_factor, "2", 1, 10, R, NULL,
-       "Variable smoothing length kept below this times h0."),
-    C_("model.coast_no_slip", CT_BOOL, model.coast_no_slip, "false", 0, 0, R, NULL,
-       "Coasts: no-slip (mirror ghosts reverse velocity) instead of free slip."),
-    C_("model.variable_sml", CT_BOOL, model.variable_sml, "true", 0, 0, R, NULL,
-       "Variable smoothing length (seed eq. 10)."),
-    C_("model.gradient_correction", CT_BOOL, model.gradient_correction, "false", 0, 0, R, NULL,
-       "Kernel gradient correction (Bonet & Lok 1999) in the strain rates and the stress divergence: linear fields exact where the smoothing length varies; R300's ridged zone +0.47 % instead of +2.7 %; off by default until the benchmark matrix is re-run with it (docs/dynamics.md)."),
-    C_("model.sml_factor", CT_DOUBLE, model.sml_factor, "1", 0.1, 10, R, NULL,
-       "Initial smoothing length h0 = sml_factor x initial particle spacing."),
-    C_("model.solver", CT_ENUM, model.solver, "\"mevp\"", 0, 0, R, solver_names,
-       "Momentum solver: explicit (sub-stepped), mevp (modified/adaptive EVP), implicit (Picard + GMRES)."),
-    C_("model.unstable", CT_ENUM, model.unstable, "\"substep\"", 0, 0, R, unstable_names,
-       "Explicit solver beyond its stability limit: substep, or refuse (fail)."),
-    C_("model.max_substeps", CT_INT, model.max_substeps, "20000", 1, 10000000, R, NULL,
-       "Cap on explicit sub-steps per dynamic step; beyond it the step is refused."),
-    C_("model.explicit_safety", CT_DOUBLE, model.explicit_safety, "1", 0.001, 10, R, NULL,
-       "Explicit solver limit dt < safety x M h^2 / (zeta_max (1 + e^-2))."),
-    C_("model.evp.iterations", CT_INT, model.evp_iterations, "120", 1, 10000, R, NULL,
-       "mEVP sub-iterations per step."),
-    C_("model.evp.adaptive", CT_BOOL, model.evp_adaptive, "true", 0, 0, R, NULL,
-       "Adaptive EVP: local alpha = beta from the stability bound."),
-    C_("model.evp.alpha", CT_DOUBLE, model.evp_alpha, "300", 1, 1e6, R, NULL, "Fixed mEVP alpha."),
-    C_("model.evp.beta", CT_DOUBLE, model.evp_beta, "300", 1, 1e6, R, NULL, "Fixed mEVP beta."),
-    C_("model.evp.tol", CT_DOUBLE, model.evp_tol, "1e-7", 0, 1, R, NULL,
-       "mEVP: stop iterating when no particle's velocity changes by more than this, m/s."),
-    C_("model.evp.stall_window", CT_INT, model.evp_stall_window, "40", 0, 100000, R, NULL,
-       "auto physics: stop the mEVP iteration when its RMS velocity change has reached no "
-       "new minimum in this many iterations (a limit cycle; 0: off)."),
-    C_("model.implicit.max_picard", CT_INT, model.implicit_max_picard, "30", 1, 1000, R, NULL,
-       "Implicit solver: Picard iterations."),
-    C_("model.implicit.tol", CT_DOUBLE, model.implicit_tol, "1e-6", 1e-14, 1, R, NULL,
-       "Implicit solver: relative residual."),
-    C_("model.physics", CT_ENUM, model.physics, "\"auto\"", 0, 0, R, physics_names,
-       "auto (free drift where loose, rheology where packed), full, free_drift."),
-    C_("model.auto_tolerance", CT_DOUBLE, model.auto_tolerance, "1e-2", 0, 1, R, NULL,
-       "auto physics: free drift where exp(-C(1-A)) is below this."),
-    C_("model.rheology.kind", CT_ENUM, model.rheology, "\"vp\"", 0, 0, R, rheology_names,
-       "Rheology: vp (Hibler viscous-plastic) or collision (Shen, Hibler & Lepparanta 1987)."),
-    C_("model.rheology.pressure_form", CT_ENUM, model.pressure_form, "\"seed\"", 0, 0, R, pressure_names,
-       "seed: P = P0 exp(-C(1-A)) integrated as hbar P; hibler: P = P* hbar exp(-C(1-A))."),
-    C_("model.rheology.P0", CT_DOUBLE, model.P0, "1.0e4", 1, 1e7, R, NULL,
-       "Ice strength P0 (seed) or P* (hibler), N/m^2."),
-    C_("model.rheology.C", CT_DOUBLE, model.C, "20", 0, 100, R, NULL, "Concentration parameter C."),
-    C_("model.rheology.e", CT_DOUBLE, model.ecc, "2", 1, 10, R, NULL, "Yield ellipse ratio e."),
-    C_("model.rheology.zeta_max_factor", CT_DOUBLE, model.zeta_max_factor, "2.5e8", 1, 1e12, R, NULL,
-       "zeta_max = factor x P, s."),
-    C_("model.rheology.delta_min", CT_DOUBLE, model.delta_min, "2e-9", 1e-15, 1e-3, R, NULL,
-       "Minimum Delta, 1/s."),
-    C_("model.rheology.replacement_pressure", CT_BOOL, model.replacement_pressure, "false", 0, 0, R, NULL,
-       "Hibler/Kreyscher replacement pressure (resting stress 0 instead of -P/2)."),
-    C_("model.rheology.collision.restitution", CT_DOUBLE, model.coll_restitution, "0.5", 0, 1, R, NULL,
-       "Collision rheology: restitution coefficient e_r."),
-    C_("model.rheology.collision.floe_diameter", CT_DOUBLE, model.coll_floe_diameter, "100", 0.1, 1e5, R, NULL,
-       "Collision rheology: floe diameter D, m."),
-    C_("model.rheology.collision.max_concentration", CT_DOUBLE, model.coll_max_conc, "0.91", 0.1, 1, R, NULL,
-       "Collision rheology: maximum packing concentration C0."),
-    C_("model.rheology.collision.vfluct_min", CT_DOUBLE, model.coll_vfluct_min, "1e-3", 0, 10, R, NULL,
-       "Collision rheology: floor of the fluctuating velocity v' (kernel-weighted RMS deviation of neighbours), m/s."),
-    C_("model.momentum.rho_ice", CT_DOUBLE, model.rho_i, "900", 800, 1000, R, NULL, "Ice density, kg/m^3."),
-    C_("model.momentum.rho_air", CT_DOUBLE, model.rho_a, "1.3", 0.5, 2, R, NULL, "Air density, kg/m^3."),
-    C_("model.momentum.rho_water", CT_DOUBLE, model.rho_w, "1026", 990, 1050, R, NULL, "Sea water density, kg/m^3."),
-    C_("model.momentum.Ca", CT_DOUBLE, model.Ca, "1.2e-3", 0, 0.1, R, NULL, "Air drag coefficient."),
-    C_("model.momentum.Cw", CT_DOUBLE, model.Cw, "5.5e-3", 0, 0.1, R, NULL, "Water drag coefficient."),
-    C_("model.momentum.turn_air", CT_DOUBLE, model.turn_air, "0", -90, 90, R, NULL,
-       "Air turning angle, degrees (+ to the right in the NH)."),
-    C_("model.momentum.turn_water", CT_DOUBLE, model.turn_water, "0", -90, 90, R, NULL,
-       "Water turning angle, degrees (25 typical in the Arctic)."),
-    C_("model.momentum.gravity", CT_DOUBLE, model.gravity, "9.81", 9, 10, R, NULL, "Gravity, m/s^2."),
-    C_("model.momentum.coriolis", CT_BOOL, model.coriolis, "true", 0, 0, R, NULL,
-       "Coriolis force (off only for channel tests)."),
-    C_("model.health.speed_limit", CT_DOUBLE, model.speed_limit, "10", 0.1, 1000, R, NULL,
-       "Ice speed above which the run is declared blown up, m/s."),
-    C_("model.health.thickness_limit", CT_DOUBLE, model.thickness_limit, "30", 0.1, 1000, R, NULL,
-       "Mean ice thickness (ice volume per area) of a parcel above which the run is declared "
-       "blown up (a numerical pile-up), m."),
-    C_("model.health.mass_tolerance", CT_DOUBLE, model.mass_tolerance, "1e-10", 0, 1, R, NULL,
-       "Relative mass change per step no source explains before the run fails."),
-    C_("model.thermo.dt", CT_DOUBLE, model.thermo_dt, "600", 0, 86400, R, NULL,
-       "Thermodynamic step, s; 0 turns thermodynamics off."),
-    C_("model.thermo.model", CT_ENUM, model.thermo.model, "\"auto\"", 0, 0, R, thermo_names,
-       "off, zero_layer (Semtner 1976), multi_layer (Bitz & Lipscomb 1999), auto (by thickness)."),
-    C_("model.thermo.nlayers", CT_INT, model.thermo.nlayers, "7", 1, SPH_MAX_LAYERS, R, NULL,
-       "Multi-layer column layers."),
-    C_("model.thermo.auto_thickness", CT_DOUBLE, model.thermo.auto_thickness, "0.3", 0, 10, R, NULL,
-       "auto: zero-layer below this thickness, multi-layer above, m."),
-    C_("model.thermo.rho_ice", CT_DOUBLE, model.thermo.rho_i, "900", 800, 1000, R, NULL,
-       "Ice density in the thermodynamics, kg/m^3."),
+};
 
+/* Between head_keys and tail_keys: model.*, one key per row of the core's
+ * parameter table (core/params.h), built by config_table(). */
+
+static const cfg_key tail_keys[] = {
     {"forcing", CT_OBJARRAY, NULL, 1, 8, R, NULL, offsetof(struct sph_config, forcing),
      offsetof(struct sph_config, nforcing), &forcing_table,
      "Forcing sources (1 to 8), each an object with the keys below."},
@@ -328,8 +225,60 @@ static const cfg_key config_keys[] = {
        "Hindcast products; empty: output.dir/hindcast."),
 };
 #undef R
-static const cfg_table config_table = {config_keys, sizeof config_keys / sizeof config_keys[0],
-                                       sizeof(struct sph_config)};
+
+/* The service's own overrides of core rows. model.dt: 0 (the default) is
+ * the automatic step, resolved by the core once the particles are placed
+ * (sph_params_resolve_dt), and a configured step is at most an hour; the
+ * core's range (to 86400 s) also takes the stand-in step the engine checks
+ * the parameters with until the automatic step is known. */
+static const struct { const char *key, *def; double lo, hi; } model_overrides[] = {
+    {"dt", "0", 0, 3600},
+};
+
+static cfg_table config_table_;
+static pthread_once_t config_once = PTHREAD_ONCE_INIT;
+
+/* head_keys, the model.* keys from the core's table, tail_keys. Built once;
+ * on out of memory the table stays empty and sph_config_parse fails. */
+static void config_table_build(void)
+{
+    static const cfg_type of_param[] = {[SPH_PARAM_DOUBLE] = CT_DOUBLE, [SPH_PARAM_INT] = CT_INT,
+                                        [SPH_PARAM_BOOL] = CT_BOOL, [SPH_PARAM_ENUM] = CT_ENUM};
+    const size_t nh = sizeof head_keys / sizeof head_keys[0], nt = sizeof tail_keys / sizeof tail_keys[0];
+    size_t np;
+    const sph_param *rows = sph_param_table(&np);
+    cfg_key *keys = calloc(nh + np + nt, sizeof *keys);
+    char(*text)[2][96] = calloc(np, sizeof *text); /* per row: path, default */
+    if (!keys || !text) {
+        free(keys);
+        free(text);
+        return;
+    }
+    memcpy(keys, head_keys, sizeof head_keys);
+    for (size_t i = 0; i < np; i++) {
+        const sph_param *r = &rows[i];
+        cfg_key *k = &keys[nh + i];
+        snprintf(text[i][0], sizeof text[i][0], "model.%s", r->key);
+        sph_param_default_json(r, text[i][1], sizeof text[i][1]);
+        *k = (cfg_key){text[i][0], of_param[r->type], text[i][1], r->lo, r->hi,
+                       (r->flags & SPH_PARAM_RELOAD) ? CF_RELOAD : 0u, r->names,
+                       offsetof(struct sph_config, model) + r->offset, 0, NULL, r->doc};
+        for (size_t j = 0; j < sizeof model_overrides / sizeof model_overrides[0]; j++)
+            if (!strcmp(model_overrides[j].key, r->key)) {
+                k->def = model_overrides[j].def;
+                k->lo = model_overrides[j].lo;
+                k->hi = model_overrides[j].hi;
+            }
+    }
+    memcpy(keys + nh + np, tail_keys, sizeof tail_keys);
+    config_table_ = (cfg_table){keys, nh + np + nt, sizeof(struct sph_config)};
+}
+
+static const cfg_table *config_table(void)
+{
+    pthread_once(&config_once, config_table_build);
+    return &config_table_;
+}
 
 /* ---------------------------------------------------------------- helpers */
 
@@ -411,7 +360,7 @@ void sph_config_free(struct sph_config *c)
 {
     if (!c)
         return;
-    table_free(&config_table, c);
+    table_free(config_table(), c);
     free(c->file);
     free(c);
 }
@@ -816,12 +765,13 @@ int sph_config_parse(const char *text, const char *origin, struct sph_config **o
     }
     c->file = dupstr(where);
     sha256_hex(text, strlen(text), c->sha256);
-    /* Model fields without a key keep the core's defaults (the keyed ones
-     * are then set from the table, whose defaults test_config checks
-     * against sph_params_default). */
+    /* Model fields without a key (the thermodynamic column's) keep the
+     * core's defaults; the keyed ones are then set from the table, whose
+     * defaults are the core's (model.dt's override aside). */
     sph_params_default(&c->model);
-    int rc = c->file ? table_parse(&config_table, c, root, "", where, err)
-                     : sph_err_set(err, SPH_ERR_NOMEM, "config: out of memory");
+    const cfg_table *t = config_table();
+    int rc = c->file && t->keys ? table_parse(t, c, root, "", where, err)
+                                : sph_err_set(err, SPH_ERR_NOMEM, "config: out of memory");
     cJSON_Delete(root);
     if (!rc)
         rc = cross_check(c, where, err);
@@ -934,7 +884,7 @@ static cJSON *key_to_json(const cfg_key *k, const void *base)
 
 char *sph_config_to_json(const struct sph_config *c)
 {
-    cJSON *j = table_to_json(&config_table, c);
+    cJSON *j = table_to_json(config_table(), c);
     char *s = cJSON_Print(j);
     cJSON_Delete(j);
     return s;
@@ -947,8 +897,9 @@ int sph_config_keep_unreloadable(struct sph_config *fresh, const struct sph_conf
     size_t used = 0;
     if (len)
         changed[0] = 0;
-    for (size_t i = 0; i < config_table.nkeys; i++) {
-        const cfg_key *k = &config_table.keys[i];
+    const cfg_table *t = config_table();
+    for (size_t i = 0; i < t->nkeys; i++) {
+        const cfg_key *k = &t->keys[i];
         if (k->flags & CF_RELOAD)
             continue;
         cJSON *a = key_to_json(k, fresh), *b = key_to_json(k, old);
@@ -1021,12 +972,13 @@ static void doc_rows(FILE *f, const cfg_table *t, const char *prefix)
 void sph_config_doc(FILE *f)
 {
     fprintf(f, "# sphice configuration reference\n\n"
-               "Generated by `sphice config-doc` from the key table in `src/service/config.c`.\n"
+               "Generated by `sphice config-doc` from the key table in `src/service/config.c`; the\n"
+               "`model.*` keys come from the core's parameter table in `src/core/params.c`.\n"
                "The file is one JSON object; nested keys are written as objects (`model.rheology.P0` is\n"
                "`{\"model\": {\"rheology\": {\"P0\": 1e4}}}`). Unknown keys and wrong types are errors naming\n"
                "the key; every key has a default or is marked required. \"reload\" says whether SIGHUP\n"
                "applies a change (`restart`: the running value is kept until the service restarts).\n\n"
                "| key | type | default | allowed | reload | description |\n"
                "|---|---|---|---|---|---|\n");
-    doc_rows(f, &config_table, "");
+    doc_rows(f, config_table(), "");
 }

@@ -167,18 +167,9 @@ static int check_params(const struct sph_config *cfg, const sph_params *prm, sph
     const char *name = "";
     double lo = 0, hi = 0;
     if (sph_params_check(prm, &name, &lo, &hi) != SPH_STEP_OK) {
-        /* report the offending value: find it by name among the common ones */
-        const sph_params *p = prm;
-        double v = NAN;
-        if (!strcmp(name, "dt")) v = p->dt;
-        else if (!strcmp(name, "thermo_dt")) v = p->thermo_dt;
-        else if (!strcmp(name, "sml_factor")) v = p->sml_factor;
-        else if (!strcmp(name, "kernel_radius")) v = p->kernel_radius;
-        else if (!strcmp(name, "rho_i")) v = p->rho_i;
-        else if (!strcmp(name, "P0")) v = p->P0;
-        else if (!strcmp(name, "speed_limit")) v = p->speed_limit;
-        else if (!strcmp(name, "thickness_limit")) v = p->thickness_limit;
-        else if (!strcmp(name, "max_neighbours")) v = p->max_neighbours;
+        /* report the offending value: the row of the key it names */
+        const sph_param *r = sph_param_find(name);
+        double v = r ? sph_param_get(r, prm) : NAN;
         if (isfinite(v))
             return sph_err_set(err, SPH_ERR_PARAM, "model: parameter %s = %g outside [%g, %g]", name, v,
                                lo, hi);
@@ -196,26 +187,13 @@ static int check_params(const struct sph_config *cfg, const sph_params *prm, sph
  * so none of them falls between two steps. 0 when none is whole. */
 static double auto_dt_base(const engine *e, double t_next)
 {
-    const double iv[3] = {e->thermo_on ? e->cfg->model.thermo_dt : 0.0,
-                          e->cfg->output.interval_hours * 3600.0, t_next - e->t0};
-    long g = 0;
-    for (int i = 0; i < 3; i++) {
-        if (!(iv[i] >= 1.0) || fabs(iv[i] - round(iv[i])) > 1e-6)
-            continue;
-        long a = lround(iv[i]), b = g;
-        while (b) {
-            long t = a % b;
-            a = b;
-            b = t;
-        }
-        g = a;
-    }
-    return (double)g;
+    const double iv[2] = {e->cfg->output.interval_hours * 3600.0, t_next - e->t0};
+    return sph_params_dt_base(&e->cfg->model, iv, 2);
 }
 
 /* Auto time stepping: the step from the measured envelope at the placed
- * particles' spacing (sph_params_auto_dt), before the model's envelope
- * check in sph_model_init / sph_model_resume. */
+ * particles' spacing (the core's rule, sph_params_resolve_dt), before the
+ * model's envelope check in sph_model_init / sph_model_resume. */
 static int resolve_dt(engine *e, sph_error *err)
 {
     if (!e->dt_auto)
@@ -223,9 +201,7 @@ static int resolve_dt(engine *e, sph_error *err)
     double spacing = sph_model_spacing(e->m);
     const char *why = "";
     double stable = sph_params_stable_dt(&e->prm, spacing, NULL);
-    e->prm.dt = sph_params_auto_dt(&e->prm, spacing, e->dt_base, &why);
-    if (e->thermo_on && e->prm.dt > e->cfg->model.thermo_dt)
-        e->prm.dt = e->cfg->model.thermo_dt;
+    e->prm.dt = sph_params_resolve_dt(&e->prm, spacing, e->dt_base, &why);
     if (sph_model_set_params(e->m, &e->prm) != SPH_STEP_OK)
         return sph_err_set(err, SPH_ERR_PARAM, "model: auto time step %g s not accepted", e->prm.dt);
     if (isfinite(stable))
