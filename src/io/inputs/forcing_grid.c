@@ -1,129 +1,24 @@
-/* Grids of the forcing reader: discovery of the spatial dimensions and
- * coordinates of a variable, point location (regular: binary search;
- * curvilinear: walk from the previous hit, Newton inversion of the bilinear
- * map), bilinear interpolation that skips missing corners, grid rotation
- * angles and SSH gradients by centred differences on a spherical earth. */
+/* Grids of the forcing reader, format-free (a driver finds the coordinates
+ * and builds the grid with fgrid_setup_regular or fgrid_angles, then
+ * fgrid_add): point location (regular: binary search; curvilinear: walk
+ * from the previous hit, Newton inversion of the bilinear map), bilinear
+ * interpolation that skips missing corners, grid rotation angles and SSH
+ * gradients by centred differences on a spherical earth. */
 #include "forcing_impl.h"
 
-#include <ctype.h>
 #include <math.h>
-#include <netcdf.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 
 #define DEG (M_PI / 180.0)
 
-static double wrap180(double x)
+double fgrid_wrap180(double x)
 {
     x = fmod(x + 180.0, 360.0);
     if (x < 0)
         x += 360.0;
     return x - 180.0;
-}
-
-int fnc_text_att(int ncid, int varid, const char *name, char *buf, size_t len)
-{
-    nc_type type;
-    size_t n;
-    if (nc_inq_att(ncid, varid, name, &type, &n) != NC_NOERR || type != NC_CHAR || n + 1 > len)
-        return -1;
-    if (nc_get_att_text(ncid, varid, name, buf) != NC_NOERR)
-        return -1;
-    buf[n] = '\0';
-    while (n > 0 && (buf[n - 1] == '\0' || isspace((unsigned char)buf[n - 1])))
-        buf[--n] = '\0';
-    return 0;
-}
-
-static int units_is(const char *u, const char *const *list)
-{
-    for (; *list; list++)
-        if (strcasecmp(u, *list) == 0)
-            return 1;
-    return 0;
-}
-
-int fnc_is_lat(int ncid, int varid)
-{
-    static const char *const units[] = {"degrees_north", "degree_north", "degree_N",
-                                        "degrees_N",     "degreeN",      "degreesN", NULL};
-    static const char *const names[] = {"lat", "latitude", "nav_lat", "lat_rho", "XLAT", NULL};
-    char buf[128], name[NC_MAX_NAME + 1];
-    if (fnc_text_att(ncid, varid, "standard_name", buf, sizeof buf) == 0)
-        return strcmp(buf, "latitude") == 0;
-    if (fnc_text_att(ncid, varid, "units", buf, sizeof buf) == 0 && units_is(buf, units))
-        return 1;
-    if (nc_inq_varname(ncid, varid, name) == NC_NOERR && units_is(name, names))
-        return 1;
-    return 0;
-}
-
-int fnc_is_lon(int ncid, int varid)
-{
-    static const char *const units[] = {"degrees_east", "degree_east", "degree_E",
-                                        "degrees_E",    "degreeE",     "degreesE", NULL};
-    static const char *const names[] = {"lon", "longitude", "nav_lon", "lon_rho", "XLONG", NULL};
-    char buf[128], name[NC_MAX_NAME + 1];
-    if (fnc_text_att(ncid, varid, "standard_name", buf, sizeof buf) == 0)
-        return strcmp(buf, "longitude") == 0;
-    if (fnc_text_att(ncid, varid, "units", buf, sizeof buf) == 0 && units_is(buf, units))
-        return 1;
-    if (nc_inq_varname(ncid, varid, name) == NC_NOERR && units_is(name, names))
-        return 1;
-    return 0;
-}
-
-/* The 1-D coordinate variable of dimension dimid, or -1. */
-static int coord_var(int ncid, int dimid)
-{
-    char name[NC_MAX_NAME + 1];
-    int varid, nd, d;
-    if (nc_inq_dimname(ncid, dimid, name) != NC_NOERR || nc_inq_varid(ncid, name, &varid) != NC_NOERR)
-        return -1;
-    if (nc_inq_varndims(ncid, varid, &nd) != NC_NOERR || nd != 1 ||
-        nc_inq_vardimid(ncid, varid, &d) != NC_NOERR || d != dimid)
-        return -1;
-    return varid;
-}
-
-static int is_time_dim(int ncid, int dimid)
-{
-    int unlim = -1;
-    nc_inq_unlimdim(ncid, &unlim);
-    int cv = coord_var(ncid, dimid);
-    char buf[256];
-    if (cv >= 0) {
-        if (fnc_text_att(ncid, cv, "units", buf, sizeof buf) == 0 && strstr(buf, " since "))
-            return 1;
-        if (fnc_text_att(ncid, cv, "standard_name", buf, sizeof buf) == 0 &&
-            strcmp(buf, "time") == 0)
-            return 1;
-        if (fnc_text_att(ncid, cv, "axis", buf, sizeof buf) == 0 && strcmp(buf, "T") == 0)
-            return 1;
-    }
-    return dimid == unlim;
-}
-
-static int read_2d(int ncid, int varid, int ydim, int xdim, size_t ny, size_t nx, double *out)
-{
-    int dims[2];
-    if (nc_inq_vardimid(ncid, varid, dims) != NC_NOERR)
-        return -1;
-    if (dims[0] == ydim && dims[1] == xdim)
-        return nc_get_var_double(ncid, varid, out) == NC_NOERR ? 0 : -1;
-    if (dims[0] != xdim || dims[1] != ydim)
-        return -1;
-    double *tmp = malloc(nx * ny * sizeof *tmp);
-    if (!tmp)
-        return -1;
-    int rc = nc_get_var_double(ncid, varid, tmp) == NC_NOERR ? 0 : -1;
-    for (size_t i = 0; rc == 0 && i < nx; i++)
-        for (size_t j = 0; j < ny; j++)
-            out[j * nx + i] = tmp[i * ny + j];
-    free(tmp);
-    return rc;
 }
 
 void fgrid_free(fgrid *g)
@@ -147,7 +42,7 @@ void fgrid_free(fgrid *g)
  * when the file has one (radians, or any unit udunits converts to radian),
  * else from the node coordinates by centred differences (assumes the grid
  * is orthogonal, y axis 90 degrees anticlockwise from x). */
-static void grid_angles(fgrid *g, const double *angle)
+void fgrid_angles(fgrid *g, const double *angle)
 {
     size_t nx = g->nx, ny = g->ny;
     for (size_t j = 0; j < ny; j++)
@@ -158,7 +53,7 @@ static void grid_angles(fgrid *g, const double *angle)
                 a = angle[p];
             } else {
                 size_t i0 = i > 0 ? i - 1 : i, i1 = i + 1 < nx ? i + 1 : i;
-                double dlon = wrap180(g->lon2[j * nx + i1] - g->lon2[j * nx + i0]);
+                double dlon = fgrid_wrap180(g->lon2[j * nx + i1] - g->lon2[j * nx + i0]);
                 double dlat = g->lat2[j * nx + i1] - g->lat2[j * nx + i0];
                 a = atan2(dlat, dlon * cos(g->lat2[p] * DEG));
             }
@@ -167,7 +62,7 @@ static void grid_angles(fgrid *g, const double *angle)
         }
 }
 
-static int setup_regular(fgrid *g, const fsource *s, const char *path, sph_error *err)
+int fgrid_setup_regular(fgrid *g, const fsource *s, const char *path, sph_error *err)
 {
     size_t nx = g->nx, ny = g->ny;
     for (size_t i = 1; i < nx; i++) {
@@ -190,7 +85,7 @@ static int setup_regular(fgrid *g, const fsource *s, const char *path, sph_error
     g->lon_wrap = nx > 1 && gap > 1e-9 && gap <= 1.5 * dlon;
     for (size_t j = 0; j < ny; j++)
         for (size_t i = 0; i < nx; i++) {
-            g->lon2[j * nx + i] = wrap180(g->lon1[i]);
+            g->lon2[j * nx + i] = fgrid_wrap180(g->lon1[i]);
             g->lat2[j * nx + i] = g->lat1[j];
         }
     snprintf(g->desc, sizeof g->desc, "regular %.6gx%.6g deg %zux%zu%s", dlon, dlat, nx, ny,
@@ -198,280 +93,19 @@ static int setup_regular(fgrid *g, const fsource *s, const char *path, sph_error
     return 0;
 }
 
-static int is_pressure_units(const char *u)
+fgrid *fgrid_find(const fsource *s, const char *key)
 {
-    static const char *const list[] = {"Pa", "hPa", "kPa", "mbar", "millibar", "mb", "bar",
-                                       "atm", NULL};
-    return units_is(u, list);
-}
-
-static int is_vertical(int ncid, int cv)
-{
-    static const char *const std[] = {
-        "depth", "height", "altitude", "air_pressure", "sea_water_pressure",
-        "model_level_number", "ocean_s_coordinate", "ocean_s_coordinate_g1",
-        "ocean_s_coordinate_g2", "ocean_sigma_coordinate", "ocean_sigma_z_coordinate",
-        "ocean_double_sigma_coordinate", "atmosphere_sigma_coordinate",
-        "atmosphere_hybrid_sigma_pressure_coordinate", "atmosphere_hybrid_height_coordinate",
-        "atmosphere_sleve_coordinate", NULL};
-    static const char *const len_units[] = {"m", "meter", "meters", "metre", "metres", "km",
-                                            "cm", "dbar", "decibar", NULL};
-    char buf[128];
-    if (fnc_text_att(ncid, cv, "axis", buf, sizeof buf) == 0)
-        return strcasecmp(buf, "Z") == 0;
-    if (fnc_text_att(ncid, cv, "positive", buf, sizeof buf) == 0)
-        return 1;
-    if (fnc_text_att(ncid, cv, "standard_name", buf, sizeof buf) == 0 && units_is(buf, std))
-        return 1;
-    if (fnc_text_att(ncid, cv, "units", buf, sizeof buf) == 0 &&
-        (units_is(buf, len_units) || is_pressure_units(buf)))
-        return 1;
-    return 0;
-}
-
-int fgrid_level(fsource *s, const char *path, int ncid, int varid, fvfile *vf, char *what,
-                size_t len, sph_error *err)
-{
-    int dimids[NC_MAX_VAR_DIMS];
-    char vname[NC_MAX_NAME + 1] = "?", dname[NC_MAX_NAME + 1] = "?";
-    nc_inq_varname(ncid, varid, vname);
-    nc_inq_vardimid(ncid, varid, dimids);
-    what[0] = '\0';
-    for (int d = 0; d < vf->ndims; d++) {
-        vf->level[d] = 0;
-        if (d == vf->tdim || d == vf->ydim || d == vf->xdim)
-            continue;
-        size_t n = 0;
-        nc_inq_dimlen(ncid, dimids[d], &n);
-        nc_inq_dimname(ncid, dimids[d], dname);
-        if (n <= 1)
-            continue;
-        if (strcmp(dname, "expver") == 0) {
-            vf->merge_dim = d;
-            vf->merge_n = n;
-            size_t used = strlen(what);
-            snprintf(what + used, len - used,
-                     "%sexpver merged (the first valid of its %zu values at each point)",
-                     used ? ", " : "", n);
-            continue;
-        }
-        int cv = coord_var(ncid, dimids[d]);
-        if (cv < 0 || !is_vertical(ncid, cv))
-            return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
-                                "variable '%s': dimension '%s' (%zu values) is neither time, "
-                                "latitude, longitude nor a vertical coordinate; give one level",
-                                vname, dname, n);
-        double *z = malloc(n * sizeof *z);
-        if (!z)
-            return forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
-        if (nc_get_var_double(ncid, cv, z) != NC_NOERR) {
-            free(z);
-            return forcing_fail(err, s, path, SPH_ERR_NETCDF,
-                                "cannot read the vertical coordinate '%s'", dname);
-        }
-        char units[64] = "", sn[128] = "";
-        fnc_text_att(ncid, cv, "units", units, sizeof units);
-        fnc_text_att(ncid, cv, "standard_name", sn, sizeof sn);
-        int pressure = is_pressure_units(units) || strcmp(sn, "air_pressure") == 0;
-        size_t best = n;
-        for (size_t k = 0; k < n; k++) {
-            if (!isfinite(z[k]))
-                continue;
-            if (best == n || (pressure ? z[k] > z[best] : fabs(z[k]) < fabs(z[best])))
-                best = k;
-        }
-        if (best == n) {
-            free(z);
-            return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
-                                "vertical coordinate '%s' has no finite value", dname);
-        }
-        vf->level[d] = best;
-        size_t used = strlen(what);
-        snprintf(what + used, len - used,
-                 "%sthe level nearest the surface, %s = %g%s%s (index %zu of %zu)",
-                 used ? ", " : "", dname, z[best], units[0] ? " " : "", units, best, n);
-        free(z);
-    }
-    return 0;
-}
-
-int fgrid_read(fsource *s, const char *path, int ncid, int varid, fvfile *vf, fgrid **out,
-               sph_error *err)
-{
-    int ndims, dimids[NC_MAX_VAR_DIMS];
-    char vname[NC_MAX_NAME + 1] = "?";
-    nc_inq_varname(ncid, varid, vname);
-    if (nc_inq_varndims(ncid, varid, &ndims) != NC_NOERR || ndims > FORCING_MAX_DIMS ||
-        nc_inq_vardimid(ncid, varid, dimids) != NC_NOERR)
-        return forcing_fail(err, s, path, SPH_ERR_NETCDF,
-                            "variable '%s': unsupported dimensions", vname);
-    vf->ndims = ndims;
-    vf->tdim = vf->ydim = vf->xdim = -1;
-    int latv = -1, lonv = -1, curv = 0;
-    for (int d = 0; d < ndims; d++) {
-        int cv = coord_var(ncid, dimids[d]);
-        if (vf->tdim < 0 && is_time_dim(ncid, dimids[d])) {
-            vf->tdim = d;
-        } else if (cv >= 0 && fnc_is_lat(ncid, cv)) {
-            vf->ydim = d;
-            latv = cv;
-        } else if (cv >= 0 && fnc_is_lon(ncid, cv)) {
-            vf->xdim = d;
-            lonv = cv;
-        }
-    }
-    if (vf->ydim < 0 || vf->xdim < 0) {
-        /* Curvilinear: 2-D latitude/longitude named in "coordinates", or any
-         * 2-D latitude/longitude variable over two of this variable's dims. */
-        latv = lonv = -1;
-        char coords[512];
-        if (fnc_text_att(ncid, varid, "coordinates", coords, sizeof coords) == 0) {
-            char *save = NULL;
-            for (char *tok = strtok_r(coords, " ", &save); tok; tok = strtok_r(NULL, " ", &save)) {
-                int id, nd;
-                if (nc_inq_varid(ncid, tok, &id) != NC_NOERR ||
-                    nc_inq_varndims(ncid, id, &nd) != NC_NOERR || nd != 2)
-                    continue;
-                if (latv < 0 && fnc_is_lat(ncid, id))
-                    latv = id;
-                else if (lonv < 0 && fnc_is_lon(ncid, id))
-                    lonv = id;
-            }
-        }
-        int nvars = 0;
-        nc_inq_nvars(ncid, &nvars);
-        for (int id = 0; id < nvars && (latv < 0 || lonv < 0); id++) {
-            int nd, dd[2];
-            if (nc_inq_varndims(ncid, id, &nd) != NC_NOERR || nd != 2)
-                continue;
-            nc_inq_vardimid(ncid, id, dd);
-            int in0 = 0, in1 = 0;
-            for (int d = 0; d < ndims; d++) {
-                in0 |= dimids[d] == dd[0];
-                in1 |= dimids[d] == dd[1];
-            }
-            if (!in0 || !in1)
-                continue;
-            if (latv < 0 && fnc_is_lat(ncid, id))
-                latv = id;
-            else if (lonv < 0 && fnc_is_lon(ncid, id))
-                lonv = id;
-        }
-        if (latv < 0 || lonv < 0)
-            return forcing_fail(err, s, path, SPH_ERR_MISSING_VAR,
-                                "variable '%s': no latitude/longitude coordinates found", vname);
-        int dd[2];
-        nc_inq_vardimid(ncid, latv, dd);
-        for (int d = 0; d < ndims; d++) {
-            if (dimids[d] == dd[0])
-                vf->ydim = d;
-            if (dimids[d] == dd[1])
-                vf->xdim = d;
-        }
-        if (vf->ydim < 0 || vf->xdim < 0 || vf->ydim == vf->tdim || vf->xdim == vf->tdim)
-            return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
-                                "variable '%s': coordinates do not match its dimensions", vname);
-        curv = 1;
-    }
-    vf->transpose = vf->xdim < vf->ydim;
-    size_t nx, ny;
-    nc_inq_dimlen(ncid, dimids[vf->xdim], &nx);
-    nc_inq_dimlen(ncid, dimids[vf->ydim], &ny);
-    if (nx < 2 || ny < 2)
-        return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
-                            "variable '%s': grid %zux%zu has fewer than 2 points per axis", vname,
-                            nx, ny);
-    char latname[NC_MAX_NAME + 1], lonname[NC_MAX_NAME + 1];
-    nc_inq_varname(ncid, latv, latname);
-    nc_inq_varname(ncid, lonv, lonname);
-    char key[600];
-    snprintf(key, sizeof key, "%s/%s/%zu/%zu/%d", lonname, latname, nx, ny, curv);
     for (fgrid *g = s->grids; g; g = g->next)
-        if (strcmp(g->key, key) == 0) {
-            *out = g;
-            return 0;
-        }
-    fgrid *g = calloc(1, sizeof *g);
-    if (!g)
-        return forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
-    g->curvilinear = curv;
-    g->nx = nx;
-    g->ny = ny;
-    snprintf(g->key, sizeof g->key, "%s", key);
-    g->lon2 = malloc(nx * ny * sizeof(double));
-    g->lat2 = malloc(nx * ny * sizeof(double));
-    int rc = 0;
-    if (!g->lon2 || !g->lat2) {
-        rc = forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
-    } else if (!curv) {
-        g->lon1 = malloc(nx * sizeof(double));
-        g->lat1 = malloc(ny * sizeof(double));
-        if (!g->lon1 || !g->lat1)
-            rc = forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
-        else if (nc_get_var_double(ncid, lonv, g->lon1) != NC_NOERR ||
-                 nc_get_var_double(ncid, latv, g->lat1) != NC_NOERR)
-            rc = forcing_fail(err, s, path, SPH_ERR_NETCDF, "cannot read coordinates '%s', '%s'",
-                              lonname, latname);
-        else
-            rc = setup_regular(g, s, path, err);
-    } else {
-        int dd[2];
-        nc_inq_vardimid(ncid, latv, dd);
-        if (read_2d(ncid, latv, dd[0], dd[1], ny, nx, g->lat2) ||
-            read_2d(ncid, lonv, dd[0], dd[1], ny, nx, g->lon2)) {
-            rc = forcing_fail(err, s, path, SPH_ERR_NETCDF,
-                              "cannot read 2-D coordinates '%s', '%s'", lonname, latname);
-        } else {
-            for (size_t p = 0; p < nx * ny; p++) {
-                if (!isfinite(g->lon2[p]) || !isfinite(g->lat2[p])) {
-                    rc = forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
-                                      "2-D coordinates '%s'/'%s' contain missing values", lonname,
-                                      latname);
-                    break;
-                }
-                g->lon2[p] = wrap180(g->lon2[p]);
-            }
-            g->cosang = malloc(nx * ny * sizeof(double));
-            g->sinang = malloc(nx * ny * sizeof(double));
-            double *angle = malloc(nx * ny * sizeof(double));
-            if (!rc && (!g->cosang || !g->sinang || !angle))
-                rc = forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
-            if (!rc) {
-                /* An angle-like variable over the same dimensions. */
-                int nvars = 0, found = 0;
-                nc_inq_nvars(ncid, &nvars);
-                for (int id = 0; id < nvars && !found; id++) {
-                    char nm[NC_MAX_NAME + 1], sn[128] = "", un[64] = "radian";
-                    int nd;
-                    nc_inq_varname(ncid, id, nm);
-                    nc_inq_varndims(ncid, id, &nd);
-                    fnc_text_att(ncid, id, "standard_name", sn, sizeof sn);
-                    if (nd != 2 || (strcasecmp(nm, "angle") != 0 &&
-                                    strcmp(sn, "angle_of_rotation_from_east_to_x") != 0))
-                        continue;
-                    fnc_text_att(ncid, id, "units", un, sizeof un);
-                    double fac = strncasecmp(un, "deg", 3) == 0 ? DEG : 1.0;
-                    if (read_2d(ncid, id, dd[0], dd[1], ny, nx, angle) == 0) {
-                        for (size_t p = 0; p < nx * ny; p++)
-                            angle[p] *= fac;
-                        found = 1;
-                    }
-                }
-                grid_angles(g, found ? angle : NULL);
-            }
-            free(angle);
-            snprintf(g->desc, sizeof g->desc, "curvilinear %zux%zu", nx, ny);
-        }
-    }
-    if (rc) {
-        fgrid_free(g);
-        return rc;
-    }
+        if (strcmp(g->key, key) == 0)
+            return g;
+    return NULL;
+}
+
+void fgrid_add(fsource *s, fgrid *g)
+{
     g->stamp = (unsigned long)-1;
     g->next = s->grids;
     s->grids = g;
-    *out = g;
-    return 0;
 }
 
 /* Index i with a[i] <= x <= a[i+1] in a monotonic array (either order), and
@@ -536,7 +170,7 @@ static int cell_invert(const fgrid *g, size_t i, size_t j, double lon, double la
     size_t c[4] = {j * nx + i, j * nx + i + 1, (j + 1) * nx + i, (j + 1) * nx + i + 1};
     double X[4], Y[4];
     for (int k = 0; k < 4; k++) {
-        X[k] = lon + wrap180(g->lon2[c[k]] - lon);
+        X[k] = lon + fgrid_wrap180(g->lon2[c[k]] - lon);
         Y[k] = g->lat2[c[k]];
     }
     double a = 0.5, b = 0.5;
@@ -612,7 +246,7 @@ static int locate_curvilinear(const fgrid *g, double lon, double lat, size_t *hi
                            (bj + 1) * nx + bi + 1};
             double xmin = 1e9, xmax = -1e9, ymin = 1e9, ymax = -1e9;
             for (int k = 0; k < 4; k++) {
-                double x = wrap180(g->lon2[c[k]] - lon);
+                double x = fgrid_wrap180(g->lon2[c[k]] - lon);
                 xmin = fmin(xmin, x);
                 xmax = fmax(xmax, x);
                 ymin = fmin(ymin, g->lat2[c[k]]);
@@ -731,7 +365,7 @@ int fgrid_interp(const fgrid *g, const double *slice, size_t p, double lon, doub
             size_t q = (size_t)j * nx + (size_t)i;
             if (isnan(slice[q]))
                 continue;
-            double dx = wrap180(g->lon2[q] - lon) * cl, dy = g->lat2[q] - lat;
+            double dx = fgrid_wrap180(g->lon2[q] - lon) * cl, dy = g->lat2[q] - lat;
             double d = dx * dx + dy * dy;
             if (d < best) {
                 best = d;
@@ -774,9 +408,9 @@ void fgrid_gradient(const fgrid *g, const double *h, double *gx, double *gy)
             if (pa == pb || qa == qb)
                 continue;
             double cl = cos(g->lat2[p] * DEG);
-            double ex = wrap180(g->lon2[pb] - g->lon2[pa]) * DEG * cl * FORCING_EARTH_RADIUS;
+            double ex = fgrid_wrap180(g->lon2[pb] - g->lon2[pa]) * DEG * cl * FORCING_EARTH_RADIUS;
             double nxm = (g->lat2[pb] - g->lat2[pa]) * DEG * FORCING_EARTH_RADIUS;
-            double ey = wrap180(g->lon2[qb] - g->lon2[qa]) * DEG * cl * FORCING_EARTH_RADIUS;
+            double ey = fgrid_wrap180(g->lon2[qb] - g->lon2[qa]) * DEG * cl * FORCING_EARTH_RADIUS;
             double nym = (g->lat2[qb] - g->lat2[qa]) * DEG * FORCING_EARTH_RADIUS;
             double hx = h[pb] - h[pa], hy = h[qb] - h[qa];
             /* [ex nxm; ey nym] [dh/dE; dh/dN] = [hx; hy] */
