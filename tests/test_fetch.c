@@ -7,6 +7,7 @@
  * 304 and no re-download (server hits counted); ETag and If-Modified-Since.
  * file:// and plain paths; URL templates against hand-computed dates. */
 #include "io/fetch.h"
+#include "service/cycle.h"
 
 #include <arpa/inet.h>
 #include <curl/curl.h>
@@ -217,22 +218,28 @@ int main(void)
     trunc_body = (slow_body){good_bytes, good_len, good_len / 2, 0};
     stall_body = (slow_body){good_bytes, good_len, 0, 1}; /* headers, then silence */
 
-    /* --- templates (dates worked out by hand) --- */
+    /* --- templates (dates worked out by hand): the one template syntax is
+     * the configuration's strftime form (service/cycle.h); a lead time is
+     * expanded as the valid time, cycle + lead --- */
     double t;
     time_parse_iso("1999-02-08T06:00:00Z", &t);
     char out[256];
-    CHECK(fetch_expand_template("https://x/{YYYY}/{MM}/{DD}/gfs.t{HH}z.{yyyymmdd}.nc", t, out, sizeof out, &err) == SPH_OK &&
+    CHECK(cycle_expand_template("https://x/%Y/%m/%d/gfs.t%Hz.%Y%m%d.nc", t, out, sizeof out, &err) == SPH_OK &&
           strcmp(out, "https://x/1999/02/08/gfs.t06z.19990208.nc") == 0, "template: %s %s", out, err.msg);
-    CHECK(fetch_expand_template_lead("f{FFF}_{valid:YYYYMMDDHH}_{JJJ}", t, 42, out, sizeof out, &err) == SPH_OK &&
-          strcmp(out, "f042_1999021000_039") == 0, "lead template: %s", out);
+    CHECK(cycle_expand_template("f_%Y%m%d%H", t + 42 * 3600.0, out, sizeof out, &err) == SPH_OK &&
+          strcmp(out, "f_1999021000") == 0, "lead template: %s", out);
+    CHECK(cycle_expand_template("%j", t, out, sizeof out, &err) == SPH_OK && strcmp(out, "039") == 0,
+          "day of year: %s", out);
     time_parse_iso("2000-12-31T23:00:00Z", &t);
-    CHECK(fetch_expand_template_lead("{valid:yyyymmdd}{valid:HH} {JJJ}", t, 1, out, sizeof out, &err) == SPH_OK &&
-          strcmp(out, "2001010100 366") == 0, "year rollover: %s", out);
+    CHECK(cycle_expand_template("%Y%m%d%H", t + 3600.0, out, sizeof out, &err) == SPH_OK &&
+          strcmp(out, "2001010100") == 0, "year rollover: %s", out);
+    CHECK(cycle_expand_template("%j", t, out, sizeof out, &err) == SPH_OK && strcmp(out, "366") == 0,
+          "leap day of year: %s", out);
     sph_error_clear(&err);
-    CHECK(fetch_expand_template("a{YY}b", t, out, sizeof out, &err) == SPH_ERR_CONFIG && strstr(err.msg, "{YY}"),
+    CHECK(cycle_expand_template("a%Qb", t, out, sizeof out, &err) == SPH_ERR_CONFIG && strstr(err.msg, "%Q"),
           "unknown placeholder: %s", err.msg);
     sph_error_clear(&err);
-    CHECK(fetch_expand_template("{YYYY}{YYYY}", t, out, 6, &err) == SPH_ERR_CONFIG, "too long");
+    CHECK(cycle_expand_template("%Y%Y", t, out, 6, &err) == SPH_ERR_CONFIG, "too long");
 
     /* --- server --- */
     struct sockaddr_in sa;

@@ -1,11 +1,11 @@
 /* Downloads of forcing and initial-state files (libcurl).
  *
- * A source is a URL template expanded for a cycle (fetch_expand_template),
- * fetched into a cache directory (fetch_url) and checked to be valid
- * NetCDF with the expected variables before it gets its final name. The
- * cache is never left with a partial file: bytes go to
- * "<name>.part.<pid>.<serial>", which is renamed only after the check, and removed
- * on any failure.
+ * A source is a URL, expanded for a cycle by the caller (the configuration's
+ * strftime template fields, %Y %m %d %H %M %j), fetched into a cache
+ * directory (fetch_url) and checked to be valid NetCDF with the expected
+ * variables before it gets its final name. The cache is never left with a
+ * partial file: bytes go to "<name>.part.<pid>.<serial>", which is renamed
+ * only after the check, and removed on any failure.
  *
  * URL schemes: http://, https://, ftp:// (libcurl); file://PATH and a plain
  * path (no scheme) are used in place, not copied, and checked the same way.
@@ -53,19 +53,6 @@ typedef struct fetch_result {
     int downloaded;     /* 1 if new bytes were stored in the cache */
     long long bytes;    /* size of the file returned */
 } fetch_result;
-
-/* Expands a URL or path template for a cycle time (seconds since 1970Z):
- *   {YYYY} {MM} {DD} {HH}    year, month, day, hour of the cycle
- *   {yyyymmdd} {YYYYMMDD}    date of the cycle; {YYYYMMDDHH} date and hour
- *   {JJJ}                    day of year (001..366)
- *   {FFF} {FF}               lead time in hours, 3 or 2 digits
- *   {valid:YYYY} {valid:MM} {valid:DD} {valid:HH} {valid:YYYYMMDD}
- *   {valid:YYYYMMDDHH}       the same fields of cycle + lead
- * Unknown placeholders and output longer than len are errors. */
-int fetch_expand_template(const char *tmpl, double cycle_time, char *out, size_t len,
-                          sph_error *err);
-int fetch_expand_template_lead(const char *tmpl, double cycle_time, double lead_hours, char *out,
-                               size_t len, sph_error *err);
 
 /* Fetches `url` (see above) and returns the local path and its SHA-256.
  * sha256_hex may be NULL. */

@@ -18,6 +18,7 @@
 
 #include <stddef.h>
 #include "util/err.h"
+#include "util/limits.h"
 
 typedef enum {
     FORCING_ATMOSPHERE = 0, /* wind, air temperature, humidity, radiation */
@@ -98,7 +99,7 @@ int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const d
 
 /* Description of what was found, for `sphice check` (JSON or table). */
 typedef struct forcing_var_info {
-    char source[64], standard_name[96], variable[64], file[512], units[64];
+    char source[SPHICE_MAX_NAME + 1], standard_name[96], variable[64], file[512], units[64];
     char grid[96];            /* "regular 0.25x0.25 deg 121x81", "curvilinear 50x40" */
     double t_first, t_last;   /* seconds since 1970 */
     double fill_fraction;     /* fraction of missing values in the first slice */

@@ -29,13 +29,14 @@
 #include "io/edge.h"
 #include "io/verify.h"
 #include "util/err.h"
+#include "util/limits.h"
 
 #define PROD_MAX_PRODUCTS 32   /* as FC_MAX_PRODUCTS */
 #define PROD_NAME_LEN 256
 #define PROD_FILL_FLOAT 1.0e20f /* _FillValue of every float variable */
 
 typedef struct prod_station {
-    char name[64];
+    char name[SPHICE_MAX_NAME + 1];
     double lon, lat;   /* degrees; must lie inside the output grid */
 } prod_station;
 

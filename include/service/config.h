@@ -26,6 +26,7 @@
 #include "core/model.h"
 #include "io/forcing.h"
 #include "util/err.h"
+#include "util/limits.h"
 
 #define CFG_MAX_CYCLES 48
 
@@ -38,7 +39,8 @@ typedef struct cfg_todlist { int sec[CFG_MAX_CYCLES]; size_t n; } cfg_todlist;
 typedef struct cfg_forcing_source {
     char *name;
     int kind;               /* forcing_kind */
-    cfg_strlist urls;       /* templates: local path, file://, http(s)://; strftime %Y %m %d %H %M %j */
+    cfg_strlist urls;       /* at most SPHICE_MAX_FILES templates: local path, file://,
+                               http(s)://; strftime %Y %m %d %H %M %j */
     cfg_strmap variables;   /* standard_name -> variable in the file */
     cfg_strlist required;   /* quantity names (see config_quantity_flags) */
     cfg_strlist optional_q; /* key "optional" */
@@ -74,7 +76,7 @@ struct sph_config {
 
     sph_params model;           /* every field has a key under model. */
 
-    cfg_forcing_source *forcing;
+    cfg_forcing_source *forcing; /* at most SPHICE_MAX_SOURCES */
     size_t nforcing;
 
     struct {

@@ -19,11 +19,13 @@
 #include "service/forecast.h"
 #include "service/history.h"
 #include "util/err.h"
+#include "util/limits.h"
 
 struct sph_config;
 
-#define CYCLE_MAX_SOURCES 8
-#define CYCLE_MAX_FILES 64
+/* Old names of the limits in util/limits.h. */
+#define CYCLE_MAX_SOURCES SPHICE_MAX_SOURCES
+#define CYCLE_MAX_FILES SPHICE_MAX_FILES
 
 typedef int (*cycle_engine_fn)(const struct sph_config *cfg, const forecast_request *req,
                                forecast_progress *prog, const volatile sig_atomic_t *cancel,
@@ -74,7 +76,7 @@ typedef struct cycle_report {
     char message[1024];    /* the error, or a summary */
     char product_dir[4096];
     size_t nsources;
-    char source_name[CYCLE_MAX_SOURCES][64];
+    char source_name[SPHICE_MAX_SOURCES][SPHICE_MAX_NAME + 1];
     double source_age_h[CYCLE_MAX_SOURCES]; /* cycle time - issue time used; NaN if none */
     forecast_result res;
 } cycle_report;

@@ -13,6 +13,7 @@
 #include <signal.h>
 #include <stddef.h>
 #include "util/err.h"
+#include "util/limits.h"
 
 struct sph_config;
 
@@ -36,8 +37,11 @@ typedef struct forecast_request {
     double hours;             /* forecast length */
     const char *stage_dir;    /* where products are written */
     const char *warm_start;   /* particle file of the previous cycle, or NULL */
-    const char *const *forcing_files[8]; /* per configured source: local files (NULL-terminated) */
-    const char *forcing_sha256[64];      /* "path sha256" strings for provenance, NULL-terminated */
+    const char *const *forcing_files[SPHICE_MAX_SOURCES]; /* per configured source: local files
+                                                             (NULL-terminated) */
+    /* "path sha256" strings for provenance, NULL-terminated: room for every
+     * file of every source */
+    const char *forcing_sha256[SPHICE_MAX_PROVENANCE + 1];
     int stale;                /* forcing older than wanted: flag products */
     const char *observation;  /* observed concentration raster for verification, or NULL */
 } forecast_request;

@@ -1,13 +1,14 @@
-/* Forcing from CF NetCDF files (io/forcing.h): sources, variable discovery,
- * unpacking and units, time axes over many files, the two-slot slice cache
- * and sampling at particle positions. Grids are in forcing_grid.c, harmonic
- * tides in forcing_tide.c. */
+/* The forcing reader (io/forcing.h), format-free: sources, variable
+ * discovery, unpacking and units, time axes over many files, the two-slot
+ * slice cache, coverage checks and sampling at particle positions. Files
+ * are read only through the driver table (forcing_impl.h); the NetCDF
+ * driver is forcing_netcdf.c. Grids are in forcing_grid.c, harmonic tides
+ * in forcing_tide.c. */
 #include "forcing_impl.h"
 #include "util/log.h"
 #include "util/timeutil.h"
 
 #include <math.h>
-#include <netcdf.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -81,23 +82,38 @@ static void iso(double t, char *buf, size_t len)
     time_format_iso(t, buf, len);
 }
 
-/* ---- files ---- */
+/* ---- drivers and files ---- */
 
-static int src_ncid(fsource *s, int file, int *ncid, sph_error *err)
+#define FORCING_DRIVER_ENTRY(n) &forcing_driver_##n,
+static const forcing_driver *const drivers[] = {FORCING_DRIVERS(FORCING_DRIVER_ENTRY)};
+#undef FORCING_DRIVER_ENTRY
+
+/* The driver of the file at path: the first that claims it, else the
+ * first of the table (whose open then says what is wrong). */
+static const forcing_driver *driver_for(const char *path)
+{
+    for (size_t i = 0; i < sizeof drivers / sizeof drivers[0]; i++)
+        if (drivers[i]->probe(path))
+            return drivers[i];
+    return drivers[0];
+}
+
+/* File `file` of the source, kept open until another one is needed. */
+static int src_file(fsource *s, int file, void **fh, sph_error *err)
 {
     if (s->open_file == file) {
-        *ncid = s->open_ncid;
+        *fh = s->open_fh;
         return 0;
     }
     if (s->open_file >= 0)
-        nc_close(s->open_ncid);
+        s->drv->close(s->open_fh);
     s->open_file = -1;
-    int rc = nc_open(s->paths[file], NC_NOWRITE, ncid);
-    if (rc != NC_NOERR)
-        return forcing_fail(err, s, s->paths[file], SPH_ERR_NETCDF, "cannot open: %s",
-                            nc_strerror(rc));
+    s->open_fh = NULL;
+    int rc = s->drv->open(s, file, fh, err);
+    if (rc)
+        return rc;
     s->open_file = file;
-    s->open_ncid = *ncid;
+    s->open_fh = *fh;
     return 0;
 }
 
@@ -124,17 +140,18 @@ static void fvar_free(fvar *v)
     free(v);
 }
 
-/* Finds the variable of slot w in an open file: by standard_name first,
- * then the spec's map, then the built-in product names. */
-static int find_var(int ncid, const forcing_source_spec *spec, fv_slot w, int *varid,
-                    int *grid_rel, char *sn_out, size_t sn_len, char *tried, size_t tried_len)
+/* Finds the variable of slot w among the nv variables of a file: by
+ * standard_name first, then the spec's map, then the built-in product
+ * names. *varid is an index into vars. */
+static int find_var(const forcing_varinfo *vars, size_t nv, const forcing_source_spec *spec,
+                    fv_slot w, int *varid, int *grid_rel, char *sn_out, size_t sn_len,
+                    char *tried, size_t tried_len)
 {
     const struct slot_def *d = &slot_defs[w];
-    int nvars = 0;
-    nc_inq_nvars(ncid, &nvars);
-    for (int id = 0; id < nvars; id++) {
-        char sn[96];
-        if (fnc_text_att(ncid, id, "standard_name", sn, sizeof sn))
+    for (size_t i = 0; i < nv; i++) {
+        const char *sn = vars[i].standard_name;
+        int id = (int)i;
+        if (!sn[0])
             continue;
         for (int k = 0; k < 3 && d->std[k]; k++)
             if (strcmp(sn, d->std[k]) == 0) {
@@ -166,9 +183,12 @@ static int find_var(int ncid, const forcing_source_spec *spec, fv_slot w, int *v
             if (used < tried_len)
                 used += (size_t)snprintf(tried + used, tried_len - used, "%s'%s'",
                                          used ? ", " : "", m[i].variable);
-            if (nc_inq_varid(ncid, m[i].variable, varid) == NC_NOERR) {
-                char sn[128] = "";
-                fnc_text_att(ncid, *varid, "standard_name", sn, sizeof sn);
+            *varid = -1;
+            for (size_t j = 0; j < nv && *varid < 0; j++)
+                if (strcmp(vars[j].name, m[i].variable) == 0)
+                    *varid = (int)j;
+            if (*varid >= 0) {
+                const char *sn = vars[*varid].standard_name;
                 *grid_rel = spec->vectors_grid_relative ||
                             (d->grid_std && strcmp(sn, d->grid_std) == 0);
                 snprintf(sn_out, sn_len, "%s", d->std[0]);
@@ -181,72 +201,12 @@ static int find_var(int ncid, const forcing_source_spec *spec, fv_slot w, int *v
     return -1;
 }
 
-static double att_double(int ncid, int varid, const char *name, double dflt)
-{
-    double v;
-    size_t len;
-    if (nc_inq_attlen(ncid, varid, name, &len) != NC_NOERR || len != 1 ||
-        nc_get_att_double(ncid, varid, name, &v) != NC_NOERR)
-        return dflt;
-    return v;
-}
-
-static double default_fill(nc_type t)
-{
-    switch (t) {
-    case NC_SHORT: return NC_FILL_SHORT;
-    case NC_INT: return NC_FILL_INT;
-    case NC_FLOAT: return NC_FILL_FLOAT;
-    case NC_DOUBLE: return NC_FILL_DOUBLE;
-    case NC_USHORT: return NC_FILL_USHORT;
-    case NC_UINT: return NC_FILL_UINT;
-    default: return NAN;
-    }
-}
-
 /* Packing, missing values and units of one variable in one file. */
-static int read_var_atts(fsource *s, fvar *v, const char *path, int ncid, int varid, fvfile *vf,
+static int read_var_atts(fsource *s, fvar *v, const char *path, void *fh, int varid, fvfile *vf,
                          cf_units *units, sph_error *err)
 {
-    nc_type vt;
-    nc_inq_vartype(ncid, varid, &vt);
-    vf->scale = att_double(ncid, varid, "scale_factor", 1.0);
-    vf->offset = att_double(ncid, varid, "add_offset", 0.0);
-    size_t len;
-    nc_type at;
-    vf->has_fill = 1;
-    vf->fill = default_fill(vt);
-    if (nc_inq_attlen(ncid, varid, "_FillValue", &len) == NC_NOERR)
-        nc_get_att_double(ncid, varid, "_FillValue", &vf->fill);
-    else if (isnan(vf->fill))
-        vf->has_fill = 0;
-    vf->nmiss = 0;
-    if (nc_inq_attlen(ncid, varid, "missing_value", &len) == NC_NOERR && len >= 1 && len <= 4) {
-        nc_inq_atttype(ncid, varid, "missing_value", &at);
-        if (at != NC_CHAR && nc_get_att_double(ncid, varid, "missing_value", vf->miss) == NC_NOERR)
-            vf->nmiss = (int)len;
-    }
-    vf->vmin = -INFINITY;
-    vf->vmax = INFINITY;
-    vf->valid_raw = 1;
-    double r[2];
-    if (nc_inq_att(ncid, varid, "valid_range", &at, &len) == NC_NOERR && len == 2 &&
-        nc_get_att_double(ncid, varid, "valid_range", r) == NC_NOERR) {
-        vf->vmin = r[0];
-        vf->vmax = r[1];
-        vf->valid_raw = at == vt; /* CF: in the packed type when the data are packed */
-    } else {
-        if (nc_inq_att(ncid, varid, "valid_min", &at, &len) == NC_NOERR) {
-            vf->vmin = att_double(ncid, varid, "valid_min", -INFINITY);
-            vf->valid_raw = at == vt;
-        }
-        if (nc_inq_att(ncid, varid, "valid_max", &at, &len) == NC_NOERR) {
-            vf->vmax = att_double(ncid, varid, "valid_max", INFINITY);
-            vf->valid_raw = at == vt;
-        }
-    }
     const struct slot_def *d = &slot_defs[v->which];
-    if (fnc_text_att(ncid, varid, "units", vf->units, sizeof vf->units) != 0) {
+    if (s->drv->packing(fh, varid, vf) != 0) {
         if (v->which != FV_QAIR)
             return forcing_fail(err, s, path, SPH_ERR_UNITS,
                                 "variable '%s' (%s) has no units attribute", v->varname,
@@ -277,7 +237,7 @@ static int read_var_atts(fsource *s, fvar *v, const char *path, int ncid, int va
 }
 
 /* Appends the times of variable v in this file to v->times. */
-static int read_times(fsource *s, fvar *v, const char *path, int ncid, int varid,
+static int read_times(fsource *s, fvar *v, const char *path, void *fh, int varid,
                       const fvfile *vf, int vfi, sph_error *err)
 {
     if (vf->tdim < 0) {
@@ -285,20 +245,12 @@ static int read_times(fsource *s, fvar *v, const char *path, int ncid, int varid
             return 0; /* a static field: the first file is enough */
         return 0;
     }
-    int dimids[NC_MAX_VAR_DIMS];
-    nc_inq_vardimid(ncid, varid, dimids);
-    char tname[NC_MAX_NAME + 1];
-    size_t nt;
-    nc_inq_dimname(ncid, dimids[vf->tdim], tname);
-    nc_inq_dimlen(ncid, dimids[vf->tdim], &nt);
-    int tv;
-    if (nc_inq_varid(ncid, tname, &tv) != NC_NOERR)
-        return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
-                            "time dimension '%s' has no coordinate variable", tname);
-    char units[256], calname[64] = "";
-    if (fnc_text_att(ncid, tv, "units", units, sizeof units) != 0)
-        return forcing_fail(err, s, path, SPH_ERR_UNITS, "time variable '%s' has no units", tname);
-    fnc_text_att(ncid, tv, "calendar", calname, sizeof calname);
+    forcing_timeinfo ti;
+    int rc = s->drv->times(s, path, fh, varid, vf, &ti, NULL, err);
+    if (rc)
+        return rc;
+    const char *tname = ti.name, *units = ti.units, *calname = ti.calendar;
+    size_t nt = ti.n;
     cf_calendar cal;
     if (cf_calendar_parse(calname, &cal) != 0)
         return forcing_fail(err, s, path, SPH_ERR_UNITS, "unknown calendar '%s' of '%s'", calname,
@@ -317,11 +269,10 @@ static int read_times(fsource *s, fvar *v, const char *path, int ncid, int varid
         free(vals);
         return forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
     }
-    int rc = nc_get_var_double(ncid, tv, vals);
-    if (rc != NC_NOERR) {
+    rc = s->drv->times(s, path, fh, varid, vf, &ti, vals, err);
+    if (rc) {
         free(vals);
-        return forcing_fail(err, s, path, SPH_ERR_NETCDF, "cannot read time variable '%s': %s",
-                            tname, nc_strerror(rc));
+        return rc;
     }
     size_t dropped = 0;
     for (size_t k = 0; k < nt; k++) {
@@ -379,19 +330,24 @@ static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsign
                      cf_units *units, sph_error *err)
 {
     const char *path = s->paths[fi];
-    int ncid;
-    int rc = nc_open(path, NC_NOWRITE, &ncid);
-    if (rc != NC_NOERR)
-        return forcing_fail(err, s, path, SPH_ERR_NETCDF, "cannot open: %s", nc_strerror(rc));
+    void *fh;
+    int rc = s->drv->open(s, fi, &fh, err);
+    if (rc)
+        return rc;
+    forcing_varinfo *vars = NULL;
+    size_t nv = 0;
+    if (s->drv->variables(fh, &vars, &nv) != 0)
+        rc = forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
     for (int w = 0; w < FV_COUNT && rc == 0; w++) {
         /* air temperature also where humidity may come as relative humidity */
         if (!(slot_flag((fv_slot)w) & want) && !(w == FV_TAIR && (want & FQ_HUMIDITY)))
             continue;
-        int varid, grid_rel;
+        int vi, grid_rel;
         char sn[96], tried[256];
-        if (find_var(ncid, spec, (fv_slot)w, &varid, &grid_rel, sn, sizeof sn, tried,
+        if (find_var(vars, nv, spec, (fv_slot)w, &vi, &grid_rel, sn, sizeof sn, tried,
                      sizeof tried))
             continue;
+        int varid = vars[vi].id;
         fvar *v = s->vars[w];
         if (!v) {
             v = calloc(1, sizeof *v);
@@ -405,7 +361,8 @@ static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsign
             v->slot_k[0] = v->slot_k[1] = (size_t)-1;
             v->grid_relative = grid_rel;
             snprintf(v->standard_name, sizeof v->standard_name, "%s", sn);
-            nc_inq_varname(ncid, varid, v->varname);
+            snprintf(v->varname, sizeof v->varname, "%.*s", (int)sizeof v->varname - 1,
+                     vars[vi].name);
         }
         fvfile *nvf = realloc(v->vfiles, (v->nvfiles + 1) * sizeof *nvf);
         if (!nvf) {
@@ -419,7 +376,7 @@ static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsign
         vf->file = fi;
         vf->varid = varid;
         fgrid *g = NULL;
-        rc = fgrid_read(s, path, ncid, varid, vf, &g, err);
+        rc = s->drv->grid(s, path, fh, varid, vf, &g, err);
         if (rc)
             break;
         if (v->grid && g != v->grid) {
@@ -430,20 +387,21 @@ static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsign
         }
         v->grid = g;
         char level[256];
-        rc = fgrid_level(s, path, ncid, varid, vf, level, sizeof level, err);
+        rc = s->drv->levels(s, path, fh, varid, vf, level, sizeof level, err);
         if (rc)
             break;
         if (level[0] && v->nvfiles == 0)
             log_info("forcing '%s': variable '%s': %s", path, v->varname, level);
-        rc = read_var_atts(s, v, path, ncid, varid, vf, units, err);
+        rc = read_var_atts(s, v, path, fh, varid, vf, units, err);
         if (rc)
             break;
         if (v->nvfiles == 0)
             snprintf(v->file0, sizeof v->file0, "%s", path);
         v->nvfiles++;
-        rc = read_times(s, v, path, ncid, varid, vf, (int)v->nvfiles - 1, err);
+        rc = read_times(s, v, path, fh, varid, vf, (int)v->nvfiles - 1, err);
     }
-    nc_close(ncid);
+    free(vars);
+    s->drv->close(fh);
     return rc;
 }
 
@@ -457,29 +415,18 @@ static int read_slice_at(forcing *f, fvar *v, size_t ti, size_t mi, double *dst,
     const ftime *ft = v->ntimes ? &v->times[ti] : NULL;
     const fvfile *vf = &v->vfiles[ft ? ft->vf : 0];
     const char *path = s->paths[vf->file];
-    int ncid;
-    if (src_ncid(s, vf->file, &ncid, err))
+    void *fh;
+    if (src_file(s, vf->file, &fh, err))
         return err->code;
-    size_t start[FORCING_MAX_DIMS], count[FORCING_MAX_DIMS];
     size_t nx = v->grid->nx, ny = v->grid->ny, n = nx * ny;
-    for (int d = 0; d < vf->ndims; d++) {
-        start[d] = d == vf->merge_dim ? mi : vf->level[d];
-        count[d] = 1;
-    }
-    if (vf->tdim >= 0)
-        start[vf->tdim] = ft ? ft->k : 0;
-    count[vf->ydim] = ny;
-    count[vf->xdim] = nx;
     double *raw = dst;
     if (vf->transpose && !(raw = malloc(n * sizeof *raw)))
         return forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
-    int rc = nc_get_vara_double(ncid, vf->varid, start, count, raw);
-    if (rc != NC_NOERR) {
+    int rc = s->drv->slice(s, path, fh, v, vf, ft ? ft->k : 0, mi, raw, err);
+    if (rc) {
         if (raw != dst)
             free(raw);
-        return forcing_fail(err, s, path, SPH_ERR_NETCDF,
-                            "cannot read variable '%s' at time index %zu: %s", v->varname,
-                            ft ? ft->k : 0, nc_strerror(rc));
+        return rc;
     }
     if (raw != dst) {
         for (size_t i = 0; i < nx; i++)
@@ -728,23 +675,16 @@ static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, 
             return forcing_fail(err, s, "-", SPH_ERR_NOMEM, "out of memory");
         s->npaths++;
     }
-    if (spec->kind == FORCING_TIDE) {
-        int ncid;
-        int rc = nc_open(s->paths[0], NC_NOWRITE, &ncid);
-        if (rc != NC_NOERR)
-            return forcing_fail(err, s, s->paths[0], SPH_ERR_NETCDF, "cannot open: %s",
-                                nc_strerror(rc));
-        char fmt[64];
-        if (fnc_text_att(ncid, NC_GLOBAL, "sphice_tide_format", fmt, sizeof fmt) == 0) {
+    s->drv = driver_for(s->paths[0]);
+    if (spec->kind == FORCING_TIDE && s->drv->tide) {
+        int harmonic = 0;
+        double t_ref = floor(t_start / 86400.0) * 86400.0;
+        int rc = s->drv->tide(s, &harmonic, units, t_ref, !spec->tide_no_nodal,
+                              want & spec->required, err);
+        if (rc && !harmonic)
+            return rc;
+        if (harmonic) {
             s->harmonic = 1;
-            double t_ref = floor(t_start / 86400.0) * 86400.0;
-            if (strcmp(fmt, "harmonic-1") != 0)
-                rc = forcing_fail(err, s, s->paths[0], SPH_ERR_BAD_DATA,
-                                  "unknown sphice_tide_format '%s' (expected 'harmonic-1')", fmt);
-            else
-                rc = ftide_open(s, ncid, units, t_ref, !spec->tide_no_nodal,
-                                want & spec->required, err);
-            nc_close(ncid);
             /* Keep only the quantities asked for, as scan_file does for
              * time series: a source configured for currents alone must not
              * sample (and fail on) the elevation and its gradient. */
@@ -755,7 +695,6 @@ static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, 
                 }
             return rc;
         }
-        nc_close(ncid);
     }
     for (size_t i = 0; i < s->npaths; i++)
         if (scan_file(s, spec, (int)i, want, units, err))
@@ -791,10 +730,18 @@ static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, 
             continue;
         /* Report the first missing one with the names tried. */
         char tried[256] = "", sn[96];
-        int varid, gr, ncid;
-        if (nc_open(s->paths[0], NC_NOWRITE, &ncid) == NC_NOERR) {
-            find_var(ncid, spec, (fv_slot)w, &varid, &gr, sn, sizeof sn, tried, sizeof tried);
-            nc_close(ncid);
+        int varid, gr;
+        void *fh;
+        sph_error quiet;
+        sph_error_clear(&quiet);
+        if (s->drv->open(s, 0, &fh, &quiet) == 0) {
+            forcing_varinfo *vars = NULL;
+            size_t nv = 0;
+            if (s->drv->variables(fh, &vars, &nv) == 0)
+                find_var(vars, nv, spec, (fv_slot)w, &varid, &gr, sn, sizeof sn, tried,
+                         sizeof tried);
+            free(vars);
+            s->drv->close(fh);
         }
         char where[600];
         if (s->npaths > 1)
@@ -876,7 +823,7 @@ void forcing_close(forcing *f)
             fgrid_free(g);
         }
         if (s->open_file >= 0)
-            nc_close(s->open_ncid);
+            s->drv->close(s->open_fh);
         for (size_t k = 0; k < s->npaths; k++)
             free(s->paths[k]);
         free(s->paths);

@@ -1,0 +1,41 @@
+/* Private to the initial ice raster reader (io/raster.h): raster.c is
+ * format-free (allocation, the shared checks, sampling, the choice of a
+ * driver); each format is one driver file:
+ *   raster_netcdf.c  CF NetCDF
+ *   raster_esri.c    ESRI ASCII grid
+ * A driver recognises its files by their first bytes and reads the whole
+ * raster, finishing it with raster_finish. */
+#ifndef SPHICE_IO_RASTER_IMPL_H
+#define SPHICE_IO_RASTER_IMPL_H
+
+#include <stddef.h>
+#include "io/raster.h"
+#include "util/err.h"
+
+/* How many of a file's first bytes the probes see. */
+#define RASTER_HEAD 4096
+
+typedef struct raster_driver {
+    const char *name;
+    /* 1 when the file whose first `got` bytes are head is in this format. */
+    int (*probe)(const unsigned char *head, size_t got);
+    /* Reads the raster (conc, thick, coordinates, valid time) and checks it. */
+    int (*read)(const char *path, const ice_raster_options *o, ice_raster **out, sph_error *err);
+} raster_driver;
+
+/* The table of drivers, probed in this order. Adding a format: one file
+ * defining raster_driver_<name>, and its name here. */
+#define RASTER_DRIVERS(X) X(netcdf) X(esri)
+
+#define RASTER_DRIVER_DECLARE(n) extern const raster_driver raster_driver_##n;
+RASTER_DRIVERS(RASTER_DRIVER_DECLARE)
+#undef RASTER_DRIVER_DECLARE
+
+/* A raster of nlon x nlat cells for path (NULL and err set when out of
+ * memory); valid_time NaN. */
+ice_raster *raster_alloc(const char *path, int nlon, int nlat, sph_error *err);
+/* Concentration to fraction and the checks every format shares. `percent`
+ * < 0 means decide from the values. Thickness NaN where ice = default. */
+int raster_finish(ice_raster *r, int percent, const ice_raster_options *o, sph_error *err);
+
+#endif
