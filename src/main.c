@@ -30,6 +30,7 @@
 #include "util/fileio.h"
 #include "util/log.h"
 #include "util/timeutil.h"
+#include "util/version.h"
 
 static const char *usage_text =
     "usage: sphice COMMAND [ARGS]\n"

@@ -21,10 +21,7 @@
 #include "util/fileio.h"
 #include "util/log.h"
 #include "util/timeutil.h"
-
-#ifndef SPHICE_VERSION
-#define SPHICE_VERSION "unknown"
-#endif
+#include "util/version.h"
 
 static cycle_engine_fn engine_fn = forecast_run;
 

@@ -31,13 +31,7 @@
 #include "service/schedule.h"
 #include "util/log.h"
 #include "util/timeutil.h"
-
-#ifndef SPHICE_VERSION
-#define SPHICE_VERSION "unknown"
-#endif
-#ifndef SPHICE_GIT
-#define SPHICE_GIT "unknown"
-#endif
+#include "util/version.h"
 
 #define DEG2RAD (M_PI / 180.0)
 #define METRES_PER_DEGREE (6371000.0 * DEG2RAD) /* along a meridian, sphere R = 6371 km */
