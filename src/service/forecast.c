@@ -27,7 +27,7 @@
 #include "io/restart.h"
 #include "io/seed.h"
 #include "service/config.h"
-#include "service/cycle.h"
+#include "service/cycle_name.h"
 #include "service/schedule.h"
 #include "util/log.h"
 #include "util/timeutil.h"
