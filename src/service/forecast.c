@@ -9,8 +9,12 @@
  *    is a function of the configuration, the request and the input files
  *    (for a fixed OpenMP thread count), so `run` and `hindcast` of one
  *    cycle write identical data variables.
+ *
+ * The coupling of forcing to particles is coupling.c (service/coupling.h);
+ * the engine's state is forecast_impl.h.
  */
 #include "service/forecast.h"
+#include "forecast_impl.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -18,12 +22,6 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "core/model.h"
-#include "io/forcing.h"
-#include "io/geo.h"
-#include "io/landmask.h"
-#include "io/products.h"
-#include "io/raster.h"
 #include "io/restart.h"
 #include "io/seed.h"
 #include "service/config.h"
@@ -33,71 +31,10 @@
 #include "util/timeutil.h"
 #include "util/version.h"
 
-#define DEG2RAD (M_PI / 180.0)
-#define METRES_PER_DEGREE (6371000.0 * DEG2RAD) /* along a meridian, sphere R = 6371 km */
 #define MAX_PLANE_CELLS 16000000L /* plane land mask cells */
 #define MAX_LL_CELLS 4000000L     /* lon/lat land mask cells (GSHHG rasterisation) */
-#define SIGMA_SB 5.670374419e-8
-/* Defaults for quantities no forcing source provides (docs/engine.md). */
-#define DEFAULT_RH 0.9          /* relative humidity over water */
-#define DEFAULT_CLOUD 0.5       /* cloud fraction for the longwave default */
-
-typedef struct engine {
-    const struct sph_config *cfg;
-    const forecast_request *req;
-    char cname[32];          /* cycle name, for messages */
-    double t0, t_end;        /* forecast start and end, s since 1970 */
-    geo_proj *proj;
-    landmask *lm;            /* lon/lat land mask, NULL: none */
-    sph_landmask plane;      /* the model's land mask on the plane */
-    unsigned char *plane_land;
-    forcing *forc[8];        /* one per source: a source that cannot serve a point is known */
-    int forc_kind[8];
-    const char *forc_name[8];
-    size_t nforc;
-    long coast_fallbacks;    /* particle-steps with no ocean/tide data (unresolved coast) */
-    ice_raster *raster;      /* cold start raster (or the raster grid) */
-    char raster_path[4096];
-    sph_model *m;
-    size_t cap;
-    int thermo_on;
-    sph_params prm;          /* the model's parameters: config, dt resolved */
-    int dt_auto;             /* model.dt = 0: auto time stepping */
-    double dt_base;          /* the interval the auto step divides, s */
-    unsigned provided;       /* forcing quantities found at the first sample */
-    /* per-particle work arrays [cap] */
-    double *lon, *lat, *angle, *ue, *vn, *uwe, *vwn, *gxe, *gyn, *ssh;
-    double *tair, *qair, *swdn, *lwdn, *sst, *fw;
-    double *q[13];                    /* one source's sample, see sample_source */
-    unsigned char *bad;               /* the source could not serve this particle */
-    double *pue, *pvn, *div, *shear;  /* output: east/north velocity, strain invariants */
-    long *ids_before;                 /* ids at the last forcing fill (error messages) */
-    double *lon_before, *lat_before;
-    size_t n_before;
-    /* output grid */
-    prod_grid grid;
-    size_t npts;
-    double *gx, *gy, *g_conc, *g_hbar, *g_thick, *g_u, *g_v, *g_pres, *g_div, *g_shear, *g_dens;
-    unsigned char *g_land;
-    prod_writer *pw;
-    char restart_path[4200];
-    int restart_written;
-    char start_mode[16];
-} engine;
 
 /* --------------------------------------------------------------- helpers */
-
-static void iso(double t, char *buf, size_t len) { time_format_iso(t, buf, len); }
-
-static void fmt_lonlat(double lon, double lat, char *buf, size_t len)
-{
-    if (!isfinite(lon) || !isfinite(lat)) {
-        snprintf(buf, len, "an unknown position");
-        return;
-    }
-    snprintf(buf, len, "%.2f%c %.2f%c", fabs(lon), lon < 0 ? 'W' : 'E', fabs(lat),
-             lat < 0 ? 'S' : 'N');
-}
 
 /* "speed 12.3 exceeds the speed limit 10 (numerical blow-up)": the limit
  * goes before a parenthesised remark of the core's sentence. */
@@ -119,14 +56,6 @@ static void fmt_status(const sph_status *st, char *buf, size_t len)
         snprintf(buf, len, "%s %.6g %s", st->quantity, st->value, what);
 }
 
-static void *xcalloc(size_t n, size_t size, int *ok)
-{
-    void *p = calloc(n ? n : 1, size);
-    if (!p)
-        *ok = 0;
-    return p;
-}
-
 static void engine_free(engine *e)
 {
     products_abort(e->pw);
@@ -136,21 +65,14 @@ static void engine_free(engine *e)
     geo_proj_free(e->proj);
     landmask_free(e->lm);
     free(e->plane_land);
-    for (size_t k = 0; k < e->nforc; k++)
-        forcing_close(e->forc[k]);
-    for (int k = 0; k < 13; k++)
-        free(e->q[k]);
-    free(e->bad);
+    coupling_free(&e->cpl);
     ice_raster_free(e->raster);
     sph_model_free(e->m);
-    double *arrays[] = {e->lon, e->lat, e->angle, e->ue, e->vn, e->uwe, e->vwn, e->gxe, e->gyn,
-                        e->ssh, e->tair, e->qair, e->swdn, e->lwdn, e->sst, e->fw, e->pue, e->pvn,
-                        e->div, e->shear, e->lon_before, e->lat_before, e->gx, e->gy, e->g_conc,
+    double *arrays[] = {e->olon, e->olat, e->pue, e->pvn, e->div, e->shear, e->gx, e->gy, e->g_conc,
                         e->g_hbar, e->g_thick, e->g_u, e->g_v, e->g_pres, e->g_div, e->g_shear,
                         e->g_dens};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         free(arrays[k]);
-    free(e->ids_before);
     free(e->g_land);
 }
 
@@ -231,6 +153,31 @@ static int resolve_dt(engine *e, sph_error *err)
     return SPH_OK;
 }
 
+/* Names a particle's problem: "particle 17 at 121.80E 40.61N". */
+static void particle_where(const engine *e, long id, char *buf, size_t len)
+{
+    const fc_coupling *c = &e->cpl;
+    for (size_t k = 0; k < c->n_before; k++)
+        if (c->ids_before[k] == id) {
+            char ll[64];
+            coupling_format_lonlat(c->lon_before[k], c->lat_before[k], ll, sizeof ll);
+            snprintf(buf, len, "particle %ld at %s", id, ll);
+            return;
+        }
+    if (id >= 0)
+        snprintf(buf, len, "particle %ld", id);
+    else
+        snprintf(buf, len, "all particles");
+}
+
+/* A refusal by the model that the configuration causes, not the input:
+ * the step outside the measured stability envelope (no particle at fault).
+ * A bad clock or particle count stays the file's fault. */
+static int settings_fault(const sph_status *st)
+{
+    return st->particle < 0 && strcmp(st->quantity, "time step") == 0;
+}
+
 /* ------------------------------------------------------------ land mask */
 
 static const char *gshhg_path(const struct sph_config *cfg, char *buf, size_t len)
@@ -260,7 +207,7 @@ static const char *ocean_file(const struct sph_config *cfg, const forecast_reque
     return NULL;
 }
 
-static int build_landmask(engine *e, double xmin, double xmax, double ymin, double ymax, double cell,
+static int fc_build_landmask(engine *e, double xmin, double xmax, double ymin, double ymax, double cell,
                           sph_error *err)
 {
     const struct sph_config *cfg = e->cfg;
@@ -345,7 +292,7 @@ static int build_landmask(engine *e, double xmin, double xmax, double ymin, doub
 }
 
 /* Bounding box of the projected domain box (its edges sampled densely). */
-static int plane_box(engine *e, double *xmin, double *xmax, double *ymin, double *ymax, sph_error *err)
+static int fc_plane_box(engine *e, double *xmin, double *xmax, double *ymin, double *ymax, sph_error *err)
 {
     const struct sph_config *cfg = e->cfg;
     enum { NS = 64 };
@@ -373,269 +320,9 @@ static int plane_box(engine *e, double *xmin, double *xmax, double *ymin, double
     return SPH_OK;
 }
 
-/* --------------------------------------------------------------- forcing */
-
-int forecast_source_spec(const struct sph_config *cfg, size_t s, const char *const *files,
-                         forcing_source_spec *sp, forcing_name_map **map, sph_error *err)
-{
-    const cfg_forcing_source *src = &cfg->forcing[s];
-    size_t nfiles = 0;
-    while (files && files[nfiles])
-        nfiles++;
-    memset(sp, 0, sizeof *sp);
-    *map = NULL;
-    sp->name = src->name;
-    sp->kind = (forcing_kind)src->kind;
-    sp->files = files;
-    sp->nfiles = nfiles;
-    if (src->variables.n) {
-        *map = calloc(src->variables.n, sizeof **map);
-        if (!*map)
-            return sph_err_set(err, SPH_ERR_NOMEM, "forcing: out of memory");
-        for (size_t k = 0; k < src->variables.n; k++) {
-            (*map)[k].standard_name = src->variables.key[k];
-            (*map)[k].variable = src->variables.val[k];
-        }
-        sp->map = *map;
-        sp->nmap = src->variables.n;
-    }
-    for (size_t k = 0; k < src->required.n; k++)
-        sp->required |= (unsigned)config_quantity_flag(src->required.v[k]);
-    for (size_t k = 0; k < src->optional_q.n; k++)
-        sp->optional |= (unsigned)config_quantity_flag(src->optional_q.v[k]);
-    return SPH_OK;
-}
-
-static int open_forcing(engine *e, sph_error *err)
-{
-    const struct sph_config *cfg = e->cfg;
-    const forecast_request *req = e->req;
-    size_t ns = cfg->nforcing < 8 ? cfg->nforcing : 8;
-    forcing_source_spec specs[8];
-    forcing_name_map *maps[8] = {0};
-    size_t nspecs = 0;
-    int rc = SPH_OK;
-    for (size_t s = 0; s < ns; s++) {
-        const cfg_forcing_source *src = &cfg->forcing[s];
-        const char *const *files = req->forcing_files[s];
-        size_t nfiles = 0;
-        while (files && files[nfiles])
-            nfiles++;
-        if (nfiles == 0) {
-            if (src->optional_source) {
-                log_warn("forecast %s: optional forcing %s has no files: left out", e->cname, src->name);
-                continue;
-            }
-            rc = sph_err_set(err, SPH_ERR_COVERAGE, "forcing %s: no files for cycle %s", src->name,
-                             e->cname);
-            break;
-        }
-        rc = forecast_source_spec(cfg, s, files, &specs[nspecs], &maps[s], err);
-        if (rc != SPH_OK)
-            break;
-        nspecs++;
-    }
-    /* one forcing object per source (same checks and messages as opening
-     * them together); currents and SSH are summed over sources here */
-    for (size_t k = 0; k < nspecs && rc == SPH_OK; k++) {
-        rc = forcing_open(&e->forc[k], &specs[k], 1, e->t0, e->t_end, cfg->domain.lon_min,
-                          cfg->domain.lon_max, cfg->domain.lat_min, cfg->domain.lat_max, err);
-        if (rc == SPH_OK) {
-            e->forc_kind[k] = specs[k].kind;
-            e->forc_name[k] = specs[k].name;
-            e->nforc = k + 1;
-        }
-    }
-    if (rc == SPH_OK && nspecs == 0)
-        rc = sph_err_set(err, SPH_ERR_CONFIG, "forcing: no source has files for cycle %s", e->cname);
-    for (size_t s = 0; s < 8; s++)
-        free(maps[s]);
-    return rc;
-}
-
-enum { Q_UE, Q_VN, Q_TAIR, Q_QAIR, Q_SWDN, Q_LWDN, Q_UWE, Q_VWN, Q_SSH, Q_GXE, Q_GYN, Q_SST, Q_FW };
-
-static void sample_view(engine *e, size_t k, forcing_sample *s)
-{
-    memset(s, 0, sizeof *s);
-    s->u_east = e->q[Q_UE] + k;
-    s->v_north = e->q[Q_VN] + k;
-    s->tair = e->q[Q_TAIR] + k;
-    s->qair = e->q[Q_QAIR] + k;
-    s->swdn = e->q[Q_SWDN] + k;
-    s->lwdn = e->q[Q_LWDN] + k;
-    s->uw_east = e->q[Q_UWE] + k;
-    s->vw_north = e->q[Q_VWN] + k;
-    s->ssh = e->q[Q_SSH] + k;
-    s->ssh_dx_east = e->q[Q_GXE] + k;
-    s->ssh_dy_north = e->q[Q_GYN] + k;
-    s->sst = e->q[Q_SST] + k;
-    s->fw = e->q[Q_FW] + k;
-}
-
-/* Samples source src at the n particles into e->q. An ocean or tide
- * source whose grid has no water near some particles (a coast the ocean
- * model does not resolve) serves the others; those get no current, no
- * sea-surface slope and the other defaults (e->bad). Any other failure,
- * or a source that can serve no particle at all, is an error. */
-static int sample_source(engine *e, size_t src, double t, size_t n, unsigned *got, sph_error *err)
-{
-    forcing_sample s;
-    sample_view(e, 0, &s);
-    memset(e->bad, 0, n);
-    sph_error local;
-    sph_error_clear(&local);
-    char when[32];
-    iso(t, when, sizeof when);
-    int rc = forcing_sample_at(e->forc[src], t, n, e->lon, e->lat, &s, &local);
-    if (rc == SPH_OK) {
-        *got = s.provided;
-        return SPH_OK;
-    }
-    if (rc != SPH_ERR_COVERAGE || e->forc_kind[src] == FORCING_ATMOSPHERE || n < 2)
-        return sph_err_set(err, rc, "forcing at %s: %s", when, local.msg);
-    size_t nbad = 0, first_bad = 0;
-    unsigned flags = 0;
-    for (size_t k = 0; k < n; k++) {
-        forcing_sample one;
-        sample_view(e, k, &one);
-        sph_error e1;
-        sph_error_clear(&e1);
-        int r1 = forcing_sample_at(e->forc[src], t, 1, e->lon + k, e->lat + k, &one, &e1);
-        if (r1 == SPH_OK) {
-            flags |= one.provided;
-        } else if (r1 == SPH_ERR_COVERAGE) {
-            if (!nbad++)
-                first_bad = k;
-            e->bad[k] = 1;
-        } else {
-            return sph_err_set(err, r1, "forcing at %s: %s", when, e1.msg);
-        }
-    }
-    if (nbad == n)
-        return sph_err_set(err, rc, "forcing at %s: %s", when, local.msg);
-    if (!e->coast_fallbacks) {
-        char ll[64];
-        fmt_lonlat(e->lon[first_bad], e->lat[first_bad], ll, sizeof ll);
-        log_warn("forecast %s: forcing %s has no water near %zu particle(s) (first at %s, %s): "
-                 "no current or sea-surface slope there (reported once)", e->cname, e->forc_name[src],
-                 nbad, ll, when);
-    }
-    e->coast_fallbacks += (long)nbad;
-    *got = flags;
-    return SPH_OK;
-}
-
-/* Adds one source's sample to the particle forcing: currents and SSH sum
- * over sources (ocean + tide, as the forcing reader does), other
- * quantities come from the first source that provides them. */
-static void merge_source(engine *e, size_t n, unsigned got, unsigned before)
-{
-    static const struct { int q; unsigned flag; int sum; } map[] = {
-        {Q_UE, FQ_WIND, 0}, {Q_VN, FQ_WIND, 0}, {Q_TAIR, FQ_TAIR, 0}, {Q_QAIR, FQ_HUMIDITY, 0},
-        {Q_SWDN, FQ_SWDN, 0}, {Q_LWDN, FQ_LWDN, 0}, {Q_UWE, FQ_CURRENT, 1}, {Q_VWN, FQ_CURRENT, 1},
-        {Q_SSH, FQ_SSH, 1}, {Q_GXE, FQ_SSH, 1}, {Q_GYN, FQ_SSH, 1}, {Q_SST, FQ_SST, 0},
-        {Q_FW, FQ_OCEAN_FLUX, 0}};
-    double *dst[13] = {e->ue, e->vn, e->tair, e->qair, e->swdn, e->lwdn, e->uwe, e->vwn, e->ssh, e->gxe,
-                       e->gyn, e->sst, e->fw};
-    for (size_t m = 0; m < sizeof map / sizeof map[0]; m++) {
-        if (!(got & map[m].flag) || (!map[m].sum && (before & map[m].flag)))
-            continue;
-        const double *q = e->q[map[m].q];
-        double *d = dst[map[m].q];
-        for (size_t k = 0; k < n; k++) {
-            if (e->bad[k])
-                continue; /* keeps the default (or the other sources' sum) */
-            d[k] = map[m].sum ? d[k] + q[k] : q[k];
-        }
-    }
-}
-
-/* Fills every live particle's forcing at time t (see docs/engine.md for
- * the defaults of quantities no source provides). */
-static int fill_forcing(engine *e, double t, sph_error *err)
-{
-    sph_particles *P = sph_model_particles(e->m);
-    size_t n = P->n;
-    if (n == 0)
-        return SPH_OK;
-    int rc = geo_inverse(e->proj, n, P->x, P->y, e->lon, e->lat, err);
-    if (rc)
-        return rc;
-    const double tf = sph_freezing_point(&e->cfg->model.thermo);
-    for (size_t k = 0; k < n; k++) {
-        e->ue[k] = e->vn[k] = 0.0;
-        e->uwe[k] = e->vwn[k] = 0.0;
-        e->gxe[k] = e->gyn[k] = 0.0;
-        e->ssh[k] = 0.0;
-        e->tair[k] = tf;
-        e->qair[k] = NAN;
-        e->swdn[k] = 0.0;
-        e->lwdn[k] = NAN;
-        e->sst[k] = NAN; /* the thermodynamics takes the freezing point */
-        e->fw[k] = NAN;  /* the thermodynamics takes fw_default */
-    }
-    unsigned provided = 0;
-    for (size_t src = 0; src < e->nforc; src++) {
-        unsigned got = 0;
-        int rc2 = sample_source(e, src, t, n, &got, err);
-        if (rc2)
-            return rc2;
-        merge_source(e, n, got, provided);
-        provided |= got;
-    }
-    e->provided = provided;
-    if (e->thermo_on && !(provided & FQ_TAIR))
-        return sph_err_set(err, SPH_ERR_MISSING_VAR,
-                           "forcing: no source provides air_temperature, which the thermodynamics "
-                           "needs (add it, or set model.thermo.dt 0)");
-    double pa = e->cfg->model.thermo.air_pressure;
-    for (size_t k = 0; k < n; k++) {
-        double a = geo_grid_angle(e->proj, e->lon[k], e->lat[k]);
-        if (!isfinite(a))
-            a = 0.0;
-        e->angle[k] = a;
-        double c = cos(a), sn = sin(a);
-        /* east/north -> plane x/y (io/geo.h) */
-        P->ua[k] = e->ue[k] * c + e->vn[k] * sn;
-        P->va[k] = -e->ue[k] * sn + e->vn[k] * c;
-        P->uw[k] = e->uwe[k] * c + e->vwn[k] * sn;
-        P->vw[k] = -e->uwe[k] * sn + e->vwn[k] * c;
-        P->sshx[k] = e->gxe[k] * c + e->gyn[k] * sn;
-        P->sshy[k] = -e->gxe[k] * sn + e->gyn[k] * c;
-        P->lat[k] = e->lat[k];
-        double T = e->tair[k];
-        P->tair[k] = T;
-        if (!(provided & FQ_HUMIDITY)) {
-            /* DEFAULT_RH over water, the saturation formula of the thermo check */
-            double es = DEFAULT_RH * 611.2 * exp(17.62 * T / (243.12 + T));
-            e->qair[k] = 0.622 * es / (pa - 0.378 * es);
-        }
-        P->qair[k] = e->qair[k];
-        P->swdn[k] = e->swdn[k];
-        if (!(provided & FQ_LWDN)) {
-            /* Koenig-Langlo & Augstein (1994): eps = 0.765 + 0.22 N^3 */
-            double eps = 0.765 + 0.22 * DEFAULT_CLOUD * DEFAULT_CLOUD * DEFAULT_CLOUD;
-            double tk = T + 273.15;
-            e->lwdn[k] = eps * SIGMA_SB * tk * tk * tk * tk;
-        }
-        P->lwdn[k] = e->lwdn[k];
-        P->sst[k] = e->sst[k];
-        P->fw[k] = e->fw[k];
-        P->fsens[k] = NAN;
-        P->flat[k] = NAN;
-    }
-    /* for messages about a step that fails */
-    memcpy(e->ids_before, P->id, n * sizeof *P->id);
-    memcpy(e->lon_before, e->lon, n * sizeof *e->lon);
-    memcpy(e->lat_before, e->lat, n * sizeof *e->lat);
-    e->n_before = n;
-    return SPH_OK;
-}
-
 /* ---------------------------------------------------- initial particles */
 
-static int read_raster(engine *e, const char *tmpl, int format, const char *conc_var, double valid_time,
+static int fc_read_raster(engine *e, const char *tmpl, int format, const char *conc_var, double valid_time,
                        ice_raster **out, char *path, size_t plen, const char *what, sph_error *err)
 {
     const struct sph_config *cfg = e->cfg;
@@ -679,7 +366,7 @@ static int read_raster(engine *e, const char *tmpl, int format, const char *conc
     return SPH_OK;
 }
 
-static double spacing_m(const engine *e)
+static double fc_spacing_m(const engine *e)
 {
     if (e->cfg->initial.spacing_deg > 0)
         return e->cfg->initial.spacing_deg * METRES_PER_DEGREE;
@@ -690,47 +377,21 @@ static double spacing_m(const engine *e)
     return 2000.0;
 }
 
+/* The work arrays for cap particles: the coupling's and the output's. */
 static int alloc_work(engine *e, sph_error *err)
 {
+    int rc = coupling_alloc(&e->cpl, e->cap, err);
+    if (rc)
+        return rc;
     size_t c = e->cap ? e->cap : 1;
     int ok = 1;
-    double **arrays[] = {&e->lon, &e->lat, &e->angle, &e->ue, &e->vn, &e->uwe, &e->vwn, &e->gxe, &e->gyn,
-                         &e->ssh, &e->tair, &e->qair, &e->swdn, &e->lwdn, &e->sst, &e->fw, &e->pue,
-                         &e->pvn, &e->div, &e->shear, &e->lon_before, &e->lat_before};
+    double **arrays[] = {&e->olon, &e->olat, &e->pue, &e->pvn, &e->div, &e->shear};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         *arrays[k] = xcalloc(c, sizeof(double), &ok);
-    e->ids_before = xcalloc(c, sizeof(long), &ok);
-    for (int k = 0; k < 13; k++)
-        e->q[k] = xcalloc(c, sizeof(double), &ok);
-    e->bad = xcalloc(c, 1, &ok);
     return ok ? SPH_OK : sph_err_set(err, SPH_ERR_NOMEM, "forecast: out of memory (%zu particles)", c);
 }
 
-/* Names a particle's problem: "particle 17 at 121.80E 40.61N". */
-static void particle_where(const engine *e, long id, char *buf, size_t len)
-{
-    for (size_t k = 0; k < e->n_before; k++)
-        if (e->ids_before[k] == id) {
-            char ll[64];
-            fmt_lonlat(e->lon_before[k], e->lat_before[k], ll, sizeof ll);
-            snprintf(buf, len, "particle %ld at %s", id, ll);
-            return;
-        }
-    if (id >= 0)
-        snprintf(buf, len, "particle %ld", id);
-    else
-        snprintf(buf, len, "all particles");
-}
-
-/* A refusal by the model that the configuration causes, not the input:
- * the step outside the measured stability envelope (no particle at fault).
- * A bad clock or particle count stays the file's fault. */
-static int settings_fault(const sph_status *st)
-{
-    return st->particle < 0 && strcmp(st->quantity, "time step") == 0;
-}
-
-static int cold_start(engine *e, sph_error *err)
+static int fc_cold_start(engine *e, sph_error *err)
 {
     const struct sph_config *cfg = e->cfg;
     if (!cfg->initial.path || !cfg->initial.path[0])
@@ -739,7 +400,7 @@ static int cold_start(engine *e, sph_error *err)
                            e->cname);
     int rc;
     if (!e->raster &&
-        (rc = read_raster(e, cfg->initial.path, cfg->initial.format, cfg->initial.conc_var, e->t0,
+        (rc = fc_read_raster(e, cfg->initial.path, cfg->initial.format, cfg->initial.conc_var, e->t0,
                           &e->raster, e->raster_path, sizeof e->raster_path, "initial field", err)))
         return rc;
     seed_options so;
@@ -782,17 +443,17 @@ static int cold_start(engine *e, sph_error *err)
     }
     if ((rc = alloc_work(e, err)))
         return rc;
-    if ((rc = fill_forcing(e, e->t0, err)))
+    if ((rc = fc_fill_forcing(e, e->t0, err)))
         return rc;
     for (size_t k = 0; k < P->n; k++)
         sph_thermo_init_particle(&cfg->model.thermo, P, k, P->tair[k]);
-    if ((rc = resolve_dt(e, err)))
+    if ((rc = fc_resolve_dt(e, err)))
         return rc;
     sph_status st;
     if (sph_model_init(e->m, &st) != SPH_STEP_OK) {
         char what[256];
-        fmt_status(&st, what, sizeof what);
-        if (settings_fault(&st))
+        fc_fmt_status(&st, what, sizeof what);
+        if (fc_settings_fault(&st))
             return sph_err_set(err, SPH_ERR_CONFIG, "model settings: %s (initial field %s)", what,
                                e->raster_path);
         return sph_err_set(err, SPH_ERR_BAD_DATA, "initial field %s: particle %ld: %s", e->raster_path,
@@ -803,7 +464,7 @@ static int cold_start(engine *e, sph_error *err)
     return SPH_OK;
 }
 
-static int warm_start(engine *e, sph_error *err)
+static int fc_warm_start(engine *e, sph_error *err)
 {
     const char *path = e->req->warm_start;
     restart_header h;
@@ -833,19 +494,19 @@ static int warm_start(engine *e, sph_error *err)
     for (size_t k = 0; k < P->n; k++)
         mass += P->mass[k];
     c.budget.mass_initial = c.budget.mass = mass;
-    if ((rc = resolve_dt(e, err)))
+    if ((rc = fc_resolve_dt(e, err)))
         return rc;
     sph_status st;
     if (sph_model_resume(e->m, &c, &st) != SPH_STEP_OK) {
         char what[256];
-        fmt_status(&st, what, sizeof what);
-        if (settings_fault(&st))
+        fc_fmt_status(&st, what, sizeof what);
+        if (fc_settings_fault(&st))
             return sph_err_set(err, SPH_ERR_CONFIG, "model settings: %s (warm start %s)", what, path);
         return sph_err_set(err, SPH_ERR_BAD_DATA, "warm start %s: particle %ld: %s", path, st.particle, what);
     }
     if ((rc = alloc_work(e, err)))
         return rc;
-    if ((rc = fill_forcing(e, e->t0, err)))
+    if ((rc = fc_fill_forcing(e, e->t0, err)))
         return rc;
     snprintf(e->start_mode, sizeof e->start_mode, "warm");
     log_info("forecast %s: warm start from %s: %zu particles", e->cname, path, P->n);
@@ -854,13 +515,13 @@ static int warm_start(engine *e, sph_error *err)
 
 /* --------------------------------------------------------------- products */
 
-static int setup_grid(engine *e, sph_error *err)
+static int fc_setup_grid(engine *e, sph_error *err)
 {
     const struct sph_config *cfg = e->cfg;
     if (cfg->output.grid.mode == CFG_GRID_RASTER) {
         int rc;
         if (!e->raster &&
-            (rc = read_raster(e, cfg->initial.path, cfg->initial.format, cfg->initial.conc_var, e->t0,
+            (rc = fc_read_raster(e, cfg->initial.path, cfg->initial.format, cfg->initial.conc_var, e->t0,
                               &e->raster, e->raster_path, sizeof e->raster_path, "initial field", err)))
             return rc;
         e->grid.nlon = e->raster->nlon;
@@ -909,7 +570,7 @@ static int setup_grid(engine *e, sph_error *err)
     return SPH_OK;
 }
 
-static int open_products(engine *e, prod_station *stations, sph_error *err)
+static int fc_open_products(engine *e, prod_station *stations, sph_error *err)
 {
     const struct sph_config *cfg = e->cfg;
     prod_options o;
@@ -966,7 +627,7 @@ static int open_products(engine *e, prod_station *stations, sph_error *err)
 
 /* Observed concentration regridded to the output grid (bilinear; NaN
  * outside the observation's cell centres). */
-static int set_observation(engine *e, sph_error *err)
+static int fc_set_observation(engine *e, sph_error *err)
 {
     const struct sph_config *cfg = e->cfg;
     ice_raster *obs = NULL;
@@ -1007,21 +668,21 @@ static int set_observation(engine *e, sph_error *err)
 }
 
 /* One output time: particles -> grid through the SPH interpolation. */
-static int write_output(engine *e, double t, sph_error *err)
+static int fc_write_output(engine *e, double t, sph_error *err)
 {
     sph_particles *P = sph_model_particles(e->m);
     size_t n = P->n;
     const double rho_i = e->cfg->model.rho_i;
     sph_error local;
     sph_error_clear(&local);
-    if (n > 0 && geo_inverse(e->proj, n, P->x, P->y, e->lon, e->lat, &local) != SPH_OK)
+    if (n > 0 && geo_inverse(e->proj, n, P->x, P->y, e->olon, e->olat, &local) != SPH_OK)
         return sph_err_set(err, SPH_ERR_NUMERICS, "output: %s", local.msg);
     for (size_t k = 0; k < n; k++) {
-        double a = geo_grid_angle(e->proj, e->lon[k], e->lat[k]);
+        double a = geo_grid_angle(e->proj, e->olon[k], e->olat[k]);
         if (!isfinite(a))
             a = 0.0;
         double c = cos(a), s = sin(a);
-        /* plane x/y -> east/north: the inverse of the rotation in fill_forcing */
+        /* plane x/y -> east/north: the inverse of the rotation in coupling_fill */
         e->pue[k] = P->u[k] * c - P->v[k] * s;
         e->pvn[k] = P->u[k] * s + P->v[k] * c;
         e->div[k] = P->e11[k] + P->e22[k];
@@ -1060,8 +721,8 @@ static int write_output(engine *e, double t, sph_error *err)
     f.land = e->lm ? e->g_land : NULL;
     prod_particles_view pv;
     pv.n = n;
-    pv.lon = e->lon;
-    pv.lat = e->lat;
+    pv.lon = e->olon;
+    pv.lat = e->olat;
     pv.u_east = e->pue;
     pv.v_north = e->pvn;
     pv.mass = P->mass;
@@ -1071,7 +732,7 @@ static int write_output(engine *e, double t, sph_error *err)
     return products_add_time(e->pw, t, &f, e->cfg->output.products.particles ? &pv : NULL, err);
 }
 
-static int write_restart(engine *e, double t, sph_error *err)
+static int fc_write_restart(engine *e, double t, sph_error *err)
 {
     restart_header h;
     memset(&h, 0, sizeof h);
@@ -1084,6 +745,11 @@ static int write_restart(engine *e, double t, sph_error *err)
         e->restart_written = 1;
     return rc;
 }
+
+/* For the other rooms of the engine (forecast_impl.h). */
+int fc_resolve_dt(engine *e, sph_error *err) { return resolve_dt(e, err); }
+void fc_fmt_status(const sph_status *st, char *buf, size_t len) { fmt_status(st, buf, len); }
+int fc_settings_fault(const sph_status *st) { return settings_fault(st); }
 
 /* ------------------------------------------------------------------- run */
 
@@ -1155,25 +821,25 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         goto fail;
     }
     double xmin, xmax, ymin, ymax;
-    if ((rc = plane_box(e, &xmin, &xmax, &ymin, &ymax, er)))
+    if ((rc = fc_plane_box(e, &xmin, &xmax, &ymin, &ymax, er)))
         goto fail;
 
     /* 3. forcing (before anything heavier: a missing file fails fast) */
-    if ((rc = open_forcing(e, er)))
+    if ((rc = coupling_open(&e->cpl, cfg, req, e->t0, e->t_end, e->cname, er)))
         goto fail;
 
     /* the raster is read first on a cold start: the mask cell size may depend on it */
     if (!req->warm_start && cfg->initial.spacing_deg <= 0 && cfg->initial.path && cfg->initial.path[0] &&
-        (rc = read_raster(e, cfg->initial.path, cfg->initial.format, cfg->initial.conc_var, e->t0, &e->raster,
+        (rc = fc_read_raster(e, cfg->initial.path, cfg->initial.format, cfg->initial.conc_var, e->t0, &e->raster,
                           e->raster_path, sizeof e->raster_path, "initial field", er)))
         goto fail;
 
     /* 2. land mask, cell = half the initial spacing */
-    if ((rc = build_landmask(e, xmin, xmax, ymin, ymax, 0.5 * spacing_m(e), er)))
+    if ((rc = fc_build_landmask(e, xmin, xmax, ymin, ymax, 0.5 * fc_spacing_m(e), er)))
         goto fail;
 
     /* 4-5. particles and model */
-    rc = req->warm_start ? warm_start(e, er) : cold_start(e, er);
+    rc = req->warm_start ? fc_warm_start(e, er) : fc_cold_start(e, er);
     if (rc)
         goto fail;
     sph_particles *P = sph_model_particles(e->m);
@@ -1181,16 +847,16 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     prog->particles = (long)P->n;
 
     /* products */
-    if ((rc = setup_grid(e, er)))
+    if ((rc = fc_setup_grid(e, er)))
         goto fail;
     stations = calloc(cfg->nstations ? cfg->nstations : 1, sizeof *stations);
     if (!stations) {
         rc = sph_err_set(er, SPH_ERR_NOMEM, "forecast: out of memory");
         goto fail;
     }
-    if ((rc = open_products(e, stations, er)))
+    if ((rc = fc_open_products(e, stations, er)))
         goto fail;
-    if (req->observation && cfg->output.products.verification && (rc = set_observation(e, er)))
+    if (req->observation && cfg->output.products.verification && (rc = fc_set_observation(e, er)))
         goto fail;
 
     /* restart file for the next cycle */
@@ -1216,7 +882,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     double sum_fd = 0, sum_rh = 0, sum_zl = 0, sum_ml = 0, sum_it = 0, sum_stall = 0;
     long nstat = 0;
     prog->phase = FC_PHASE_RUNNING;
-    if ((rc = write_output(e, e->t0, er)))
+    if ((rc = fc_write_output(e, e->t0, er)))
         goto fail;
     nout++;
     next_out = e->t0 + out_dt;
@@ -1228,7 +894,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
             goto fail;
         }
         double t = e->t0 + s * dt;
-        if (s > 0 && (rc = fill_forcing(e, t, er)))
+        if (s > 0 && (rc = fc_fill_forcing(e, t, er)))
             goto fail;
         sph_status st;
         if (sph_model_step(e->m, &st) != SPH_STEP_OK) {
@@ -1251,18 +917,18 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         prog->frac_rheology = ss->frac_rheology;
         prog->frac_zero_layer = ss->frac_zero_layer;
         prog->frac_multi_layer = ss->frac_multi_layer;
-        if (s + 1 == restart_step && (rc = write_restart(e, t1, er)))
+        if (s + 1 == restart_step && (rc = fc_write_restart(e, t1, er)))
             goto fail;
         int last = s + 1 == nsteps;
         if (t1 >= next_out - 1e-6 * dt || last) {
-            if ((rc = write_output(e, t1, er)))
+            if ((rc = fc_write_output(e, t1, er)))
                 goto fail;
             nout++;
             while (next_out <= t1 + 1e-6 * dt)
                 next_out += out_dt;
         }
     }
-    if (nsteps == 0 && (rc = write_restart(e, e->t0, er)))
+    if (nsteps == 0 && (rc = fc_write_restart(e, e->t0, er)))
         goto fail;
 
     /* 7. close the products */
