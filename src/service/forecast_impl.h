@@ -1,5 +1,7 @@
 /* The forecast engine's private state, shared by its rooms:
- *   forecast.c         forecast_run, the initial state and the output
+ *   forecast.c         forecast_run: parameters, the step loop, the output
+ *   forecast_init.c    the initial state: plane box, land mask, rasters,
+ *                      cold start (seeding) and warm start
  *   coupling.c         forcing -> particles (service/coupling.h)
  */
 #ifndef SPHICE_SERVICE_FORECAST_IMPL_H
@@ -73,5 +75,15 @@ static inline int fc_fill_forcing(engine *e, double t, sph_error *err)
 int fc_resolve_dt(engine *e, sph_error *err);
 void fc_fmt_status(const sph_status *st, char *buf, size_t len);
 int fc_settings_fault(const sph_status *st);
+
+/* forecast_init.c */
+int fc_plane_box(engine *e, double *xmin, double *xmax, double *ymin, double *ymax, sph_error *err);
+int fc_build_landmask(engine *e, double xmin, double xmax, double ymin, double ymax, double cell,
+                      sph_error *err);
+int fc_read_raster(engine *e, const char *tmpl, int format, const char *conc_var, double valid_time,
+                   ice_raster **out, char *path, size_t plen, const char *what, sph_error *err);
+double fc_spacing_m(const engine *e);
+int fc_cold_start(engine *e, sph_error *err);
+int fc_warm_start(engine *e, sph_error *err);
 
 #endif
