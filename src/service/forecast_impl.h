@@ -1,8 +1,9 @@
 /* The forecast engine's private state, shared by its rooms:
- *   forecast.c         forecast_run: parameters, the step loop, the output
+ *   forecast.c         forecast_run: parameters, the step loop, step errors
  *   forecast_init.c    the initial state: plane box, land mask, rasters,
  *                      cold start (seeding) and warm start
  *   coupling.c         forcing -> particles (service/coupling.h)
+ *   forecast_output.c  output grid, products, observation, restart file
  */
 #ifndef SPHICE_SERVICE_FORECAST_IMPL_H
 #define SPHICE_SERVICE_FORECAST_IMPL_H
@@ -85,5 +86,12 @@ int fc_read_raster(engine *e, const char *tmpl, int format, const char *conc_var
 double fc_spacing_m(const engine *e);
 int fc_cold_start(engine *e, sph_error *err);
 int fc_warm_start(engine *e, sph_error *err);
+
+/* forecast_output.c */
+int fc_setup_grid(engine *e, sph_error *err);
+int fc_open_products(engine *e, prod_station *stations, sph_error *err);
+int fc_set_observation(engine *e, sph_error *err);
+int fc_write_output(engine *e, double t, sph_error *err);
+int fc_write_restart(engine *e, double t, sph_error *err);
 
 #endif
