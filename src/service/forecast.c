@@ -25,6 +25,7 @@
 #include <unistd.h>
 
 #include "service/config.h"
+#include "service/cycle_phase.h"
 #include "service/cycle_name.h"
 #include "service/schedule.h"
 #include "util/log.h"
@@ -195,7 +196,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
                  const volatile sig_atomic_t *cancel, forecast_result *res, sph_error *err)
 {
     double wall0 = time_monotonic();
-    forecast_progress local_prog;
+    forecast_progress local_prog = {0};
     if (!prog)
         prog = &local_prog;
     forecast_result local_res;
@@ -213,7 +214,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     e->t_end = e->t0 + hours * 3600.0;
     cycle_name(e->t0, e->cname, sizeof e->cname);
     e->thermo_on = cfg->model.thermo_dt > 0 && cfg->model.thermo.model != SPH_THERMO_OFF;
-    prog->phase = FC_PHASE_INITIALISING;
+    cycle_set_phase(prog, e->t0, FC_PHASE_INITIALISING, "forecast: inputs and particles");
     prog->model_time = e->t0;
     prog->percent = 0;
     int rc;
@@ -309,7 +310,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     double next_out = e->t0;
     double sum_fd = 0, sum_rh = 0, sum_zl = 0, sum_ml = 0, sum_it = 0, sum_stall = 0;
     long nstat = 0;
-    prog->phase = FC_PHASE_RUNNING;
+    cycle_set_phase(prog, e->t0, FC_PHASE_RUNNING, "forecast: time loop");
     if ((rc = fc_write_output(e, e->t0, er)))
         goto fail;
     nout++;
@@ -360,7 +361,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         goto fail;
 
     /* 7. close the products */
-    prog->phase = FC_PHASE_WRITING;
+    cycle_set_phase(prog, e->t0, FC_PHASE_WRITING, "forecast: closing the products");
     const sph_budget *b = sph_model_budget(e->m);
     double expect = b->mass_initial + b->growth + b->new_ice - b->melt_top - b->melt_bottom - b->lateral_melt -
                     b->outflow;
@@ -423,14 +424,14 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     e->restart_written = 0; /* keep it */
     engine_free(e);
     free(stations);
-    prog->phase = FC_PHASE_DONE;
+    cycle_set_phase(prog, e->t0, FC_PHASE_DONE, "forecast: done");
     prog->percent = 100;
     return SPH_OK;
 
 fail:
     engine_free(e);
     free(stations);
-    prog->phase = FC_PHASE_FAILED;
+    cycle_set_phase(prog, e->t0, FC_PHASE_FAILED, er->msg[0] ? er->msg : "forecast: failed");
     res->wall_seconds = time_monotonic() - wall0;
     return sph_err_set(err, rc ? rc : SPH_ERR_INTERNAL, "%s", er->msg[0] ? er->msg : "forecast: failed");
 }
