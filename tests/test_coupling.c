@@ -40,18 +40,9 @@ static double field_fn(int which, double lon, double lat, size_t k)
 /* 1 deg over 100-140 E, 30-50 N, hourly from T0 - 3 h. */
 static void write_file(const char *path, const tvar *v, size_t nv)
 {
-    tgrid g;
-    memset(&g, 0, sizeof g);
-    g.nx = 41;
-    g.ny = 21;
-    g.lon0 = 100.0;
-    g.dlon = 1.0;
-    g.lat0 = 30.0;
-    g.dlat = 1.0;
-    g.time_units = "hours since 1999-02-08 00:00:00";
-    g.calendar = "standard";
-    g.tv0 = 3.0;
-    g.dtv = 1.0;
+    tgrid g = {.nx = 41, .ny = 21, .lon0 = 100.0, .dlon = 1.0, .lat0 = 30.0, .dlat = 1.0,
+               .time_units = "hours since 1999-02-08 00:00:00", .calendar = "standard", .tv0 = 3.0,
+               .dtv = 1.0};
     tnc_write(path, &g, v, nv, 0, 12, NC_NETCDF4);
 }
 
@@ -95,6 +86,46 @@ static sph_particles *lattice(const geo_proj *proj, double *lon, double *lat)
     return P;
 }
 
+/* Opens the coupling of the sources (JSON array members) over files
+ * dir/<name[s]>, with work arrays for the lattice's particles (*P); cfg
+ * and the file names live in *cs. */
+typedef struct coupling_case {
+    struct sph_config *cfg;
+    fc_coupling c;
+    sph_particles *P;
+    double lon[NP], lat[NP];
+    sph_error e;
+    char path[2][1024];
+    const char *files[2][2];
+    forecast_request req;
+} coupling_case;
+
+static struct sph_config *open_case(coupling_case *cs, const char *dir, const char *sources,
+                                    const char *const *names, size_t nsrc, const geo_proj *proj)
+{
+    memset(cs, 0, sizeof *cs);
+    sph_error_clear(&cs->e);
+    cs->cfg = load(dir, sources);
+    if (!cs->cfg)
+        return NULL;
+    cs->req.cycle_time = T0;
+    for (size_t s = 0; s < nsrc; s++) {
+        snprintf(cs->path[s], sizeof cs->path[s], "%s/%s", dir, names[s]);
+        cs->files[s][0] = cs->path[s];
+        cs->req.forcing_files[s] = cs->files[s];
+    }
+    int rc = coupling_open(&cs->c, cs->cfg, &cs->req, T0, T0 + 6 * 3600.0, "test", &cs->e);
+    cs->P = lattice(proj, cs->lon, cs->lat);
+    CHECK(coupling_alloc(&cs->c, NP, &cs->e) == 0, "alloc");
+    CHECK(rc == 0 && cs->c.nforc == nsrc, "open %zu source(s): %s", nsrc, cs->e.msg);
+    if (rc == 0)
+        return cs->cfg;
+    coupling_free(&cs->c);
+    sph_particles_free(cs->P);
+    sph_config_free(cs->cfg);
+    return NULL;
+}
+
 /* Published values (not the code under test): saturation vapour pressure
  * over water at -10 deg C, 286.5 Pa (WMO, Guide to Instruments, annex 4.B:
  * 2.865 hPa); clear-sky and overcast emissivities of Koenig-Langlo and
@@ -118,64 +149,50 @@ static void check_uniform(const char *dir, const geo_proj *proj)
     char src[1024];
     snprintf(src, sizeof src,
              "{\"name\": \"atm\", \"kind\": \"atmosphere\", \"urls\": \"%s/atm.nc\"}", dir);
-    struct sph_config *cfg = load(dir, src);
+    const char *names[] = {"atm.nc"};
+    coupling_case cs;
+    struct sph_config *cfg = open_case(&cs, dir, src, names, 1, proj);
     if (!cfg)
         return;
-    char path[1024];
-    snprintf(path, sizeof path, "%s/atm.nc", dir);
-    const char *files[] = {path, NULL};
-    forecast_request req;
-    memset(&req, 0, sizeof req);
-    req.cycle_time = T0;
-    req.forcing_files[0] = files;
-    fc_coupling c;
-    memset(&c, 0, sizeof c);
-    sph_error e;
-    sph_error_clear(&e);
-    int rc = coupling_open(&c, cfg, &req, T0, T0 + 6 * 3600.0, "test", &e);
-    CHECK(rc == 0 && c.nforc == 1, "open: %s", e.msg);
-    double lon[NP], lat[NP];
-    sph_particles *P = lattice(proj, lon, lat);
-    CHECK(coupling_alloc(&c, NP, &e) == 0, "alloc");
-    rc = coupling_fill(&c, proj, &cfg->model.thermo, 1, P, T0 + 1800.0, &e);
-    CHECK(rc == 0, "fill: %s", e.msg);
-    CHECK(c.provided == (FQ_WIND | FQ_TAIR), "provided 0x%x", c.provided);
-    double ux[NP], uy[NP];
-    CHECK(geo_rotate_to_plane(proj, NP, lon, lat, (double[NP]){[0 ... NP - 1] = WIND_E},
-                              (double[NP]){[0 ... NP - 1] = WIND_N}, ux, uy, &e) == 0,
-          "rotate: %s", e.msg);
+    int rc = coupling_fill(&cs.c, proj, &cfg->model.thermo, 1, cs.P, T0 + 1800.0, &cs.e);
+    CHECK(rc == 0, "fill: %s", cs.e.msg);
+    CHECK(cs.c.provided == (FQ_WIND | FQ_TAIR), "provided 0x%x", cs.c.provided);
+    double ue[NP], vn[NP], ux[NP], uy[NP];
+    for (size_t k = 0; k < NP; k++)
+        ue[k] = WIND_E, vn[k] = WIND_N;
+    CHECK(geo_rotate_to_plane(proj, NP, cs.lon, cs.lat, ue, vn, ux, uy, &cs.e) == 0, "rotate: %s", cs.e.msg);
     double max_angle = 0;
     const double pa = cfg->model.thermo.air_pressure;
     for (size_t k = 0; k < NP && rc == 0; k++) {
-        CHECK_CLOSE(lat[k], P->lat[k], 0, 1e-9, "latitude back from the plane");
-        CHECK_CLOSE(P->tair[k], TAIR_K - 273.15, 0, 1e-4, "uniform air temperature");
-        CHECK_CLOSE(hypot(P->ua[k], P->va[k]), hypot(WIND_E, WIND_N), 1e-6, 0, "wind speed kept");
-        CHECK_CLOSE(P->ua[k], ux[k], 0, 1e-6, "wind x as the projection rotates it");
-        CHECK_CLOSE(P->va[k], uy[k], 0, 1e-6, "wind y as the projection rotates it");
+        CHECK_CLOSE(cs.lat[k], cs.P->lat[k], 0, 1e-9, "latitude back from the plane");
+        CHECK_CLOSE(cs.P->tair[k], TAIR_K - 273.15, 0, 1e-4, "uniform air temperature");
+        CHECK_CLOSE(hypot(cs.P->ua[k], cs.P->va[k]), hypot(WIND_E, WIND_N), 1e-6, 0, "wind speed kept");
+        CHECK_CLOSE(cs.P->ua[k], ux[k], 0, 1e-6, "wind x as the projection rotates it");
+        CHECK_CLOSE(cs.P->va[k], uy[k], 0, 1e-6, "wind y as the projection rotates it");
         /* the grid angle is that of the parallel on the plane: an eastward
          * step of 1e-4 deg, projected */
-        double l2[2] = {lon[k], lon[k] + 1e-4}, p2[2] = {lat[k], lat[k]}, x2[2], y2[2];
-        geo_forward(proj, 2, l2, p2, x2, y2, &e);
+        double l2[2] = {cs.lon[k], cs.lon[k] + 1e-4}, p2[2] = {cs.lat[k], cs.lat[k]}, x2[2], y2[2];
+        geo_forward(proj, 2, l2, p2, x2, y2, &cs.e);
         double alpha = -atan2(y2[1] - y2[0], x2[1] - x2[0]);
-        CHECK_CLOSE(c.angle[k], alpha, 0, 1e-5, "grid angle = direction of the parallel");
+        CHECK_CLOSE(cs.c.angle[k], alpha, 0, 1e-5, "grid angle = direction of the parallel");
         double ca = cos(alpha), sa = sin(alpha);
-        CHECK_CLOSE(P->ua[k], WIND_E * ca + WIND_N * sa, 0, 1e-4, "wind x from the parallel's direction");
-        CHECK_CLOSE(P->va[k], -WIND_E * sa + WIND_N * ca, 0, 1e-4, "wind y from the parallel's direction");
+        CHECK_CLOSE(cs.P->ua[k], WIND_E * ca + WIND_N * sa, 0, 1e-4, "wind x from the parallel's direction");
+        CHECK_CLOSE(cs.P->va[k], -WIND_E * sa + WIND_N * ca, 0, 1e-4, "wind y from the parallel's direction");
         if (fabs(alpha) > max_angle)
             max_angle = fabs(alpha);
         /* defaults: no current, slope, shortwave; humidity at RH 0.9, longwave at cloud 0.5 */
-        CHECK(P->uw[k] == 0 && P->vw[k] == 0 && P->sshx[k] == 0 && P->sshy[k] == 0 && P->swdn[k] == 0,
+        CHECK(cs.P->uw[k] == 0 && cs.P->vw[k] == 0 && cs.P->sshx[k] == 0 && cs.P->sshy[k] == 0 && cs.P->swdn[k] == 0,
               "no current, slope or shortwave at particle %zu", k);
-        CHECK(isnan(P->sst[k]) && isnan(P->fw[k]) && isnan(P->fsens[k]) && isnan(P->flat[k]),
+        CHECK(isnan(cs.P->sst[k]) && isnan(cs.P->fw[k]) && isnan(cs.P->fsens[k]) && isnan(cs.P->flat[k]),
               "sst, fw, fsens, flat left to the thermodynamics");
-        CHECK(P->qair[k] == sph_atmos_qair_rh(P->tair[k], SPH_ATMOS_DEFAULT_RH, pa), "humidity default");
-        CHECK(P->lwdn[k] == sph_atmos_lwdn_cloud(P->tair[k], SPH_ATMOS_DEFAULT_CLOUD), "longwave default");
-        CHECK(c.ids_before[k] == P->id[k] && c.lon_before[k] == c.lon[k], "positions kept for messages");
+        CHECK(cs.P->qair[k] == sph_atmos_qair_rh(cs.P->tair[k], SPH_ATMOS_DEFAULT_RH, pa), "humidity default");
+        CHECK(cs.P->lwdn[k] == sph_atmos_lwdn_cloud(cs.P->tair[k], SPH_ATMOS_DEFAULT_CLOUD), "longwave default");
+        CHECK(cs.c.ids_before[k] == cs.P->id[k] && cs.c.lon_before[k] == cs.c.lon[k], "positions kept for messages");
     }
     CHECK(max_angle > 0.05, "the lattice reaches rotated parts of the plane (%.3f rad)", max_angle);
-    CHECK(c.n_before == NP, "n_before %zu", c.n_before);
-    coupling_free(&c);
-    sph_particles_free(P);
+    CHECK(cs.c.n_before == NP, "n_before %zu", cs.c.n_before);
+    coupling_free(&cs.c);
+    sph_particles_free(cs.P);
     sph_config_free(cfg);
 }
 
@@ -185,45 +202,27 @@ static void check_sum_and_missing(const char *dir, const geo_proj *proj)
     snprintf(src, sizeof src,
              "{\"name\": \"oc1\", \"kind\": \"ocean\", \"urls\": \"%s/oc1.nc\"},"
              "{\"name\": \"oc2\", \"kind\": \"ocean\", \"urls\": \"%s/oc2.nc\"}", dir, dir);
-    struct sph_config *cfg = load(dir, src);
+    const char *names[] = {"oc1.nc", "oc2.nc"};
+    coupling_case cs;
+    struct sph_config *cfg = open_case(&cs, dir, src, names, 2, proj);
     if (!cfg)
         return;
-    char p1[1024], p2[1024];
-    snprintf(p1, sizeof p1, "%s/oc1.nc", dir);
-    snprintf(p2, sizeof p2, "%s/oc2.nc", dir);
-    const char *f1[] = {p1, NULL}, *f2[] = {p2, NULL};
-    forecast_request req;
-    memset(&req, 0, sizeof req);
-    req.cycle_time = T0;
-    req.forcing_files[0] = f1;
-    req.forcing_files[1] = f2;
-    fc_coupling c;
-    memset(&c, 0, sizeof c);
-    sph_error e;
-    sph_error_clear(&e);
-    int rc = coupling_open(&c, cfg, &req, T0, T0 + 6 * 3600.0, "test", &e);
-    CHECK(rc == 0 && c.nforc == 2, "open two ocean sources: %s", e.msg);
-    double lon[NP], lat[NP];
-    sph_particles *P = lattice(proj, lon, lat);
-    CHECK(coupling_alloc(&c, NP, &e) == 0, "alloc");
-    if (rc == 0) {
-        rc = coupling_fill(&c, proj, &cfg->model.thermo, 0, P, T0, &e);
-        CHECK(rc == 0, "fill without thermodynamics: %s", e.msg);
-        const double tf = sph_freezing_point(&cfg->model.thermo);
-        for (size_t k = 0; k < NP && rc == 0; k++) {
-            CHECK_CLOSE(hypot(P->uw[k], P->vw[k]), CUR1_E + CUR2_E, 1e-6, 0, "currents add up over sources");
-            CHECK_CLOSE(P->uw[k], (CUR1_E + CUR2_E) * cos(c.angle[k]), 0, 1e-9, "current x");
-            CHECK_CLOSE(P->vw[k], -(CUR1_E + CUR2_E) * sin(c.angle[k]), 0, 1e-9, "current y");
-            CHECK(P->ua[k] == 0 && P->va[k] == 0, "no wind where no source gives it");
-            CHECK(P->tair[k] == tf, "air temperature defaults to the freezing point");
-        }
-        sph_error_clear(&e);
-        rc = coupling_fill(&c, proj, &cfg->model.thermo, 1, P, T0, &e);
-        CHECK(rc == SPH_ERR_MISSING_VAR && strstr(e.msg, "air_temperature"),
-              "thermodynamics without air temperature: %d %s", rc, e.msg);
+    int rc = coupling_fill(&cs.c, proj, &cfg->model.thermo, 0, cs.P, T0, &cs.e);
+    CHECK(rc == 0, "fill without thermodynamics: %s", cs.e.msg);
+    const double tf = sph_freezing_point(&cfg->model.thermo);
+    for (size_t k = 0; k < NP && rc == 0; k++) {
+        CHECK_CLOSE(hypot(cs.P->uw[k], cs.P->vw[k]), CUR1_E + CUR2_E, 1e-6, 0, "currents add up over sources");
+        CHECK_CLOSE(cs.P->uw[k], (CUR1_E + CUR2_E) * cos(cs.c.angle[k]), 0, 1e-9, "current x");
+        CHECK_CLOSE(cs.P->vw[k], -(CUR1_E + CUR2_E) * sin(cs.c.angle[k]), 0, 1e-9, "current y");
+        CHECK(cs.P->ua[k] == 0 && cs.P->va[k] == 0, "no wind where no source gives it");
+        CHECK(cs.P->tair[k] == tf, "air temperature defaults to the freezing point");
     }
-    coupling_free(&c);
-    sph_particles_free(P);
+    sph_error_clear(&cs.e);
+    rc = coupling_fill(&cs.c, proj, &cfg->model.thermo, 1, cs.P, T0, &cs.e);
+    CHECK(rc == SPH_ERR_MISSING_VAR && strstr(cs.e.msg, "air_temperature"),
+          "thermodynamics without air temperature: %d %s", rc, cs.e.msg);
+    coupling_free(&cs.c);
+    sph_particles_free(cs.P);
     sph_config_free(cfg);
 }
 

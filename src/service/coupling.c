@@ -132,22 +132,15 @@ void coupling_free(fc_coupling *c)
     free(c->ids_before);
 }
 
+/* The sample slots of particle k: its place in each c->q[CPL_Q_*]. */
 static void sample_view(fc_coupling *c, size_t k, forcing_sample *s)
 {
     memset(s, 0, sizeof *s);
-    s->u_east = c->q[CPL_Q_UE] + k;
-    s->v_north = c->q[CPL_Q_VN] + k;
-    s->tair = c->q[CPL_Q_TAIR] + k;
-    s->qair = c->q[CPL_Q_QAIR] + k;
-    s->swdn = c->q[CPL_Q_SWDN] + k;
-    s->lwdn = c->q[CPL_Q_LWDN] + k;
-    s->uw_east = c->q[CPL_Q_UWE] + k;
-    s->vw_north = c->q[CPL_Q_VWN] + k;
-    s->ssh = c->q[CPL_Q_SSH] + k;
-    s->ssh_dx_east = c->q[CPL_Q_GXE] + k;
-    s->ssh_dy_north = c->q[CPL_Q_GYN] + k;
-    s->sst = c->q[CPL_Q_SST] + k;
-    s->fw = c->q[CPL_Q_FW] + k;
+    double **slot[CPL_NQ] = {&s->u_east, &s->v_north, &s->tair, &s->qair, &s->swdn, &s->lwdn,
+                             &s->uw_east, &s->vw_north, &s->ssh, &s->ssh_dx_east, &s->ssh_dy_north,
+                             &s->sst, &s->fw};
+    for (int q = 0; q < CPL_NQ; q++)
+        *slot[q] = c->q[q] + k;
 }
 
 /* Samples source src at the n particles into c->q. An ocean or tide

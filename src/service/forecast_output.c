@@ -205,27 +205,11 @@ int fc_write_output(engine *e, double t, sph_error *err)
         double hi = e->g_thick[k];
         e->g_conc[k] = hbar > 0 && hi > 0 ? fmin(1.0, hbar / hi) : 0.0;
     }
-    prod_fields f;
-    memset(&f, 0, sizeof f);
-    f.conc = e->g_conc;
-    f.hbar = e->g_hbar;
-    f.thick = e->g_thick;
-    f.u_east = e->g_u;
-    f.v_north = e->g_v;
-    f.pressure = e->g_pres;
-    f.divergence = e->g_div;
-    f.shear = e->g_shear;
-    f.land = e->lm ? e->g_land : NULL;
-    prod_particles_view pv;
-    pv.n = n;
-    pv.lon = e->olon;
-    pv.lat = e->olat;
-    pv.u_east = e->pue;
-    pv.v_north = e->pvn;
-    pv.mass = P->mass;
-    pv.thick = P->thick;
-    pv.conc = P->conc;
-    pv.id = P->id;
+    prod_fields f = {.conc = e->g_conc, .hbar = e->g_hbar, .thick = e->g_thick, .u_east = e->g_u,
+                     .v_north = e->g_v, .pressure = e->g_pres, .divergence = e->g_div,
+                     .shear = e->g_shear, .land = e->lm ? e->g_land : NULL};
+    prod_particles_view pv = {.n = n, .lon = e->olon, .lat = e->olat, .u_east = e->pue, .v_north = e->pvn,
+                              .mass = P->mass, .thick = P->thick, .conc = P->conc, .id = P->id};
     return products_add_time(e->pw, t, &f, e->cfg->output.products.particles ? &pv : NULL, err);
 }
 
