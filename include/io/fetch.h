@@ -73,4 +73,13 @@ int fetch_cache_path(const char *url, const char *cache_dir, char *path, size_t 
 int fetch_check_netcdf(const char *path, const char *label, const char *const *vars,
                        size_t nvars, sph_error *err);
 
+/* GET url into memory (a status page, a small JSON answer): *body, which
+ * the caller frees, holds the answer NUL-terminated, *len (may be NULL)
+ * its length, *http_status the response code whatever it is. At most
+ * max_bytes are kept and timeout_s bounds the whole transfer. A transfer
+ * that fails (no server, timeout, more than max_bytes) is SPH_ERR_DOWNLOAD
+ * with "url: what went wrong"; *body is then NULL. */
+int fetch_http_get(const char *url, double timeout_s, size_t max_bytes, char **body, size_t *len,
+                   long *http_status, sph_error *err);
+
 #endif

@@ -16,6 +16,7 @@
 
 #include <signal.h>
 #include <stddef.h>
+#include "service/cycle_name.h"
 #include "service/forecast.h"
 #include "service/history.h"
 #include "util/err.h"
@@ -48,14 +49,6 @@ typedef int (*cycle_fetch_fn)(const char *tmpl, double t, const char *cache_dir,
 /* NULL restores the built-in fetcher (local paths, file://, and
  * http(s)/ftp downloads through io/fetch.h into paths.cache_dir). */
 void cycle_set_fetcher(cycle_fetch_fn fn);
-
-/* strftime-style expansion with the cycle time: %Y %m %d %H %M %S %j %y %%.
- * Any other conversion is an error naming the template. */
-int cycle_expand_template(const char *tmpl, double t, char *out, size_t len, sph_error *err);
-
-/* The warm-start file an engine writes into its stage dir for a later
- * cycle at time t: "restart-<cycle name>.nc". */
-void cycle_restart_name(double t, char *buf, size_t len);
 
 enum { CYCLE_OK = 0, CYCLE_FAILED, CYCLE_CANCELLED, CYCLE_SKIPPED };
 

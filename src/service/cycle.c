@@ -17,14 +17,12 @@
 #include <unistd.h>
 
 #include "service/config.h"
+#include "service/cycle_phase.h"
 #include "service/schedule.h"
 #include "util/fileio.h"
 #include "util/log.h"
 #include "util/timeutil.h"
-
-#ifndef SPHICE_VERSION
-#define SPHICE_VERSION "unknown"
-#endif
+#include "util/version.h"
 
 static cycle_engine_fn engine_fn = forecast_run;
 
@@ -37,55 +35,6 @@ static cycle_fetch_fn fetch_fn = local_fetch;
 void cycle_set_fetcher(cycle_fetch_fn fn) { fetch_fn = fn ? fn : local_fetch; }
 
 /* ------------------------------------------------------------- helpers */
-
-int cycle_expand_template(const char *tmpl, double t, char *out, size_t len, sph_error *err)
-{
-    long secs = (long)llround(t);
-    long days = (long)floor((double)secs / 86400.0);
-    long sod = secs - days * 86400, y;
-    int m, d;
-    time_civil_from_days(days, &y, &m, &d);
-    long doy = days - time_days_from_civil(y, 1, 1) + 1;
-    size_t used = 0;
-    for (const char *p = tmpl; *p; p++) {
-        char piece[32];
-        if (*p != '%') {
-            piece[0] = *p;
-            piece[1] = 0;
-        } else {
-            switch (*++p) {
-            case 'Y': snprintf(piece, sizeof piece, "%04ld", y); break;
-            case 'y': snprintf(piece, sizeof piece, "%02ld", ((y % 100) + 100) % 100); break;
-            case 'm': snprintf(piece, sizeof piece, "%02d", m); break;
-            case 'd': snprintf(piece, sizeof piece, "%02d", d); break;
-            case 'H': snprintf(piece, sizeof piece, "%02ld", sod / 3600); break;
-            case 'M': snprintf(piece, sizeof piece, "%02ld", sod / 60 % 60); break;
-            case 'S': snprintf(piece, sizeof piece, "%02ld", sod % 60); break;
-            case 'j': snprintf(piece, sizeof piece, "%03ld", doy); break;
-            case '%': snprintf(piece, sizeof piece, "%%"); break;
-            default:
-                return sph_err_set(err, SPH_ERR_CONFIG,
-                                   "template \"%s\": unsupported field %%%c (use %%Y %%m %%d %%H %%M %%S %%j %%y %%%%)",
-                                   tmpl, *p ? *p : ' ');
-            }
-        }
-        size_t n = strlen(piece);
-        if (used + n >= len)
-            return sph_err_set(err, SPH_ERR_CONFIG, "template \"%s\": expands beyond %zu characters", tmpl, len);
-        memcpy(out + used, piece, n + 1);
-        used += n;
-    }
-    if (len)
-        out[used] = 0;
-    return SPH_OK;
-}
-
-void cycle_restart_name(double t, char *buf, size_t len)
-{
-    char name[32];
-    cycle_name(t, name, sizeof name);
-    snprintf(buf, len, "restart-%s.nc", name);
-}
 
 static int rm_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw)
 {
@@ -268,7 +217,7 @@ int cycle_test_engine(const struct sph_config *cfg, const forecast_request *req,
     if (fail)
         return sph_err_set(err, SPH_ERR_NUMERICS, "test engine: failing as SPHICE_TEST_ENGINE=fail asks");
     double t0 = time_monotonic();
-    prog->phase = FC_PHASE_RUNNING;
+    cycle_set_phase(prog, req->cycle_time, FC_PHASE_RUNNING, "test engine");
     for (;;) {
         double f = seconds > 0 ? (time_monotonic() - t0) / seconds : 1;
         if (f > 1)
@@ -283,7 +232,7 @@ int cycle_test_engine(const struct sph_config *cfg, const forecast_request *req,
         if (nap(0.02, cancel))
             return sph_err_set(err, SPH_ERR_CANCELLED, "test engine: cancelled");
     }
-    prog->phase = FC_PHASE_WRITING;
+    cycle_set_phase(prog, req->cycle_time, FC_PHASE_WRITING, "test engine: its product");
     /* The product records the inputs: two runs with the same inputs write
      * the same bytes, as the real engine must. */
     char iso[32];
@@ -693,7 +642,7 @@ int cycle_run(const struct sph_config *cfg, const cycle_opts *o, forecast_progre
     log_info("cycle %s: started (%g h%s)", cname, hours, o->hindcast ? ", hindcast" : "");
 
     /* fetch */
-    prog->phase = FC_PHASE_FETCHING;
+    cycle_set_phase(prog, o->cycle_time, FC_PHASE_FETCHING, "forcing");
     if ((rc = fetch_all(cfg, o, cname, &f, rep, cancel, &e)))
         goto done;
 
@@ -747,7 +696,7 @@ int cycle_run(const struct sph_config *cfg, const cycle_opts *o, forecast_progre
     req.stale = rep->stale;
     req.observation = observation[0] ? observation : NULL;
     log_info("cycle %s: %s start%s%s", cname, rep->mode, have_warm ? " from " : "", have_warm ? warm : "");
-    prog->phase = FC_PHASE_INITIALISING;
+    cycle_set_phase(prog, o->cycle_time, FC_PHASE_INITIALISING, rep->mode);
     cycle_engine_fn fn = (getenv("SPHICE_TEST_ENGINE") || cfg->engine == CFG_ENGINE_TEST_DOUBLE)
                              ? cycle_test_engine
                              : engine_fn;
@@ -759,7 +708,7 @@ int cycle_run(const struct sph_config *cfg, const cycle_opts *o, forecast_progre
     }
 
     /* write and publish */
-    prog->phase = FC_PHASE_WRITING;
+    cycle_set_phase(prog, o->cycle_time, FC_PHASE_WRITING, "manifest and publication");
     if ((rc = write_manifest(cfg, o, rep, stage, &f, &e)))
         goto done;
     if ((rc = publish(cfg, out_dir, stage, cname, o->cycle_time, rep->product_dir, sizeof rep->product_dir, &e)))
@@ -777,7 +726,7 @@ done:
         rep->result = rc == SPH_ERR_CANCELLED ? CYCLE_CANCELLED : CYCLE_FAILED;
         snprintf(rep->message, sizeof rep->message, "%s", e.msg);
         sph_err_set(err, rc, "%s", e.msg);
-        prog->phase = FC_PHASE_FAILED;
+        cycle_set_phase(prog, o->cycle_time, FC_PHASE_FAILED, rc == SPH_ERR_CANCELLED ? "cancelled" : e.msg);
         /* a cycle another process holds is not ours to record */
         if (rc != SPH_ERR_LOCKED)
             record(o->hist, rep, rc == SPH_ERR_CANCELLED ? "cancelled" : "failed");
@@ -787,7 +736,7 @@ done:
             log_error("cycle %s: failed: %s", cname,
                       !strncmp(e.msg, "cycle ", 6) && strchr(e.msg, ':') ? strchr(e.msg, ':') + 2 : e.msg);
     } else {
-        prog->phase = FC_PHASE_DONE;
+        cycle_set_phase(prog, o->cycle_time, FC_PHASE_DONE, "published");
         record(o->hist, rep, "ok");
         log_info("cycle %s: %s in %.1f s", cname, rep->message, rep->ended - rep->started);
     }

@@ -21,13 +21,7 @@
 #include "util/fileio.h"
 #include "util/log.h"
 #include "util/timeutil.h"
-
-#ifndef SPHICE_VERSION
-#define SPHICE_VERSION "unknown"
-#endif
-#ifndef SPHICE_GIT
-#define SPHICE_GIT "unknown"
-#endif
+#include "util/version.h"
 
 volatile sig_atomic_t service_term, service_hup;
 

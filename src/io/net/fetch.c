@@ -610,3 +610,61 @@ int fetch_url(const char *url, const fetch_options *opt, char *local_path, size_
 {
     return fetch_url_ex(url, opt, local_path, len, sha256_hex, NULL, err);
 }
+
+/* ------------------------------------------------- GET into memory */
+
+typedef struct membuf {
+    char *p;
+    size_t n, max;
+} membuf;
+
+static size_t on_memory(void *data, size_t size, size_t nmemb, void *user)
+{
+    membuf *b = user;
+    size_t add = size * nmemb;
+    if (b->n + add > b->max)
+        return 0;
+    char *g = realloc(b->p, b->n + add + 1);
+    if (!g)
+        return 0;
+    memcpy(g + b->n, data, add);
+    b->p = g;
+    b->n += add;
+    b->p[b->n] = 0;
+    return add;
+}
+
+int fetch_http_get(const char *url, double timeout_s, size_t max_bytes, char **body, size_t *len,
+                   long *http_status, sph_error *err)
+{
+    *body = NULL;
+    if (len)
+        *len = 0;
+    *http_status = 0;
+    pthread_once(&curl_once, curl_init_once);
+    CURL *c = curl_easy_init();
+    membuf b = {NULL, 0, max_bytes};
+    char errbuf[CURL_ERROR_SIZE] = "";
+    CURLcode rc = CURLE_FAILED_INIT;
+    if (c) {
+        curl_easy_setopt(c, CURLOPT_URL, url);
+        curl_easy_setopt(c, CURLOPT_WRITEFUNCTION, on_memory);
+        curl_easy_setopt(c, CURLOPT_WRITEDATA, &b);
+        curl_easy_setopt(c, CURLOPT_TIMEOUT_MS, (long)(timeout_s * 1000));
+        curl_easy_setopt(c, CURLOPT_ERRORBUFFER, errbuf);
+        curl_easy_setopt(c, CURLOPT_NOSIGNAL, 1L);
+        rc = curl_easy_perform(c);
+        curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, http_status);
+        curl_easy_cleanup(c);
+    }
+    if (rc != CURLE_OK) {
+        free(b.p);
+        return sph_err_set(err, SPH_ERR_DOWNLOAD, "%s: %s", url, errbuf[0] ? errbuf : curl_easy_strerror(rc));
+    }
+    *body = b.p ? b.p : calloc(1, 1);
+    if (!*body)
+        return sph_err_set(err, SPH_ERR_NOMEM, "%s: out of memory", url);
+    if (len)
+        *len = b.n;
+    return SPH_OK;
+}

@@ -17,13 +17,7 @@
 #include "util/fileio.h"
 #include "util/log.h"
 #include "util/timeutil.h"
-
-#ifndef SPHICE_VERSION
-#define SPHICE_VERSION "unknown"
-#endif
-#ifndef SPHICE_GIT
-#define SPHICE_GIT "unknown"
-#endif
+#include "util/version.h"
 
 #define TIME_UNITS "seconds since 1970-01-01 00:00:00"
 

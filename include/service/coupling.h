@@ -1,0 +1,72 @@
+/* Forcing to particles: the forecast engine's coupling of its forcing
+ * sources (io/forcing.h) to the model's particles (core/particles.h).
+ *
+ * coupling_open opens one forcing object per configured source that has
+ * files for the cycle; coupling_fill samples every source at the
+ * particles' positions at time t, merges them (currents and sea-surface
+ * height summed over sources, every other quantity from the first source
+ * that provides it), fills the defaults of quantities no source provides
+ * (core/atmos.h, docs/engine.md) and rotates east/north vectors into the
+ * model plane's x/y (io/geo.h: geo_grid_angle). */
+#ifndef SPHICE_SERVICE_COUPLING_H
+#define SPHICE_SERVICE_COUPLING_H
+
+#include <stddef.h>
+
+#include "core/particles.h"
+#include "core/thermo.h"
+#include "io/forcing.h"
+#include "io/geo.h"
+#include "service/forecast.h"
+#include "util/err.h"
+
+struct sph_config;
+
+#define COUPLING_MAX_SOURCES 8
+enum { CPL_Q_UE, CPL_Q_VN, CPL_Q_TAIR, CPL_Q_QAIR, CPL_Q_SWDN, CPL_Q_LWDN, CPL_Q_UWE, CPL_Q_VWN,
+       CPL_Q_SSH, CPL_Q_GXE, CPL_Q_GYN, CPL_Q_SST, CPL_Q_FW, CPL_NQ };
+
+typedef struct fc_coupling {
+    const char *cname;          /* cycle name, for messages */
+    forcing *forc[COUPLING_MAX_SOURCES]; /* one per source: a source that cannot serve a point is known */
+    int forc_kind[COUPLING_MAX_SOURCES];
+    const char *forc_name[COUPLING_MAX_SOURCES];
+    size_t nforc;
+    long coast_fallbacks;       /* particle-fills with no ocean/tide data (unresolved coast) */
+    unsigned provided;          /* forcing quantities found at the last fill */
+    /* per-particle work arrays [cap]: positions (degrees), grid angle,
+     * merged east/north forcing */
+    double *lon, *lat, *angle, *ue, *vn, *uwe, *vwn, *gxe, *gyn, *ssh;
+    double *tair, *qair, *swdn, *lwdn, *sst, *fw;
+    double *q[CPL_NQ];          /* one source's sample */
+    unsigned char *bad;         /* the source could not serve this particle */
+    long *ids_before;           /* ids and positions at the last fill (error messages) */
+    double *lon_before, *lat_before;
+    size_t n_before;
+} fc_coupling;
+
+/* Opens the forcing of the cycle [t0, t_end] over the configured domain
+ * box: one forcing object per source of cfg with files in req (an
+ * optional source without files is left out with a warning). cname names
+ * the cycle in messages and must outlive c. */
+int coupling_open(fc_coupling *c, const struct sph_config *cfg, const forecast_request *req, double t0,
+                  double t_end, const char *cname, sph_error *err);
+
+/* The work arrays for up to cap particles. */
+int coupling_alloc(fc_coupling *c, size_t cap, sph_error *err);
+
+/* Fills every live particle's forcing in P (ua va uw vw sshx sshy lat tair
+ * qair swdn lwdn sst fw; fsens and flat NaN) at time t. Particles at
+ * plane x/y of projection proj; th gives the freezing point (the air
+ * temperature where none is given) and the air pressure (humidity
+ * default). thermo_on: a missing air temperature is an error. */
+int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params *th, int thermo_on,
+                  sph_particles *P, double t, sph_error *err);
+
+/* "121.80E 40.61N" (or "an unknown position"), for messages. */
+void coupling_format_lonlat(double lon, double lat, char *buf, size_t len);
+
+/* Closes the sources and frees the arrays; c may be all zeros. */
+void coupling_free(fc_coupling *c);
+
+#endif

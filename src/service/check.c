@@ -1,0 +1,158 @@
+/* `sphice check` (service/check.h): every configured file for one cycle,
+ * and what the forcing files hold. */
+#include "service/check.h"
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "io/forcing.h"
+#include "service/config.h"
+#include "service/cycle_name.h"
+#include "service/forecast.h"
+#include "util/fileio.h"
+#include "util/timeutil.h"
+
+int service_check(const struct sph_config *cfg, double t, int json, FILE *out)
+{
+    char iso[32];
+    time_format_iso(t, iso, sizeof iso);
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddStringToObject(root, "config", cfg->file);
+    cJSON_AddStringToObject(root, "cycle", iso);
+    cJSON *rows = cJSON_AddArrayToObject(root, "files");
+    int missing_required = 0;
+    /* forcing: each template of each source; then the other inputs */
+    typedef struct { const char *what, *name, *tmpl; int required; double at; } check_item;
+    check_item items[256];
+    size_t n = 0;
+    for (size_t s = 0; s < cfg->nforcing; s++)
+        for (size_t i = 0; i < cfg->forcing[s].urls.n && n < 200; i++)
+            items[n++] = (check_item){"forcing", cfg->forcing[s].name, cfg->forcing[s].urls.v[i],
+                                            !cfg->forcing[s].optional_source, t};
+    if (cfg->initial.path[0])
+        items[n++] = (check_item){"initial", "initial", cfg->initial.path, 0, t};
+    if (cfg->landmask.path[0])
+        items[n++] = (check_item){"landmask", "landmask", cfg->landmask.path, 0, t};
+    if (cfg->observations.path[0])
+        items[n++] = (check_item){"observations", "observations", cfg->observations.path, 0,
+                                        t + cfg->schedule.forecast_hours * 3600};
+    for (size_t i = 0; i < n; i++) {
+        char path[4096] = "", sha[65] = "";
+        sph_error e;
+        sph_error_clear(&e);
+        int rc = cycle_expand_template(items[i].tmpl, items[i].at, path, sizeof path, &e);
+        const char *p = !strncmp(path, "file://", 7) ? path + 7 : path;
+        struct stat st;
+        int found = 0;
+        if (!rc) {
+            if (strstr(p, "://"))
+                sph_err_set(&e, SPH_ERR_DOWNLOAD, "%s: remote (checked when fetched)", p);
+            else if (stat(p, &st) != 0)
+                sph_err_set(&e, SPH_ERR_IO, "%s: %s", p, strerror(errno));
+            else if (sha256_file(p, sha, &e) == 0)
+                found = 1;
+        }
+        if (!found && items[i].required)
+            missing_required++;
+        cJSON *r = cJSON_CreateObject();
+        cJSON_AddStringToObject(r, "kind", items[i].what);
+        cJSON_AddStringToObject(r, "name", items[i].name);
+        cJSON_AddStringToObject(r, "template", items[i].tmpl);
+        cJSON_AddStringToObject(r, "path", p);
+        cJSON_AddBoolToObject(r, "found", found);
+        if (found) {
+            cJSON_AddNumberToObject(r, "bytes", (double)st.st_size);
+            cJSON_AddNumberToObject(r, "age_hours", (time_now() - (double)st.st_mtim.tv_sec) / 3600.0);
+            cJSON_AddStringToObject(r, "sha256", sha);
+        } else {
+            cJSON_AddStringToObject(r, "problem", e.msg);
+        }
+        cJSON_AddItemToArray(rows, r);
+        if (!json)
+            fprintf(out, "%-12s %-14s %-8s %s\n", items[i].what, items[i].name, found ? "found" : "MISSING",
+                   found ? p : e.msg);
+    }
+    /* open every source whose files were found and describe what is in them */
+    cJSON *vars = cJSON_AddArrayToObject(root, "variables");
+    int problems = 0;
+    for (size_t s = 0; s < cfg->nforcing; s++) {
+        const char *files[201];
+        char paths[8][4096];
+        size_t nf = 0;
+        for (size_t i = 0; i < cfg->forcing[s].urls.n && nf < 8; i++) {
+            sph_error e;
+            sph_error_clear(&e);
+            if (cycle_expand_template(cfg->forcing[s].urls.v[i], t, paths[nf], sizeof paths[nf], &e))
+                continue;
+            const char *p = !strncmp(paths[nf], "file://", 7) ? paths[nf] + 7 : paths[nf];
+            struct stat st;
+            if (!strstr(p, "://") && stat(p, &st) == 0)
+                files[nf++] = p;
+        }
+        files[nf] = NULL;
+        if (nf == 0)
+            continue;
+        forcing_source_spec spec;
+        forcing_name_map *map = NULL;
+        forcing *f = NULL;
+        sph_error e;
+        sph_error_clear(&e);
+        int rc = forecast_source_spec(cfg, s, files, &spec, &map, &e);
+        if (!rc)
+            rc = forcing_open(&f, &spec, 1, t, t + cfg->schedule.forecast_hours * 3600.0,
+                              cfg->domain.lon_min, cfg->domain.lon_max, cfg->domain.lat_min,
+                              cfg->domain.lat_max, &e);
+        if (rc) {
+            problems++;
+            cJSON *r = cJSON_CreateObject();
+            cJSON_AddStringToObject(r, "source", cfg->forcing[s].name);
+            cJSON_AddStringToObject(r, "problem", e.msg);
+            cJSON_AddItemToArray(vars, r);
+            if (!json)
+                fprintf(out, "PROBLEM      %s\n", e.msg);
+        } else {
+            forcing_var_info info[32];
+            size_t ni = forcing_describe(f, info, 32);
+            for (size_t i = 0; i < ni && i < 32; i++) {
+                char t0[32] = "harmonic", t1[32] = "any time";
+                if (isfinite(info[i].t_first) && fabs(info[i].t_first) < 1e13) {
+                    time_format_iso(info[i].t_first, t0, sizeof t0);
+                    time_format_iso(info[i].t_last, t1, sizeof t1);
+                }
+                cJSON *r = cJSON_CreateObject();
+                cJSON_AddStringToObject(r, "source", info[i].source);
+                cJSON_AddStringToObject(r, "standard_name", info[i].standard_name);
+                cJSON_AddStringToObject(r, "variable", info[i].variable);
+                cJSON_AddStringToObject(r, "file", info[i].file);
+                cJSON_AddStringToObject(r, "units", info[i].units);
+                cJSON_AddStringToObject(r, "grid", info[i].grid);
+                cJSON_AddStringToObject(r, "time_first", t0);
+                cJSON_AddStringToObject(r, "time_last", t1);
+                cJSON_AddNumberToObject(r, "fill_fraction", info[i].fill_fraction);
+                cJSON_AddItemToArray(vars, r);
+                if (!json)
+                    fprintf(out, "variable     %-10s %-44s %-8s %-12s %-30s %s..%s fill %.3f\n",
+                           info[i].source, info[i].standard_name, info[i].variable, info[i].units,
+                           info[i].grid, t0, t1, info[i].fill_fraction);
+            }
+        }
+        forcing_close(f);
+        free(map);
+    }
+    if (problems)
+        missing_required++;
+    cJSON_AddBoolToObject(root, "ok", missing_required == 0);
+    if (json) {
+        char *txt = cJSON_Print(root);
+        fprintf(out, "%s\n", txt);
+        free(txt);
+    } else {
+        fprintf(out, "cycle %s: %s\n", iso, missing_required ? "required forcing missing" : "all required forcing found");
+    }
+    cJSON_Delete(root);
+    return missing_required ? 1 : 0;
+}

@@ -1,0 +1,297 @@
+/* Forcing to particles (service/coupling.h): open the sources, sample them
+ * at the particles, merge, default, rotate into the model plane. */
+#include "service/coupling.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/atmos.h"
+#include "service/config.h"
+#include "util/log.h"
+#include "util/timeutil.h"
+
+void coupling_format_lonlat(double lon, double lat, char *buf, size_t len)
+{
+    if (!isfinite(lon) || !isfinite(lat)) {
+        snprintf(buf, len, "an unknown position");
+        return;
+    }
+    snprintf(buf, len, "%.2f%c %.2f%c", fabs(lon), lon < 0 ? 'W' : 'E', fabs(lat),
+             lat < 0 ? 'S' : 'N');
+}
+
+int forecast_source_spec(const struct sph_config *cfg, size_t s, const char *const *files,
+                         forcing_source_spec *sp, forcing_name_map **map, sph_error *err)
+{
+    const cfg_forcing_source *src = &cfg->forcing[s];
+    size_t nfiles = 0;
+    while (files && files[nfiles])
+        nfiles++;
+    memset(sp, 0, sizeof *sp);
+    *map = NULL;
+    sp->name = src->name;
+    sp->kind = (forcing_kind)src->kind;
+    sp->files = files;
+    sp->nfiles = nfiles;
+    if (src->variables.n) {
+        *map = calloc(src->variables.n, sizeof **map);
+        if (!*map)
+            return sph_err_set(err, SPH_ERR_NOMEM, "forcing: out of memory");
+        for (size_t k = 0; k < src->variables.n; k++) {
+            (*map)[k].standard_name = src->variables.key[k];
+            (*map)[k].variable = src->variables.val[k];
+        }
+        sp->map = *map;
+        sp->nmap = src->variables.n;
+    }
+    for (size_t k = 0; k < src->required.n; k++)
+        sp->required |= (unsigned)config_quantity_flag(src->required.v[k]);
+    for (size_t k = 0; k < src->optional_q.n; k++)
+        sp->optional |= (unsigned)config_quantity_flag(src->optional_q.v[k]);
+    return SPH_OK;
+}
+
+int coupling_open(fc_coupling *c, const struct sph_config *cfg, const forecast_request *req, double t0,
+                  double t_end, const char *cname, sph_error *err)
+{
+    c->cname = cname;
+    size_t ns = cfg->nforcing < COUPLING_MAX_SOURCES ? cfg->nforcing : COUPLING_MAX_SOURCES;
+    forcing_source_spec specs[COUPLING_MAX_SOURCES];
+    forcing_name_map *maps[COUPLING_MAX_SOURCES] = {0};
+    size_t nspecs = 0;
+    int rc = SPH_OK;
+    for (size_t s = 0; s < ns; s++) {
+        const cfg_forcing_source *src = &cfg->forcing[s];
+        const char *const *files = req->forcing_files[s];
+        size_t nfiles = 0;
+        while (files && files[nfiles])
+            nfiles++;
+        if (nfiles == 0) {
+            if (src->optional_source) {
+                log_warn("forecast %s: optional forcing %s has no files: left out", cname, src->name);
+                continue;
+            }
+            rc = sph_err_set(err, SPH_ERR_COVERAGE, "forcing %s: no files for cycle %s", src->name,
+                             cname);
+            break;
+        }
+        rc = forecast_source_spec(cfg, s, files, &specs[nspecs], &maps[s], err);
+        if (rc != SPH_OK)
+            break;
+        nspecs++;
+    }
+    /* one forcing object per source (same checks and messages as opening
+     * them together); currents and SSH are summed over sources here */
+    for (size_t k = 0; k < nspecs && rc == SPH_OK; k++) {
+        rc = forcing_open(&c->forc[k], &specs[k], 1, t0, t_end, cfg->domain.lon_min,
+                          cfg->domain.lon_max, cfg->domain.lat_min, cfg->domain.lat_max, err);
+        if (rc == SPH_OK) {
+            c->forc_kind[k] = specs[k].kind;
+            c->forc_name[k] = specs[k].name;
+            c->nforc = k + 1;
+        }
+    }
+    if (rc == SPH_OK && nspecs == 0)
+        rc = sph_err_set(err, SPH_ERR_CONFIG, "forcing: no source has files for cycle %s", cname);
+    for (size_t s = 0; s < COUPLING_MAX_SOURCES; s++)
+        free(maps[s]);
+    return rc;
+}
+
+int coupling_alloc(fc_coupling *c, size_t cap, sph_error *err)
+{
+    size_t n = cap ? cap : 1;
+    double **arrays[] = {&c->lon, &c->lat, &c->angle, &c->ue, &c->vn, &c->uwe, &c->vwn, &c->gxe,
+                         &c->gyn, &c->ssh, &c->tair, &c->qair, &c->swdn, &c->lwdn, &c->sst, &c->fw,
+                         &c->lon_before, &c->lat_before};
+    int ok = 1;
+    for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
+        ok &= (*arrays[k] = calloc(n, sizeof(double))) != NULL;
+    for (int k = 0; k < CPL_NQ; k++)
+        ok &= (c->q[k] = calloc(n, sizeof(double))) != NULL;
+    ok &= (c->bad = calloc(n, 1)) != NULL;
+    ok &= (c->ids_before = calloc(n, sizeof(long))) != NULL;
+    return ok ? SPH_OK : sph_err_set(err, SPH_ERR_NOMEM, "forecast: out of memory (%zu particles)", n);
+}
+
+void coupling_free(fc_coupling *c)
+{
+    for (size_t k = 0; k < c->nforc; k++)
+        forcing_close(c->forc[k]);
+    c->nforc = 0;
+    double *arrays[] = {c->lon, c->lat, c->angle, c->ue, c->vn, c->uwe, c->vwn, c->gxe, c->gyn,
+                        c->ssh, c->tair, c->qair, c->swdn, c->lwdn, c->sst, c->fw, c->lon_before,
+                        c->lat_before};
+    for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
+        free(arrays[k]);
+    for (int k = 0; k < CPL_NQ; k++)
+        free(c->q[k]);
+    free(c->bad);
+    free(c->ids_before);
+}
+
+/* The sample slots of particle k: its place in each c->q[CPL_Q_*]. */
+static void sample_view(fc_coupling *c, size_t k, forcing_sample *s)
+{
+    memset(s, 0, sizeof *s);
+    double **slot[CPL_NQ] = {&s->u_east, &s->v_north, &s->tair, &s->qair, &s->swdn, &s->lwdn,
+                             &s->uw_east, &s->vw_north, &s->ssh, &s->ssh_dx_east, &s->ssh_dy_north,
+                             &s->sst, &s->fw};
+    for (int q = 0; q < CPL_NQ; q++)
+        *slot[q] = c->q[q] + k;
+}
+
+/* Samples source src at the n particles into c->q. An ocean or tide
+ * source whose grid has no water near some particles (a coast the ocean
+ * model does not resolve) serves the others; those get no current, no
+ * sea-surface slope and the other defaults (c->bad). Any other failure,
+ * or a source that can serve no particle at all, is an error. */
+static int sample_source(fc_coupling *c, size_t src, double t, size_t n, unsigned *got, sph_error *err)
+{
+    forcing_sample s;
+    sample_view(c, 0, &s);
+    memset(c->bad, 0, n);
+    sph_error local;
+    sph_error_clear(&local);
+    char when[32];
+    time_format_iso(t, when, sizeof when);
+    int rc = forcing_sample_at(c->forc[src], t, n, c->lon, c->lat, &s, &local);
+    if (rc == SPH_OK) {
+        *got = s.provided;
+        return SPH_OK;
+    }
+    if (rc != SPH_ERR_COVERAGE || c->forc_kind[src] == FORCING_ATMOSPHERE || n < 2)
+        return sph_err_set(err, rc, "forcing at %s: %s", when, local.msg);
+    size_t nbad = 0, first_bad = 0;
+    unsigned flags = 0;
+    for (size_t k = 0; k < n; k++) {
+        forcing_sample one;
+        sample_view(c, k, &one);
+        sph_error e1;
+        sph_error_clear(&e1);
+        int r1 = forcing_sample_at(c->forc[src], t, 1, c->lon + k, c->lat + k, &one, &e1);
+        if (r1 == SPH_OK) {
+            flags |= one.provided;
+        } else if (r1 == SPH_ERR_COVERAGE) {
+            if (!nbad++)
+                first_bad = k;
+            c->bad[k] = 1;
+        } else {
+            return sph_err_set(err, r1, "forcing at %s: %s", when, e1.msg);
+        }
+    }
+    if (nbad == n)
+        return sph_err_set(err, rc, "forcing at %s: %s", when, local.msg);
+    if (!c->coast_fallbacks) {
+        char ll[64];
+        coupling_format_lonlat(c->lon[first_bad], c->lat[first_bad], ll, sizeof ll);
+        log_warn("forecast %s: forcing %s has no water near %zu particle(s) (first at %s, %s): "
+                 "no current or sea-surface slope there (reported once)", c->cname, c->forc_name[src],
+                 nbad, ll, when);
+    }
+    c->coast_fallbacks += (long)nbad;
+    *got = flags;
+    return SPH_OK;
+}
+
+/* Adds one source's sample to the particle forcing: currents and SSH sum
+ * over sources (ocean + tide, as the forcing reader does), other
+ * quantities come from the first source that provides them. */
+static void merge_source(fc_coupling *c, size_t n, unsigned got, unsigned before)
+{
+    static const struct { int q; unsigned flag; int sum; } map[] = {
+        {CPL_Q_UE, FQ_WIND, 0}, {CPL_Q_VN, FQ_WIND, 0}, {CPL_Q_TAIR, FQ_TAIR, 0},
+        {CPL_Q_QAIR, FQ_HUMIDITY, 0}, {CPL_Q_SWDN, FQ_SWDN, 0}, {CPL_Q_LWDN, FQ_LWDN, 0},
+        {CPL_Q_UWE, FQ_CURRENT, 1}, {CPL_Q_VWN, FQ_CURRENT, 1}, {CPL_Q_SSH, FQ_SSH, 1},
+        {CPL_Q_GXE, FQ_SSH, 1}, {CPL_Q_GYN, FQ_SSH, 1}, {CPL_Q_SST, FQ_SST, 0},
+        {CPL_Q_FW, FQ_OCEAN_FLUX, 0}};
+    double *dst[CPL_NQ] = {c->ue, c->vn, c->tair, c->qair, c->swdn, c->lwdn, c->uwe, c->vwn, c->ssh,
+                           c->gxe, c->gyn, c->sst, c->fw};
+    for (size_t m = 0; m < sizeof map / sizeof map[0]; m++) {
+        if (!(got & map[m].flag) || (!map[m].sum && (before & map[m].flag)))
+            continue;
+        const double *q = c->q[map[m].q];
+        double *d = dst[map[m].q];
+        for (size_t k = 0; k < n; k++) {
+            if (c->bad[k])
+                continue; /* keeps the default (or the other sources' sum) */
+            d[k] = map[m].sum ? d[k] + q[k] : q[k];
+        }
+    }
+}
+
+/* See docs/engine.md for the defaults of quantities no source provides. */
+int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params *th, int thermo_on,
+                  sph_particles *P, double t, sph_error *err)
+{
+    size_t n = P->n;
+    if (n == 0)
+        return SPH_OK;
+    int rc = geo_inverse(proj, n, P->x, P->y, c->lon, c->lat, err);
+    if (rc)
+        return rc;
+    const double tf = sph_freezing_point(th);
+    for (size_t k = 0; k < n; k++) {
+        c->ue[k] = c->vn[k] = 0.0;
+        c->uwe[k] = c->vwn[k] = 0.0;
+        c->gxe[k] = c->gyn[k] = 0.0;
+        c->ssh[k] = 0.0;
+        c->tair[k] = tf;
+        c->qair[k] = NAN;
+        c->swdn[k] = 0.0;
+        c->lwdn[k] = NAN;
+        c->sst[k] = NAN; /* the thermodynamics takes the freezing point */
+        c->fw[k] = NAN;  /* the thermodynamics takes fw_default */
+    }
+    unsigned provided = 0;
+    for (size_t src = 0; src < c->nforc; src++) {
+        unsigned got = 0;
+        int rc2 = sample_source(c, src, t, n, &got, err);
+        if (rc2)
+            return rc2;
+        merge_source(c, n, got, provided);
+        provided |= got;
+    }
+    c->provided = provided;
+    if (thermo_on && !(provided & FQ_TAIR))
+        return sph_err_set(err, SPH_ERR_MISSING_VAR,
+                           "forcing: no source provides air_temperature, which the thermodynamics "
+                           "needs (add it, or set model.thermo.dt 0)");
+    double pa = th->air_pressure;
+    for (size_t k = 0; k < n; k++) {
+        double a = geo_grid_angle(proj, c->lon[k], c->lat[k]);
+        if (!isfinite(a))
+            a = 0.0;
+        c->angle[k] = a;
+        double cs = cos(a), sn = sin(a);
+        /* east/north -> plane x/y (io/geo.h) */
+        P->ua[k] = c->ue[k] * cs + c->vn[k] * sn;
+        P->va[k] = -c->ue[k] * sn + c->vn[k] * cs;
+        P->uw[k] = c->uwe[k] * cs + c->vwn[k] * sn;
+        P->vw[k] = -c->uwe[k] * sn + c->vwn[k] * cs;
+        P->sshx[k] = c->gxe[k] * cs + c->gyn[k] * sn;
+        P->sshy[k] = -c->gxe[k] * sn + c->gyn[k] * cs;
+        P->lat[k] = c->lat[k];
+        double T = c->tair[k];
+        P->tair[k] = T;
+        if (!(provided & FQ_HUMIDITY))
+            c->qair[k] = sph_atmos_qair_rh(T, SPH_ATMOS_DEFAULT_RH, pa);
+        P->qair[k] = c->qair[k];
+        P->swdn[k] = c->swdn[k];
+        if (!(provided & FQ_LWDN))
+            c->lwdn[k] = sph_atmos_lwdn_cloud(T, SPH_ATMOS_DEFAULT_CLOUD);
+        P->lwdn[k] = c->lwdn[k];
+        P->sst[k] = c->sst[k];
+        P->fw[k] = c->fw[k];
+        P->fsens[k] = NAN;
+        P->flat[k] = NAN;
+    }
+    /* for messages about a step that fails */
+    memcpy(c->ids_before, P->id, n * sizeof *P->id);
+    memcpy(c->lon_before, c->lon, n * sizeof *c->lon);
+    memcpy(c->lat_before, c->lat, n * sizeof *c->lat);
+    c->n_before = n;
+    return SPH_OK;
+}

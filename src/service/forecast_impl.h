@@ -1,0 +1,97 @@
+/* The forecast engine's private state, shared by its rooms:
+ *   forecast.c         forecast_run: parameters, the step loop, step errors
+ *   forecast_init.c    the initial state: plane box, land mask, rasters,
+ *                      cold start (seeding) and warm start
+ *   coupling.c         forcing -> particles (service/coupling.h)
+ *   forecast_output.c  output grid, products, observation, restart file
+ */
+#ifndef SPHICE_SERVICE_FORECAST_IMPL_H
+#define SPHICE_SERVICE_FORECAST_IMPL_H
+
+#include <stddef.h>
+#include <stdlib.h>
+
+#include "core/model.h"
+#include "io/geo.h"
+#include "io/landmask.h"
+#include "io/products.h"
+#include "io/raster.h"
+#include "service/config.h"
+#include "service/coupling.h"
+#include "service/forecast.h"
+#include "util/timeutil.h"
+
+#define DEG2RAD (M_PI / 180.0)
+#define METRES_PER_DEGREE (6371000.0 * DEG2RAD) /* along a meridian, sphere R = 6371 km */
+
+typedef struct engine {
+    const struct sph_config *cfg;
+    const forecast_request *req;
+    char cname[32];          /* cycle name, for messages */
+    double t0, t_end;        /* forecast start and end, s since 1970 */
+    geo_proj *proj;
+    landmask *lm;            /* lon/lat land mask, NULL: none */
+    sph_landmask plane;      /* the model's land mask on the plane */
+    unsigned char *plane_land;
+    fc_coupling cpl;         /* forcing -> particles */
+    ice_raster *raster;      /* cold start raster (or the raster grid) */
+    char raster_path[4096];
+    sph_model *m;
+    size_t cap;
+    int thermo_on;
+    sph_params prm;          /* the model's parameters: config, dt resolved */
+    int dt_auto;             /* model.dt = 0: auto time stepping */
+    double dt_base;          /* the interval the auto step divides, s */
+    /* per-particle output arrays [cap]: position, east/north velocity, strain invariants */
+    double *olon, *olat, *pue, *pvn, *div, *shear;
+    /* output grid */
+    prod_grid grid;
+    size_t npts;
+    double *gx, *gy, *g_conc, *g_hbar, *g_thick, *g_u, *g_v, *g_pres, *g_div, *g_shear, *g_dens;
+    unsigned char *g_land;
+    prod_writer *pw;
+    char restart_path[4200];
+    int restart_written;
+    char start_mode[16];
+} engine;
+
+static inline void *xcalloc(size_t n, size_t size, int *ok)
+{
+    void *p = calloc(n ? n : 1, size);
+    if (!p)
+        *ok = 0;
+    return p;
+}
+
+static inline void iso(double t, char *buf, size_t len) { time_format_iso(t, buf, len); }
+
+/* The particles' forcing at time t (service/coupling.h). */
+static inline int fc_fill_forcing(engine *e, double t, sph_error *err)
+{
+    return coupling_fill(&e->cpl, e->proj, &e->cfg->model.thermo, e->thermo_on, sph_model_particles(e->m),
+                         t, err);
+}
+
+/* forecast.c */
+int fc_resolve_dt(engine *e, sph_error *err);
+void fc_fmt_status(const sph_status *st, char *buf, size_t len);
+int fc_settings_fault(const sph_status *st);
+
+/* forecast_init.c */
+int fc_plane_box(engine *e, double *xmin, double *xmax, double *ymin, double *ymax, sph_error *err);
+int fc_build_landmask(engine *e, double xmin, double xmax, double ymin, double ymax, double cell,
+                      sph_error *err);
+int fc_read_raster(engine *e, const char *tmpl, int format, const char *conc_var, double valid_time,
+                   ice_raster **out, char *path, size_t plen, const char *what, sph_error *err);
+double fc_spacing_m(const engine *e);
+int fc_cold_start(engine *e, sph_error *err);
+int fc_warm_start(engine *e, sph_error *err);
+
+/* forecast_output.c */
+int fc_setup_grid(engine *e, sph_error *err);
+int fc_open_products(engine *e, prod_station *stations, sph_error *err);
+int fc_set_observation(engine *e, sph_error *err);
+int fc_write_output(engine *e, double t, sph_error *err);
+int fc_write_restart(engine *e, double t, sph_error *err);
+
+#endif

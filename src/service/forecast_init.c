@@ -1,0 +1,354 @@
+/* The forecast's initial state (forecast_impl.h): the plane box, the land
+ * mask on the plane, the ice rasters, and the particles of a cold start
+ * (seeded from the initial raster) or a warm start (the previous cycle's
+ * restart file), with their first forcing and the resolved time step. */
+#include "forecast_impl.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "io/restart.h"
+#include "io/seed.h"
+#include "service/cycle_name.h"
+#include "util/log.h"
+
+#define MAX_PLANE_CELLS 16000000L /* plane land mask cells */
+#define MAX_LL_CELLS 4000000L     /* lon/lat land mask cells (GSHHG rasterisation) */
+
+/* ------------------------------------------------------------ land mask */
+
+static const char *gshhg_path(const struct sph_config *cfg, char *buf, size_t len)
+{
+    if (cfg->landmask.path && cfg->landmask.path[0])
+        return cfg->landmask.path;
+    static const char letters[] = "clihf";
+    int r = cfg->landmask.resolution;
+    const char *dirs[] = {"/usr/share/gmt-gshhg", "/usr/share/gshhg-gmt-nc4"};
+    for (size_t d = 0; d < 2; d++) {
+        snprintf(buf, len, "%s/binned_GSHHS_%c.nc", dirs[d], letters[r >= 0 && r < 5 ? r : 2]);
+        if (access(buf, R_OK) == 0)
+            return buf;
+    }
+    return landmask_gshhg_default_path(); /* the best installed one */
+}
+
+/* The first file of the first ocean source (land from its fill pattern). */
+static const char *ocean_file(const struct sph_config *cfg, const forecast_request *req)
+{
+    for (size_t s = 0; s < cfg->nforcing && s < 8; s++)
+        if (cfg->forcing[s].kind == FORCING_OCEAN && req->forcing_files[s] && req->forcing_files[s][0])
+            return req->forcing_files[s][0];
+    for (size_t s = 0; s < cfg->nforcing && s < 8; s++)
+        if (req->forcing_files[s] && req->forcing_files[s][0])
+            return req->forcing_files[s][0];
+    return NULL;
+}
+
+int fc_build_landmask(engine *e, double xmin, double xmax, double ymin, double ymax, double cell,
+                          sph_error *err)
+{
+    const struct sph_config *cfg = e->cfg;
+    switch (cfg->landmask.source) {
+    case CFG_LAND_NONE:
+        e->lm = NULL;
+        break;
+    case CFG_LAND_GSHHG: {
+        char buf[4096];
+        const char *path = gshhg_path(cfg, buf, sizeof buf);
+        /* the lon/lat box of the plane box (its corners reach beyond the domain box) */
+        landmask_grid g;
+        double lon_span = cfg->domain.lon_max - cfg->domain.lon_min;
+        double lat_span = cfg->domain.lat_max - cfg->domain.lat_min;
+        g.lon_min = cfg->domain.lon_min - 0.1 * lon_span;
+        g.lon_max = cfg->domain.lon_max + 0.1 * lon_span;
+        g.lat_min = fmax(-90, cfg->domain.lat_min - 0.1 * lat_span);
+        g.lat_max = fmin(90, cfg->domain.lat_max + 0.1 * lat_span);
+        g.resolution = 0.01;
+        while ((g.lon_max - g.lon_min) * (g.lat_max - g.lat_min) / (g.resolution * g.resolution) >
+               (double)MAX_LL_CELLS)
+            g.resolution *= 1.5;
+        e->lm = landmask_create_gshhg(path, &g, err);
+        if (!e->lm)
+            return err->code ? err->code : SPH_ERR_IO;
+        break;
+    }
+    case CFG_LAND_NETCDF:
+        if (!cfg->landmask.path || !cfg->landmask.path[0])
+            return sph_err_set(err, SPH_ERR_CONFIG, "config: landmask.path: required for source netcdf");
+        /* the default "mask" is one of the names the automatic search tries
+         * (after land_binary_mask, sea_binary_mask, lsm ...) */
+        e->lm = landmask_read_netcdf(cfg->landmask.path,
+                                     cfg->landmask.variable && cfg->landmask.variable[0] &&
+                                             strcmp(cfg->landmask.variable, "mask")
+                                         ? cfg->landmask.variable : NULL,
+                                     LANDMASK_NC_AUTO, err);
+        if (!e->lm)
+            return err->code ? err->code : SPH_ERR_IO;
+        break;
+    case CFG_LAND_FORCING: {
+        const char *path = cfg->landmask.path && cfg->landmask.path[0] ? cfg->landmask.path
+                                                                       : ocean_file(cfg, e->req);
+        if (!path)
+            return sph_err_set(err, SPH_ERR_CONFIG,
+                               "config: landmask.source forcing: no forcing file to take the land from");
+        e->lm = landmask_read_netcdf(path, cfg->landmask.variable, LANDMASK_NC_FILL, err);
+        if (!e->lm)
+            return err->code ? err->code : SPH_ERR_IO;
+        break;
+    }
+    default:
+        return sph_err_set(err, SPH_ERR_CONFIG, "config: landmask.source: unknown value %d",
+                           cfg->landmask.source);
+    }
+    /* plane grid over the projected domain box */
+    int nx = (int)ceil((xmax - xmin) / cell), ny = (int)ceil((ymax - ymin) / cell);
+    while ((double)nx * ny > (double)MAX_PLANE_CELLS) {
+        cell *= 1.5;
+        nx = (int)ceil((xmax - xmin) / cell);
+        ny = (int)ceil((ymax - ymin) / cell);
+    }
+    if (nx < 1) nx = 1;
+    if (ny < 1) ny = 1;
+    e->plane_land = calloc((size_t)nx * ny, 1);
+    if (!e->plane_land)
+        return sph_err_set(err, SPH_ERR_NOMEM, "land mask: out of memory (%d x %d cells)", nx, ny);
+    if (e->lm) {
+        int rc = landmask_to_plane(e->lm, e->proj, xmin, ymin, cell, cell, nx, ny, e->plane_land, err);
+        if (rc)
+            return rc;
+    }
+    e->plane.nx = nx;
+    e->plane.ny = ny;
+    e->plane.x0 = xmin;
+    e->plane.y0 = ymin;
+    e->plane.dx = cell;
+    e->plane.dy = cell;
+    e->plane.land = e->plane_land;
+    e->plane.closed_outside = 0; /* leaving the domain box is an open boundary */
+    return SPH_OK;
+}
+
+/* Bounding box of the projected domain box (its edges sampled densely). */
+int fc_plane_box(engine *e, double *xmin, double *xmax, double *ymin, double *ymax, sph_error *err)
+{
+    const struct sph_config *cfg = e->cfg;
+    enum { NS = 64 };
+    double lon[4 * NS], lat[4 * NS], x[4 * NS], y[4 * NS];
+    double l0 = cfg->domain.lon_min, l1 = cfg->domain.lon_max;
+    double p0 = cfg->domain.lat_min, p1 = cfg->domain.lat_max;
+    for (int k = 0; k < NS; k++) {
+        double f = (double)k / (NS - 1);
+        lon[k] = l0 + f * (l1 - l0), lat[k] = p0;
+        lon[NS + k] = l0 + f * (l1 - l0), lat[NS + k] = p1;
+        lon[2 * NS + k] = l0, lat[2 * NS + k] = p0 + f * (p1 - p0);
+        lon[3 * NS + k] = l1, lat[3 * NS + k] = p0 + f * (p1 - p0);
+    }
+    int rc = geo_forward(e->proj, 4 * NS, lon, lat, x, y, err);
+    if (rc)
+        return rc;
+    *xmin = *ymin = HUGE_VAL;
+    *xmax = *ymax = -HUGE_VAL;
+    for (int k = 0; k < 4 * NS; k++) {
+        *xmin = fmin(*xmin, x[k]);
+        *xmax = fmax(*xmax, x[k]);
+        *ymin = fmin(*ymin, y[k]);
+        *ymax = fmax(*ymax, y[k]);
+    }
+    return SPH_OK;
+}
+
+/* ---------------------------------------------------- initial particles */
+
+int fc_read_raster(engine *e, const char *tmpl, int format, const char *conc_var, double valid_time,
+                       ice_raster **out, char *path, size_t plen, const char *what, sph_error *err)
+{
+    const struct sph_config *cfg = e->cfg;
+    int rc = cycle_expand_template(tmpl, valid_time, path, plen, err);
+    if (rc)
+        return rc;
+    ice_raster_options o;
+    ice_raster_options_default(&o);
+    o.default_thickness = cfg->initial.default_thickness;
+    char thick_path[4096] = "";
+    if (format == CFG_INIT_ESRI) {
+        /* ESRI: initial.thick_var names the thickness grid file (a template) */
+        o.valid_time = valid_time;
+        if (e->raster == NULL && cfg->initial.thick_var && cfg->initial.thick_var[0] &&
+            !strcmp(what, "initial field")) {
+            if ((rc = cycle_expand_template(cfg->initial.thick_var, valid_time, thick_path,
+                                            sizeof thick_path, err)))
+                return rc;
+            o.thickness_path = thick_path;
+        }
+    } else {
+        o.conc_variable = conc_var && conc_var[0] ? conc_var : NULL;
+        if (!strcmp(what, "initial field"))
+            o.thick_variable = cfg->initial.thick_var && cfg->initial.thick_var[0] ? cfg->initial.thick_var
+                                                                                  : NULL;
+    }
+    if (access(path, R_OK) != 0)
+        return sph_err_set(err, SPH_ERR_IO, "%s %s: cannot read the file", what, path);
+    sph_error local;
+    sph_error_clear(&local);
+    rc = ice_raster_read(path, &o, out, &local);
+    /* the configuration's default name is a standard name, not a variable:
+     * fall back to the reader's search by standard_name and usual names */
+    if (rc == SPH_ERR_MISSING_VAR && o.conc_variable && !strcmp(o.conc_variable, "sea_ice_concentration")) {
+        o.conc_variable = NULL;
+        sph_error_clear(&local);
+        rc = ice_raster_read(path, &o, out, &local);
+    }
+    if (rc)
+        return sph_err_set(err, rc, "%s", local.msg);
+    return SPH_OK;
+}
+
+double fc_spacing_m(const engine *e)
+{
+    if (e->cfg->initial.spacing_deg > 0)
+        return e->cfg->initial.spacing_deg * METRES_PER_DEGREE;
+    if (e->raster) {
+        int j = e->raster->nlat / 2;
+        return sqrt(ice_raster_cell_area(e->raster, j));
+    }
+    return 2000.0;
+}
+
+/* The work arrays for cap particles: the coupling's and the output's. */
+static int alloc_work(engine *e, sph_error *err)
+{
+    int rc = coupling_alloc(&e->cpl, e->cap, err);
+    if (rc)
+        return rc;
+    size_t c = e->cap ? e->cap : 1;
+    int ok = 1;
+    double **arrays[] = {&e->olon, &e->olat, &e->pue, &e->pvn, &e->div, &e->shear};
+    for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
+        *arrays[k] = xcalloc(c, sizeof(double), &ok);
+    return ok ? SPH_OK : sph_err_set(err, SPH_ERR_NOMEM, "forecast: out of memory (%zu particles)", c);
+}
+
+int fc_cold_start(engine *e, sph_error *err)
+{
+    const struct sph_config *cfg = e->cfg;
+    if (!cfg->initial.path || !cfg->initial.path[0])
+        return sph_err_set(err, SPH_ERR_CONFIG,
+                           "forecast %s: no warm-start file and initial.path is empty: nothing to start from",
+                           e->cname);
+    int rc;
+    if (!e->raster &&
+        (rc = fc_read_raster(e, cfg->initial.path, cfg->initial.format, cfg->initial.conc_var, e->t0,
+                          &e->raster, e->raster_path, sizeof e->raster_path, "initial field", err)))
+        return rc;
+    seed_options so;
+    seed_options_default(&so);
+    so.threshold = cfg->initial.threshold;
+    so.spacing_m = cfg->initial.spacing_deg > 0 ? cfg->initial.spacing_deg * METRES_PER_DEGREE : 0.0;
+    so.sml_factor = cfg->model.sml_factor;
+    so.rho_ice = cfg->model.rho_i;
+    so.first_id = 0;
+    if (so.spacing_m > 0) { /* lattice over the model's plane box */
+        so.xmin = e->plane.x0;
+        so.ymin = e->plane.y0;
+        so.xmax = e->plane.x0 + e->plane.nx * e->plane.dx;
+        so.ymax = e->plane.y0 + e->plane.ny * e->plane.dy;
+    }
+    size_t count = 0;
+    if ((rc = seed_count(e->raster, e->proj, e->lm, &so, &count, err)))
+        return rc;
+    e->cap = count > 0 ? count : 1;
+    e->m = sph_model_create(&e->prm, e->cap, &e->plane);
+    if (!e->m)
+        return sph_err_set(err, SPH_ERR_NOMEM, "model: cannot create a model for %zu particles", e->cap);
+    sph_particles *P = sph_model_particles(e->m);
+    if ((rc = seed_from_raster(e->raster, e->proj, e->lm, &so, P, err)))
+        return rc;
+    /* particles outside the model's plane box would leave at once: drop them */
+    size_t dropped = 0;
+    double x1 = e->plane.x0 + e->plane.nx * e->plane.dx, y1 = e->plane.y0 + e->plane.ny * e->plane.dy;
+    for (size_t k = P->n; k-- > 0;)
+        if (!(P->x[k] >= e->plane.x0 && P->x[k] < x1 && P->y[k] >= e->plane.y0 && P->y[k] < y1)) {
+            sph_particles_remove(P, k);
+            dropped++;
+        }
+    if (dropped)
+        log_info("forecast %s: %zu seeded particles outside the domain box left out", e->cname, dropped);
+    for (size_t k = 0; k < P->n; k++) {
+        P->snow[k] = 0.0;
+        P->sml0[k] = 0.0; /* sph_model_init takes sml */
+        P->s11[k] = P->s22[k] = P->s12[k] = 0.0;
+    }
+    if ((rc = alloc_work(e, err)))
+        return rc;
+    if ((rc = fc_fill_forcing(e, e->t0, err)))
+        return rc;
+    for (size_t k = 0; k < P->n; k++)
+        sph_thermo_init_particle(&cfg->model.thermo, P, k, P->tair[k]);
+    if ((rc = fc_resolve_dt(e, err)))
+        return rc;
+    sph_status st;
+    if (sph_model_init(e->m, &st) != SPH_STEP_OK) {
+        char what[256];
+        fc_fmt_status(&st, what, sizeof what);
+        if (fc_settings_fault(&st))
+            return sph_err_set(err, SPH_ERR_CONFIG, "model settings: %s (initial field %s)", what,
+                               e->raster_path);
+        return sph_err_set(err, SPH_ERR_BAD_DATA, "initial field %s: particle %ld: %s", e->raster_path,
+                           st.particle, what);
+    }
+    snprintf(e->start_mode, sizeof e->start_mode, "cold");
+    log_info("forecast %s: cold start from %s: %zu particles", e->cname, e->raster_path, P->n);
+    return SPH_OK;
+}
+
+int fc_warm_start(engine *e, sph_error *err)
+{
+    const char *path = e->req->warm_start;
+    restart_header h;
+    int rc = restart_read_header(path, &h, err);
+    if (rc)
+        return rc;
+    e->cap = h.n > 0 ? h.n : 1;
+    e->m = sph_model_create(&e->prm, e->cap, &e->plane);
+    if (!e->m)
+        return sph_err_set(err, SPH_ERR_NOMEM, "model: cannot create a model for %zu particles", e->cap);
+    sph_particles *P = sph_model_particles(e->m);
+    if ((rc = restart_read(path, geo_proj_definition(e->proj), &h, P, err)))
+        return rc;
+    if (fabs(h.time - e->t0) > 1.0) {
+        char a[32], b[32];
+        iso(h.time, a, sizeof a);
+        iso(e->t0, b, sizeof b);
+        log_warn("forecast %s: warm-start file %s is valid at %s, not at the cycle time %s", e->cname, path, a,
+                 b);
+    }
+    /* a new run: its own clock and mass budget, the thermodynamic phase kept */
+    sph_model_clock c = h.clock;
+    c.time = 0.0;
+    c.steps = 0;
+    memset(&c.budget, 0, sizeof c.budget);
+    double mass = 0;
+    for (size_t k = 0; k < P->n; k++)
+        mass += P->mass[k];
+    c.budget.mass_initial = c.budget.mass = mass;
+    if ((rc = fc_resolve_dt(e, err)))
+        return rc;
+    sph_status st;
+    if (sph_model_resume(e->m, &c, &st) != SPH_STEP_OK) {
+        char what[256];
+        fc_fmt_status(&st, what, sizeof what);
+        if (fc_settings_fault(&st))
+            return sph_err_set(err, SPH_ERR_CONFIG, "model settings: %s (warm start %s)", what, path);
+        return sph_err_set(err, SPH_ERR_BAD_DATA, "warm start %s: particle %ld: %s", path, st.particle, what);
+    }
+    if ((rc = alloc_work(e, err)))
+        return rc;
+    if ((rc = fc_fill_forcing(e, e->t0, err)))
+        return rc;
+    snprintf(e->start_mode, sizeof e->start_mode, "warm");
+    log_info("forecast %s: warm start from %s: %zu particles", e->cname, path, P->n);
+    return SPH_OK;
+}
