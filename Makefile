@@ -86,13 +86,6 @@ LAYERS_FILES := fopen|fdopen|freopen|fclose|fread|fwrite|fflush|open|openat|crea
 LAYERS_CORE_IO := ^_*($(LAYERS_STDIO)|$(LAYERS_FILES))(64)?(_chk)?$$|^(stdout|stderr|stdin)$$|^(nc|curl|sqlite3|MHD|cairo|cJSON|sd|H5)_|^sph_log_|^log_
 # Calls main.o never makes: it reaches forcing and HTTP only through the service.
 LAYERS_MAIN_CALLS := ^(forcing|curl)_
-# TEMPORARY (issue 18, items 5 and 7): main.c still opens the forcing reader in
-# cmd_check and carries its own libcurl client in cmd_status; the branch that
-# moves both into the service removes these calls. Delete this variable (and
-# its use below) once that branch is merged.
-LAYERS_MAIN_ALLOW := forcing_open forcing_describe forcing_close \
-  curl_global_init curl_global_cleanup curl_easy_init curl_easy_setopt curl_easy_perform \
-  curl_easy_getinfo curl_easy_strerror curl_easy_cleanup
 
 # Includes: the core never includes I/O or service headers, io/util never
 # service ones. Calls (nm over the built objects): the core calls no symbol
@@ -108,7 +101,7 @@ layers: $(LIB_OBJ) $(MAIN_OBJ)
 	defs $(UTIL_OBJ) $(IO_OBJ) $(SERVICE_OBJ) $(MAIN_OBJ) >$$d/above-core; \
 	defs $(IO_OBJ) $(SERVICE_OBJ) $(MAIN_OBJ) >$$d/above-util; \
 	defs $(SERVICE_OBJ) $(MAIN_OBJ) >$$d/above-io; \
-	: >$$d/none; printf '%s\n' $(LAYERS_MAIN_ALLOW) >$$d/allow-main; \
+	: >$$d/none; \
 	fail=0; \
 	calls() { \
 	  nm -u "$$1" | awk '{ print $$NF }' | sort -u >$$d/uses; \
@@ -119,10 +112,7 @@ layers: $(LIB_OBJ) $(MAIN_OBJ)
 	  calls $$o $$d/above-core '$(LAYERS_CORE_IO)' $$d/none "core: no util, io, service, I/O or logging"; done; \
 	for o in $(UTIL_OBJ); do calls $$o $$d/above-util '^$$' $$d/none "util: no io or service"; done; \
 	for o in $(IO_OBJ); do calls $$o $$d/above-io '^$$' $$d/none "io: no service"; done; \
-	calls $(MAIN_OBJ) $$d/none '$(LAYERS_MAIN_CALLS)' $$d/allow-main "main: no forcing_* or curl_*"; \
-	left=$$(nm -u $(MAIN_OBJ) | awk '{ print $$NF }' | grep -Fx -f $$d/allow-main | tr '\n' ' '); \
-	gone=$$(for a in $(LAYERS_MAIN_ALLOW); do echo "$$left" | grep -qw -- "$$a" || printf '%s ' "$$a"; done); \
-	if [ -n "$$gone" ]; then echo "layers: note: LAYERS_MAIN_ALLOW lists calls main.o no longer makes: $$gone"; fi; \
+	calls $(MAIN_OBJ) $$d/none '$(LAYERS_MAIN_CALLS)' $$d/none "main: no forcing_* or curl_*"; \
 	if [ $$fail -ne 0 ]; then exit 1; fi; \
 	echo "layers: ok"
 
