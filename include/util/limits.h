@@ -19,4 +19,8 @@
  * buffer for one holds SPHICE_MAX_NAME + 1 bytes). */
 #define SPHICE_MAX_NAME 63
 
+/* A limit as text, for messages and documentation: SPHICE_STR(SPHICE_MAX_SOURCES). */
+#define SPHICE_STR_(x) #x
+#define SPHICE_STR(x) SPHICE_STR_(x)
+
 #endif

@@ -14,6 +14,7 @@
 #include "service/cycle_name.h"
 #include "service/forecast.h"
 #include "util/fileio.h"
+#include "util/limits.h"
 #include "util/timeutil.h"
 
 int service_check(const struct sph_config *cfg, double t, int json, FILE *out)
@@ -27,10 +28,10 @@ int service_check(const struct sph_config *cfg, double t, int json, FILE *out)
     int missing_required = 0;
     /* forcing: each template of each source; then the other inputs */
     typedef struct { const char *what, *name, *tmpl; int required; double at; } check_item;
-    check_item items[256];
+    check_item items[SPHICE_MAX_SOURCES * SPHICE_MAX_FILES + 3];
     size_t n = 0;
     for (size_t s = 0; s < cfg->nforcing; s++)
-        for (size_t i = 0; i < cfg->forcing[s].urls.n && n < 200; i++)
+        for (size_t i = 0; i < cfg->forcing[s].urls.n && i < SPHICE_MAX_FILES; i++)
             items[n++] = (check_item){"forcing", cfg->forcing[s].name, cfg->forcing[s].urls.v[i],
                                             !cfg->forcing[s].optional_source, t};
     if (cfg->initial.path[0])
@@ -79,11 +80,16 @@ int service_check(const struct sph_config *cfg, double t, int json, FILE *out)
     /* open every source whose files were found and describe what is in them */
     cJSON *vars = cJSON_AddArrayToObject(root, "variables");
     int problems = 0;
+    char (*paths)[4096] = malloc(SPHICE_MAX_FILES * sizeof *paths); /* every file of a source */
+    if (!paths) {
+        cJSON_Delete(root);
+        fprintf(stderr, "check: out of memory\n");
+        return 1;
+    }
     for (size_t s = 0; s < cfg->nforcing; s++) {
-        const char *files[201];
-        char paths[8][4096];
+        const char *files[SPHICE_MAX_FILES + 1];
         size_t nf = 0;
-        for (size_t i = 0; i < cfg->forcing[s].urls.n && nf < 8; i++) {
+        for (size_t i = 0; i < cfg->forcing[s].urls.n && nf < SPHICE_MAX_FILES; i++) {
             sph_error e;
             sph_error_clear(&e);
             if (cycle_expand_template(cfg->forcing[s].urls.v[i], t, paths[nf], sizeof paths[nf], &e))
@@ -143,6 +149,7 @@ int service_check(const struct sph_config *cfg, double t, int json, FILE *out)
         forcing_close(f);
         free(map);
     }
+    free(paths);
     if (problems)
         missing_required++;
     cJSON_AddBoolToObject(root, "ok", missing_required == 0);

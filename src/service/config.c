@@ -64,11 +64,11 @@ static const char *const engine_names[] = {"forecast", "test-double", NULL};
 static const char *const level_names[] = {"error", "warn", "info", "debug", NULL};
 
 static const cfg_key forcing_keys[] = {
-    K(cfg_forcing_source, "name", CT_STRING, name, NULL, 1, 63, 0, NULL,
+    K(cfg_forcing_source, "name", CT_STRING, name, NULL, 1, SPHICE_MAX_NAME, 0, NULL,
       "Source name used in messages, status and provenance (unique)."),
     K(cfg_forcing_source, "kind", CT_ENUM, kind, NULL, 0, 0, 0, fkind_names,
       "What the source provides: atmosphere (wind, air temperature, radiation), ocean (currents, SSH, SST, heat flux) or tide."),
-    K(cfg_forcing_source, "urls", CT_STRLIST, urls, NULL, 1, 64, 0, NULL,
+    K(cfg_forcing_source, "urls", CT_STRLIST, urls, NULL, 1, SPHICE_MAX_FILES, 0, NULL,
       "File templates (a string or a list): local path, file:// or http(s):// URL; strftime fields %Y %m %d %H %M %j are the cycle time."),
     K(cfg_forcing_source, "variables", CT_STRMAP, variables, "{}", 0, 64, 0, NULL,
       "Renames {standard_name: variable_in_file} for files without CF standard_name attributes."),
@@ -87,7 +87,7 @@ static const cfg_table forcing_table = {forcing_keys, sizeof forcing_keys / size
                                         sizeof(cfg_forcing_source)};
 
 static const cfg_key station_keys[] = {
-    K(cfg_station, "name", CT_STRING, name, NULL, 1, 63, 0, NULL, "Station name."),
+    K(cfg_station, "name", CT_STRING, name, NULL, 1, SPHICE_MAX_NAME, 0, NULL, "Station name."),
     K(cfg_station, "lon", CT_DOUBLE, lon, NULL, -180, 360, 0, NULL, "Longitude, degrees east."),
     K(cfg_station, "lat", CT_DOUBLE, lat, NULL, -90, 90, 0, NULL, "Latitude, degrees north."),
 };
@@ -103,7 +103,7 @@ static const cfg_key head_keys[] = {
     C_("test.engine_seconds", CT_DOUBLE, test_engine_seconds, "1", 0, 3600, CF_TEST | R, NULL,
        "How long the test-double engine runs, s."),
 
-    C_("domain.name", CT_STRING, domain.name, "\"domain\"", 1, 63, R, NULL, "Name of the domain (products, status)."),
+    C_("domain.name", CT_STRING, domain.name, "\"domain\"", 1, SPHICE_MAX_NAME, R, NULL, "Name of the domain (products, status)."),
     C_("domain.lon_min", CT_DOUBLE, domain.lon_min, NULL, -180, 360, R, NULL, "West edge, degrees east."),
     C_("domain.lon_max", CT_DOUBLE, domain.lon_max, NULL, -180, 360, R, NULL, "East edge, degrees east."),
     C_("domain.lat_min", CT_DOUBLE, domain.lat_min, NULL, -90, 90, R, NULL, "South edge, degrees north."),
@@ -117,9 +117,9 @@ static const cfg_key head_keys[] = {
  * parameter table (core/params.h), built by config_table(). */
 
 static const cfg_key tail_keys[] = {
-    {"forcing", CT_OBJARRAY, NULL, 1, 8, R, NULL, offsetof(struct sph_config, forcing),
+    {"forcing", CT_OBJARRAY, NULL, 1, SPHICE_MAX_SOURCES, R, NULL, offsetof(struct sph_config, forcing),
      offsetof(struct sph_config, nforcing), &forcing_table,
-     "Forcing sources (1 to 8), each an object with the keys below."},
+     "Forcing sources (1 to " SPHICE_STR(SPHICE_MAX_SOURCES) "), each an object with the keys below."},
 
     C_("initial.path", CT_STRING, initial.path, "\"\"", 0, 4095, R, NULL,
        "Initial ice raster (template with strftime fields); empty: warm starts only."),
@@ -173,7 +173,7 @@ static const cfg_key tail_keys[] = {
        "Reference point for the edge distance, degrees east."),
     C_("output.edge_reference.lat", CT_DOUBLE, output.edge_reference.lat, "0", -90, 90, R, NULL,
        "Reference point latitude, degrees north."),
-    C_("output.edge_reference.name", CT_STRING, output.edge_reference.name, "\"\"", 0, 63, R, NULL,
+    C_("output.edge_reference.name", CT_STRING, output.edge_reference.name, "\"\"", 0, SPHICE_MAX_NAME, R, NULL,
        "Reference point name; empty: no edge distance."),
     C_("output.map_times", CT_DBLLIST, output.map_times, "[]", 0, 10000, R, NULL,
        "Hours after the cycle time at which maps are drawn."),

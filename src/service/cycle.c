@@ -689,9 +689,9 @@ int cycle_run(const struct sph_config *cfg, const cycle_opts *o, forecast_progre
     req.hours = hours;
     req.stage_dir = stage;
     req.warm_start = have_warm ? warm : NULL;
-    for (size_t s = 0; s < rep->nsources && s < 8; s++)
+    for (size_t s = 0; s < rep->nsources && s < SPHICE_MAX_SOURCES; s++)
         req.forcing_files[s] = (const char *const *)f.files[s];
-    for (size_t i = 0; i < f.nprov && i < 63; i++)
+    for (size_t i = 0; i < f.nprov && i < SPHICE_MAX_PROVENANCE; i++)
         req.forcing_sha256[i] = f.prov[i];
     req.stale = rep->stale;
     req.observation = observation[0] ? observation : NULL;

@@ -38,10 +38,10 @@ static const char *gshhg_path(const struct sph_config *cfg, char *buf, size_t le
 /* The first file of the first ocean source (land from its fill pattern). */
 static const char *ocean_file(const struct sph_config *cfg, const forecast_request *req)
 {
-    for (size_t s = 0; s < cfg->nforcing && s < 8; s++)
+    for (size_t s = 0; s < cfg->nforcing && s < SPHICE_MAX_SOURCES; s++)
         if (cfg->forcing[s].kind == FORCING_OCEAN && req->forcing_files[s] && req->forcing_files[s][0])
             return req->forcing_files[s][0];
-    for (size_t s = 0; s < cfg->nforcing && s < 8; s++)
+    for (size_t s = 0; s < cfg->nforcing && s < SPHICE_MAX_SOURCES; s++)
         if (req->forcing_files[s] && req->forcing_files[s][0])
             return req->forcing_files[s][0];
     return NULL;
