@@ -70,10 +70,8 @@ static size_t collect(void *d, size_t sz, size_t nm, void *u)
 }
 
 /* HTTP status code (0 if no answer); body malloc'd into *body if non-NULL. */
-static long http(int port, const char *method, const char *path, char **body)
+static long http_url(const char *url, const char *method, char **body)
 {
-    char url[8192];
-    snprintf(url, sizeof url, "http://127.0.0.1:%d%s", port, path);
     CURL *c = curl_easy_init();
     membuf b = {0};
     long code = 0;
@@ -92,6 +90,13 @@ static long http(int port, const char *method, const char *path, char **body)
     else
         free(b.p);
     return code;
+}
+
+static long http(int port, const char *method, const char *path, char **body)
+{
+    char url[8192];
+    snprintf(url, sizeof url, "http://127.0.0.1:%d%s", port, path);
+    return http_url(url, method, body);
 }
 
 static cJSON *get_json(int port, const char *path)
@@ -133,7 +138,8 @@ static void write_config(const char *path, const char *dir, int port, double eve
     atomic_write_file(path, text, strlen(text), &e);
 }
 
-static pid_t spawn(const char *config, const char *engine, const char *log)
+/* `sphice serve CONFIG [--listen LISTEN]` in the background. */
+static pid_t spawn_listen(const char *config, const char *engine, const char *log, const char *listen)
 {
     pid_t pid = fork();
     if (pid == 0) {
@@ -143,10 +149,18 @@ static pid_t spawn(const char *config, const char *engine, const char *log)
             dup2(fd, 2);
             dup2(fd, 1);
         }
-        execl(exe, exe, "serve", config, (char *)NULL);
+        if (listen)
+            execl(exe, exe, "serve", config, "--listen", listen, (char *)NULL);
+        else
+            execl(exe, exe, "serve", config, (char *)NULL);
         _exit(127);
     }
     return pid;
+}
+
+static pid_t spawn(const char *config, const char *engine, const char *log)
+{
+    return spawn_listen(config, engine, log, NULL);
 }
 
 /* Waits for the daemon's /health to answer at all. */
@@ -227,6 +241,91 @@ static void dump_log(const char *log)
     free(t);
 }
 
+/* The Prometheus text format, as far as sphice uses it: every family has
+ * `# HELP` and `# TYPE` before its first sample, one TYPE per family, every
+ * sample a name, optional labels and a number. Returns the number of
+ * families, or -1 with the first fault in why. */
+static int check_exposition(const char *text, char *why, size_t whysz)
+{
+    enum { MAXF = 64 };
+    char names[MAXF][128];
+    int help[MAXF], type[MAXF], nf = 0;
+    const char *p = text;
+    if (!*text || text[strlen(text) - 1] != '\n') {
+        snprintf(why, whysz, "does not end with a newline");
+        return -1;
+    }
+    while (*p) {
+        const char *eol = strchr(p, '\n');
+        char line[1024];
+        snprintf(line, sizeof line, "%.*s", (int)(eol - p), p);
+        p = eol + 1;
+        char name[128] = "", kind[32] = "";
+        int f = -1, is_help = !strncmp(line, "# HELP ", 7), is_type = !strncmp(line, "# TYPE ", 7);
+        if (is_help || is_type) {
+            if (sscanf(line + 7, "%127s %31s", name, kind) < 1 || (is_help && !kind[0])) {
+                snprintf(why, whysz, "bad comment: %s", line);
+                return -1;
+            }
+        } else if (line[0] == '#' || !line[0]) {
+            continue;
+        } else {
+            size_t n = strspn(line, "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_:");
+            snprintf(name, sizeof name, "%.*s", (int)n, line);
+            const char *v = line + n;
+            if (*v == '{') {
+                v = strchr(v, '}');
+                v = v ? v + 1 : line + strlen(line);
+            }
+            char *end = NULL;
+            if (*v == ' ')
+                strtod(v + 1, &end);
+            if (!n || !end || end == v + 1 || (*end && *end != ' ')) {
+                snprintf(why, whysz, "bad sample: %s", line);
+                return -1;
+            }
+        }
+        for (int i = 0; i < nf; i++)
+            if (!strcmp(names[i], name))
+                f = i;
+        if (f < 0) {
+            if (nf == MAXF)
+                return -1;
+            f = nf++;
+            snprintf(names[f], sizeof names[f], "%s", name);
+            help[f] = type[f] = 0;
+        }
+        if (is_help) {
+            help[f]++;
+        } else if (is_type) {
+            if (type[f]++ || (strcmp(kind, "gauge") && strcmp(kind, "counter") && strcmp(kind, "untyped"))) {
+                snprintf(why, whysz, "second or unknown TYPE: %s", line);
+                return -1;
+            }
+        } else if (!help[f] || !type[f]) {
+            snprintf(why, whysz, "%s: a sample before its %s", name, help[f] ? "TYPE" : "HELP");
+            return -1;
+        }
+    }
+    return nf;
+}
+
+/* `promtool check metrics` (Debian's prometheus package) when it is on PATH. */
+static void promtool_check(const char *metrics)
+{
+    if (system("command -v promtool >/dev/null 2>&1") != 0) {
+        printf("note: promtool not found (apt-get install prometheus): promtool check skipped\n");
+        return;
+    }
+    char path[512], cmd[1200];
+    snprintf(path, sizeof path, "%s/metrics.prom", tmp);
+    sph_error e;
+    sph_error_clear(&e);
+    atomic_write_file(path, metrics ? metrics : "", metrics ? strlen(metrics) : 0, &e);
+    snprintf(cmd, sizeof cmd, "promtool check metrics < %s >&2", path);
+    CHECK(system(cmd) == 0, "promtool check metrics accepts /metrics");
+}
+
 /* ----------------------------------------------------------- scenarios */
 
 static void scenario_cycles_status_http_reload(void)
@@ -259,7 +358,12 @@ static void scenario_cycles_status_http_reload(void)
                     !strcmp(state, "writing")),
           "state %s", state ? state : "(null)");
     CHECK(jstr(st, "next_cycle", NULL) != NULL, "next cycle reported");
-    CHECK(cJSON_IsObject(cJSON_GetObjectItem(st, "config")), "effective config in status");
+    CHECK(!cJSON_GetObjectItem(st, "config"), "/status does not embed the configuration");
+    cJSON *conf = get_json(port, "/config");
+    const char *eng = jstr(conf, "engine", NULL), *lis = jstr(conf, "status", "listen");
+    CHECK(cJSON_IsObject(conf) && eng && !strcmp(eng, "test-double") && lis && strstr(lis, "127.0.0.1:"),
+          "effective config in /config");
+    cJSON_Delete(conf);
     const cJSON *pidj = cJSON_GetObjectItem(cJSON_GetObjectItem(st, "service"), "pid");
     CHECK(cJSON_IsNumber(pidj) && (pid_t)pidj->valuedouble == pid, "pid");
 
@@ -291,8 +395,13 @@ static void scenario_cycles_status_http_reload(void)
     char *metrics = NULL;
     CHECK(http(port, "GET", "/metrics", &metrics) == 200, "metrics");
     CHECK(metrics && strstr(metrics, "sphice_up 1") && strstr(metrics, "sphice_last_run_success 1") &&
-              strstr(metrics, "sphice_runs_total{result=\"ok\"}") && strstr(metrics, "sphice_ice_area_km2"),
+              strstr(metrics, "sphice_runs{result=\"ok\"}") && strstr(metrics, "sphice_ice_area_km2"),
           "prometheus text");
+    char why[256] = "";
+    int families = metrics ? check_exposition(metrics, why, sizeof why) : -1;
+    CHECK(families >= 10, "every metric family has HELP and TYPE before its samples: %d families; %s", families,
+          why);
+    promtool_check(metrics);
     free(metrics);
 
     /* misuse */
@@ -542,6 +651,185 @@ static void scenario_late_data(void)
     CHECK(wait_exit(pid, 5) == 0, "F exits 0");
 }
 
+/* The history row of cycle (parsed from ISO), or "" (static buffer). */
+static const char *row_result(const char *db, double cycle)
+{
+    static char res[32];
+    res[0] = 0;
+    history *h = NULL;
+    history_run r;
+    sph_error e;
+    sph_error_clear(&e);
+    if (history_open(&h, db, &e) == 0) {
+        if (history_get(h, cycle, &r, &e) == 1) {
+            snprintf(res, sizeof res, "%s", r.result);
+            history_run_clear(&r);
+        }
+        history_close(h);
+    }
+    return res;
+}
+
+static int log_has(const char *log, const char *what)
+{
+    char *t = NULL;
+    size_t n;
+    sph_error e;
+    sph_error_clear(&e);
+    int has = read_file(log, &t, &n, &e) == 0 && strstr(t, what);
+    free(t);
+    return has;
+}
+
+/* A second `sphice serve` on the same state directory (and so the same,
+ * busy, port) refuses to start and leaves the first one's live run alone;
+ * a daemon that starts while `sphice run` runs a cycle leaves that row alone
+ * too (issue 21, item 6). */
+/* A scenario's files: tmp/NAME/ (its state and output), tmp/NAME.json,
+ * tmp/NAME.log, its history, and the shared forcing file tmp/atm.nc; writes
+ * the forcing and a config on a free port (returned). */
+typedef struct scene { char dir[512], cfg[600], log[600], forcing[600], db[700]; } scene;
+
+static int scene_init(scene *p, const char *name)
+{
+    snprintf(p->dir, sizeof p->dir, "%s/%s", tmp, name);
+    snprintf(p->cfg, sizeof p->cfg, "%s/%s.json", tmp, name);
+    snprintf(p->log, sizeof p->log, "%s/%s.log", tmp, name);
+    snprintf(p->forcing, sizeof p->forcing, "%s/atm.nc", tmp);
+    snprintf(p->db, sizeof p->db, "%s/state/history.sqlite", p->dir);
+    sph_error e;
+    sph_error_clear(&e);
+    atomic_write_file(p->forcing, "forcing", 7, &e);
+    int port = free_port();
+    write_config(p->cfg, p->dir, port, 3600, p->forcing, "fail", NULL);
+    return port;
+}
+
+static void scenario_second_serve(void)
+{
+    scene g;
+    int port = scene_init(&g, "g");
+    const char *cfg = g.cfg, *log = g.log, *db = g.db;
+    char log2[600];
+    snprintf(log2, sizeof log2, "%s/g2.log", tmp);
+    pid_t first = spawn(cfg, "sleep:30", log);
+    CHECK(wait_up(port, 10), "daemon G answers");
+    cJSON *st = wait_status(port, "service", "state", "running", 10);
+    double cycle = NAN;
+    const char *iso = st ? jstr(st, "current", "cycle") : NULL;
+    CHECK(iso && time_parse_iso(iso, &cycle) == 0, "G runs a cycle: %s", iso ? iso : "(null)");
+    cJSON_Delete(st);
+    CHECK(!strcmp(row_result(db, cycle), "running"), "G's row is running");
+
+    pid_t second = spawn(cfg, "sleep:0.1", log2);
+    int rc = wait_exit(second, 10);
+    CHECK(rc == 1, "a second serve on the same state dir exits 1: %d", rc);
+    CHECK(log_has(log2, "serve.lock: held by another sphice serve (pid "), "it names the lock and the holder");
+    CHECK(!strcmp(row_result(db, cycle), "running"), "the first one's live run is not marked: %s",
+          row_result(db, cycle));
+    st = wait_status(port, "service", "state", "running", 2);
+    CHECK(st != NULL && kill(first, 0) == 0, "G still runs its cycle");
+    cJSON_Delete(st);
+    kill(first, SIGTERM);
+    CHECK(wait_exit(first, 5) == 0, "G exits 0");
+    CHECK(!strcmp(row_result(db, cycle), "cancelled"), "G's run recorded cancelled");
+
+    /* `sphice run` holds run.lock for its cycle: a daemon starting meanwhile
+     * does not mark that row interrupted */
+    double now = time_now(), slot = floor(now / 3600) * 3600 - 7200;
+    char slot_iso[32], cmd[2048];
+    time_format_iso(slot, slot_iso, sizeof slot_iso);
+    snprintf(cmd, sizeof cmd, "SPHICE_TEST_ENGINE=sleep:3 %s run %s --cycle %s >>%s 2>&1 &", exe, cfg, slot_iso,
+             log2);
+    CHECK(system(cmd) == 0, "sphice run in the background");
+    double end = time_monotonic() + 5;
+    while (strcmp(row_result(db, slot), "running") && time_monotonic() < end)
+        nap(0.05);
+    CHECK(!strcmp(row_result(db, slot), "running"), "sphice run's row is running");
+    first = spawn(cfg, "sleep:0.1", log);
+    CHECK(wait_up(port, 10), "daemon G' answers");
+    nap(0.3);
+    const char *during = row_result(db, slot);
+    CHECK(!strcmp(during, "running") || !strcmp(during, "ok"), "the run's live row is not marked: %s", during);
+    end = time_monotonic() + 10;
+    while (strcmp(row_result(db, slot), "ok") && time_monotonic() < end)
+        nap(0.1);
+    CHECK(!strcmp(row_result(db, slot), "ok"), "sphice run records ok: %s", row_result(db, slot));
+    kill(first, SIGTERM);
+    CHECK(wait_exit(first, 5) == 0, "G' exits 0");
+    if (check_failed_) {
+        dump_log(log);
+        dump_log(log2);
+    }
+}
+
+/* `serve --listen` when status.enabled is false is a usage error (issue 21,
+ * item 12); --listen takes IPv6 forms ("[::1]:PORT"). */
+static void scenario_listen(void)
+{
+    scene h;
+    int port = scene_init(&h, "h");
+    const char *cfg = h.cfg, *log = h.log;
+    char listen[64];
+    char *text = NULL;
+    size_t n;
+    sph_error e;
+    sph_error_clear(&e);
+    read_file(cfg, &text, &n, &e);
+    char off[8192];
+    const char *at = text ? strstr(text, "\"status\": {") : NULL;
+    CHECK(at != NULL, "config has a status object");
+    if (!at) {
+        free(text);
+        return;
+    }
+    snprintf(off, sizeof off, "%.*s\"status\": {\"enabled\": false, %s", (int)(at - text), text,
+             at + strlen("\"status\": {"));
+    free(text);
+    char cfg_off[600];
+    snprintf(cfg_off, sizeof cfg_off, "%s/h-off.json", tmp);
+    atomic_write_file(cfg_off, off, strlen(off), &e);
+    snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
+    pid_t pid = spawn_listen(cfg_off, "sleep:0.1", log, listen);
+    int rc = wait_exit(pid, 10);
+    CHECK(rc == 2, "serve --listen with status.enabled false: exit 2 (%d)", rc);
+    CHECK(log_has(log, "status.enabled is false") && log_has(log, listen), "one line naming the key and --listen");
+    CHECK(http(port, "GET", "/health", NULL) == 0, "nothing listens");
+
+    int fd = socket(AF_INET6, SOCK_STREAM, 0);
+    struct sockaddr_in6 a6;
+    memset(&a6, 0, sizeof a6);
+    a6.sin6_family = AF_INET6;
+    a6.sin6_addr = in6addr_loopback;
+    int v6 = fd >= 0 && bind(fd, (struct sockaddr *)&a6, sizeof a6) == 0;
+    socklen_t len = sizeof a6;
+    int port6 = v6 && getsockname(fd, (struct sockaddr *)&a6, &len) == 0 ? ntohs(a6.sin6_port) : -1;
+    if (fd >= 0)
+        close(fd);
+    if (!v6 || port6 <= 0) {
+        printf("note: no IPv6 loopback on this machine: serve --listen [::1]:PORT skipped (counted as passed)\n");
+        CHECK(1, "skipped");
+        return;
+    }
+    snprintf(listen, sizeof listen, "[::1]:%d", port6);
+    pid = spawn_listen(cfg, "sleep:0.1", log, listen);
+    char url[128];
+    snprintf(url, sizeof url, "http://[::1]:%d/health", port6);
+    double end = time_monotonic() + 10;
+    long code = 0;
+    while (!(code = http_url(url, "GET", NULL)) && time_monotonic() < end)
+        nap(0.05);
+    CHECK(code == 200 || code == 503, "serve --listen %s answers over ::1: %ld", listen, code);
+    char cmd[1024];
+    snprintf(cmd, sizeof cmd, "%s status --url http://[::1]:%d >/dev/null", exe, port6);
+    CHECK(system(cmd) == 0, "sphice status --url http://[::1]:PORT");
+    CHECK(http(port, "GET", "/health", NULL) == 0, "--listen replaces status.listen");
+    kill(pid, SIGTERM);
+    CHECK(wait_exit(pid, 5) == 0, "H exits 0");
+    if (check_failed_)
+        dump_log(log);
+}
+
 static void scenario_units(void)
 {
     if (system("command -v systemd-analyze >/dev/null 2>&1") != 0) {
@@ -577,6 +865,8 @@ int main(void)
     scenario_cycles_status_http_reload();
     scenario_term_and_kill();
     scenario_late_data();
+    scenario_second_serve();
+    scenario_listen();
     scenario_units();
     curl_global_cleanup();
     if (!check_failed_)

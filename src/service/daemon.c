@@ -3,12 +3,14 @@
 
 #include <cjson/cJSON.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
 #include <systemd/sd-daemon.h>
 #include <time.h>
 #include <unistd.h>
@@ -188,18 +190,23 @@ static char *status_json(svc *s)
     } else {
         cJSON_AddArrayToObject(root, "forcing");
     }
-    char *cfg_text = sph_config_to_json(s->cfg);
     pthread_mutex_unlock(&s->lock);
 
     char *last = history_last_finished_json(s->hist, NULL);
     cJSON *lj = last ? cJSON_Parse(last) : NULL;
     free(last);
     cJSON_AddItemToObject(root, "last_run", lj ? lj : cJSON_CreateNull());
-    cJSON *cj = cfg_text ? cJSON_Parse(cfg_text) : NULL;
-    free(cfg_text);
-    cJSON_AddItemToObject(root, "config", cj ? cj : cJSON_CreateNull());
     char *text = cJSON_Print(root);
     cJSON_Delete(root);
+    return text;
+}
+
+/* The configuration in force, every key with its effective value. */
+static char *config_json(svc *s)
+{
+    pthread_mutex_lock(&s->lock);
+    char *text = sph_config_to_json(s->cfg);
+    pthread_mutex_unlock(&s->lock);
     return text;
 }
 
@@ -233,15 +240,15 @@ static char *health_text(svc *s, int *code)
 
 typedef struct sbuf { char *p; size_t n, cap; } sbuf;
 
-static void sb_add(sbuf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void sb_add(sbuf *b, const char *fmt, ...)
+static void sb_vadd(sbuf *b, const char *fmt, va_list ap) __attribute__((format(printf, 2, 0)));
+static void sb_vadd(sbuf *b, const char *fmt, va_list ap)
 {
-    va_list ap;
     for (;;) {
         size_t room = b->cap - b->n;
-        va_start(ap, fmt);
-        int w = b->p ? vsnprintf(b->p + b->n, room, fmt, ap) : -1;
-        va_end(ap);
+        va_list aq;
+        va_copy(aq, ap);
+        int w = b->p ? vsnprintf(b->p + b->n, room, fmt, aq) : -1;
+        va_end(aq);
         if (w >= 0 && (size_t)w < room) {
             b->n += (size_t)w;
             return;
@@ -257,6 +264,28 @@ static void sb_add(sbuf *b, const char *fmt, ...)
     }
 }
 
+static void sb_add(sbuf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void sb_add(sbuf *b, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    sb_vadd(b, fmt, ap);
+    va_end(ap);
+}
+
+/* One gauge family in the Prometheus text format: HELP, TYPE, its sample. */
+static void gauge(sbuf *b, const char *name, const char *help, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+static void gauge(sbuf *b, const char *name, const char *help, const char *fmt, ...)
+{
+    sb_add(b, "# HELP %s %s\n# TYPE %s gauge\n%s ", name, help, name, name);
+    va_list ap;
+    va_start(ap, fmt);
+    sb_vadd(b, fmt, ap);
+    va_end(ap);
+    sb_add(b, "\n");
+}
+
 static char *metrics_text(svc *s)
 {
     sbuf b = {0};
@@ -264,40 +293,42 @@ static char *metrics_text(svc *s)
     int have;
     int ok = last_ok(s, &r, &have);
     pthread_mutex_lock(&s->lock);
-    sb_add(&b, "# HELP sphice_up 1 while the service runs.\n# TYPE sphice_up gauge\nsphice_up 1\n");
-    sb_add(&b, "# TYPE sphice_uptime_seconds gauge\nsphice_uptime_seconds %.3f\n",
-           time_monotonic() - s->started_mono);
-    sb_add(&b, "# TYPE sphice_scheduler_alive gauge\nsphice_scheduler_alive %d\n", scheduler_alive(s));
-    sb_add(&b, "# TYPE sphice_cycle_running gauge\nsphice_cycle_running %d\n", s->worker_running);
-    sb_add(&b, "# TYPE sphice_run_progress_percent gauge\nsphice_run_progress_percent %.2f\n",
-           s->worker_running ? s->prog.percent : 0.0);
+    gauge(&b, "sphice_up", "1 while the service runs.", "1");
+    gauge(&b, "sphice_uptime_seconds", "Seconds since the service started.", "%.3f",
+          time_monotonic() - s->started_mono);
+    gauge(&b, "sphice_scheduler_alive", "1 if the scheduler ticked in the last 10 s.", "%d", scheduler_alive(s));
+    gauge(&b, "sphice_cycle_running", "1 while a cycle runs.", "%d", s->worker_running);
+    gauge(&b, "sphice_run_progress_percent", "Progress of the running cycle in percent (0 when none runs).",
+          "%.2f", s->worker_running ? s->prog.percent : 0.0);
     if (isfinite(s->next_cycle))
-        sb_add(&b, "# TYPE sphice_next_cycle_timestamp_seconds gauge\nsphice_next_cycle_timestamp_seconds %.0f\n",
-               s->next_cycle);
-    sb_add(&b, "# TYPE sphice_config_reload_failed gauge\nsphice_config_reload_failed %d\n",
-           s->config_error[0] != 0);
+        gauge(&b, "sphice_next_cycle_timestamp_seconds", "Time of the next scheduled cycle (Unix time).", "%.0f",
+              s->next_cycle);
+    gauge(&b, "sphice_config_reload_failed", "1 if the last reload was refused (invalid configuration).", "%d",
+          s->config_error[0] != 0);
     pthread_mutex_unlock(&s->lock);
-    sb_add(&b, "# HELP sphice_last_run_success 1 if the last finished cycle succeeded.\n"
-               "# TYPE sphice_last_run_success gauge\nsphice_last_run_success %d\n", ok);
+    gauge(&b, "sphice_last_run_success", "1 if the last finished cycle succeeded.", "%d", ok);
     if (have) {
         if (isfinite(r.ended) && isfinite(r.started))
-            sb_add(&b, "# TYPE sphice_last_run_duration_seconds gauge\nsphice_last_run_duration_seconds %.3f\n",
-                   r.ended - r.started);
-        sb_add(&b, "# TYPE sphice_last_run_cycle_timestamp_seconds gauge\n"
-                   "sphice_last_run_cycle_timestamp_seconds %.0f\n", r.cycle);
-        sb_add(&b, "# TYPE sphice_last_run_stale gauge\nsphice_last_run_stale %d\n", r.stale);
+            gauge(&b, "sphice_last_run_duration_seconds", "Wall time of the last finished cycle.", "%.3f",
+                  r.ended - r.started);
+        gauge(&b, "sphice_last_run_cycle_timestamp_seconds", "Cycle time of the last finished cycle (Unix time).",
+              "%.0f", r.cycle);
+        gauge(&b, "sphice_last_run_stale", "1 if the last finished cycle ran on stale forcing.", "%d", r.stale);
         if (isfinite(r.area_km2))
-            sb_add(&b, "# TYPE sphice_ice_area_km2 gauge\nsphice_ice_area_km2 %.6g\n", r.area_km2);
+            gauge(&b, "sphice_ice_area_km2", "Ice area of the last finished cycle, km2.", "%.6g", r.area_km2);
         if (isfinite(r.volume_km3))
-            sb_add(&b, "# TYPE sphice_ice_volume_km3 gauge\nsphice_ice_volume_km3 %.6g\n", r.volume_km3);
+            gauge(&b, "sphice_ice_volume_km3", "Ice volume of the last finished cycle, km3.", "%.6g", r.volume_km3);
         if (isfinite(r.edge_nm))
-            sb_add(&b, "# TYPE sphice_edge_distance_nm gauge\nsphice_edge_distance_nm %.6g\n", r.edge_nm);
+            gauge(&b, "sphice_edge_distance_nm", "Ice edge distance of the last finished cycle, nautical miles.",
+                  "%.6g", r.edge_nm);
         history_run_clear(&r);
     }
     static const char *results[] = {"ok", "failed", "cancelled", "interrupted"};
-    sb_add(&b, "# HELP sphice_runs_total Cycles in the history by result.\n# TYPE sphice_runs_total gauge\n");
+    /* a gauge, not a counter (an interrupted cycle that runs again becomes
+     * ok), so no _total suffix */
+    sb_add(&b, "# HELP sphice_runs Cycles in the history by result.\n# TYPE sphice_runs gauge\n");
     for (size_t i = 0; i < 4; i++)
-        sb_add(&b, "sphice_runs_total{result=\"%s\"} %ld\n", results[i], history_count(s->hist, results[i]));
+        sb_add(&b, "sphice_runs{result=\"%s\"} %ld\n", results[i], history_count(s->hist, results[i]));
     return b.p;
 }
 
@@ -308,6 +339,8 @@ static char *route(void *ctx, const char *path, int *code, const char **ctype)
     *ctype = "application/json";
     if (!strcmp(path, "/status"))
         return status_json(s);
+    if (!strcmp(path, "/config"))
+        return config_json(s);
     if (!strcmp(path, "/runs"))
         return history_recent_json(s->hist, 50);
     if (!strcmp(path, "/health"))
@@ -483,6 +516,61 @@ static void notify_status(svc *s)
     sd_notify(0, buf);
 }
 
+/* One `sphice serve` per state directory: state_dir/serve.lock, flock'ed
+ * before the daemon changes anything and held (by the open descriptor)
+ * until it exits; it holds the pid for the message of a second one. */
+static int take_serve_lock(const char *state_dir, int *fd_out, sph_error *err)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/serve.lock", state_dir);
+    int fd = open(path, O_CREAT | O_RDWR | O_CLOEXEC, 0644);
+    if (fd < 0)
+        return sph_err_set(err, SPH_ERR_IO, "lock %s: %s", path, strerror(errno));
+    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        int en = errno;
+        char pid[24] = "";
+        ssize_t n = pread(fd, pid, sizeof pid - 1, 0);
+        pid[n > 0 ? n : 0] = 0;
+        pid[strcspn(pid, "\n")] = 0;
+        close(fd);
+        if (en == EWOULDBLOCK)
+            return sph_err_set(err, SPH_ERR_LOCKED, "lock %s: held by another sphice serve%s%s%s; not starting",
+                               path, pid[0] ? " (pid " : "", pid, pid[0] ? ")" : "");
+        return sph_err_set(err, SPH_ERR_IO, "lock %s: %s", path, strerror(en));
+    }
+    char pid[24];
+    int l = snprintf(pid, sizeof pid, "%ld\n", (long)getpid());
+    if (ftruncate(fd, 0) == 0)
+        (void)!pwrite(fd, pid, (size_t)l, 0);
+    *fd_out = fd;
+    return SPH_OK;
+}
+
+/* Marks the rows a dead process left `running` as interrupted, unless a
+ * cycle runs in another process right now (`sphice run` holds
+ * state_dir/run.lock, service/cycle.c, for its whole cycle: its row is
+ * live). Returns 1 when done, 0 to try again on a later tick. */
+static int mark_interrupted(svc *s)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/run.lock", s->cfg->paths.state_dir);
+    int fd = open(path, O_CREAT | O_RDWR | O_CLOEXEC, 0644);
+    if (fd >= 0 && flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        close(fd);
+        return 0;
+    }
+    sph_error e;
+    sph_error_clear(&e);
+    int n = history_mark_interrupted(s->hist, &e);
+    if (fd >= 0)
+        close(fd);
+    if (n > 0)
+        log_warn("%d cycle(s) were interrupted by the previous process; they will run again", n);
+    else if (n < 0)
+        log_error("%s", e.msg);
+    return 1;
+}
+
 int service_serve(const char *config_path, const char *listen)
 {
     svc s;
@@ -496,40 +584,50 @@ int service_serve(const char *config_path, const char *listen)
         log_error("%s", e.msg);
         return 1;
     }
+    if (listen && !s.cfg->status.enabled) {
+        log_error("serve --listen %s: the status server is off (status.enabled is false in %s); "
+                  "set it to true or drop --listen",
+                  listen, config_path);
+        sph_config_free(s.cfg);
+        return 2;
+    }
     sph_log_level = config_log_level(s.cfg);
     s.config_loaded = s.started_wall = time_now();
     s.started_mono = s.last_tick_mono = time_monotonic();
     service_install_signals();
 
+    /* order: the daemon's lock, the history, the port; only then are the
+     * runs of a dead process marked (a second daemon that fails changes nothing) */
     char dbpath[4200];
+    int serve_fd = -1;
     snprintf(dbpath, sizeof dbpath, "%s/history.sqlite", s.cfg->paths.state_dir);
-    if (mkdir_p(s.cfg->paths.state_dir, &e) || history_open(&s.hist, dbpath, &e)) {
+    if (mkdir_p(s.cfg->paths.state_dir, &e) || take_serve_lock(s.cfg->paths.state_dir, &serve_fd, &e) ||
+        history_open(&s.hist, dbpath, &e)) {
         log_error("%s", e.msg);
+        if (serve_fd >= 0)
+            close(serve_fd);
         sph_config_free(s.cfg);
         return 1;
     }
-    int n = history_mark_interrupted(s.hist, &e);
-    if (n > 0)
-        log_warn("%d cycle(s) were interrupted by the previous process; they will run again", n);
 
     if (s.cfg->status.enabled) {
-        sigset_t block, old;
-        sigemptyset(&block);
-        sigaddset(&block, SIGTERM);
-        sigaddset(&block, SIGINT);
-        sigaddset(&block, SIGHUP);
-        pthread_sigmask(SIG_BLOCK, &block, &old);
-        int rc = http_start(&s.http, listen ? listen : s.cfg->status.listen, s.cfg->status.max_connections,
-                            s.cfg->status.per_ip_limit, route, &s, &e);
-        pthread_sigmask(SIG_SETMASK, &old, NULL);
+        const char *where = listen ? listen : s.cfg->status.listen;
+        int rc = http_start(&s.http, where, s.cfg->status.max_connections, s.cfg->status.per_ip_limit, route,
+                            &s, &e);
         if (rc) {
             log_error("%s", e.msg);
             history_close(s.hist);
+            close(serve_fd);
             sph_config_free(s.cfg);
             return 1;
         }
-        log_info("status on http://%s (port %d)", listen ? listen : s.cfg->status.listen, http_port(s.http));
+        log_info("status on %s (port %d)", where, http_port(s.http));
     }
+    int marked = mark_interrupted(&s);
+    if (!marked)
+        log_info("a cycle runs in another sphice process (%s/run.lock held): runs left running are marked "
+                 "interrupted when it ends",
+                 s.cfg->paths.state_dir);
 
     uint64_t wd_usec = 0;
     int wd = sd_watchdog_enabled(0, &wd_usec) > 0;
@@ -563,7 +661,9 @@ int service_serve(const char *config_path, const char *listen)
                 log_info("SIGHUP: reloading %s", s.config_path);
                 reload(&s);
             }
-            if (!s.worker_running && mono >= s.retry_after_mono) {
+            if (!marked && !s.worker_running)
+                marked = mark_interrupted(&s);
+            if (marked && !s.worker_running && mono >= s.retry_after_mono) {
                 double due = due_cycle(&s);
                 if (isfinite(due))
                     start_worker(&s, due);
@@ -583,6 +683,7 @@ int service_serve(const char *config_path, const char *listen)
     }
     http_stop(s.http);
     history_close(s.hist);
+    close(serve_fd);
     sph_config_free(s.pending);
     sph_config_free(s.cfg);
     pthread_mutex_destroy(&s.lock);
