@@ -9,6 +9,7 @@
  * defaults written as JSON (sph_param_default_json), their bounds its
  * bounds, save the service's own overrides (model_overrides). */
 #include "service/config.h"
+#include "service/http.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -211,7 +212,7 @@ static const cfg_key tail_keys[] = {
 
     C_("status.enabled", CT_BOOL, status.enabled, "true", 0, 0, 0, NULL, "Serve HTTP status."),
     C_("status.listen", CT_STRING, status.listen, "\"127.0.0.1:8642\"", 3, 127, 0, NULL,
-       "ADDRESS:PORT of the status server (IPv4)."),
+       "Address of the status server: IPV4:PORT, [IPV6]:PORT, or a numeric address alone (port 8642)."),
     C_("status.max_connections", CT_INT, status.max_connections, "32", 1, 1024, 0, NULL,
        "Concurrent HTTP connections."),
     C_("status.per_ip_limit", CT_INT, status.per_ip_limit, "8", 1, 1024, 0, NULL,
@@ -687,24 +688,6 @@ int config_log_level(const struct sph_config *c)
     return lv[c->log_level];
 }
 
-/* Parses "A.B.C.D:PORT"; 0 on success. */
-static int check_listen(const char *s)
-{
-    const char *colon = strrchr(s, ':');
-    if (!colon || colon == s)
-        return -1;
-    char *end;
-    long port = strtol(colon + 1, &end, 10);
-    if (*end || end == colon + 1 || port < 0 || port > 65535)
-        return -1;
-    unsigned a, b, c, d;
-    char tail;
-    if (sscanf(s, "%u.%u.%u.%u%c", &a, &b, &c, &d, &tail) != 5 || tail != ':' || a > 255 || b > 255 ||
-        c > 255 || d > 255)
-        return -1;
-    return 0;
-}
-
 /* Rules between keys, after every key was read. */
 static int cross_check(const struct sph_config *c, const char *origin, sph_error *err)
 {
@@ -736,9 +719,11 @@ static int cross_check(const struct sph_config *c, const char *origin, sph_error
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config %s: schedule.cycles: empty and schedule.every_hours is 0: no cycle would run",
                            origin);
-    if (check_listen(c->status.listen))
-        return sph_err_set(err, SPH_ERR_CONFIG, "config %s: status.listen: \"%s\" is not IPV4:PORT", origin,
-                           c->status.listen);
+    sph_error le;
+    sph_error_clear(&le);
+    if (http_check_listen(c->status.listen, &le))
+        return sph_err_set(err, SPH_ERR_CONFIG, "config %s: status.listen: \"%s\" is not IPV4:PORT, [IPV6]:PORT "
+                           "or a numeric address (%s)", origin, c->status.listen, le.msg);
     return SPH_OK;
 }
 
