@@ -13,9 +13,9 @@
  *                        free drift, continuity, smoothing length,
  *                        interpolation
  *   rheology/<name>.c    one constitutive law each (sph_rheology_ops)
- *   rheology/registry.c  the rheologies by sph_params.rheology
  *   solver/<name>.c      one stress solver each (sph_solver_ops)
- *   solver/registry.c    the solvers by sph_params.solver
+ *   registry.c           the rheologies by sph_params.rheology and the
+ *                        solvers by sph_params.solver
  *
  * Every pass takes a particle list (NULL: all live particles) and runs
  * over it; operation tables are called once per pass, never per particle,
@@ -114,8 +114,17 @@ struct sph_rheology_ops {
     double (*stable_dt)(const sph_params *p, double spacing, const char **why);
 };
 
-extern const sph_rheology_ops sph_rheology_vp;
-extern const sph_rheology_ops sph_rheology_collision;
+/* For a rheology's stress pass: a loose particle (free drift) carries no
+ * stress; 1 if k is one (its stress and zeta zeroed). */
+static inline int sph_stress_loose(sph_model *m, size_t k, double *s11, double *s22, double *s12)
+{
+    if (!m->loose[k])
+        return 0;
+    s11[k] = s22[k] = s12[k] = 0.0;
+    m->zeta[k] = 0.0;
+    return 1;
+}
+
 /* The table for sph_params.rheology; NULL when out of range. */
 const sph_rheology_ops *sph_rheology_ops_of(int kind);
 
@@ -137,9 +146,6 @@ struct sph_solver_ops {
     double (*stable_dt)(const sph_params *p, double spacing, const char **why);
 };
 
-extern const sph_solver_ops sph_solver_explicit;
-extern const sph_solver_ops sph_solver_mevp;
-extern const sph_solver_ops sph_solver_implicit;
 /* The table for sph_params.solver; NULL when out of range. */
 const sph_solver_ops *sph_solver_ops_of(int kind);
 

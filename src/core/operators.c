@@ -331,26 +331,26 @@ void sph_gradient_correction_pass(sph_model *m)
 void sph_continuity_pass(sph_model *m)
 {
     sph_particles *P = m->P;
-    const sph_params *p = &m->prm;
-    size_t n = P->n;
+    const double dt = m->prm.dt, rho_i = m->prm.rho_i;
+    const size_t n = P->n;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
     for (size_t k = 0; k < n; k++) {
         double div = P->e11[k] + P->e22[k];
         if (P->regime[k] & SPH_REGIME_NEAR_COAST) {
             double dg = coast_divergence(m, k);
             if (dg < 0.0) {
-                P->coastc[k] -= p->dt * dg;
+                P->coastc[k] -= dt * dg;
             } else {
-                double rel = fmin(dg, P->coastc[k] / p->dt);
-                P->coastc[k] -= p->dt * rel;
+                double rel = fmin(dg, P->coastc[k] / dt);
+                P->coastc[k] -= dt * rel;
                 div -= dg - rel;
             }
         }
-        double fac = 1.0 + p->dt * div;
+        double fac = 1.0 + dt * div;
         P->dens[k] /= fac > 0.1 ? fac : 0.1;
         /* a parcel spread below SPH_CONC_MIN is open water with a trace
          * of ice: its footprint stops growing (docs/dynamics.md) */
-        double floor_dens = SPH_CONC_MIN * p->rho_i * P->thick[k];
+        double floor_dens = SPH_CONC_MIN * rho_i * P->thick[k];
         if (P->dens[k] < floor_dens)
             P->dens[k] = floor_dens;
     }

@@ -1,24 +1,36 @@
 /* The registries: rheologies indexed by sph_params.rheology, stress
  * solvers by sph_params.solver; the configuration names them by the
  * tables' names. A new rheology is one file in src/core/rheology/
- * defining a const sph_rheology_ops and one line in `rheologies`; a new
- * solver likewise in src/core/solver/ and `solvers` (docs/architecture.md). */
+ * defining a const sph_rheology_ops and one line in RHEOLOGIES; a new
+ * solver likewise in src/core/solver/ and SOLVERS (docs/dynamics.md,
+ * "Code layout"). */
 #include "model_impl.h"
 
 #include <string.h>
 
 #include "core/registry.h"
 
-static const sph_rheology_ops *const rheologies[] = {
-    &sph_rheology_vp,        /* SPH_RHEOLOGY_VP */
-    &sph_rheology_collision, /* SPH_RHEOLOGY_COLLISION */
-};
+/* One line per rheology (src/core/rheology/<name>.c defines
+ * sph_rheology_<name>), in the order of sph_rheology_kind. */
+#define RHEOLOGIES(X)                        \
+    X(vp)        /* SPH_RHEOLOGY_VP */        \
+    X(collision) /* SPH_RHEOLOGY_COLLISION */
 
-static const sph_solver_ops *const solvers[] = {
-    &sph_solver_explicit, /* SPH_SOLVER_EXPLICIT */
-    &sph_solver_mevp,     /* SPH_SOLVER_MEVP */
-    &sph_solver_implicit, /* SPH_SOLVER_IMPLICIT */
-};
+/* One line per solver (src/core/solver/<name>.c defines sph_solver_<name>),
+ * in the order of sph_solver_kind. */
+#define SOLVERS(X)                         \
+    X(explicit) /* SPH_SOLVER_EXPLICIT */  \
+    X(mevp)     /* SPH_SOLVER_MEVP */      \
+    X(implicit) /* SPH_SOLVER_IMPLICIT */
+
+#define DECLARE_RHEOLOGY(name) extern const sph_rheology_ops sph_rheology_##name;
+#define DECLARE_SOLVER(name) extern const sph_solver_ops sph_solver_##name;
+#define RHEOLOGY_ENTRY(name) &sph_rheology_##name,
+#define SOLVER_ENTRY(name) &sph_solver_##name,
+RHEOLOGIES(DECLARE_RHEOLOGY)
+SOLVERS(DECLARE_SOLVER)
+static const sph_rheology_ops *const rheologies[] = {RHEOLOGIES(RHEOLOGY_ENTRY)};
+static const sph_solver_ops *const solvers[] = {SOLVERS(SOLVER_ENTRY)};
 
 #define COUNT(a) ((int)(sizeof(a) / sizeof((a)[0])))
 

@@ -17,13 +17,10 @@ static void collision_stress(sph_model *m, const int *list, size_t count, double
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
     for (size_t i = 0; i < count; i++) {
         size_t k = list ? (size_t)list[i] : i;
-        if (m->loose[k]) {
-            s11[k] = s22[k] = s12[k] = 0.0;
-            m->zeta[k] = 0.0;
-            continue;
-        }
-        m->zeta[k] = sph_collision_stress(p, P->thick[k], P->conc[k], vf[k], P->e11[k],
-                                          P->e22[k], P->e12[k], &s11[k], &s22[k], &s12[k]);
+        if (!sph_stress_loose(m, k, s11, s22, s12))
+            m->zeta[k] = sph_collision_stress(p, P->thick[k], P->conc[k], vf[k], P->e11[k],
+                                              P->e22[k], P->e12[k], &s11[k], &s22[k],
+                                              &s12[k]);
     }
 }
 
@@ -36,11 +33,8 @@ static void collision_zeta_bound(const sph_model *m, const int *list, size_t cou
     }
 }
 
+/* no projection of the memory, no step bound of its own */
 const sph_rheology_ops sph_rheology_collision = {
-    .name = "collision",
-    .fields = SPH_RHEO_FIELD_VFLUCT,
-    .stress = collision_stress,
-    .zeta_bound = collision_zeta_bound,
-    .project_memory = NULL,
-    .stable_dt = NULL,
+    .name = "collision", .fields = SPH_RHEO_FIELD_VFLUCT, .stress = collision_stress,
+    .zeta_bound = collision_zeta_bound, .project_memory = NULL, .stable_dt = NULL,
 };

@@ -23,13 +23,9 @@ static void vp_stress(sph_model *m, const int *list, size_t count, double *s11, 
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
     for (size_t i = 0; i < count; i++) {
         size_t k = list ? (size_t)list[i] : i;
-        if (m->loose[k]) {
-            s11[k] = s22[k] = s12[k] = 0.0;
-            m->zeta[k] = 0.0;
-            continue;
-        }
-        m->zeta[k] = sph_vp_stress(p, P->pres[k], P->e11[k], P->e22[k], P->e12[k], &s11[k],
-                                   &s22[k], &s12[k]);
+        if (!sph_stress_loose(m, k, s11, s22, s12))
+            m->zeta[k] = sph_vp_stress(p, P->pres[k], P->e11[k], P->e22[k], P->e12[k],
+                                       &s11[k], &s22[k], &s12[k]);
     }
 }
 
@@ -87,10 +83,6 @@ static double vp_stable_dt(const sph_params *p, double spacing, const char **why
 }
 
 const sph_rheology_ops sph_rheology_vp = {
-    .name = "vp",
-    .fields = 0,
-    .stress = vp_stress,
-    .zeta_bound = vp_zeta_bound,
-    .project_memory = vp_project_memory,
-    .stable_dt = vp_stable_dt,
+    .name = "vp", .fields = 0, .stress = vp_stress, .zeta_bound = vp_zeta_bound,
+    .project_memory = vp_project_memory, .stable_dt = vp_stable_dt,
 };
