@@ -377,7 +377,7 @@ static int prepare(sph_model *m, sph_status *st)
     sph_nbr_grid(m->nb, nall, P->x, P->y, cell);
     long over = -1;
     if (sph_nbr_build(m->nb, &m->kern, P->n, P->x, P->y, P->sml, &over))
-        return sph_status_set(st, SPH_STEP_RECOVERABLE, over >= 0 ? P->id[over] : -1,
+        return sph_status_set(st, SPH_STEP_RECOVERABLE, SPH_FAULT_CLUMPING, over >= 0 ? P->id[over] : -1,
                               "neighbour count", (double)m->prm.max_neighbours,
                               (double)m->prm.max_neighbours,
                               "exceeds max_neighbours (particle clumping)");
@@ -423,17 +423,17 @@ static int check_health(sph_model *m, sph_status *st)
                                             "y velocity", "thickness", "mass"};
         for (int q = 0; q < 6; q++)
             if (!isfinite(vals[q]))
-                return sph_status_set(st, SPH_STEP_FATAL, P->id[k], names[q], vals[q], 0.0,
+                return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_NONFINITE, P->id[k], names[q], vals[q], 0.0,
                                       "is not finite (numerical blow-up)");
         double sp = hypot(P->u[k], P->v[k]);
         if (sp > p->speed_limit)
-            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "speed", sp, p->speed_limit,
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_SPEED, P->id[k], "speed", sp, p->speed_limit,
                                   "exceeds the speed limit (numerical blow-up)");
         /* a parcel ridged without bound (e.g. converging on a coast) is a
          * numerical pile-up: no sea-ice cover is tens of metres thick */
         double hbar = P->dens[k] / p->rho_i;
         if (!(hbar <= p->thickness_limit))
-            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "mean thickness", hbar,
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_THICKNESS, P->id[k], "mean thickness", hbar,
                                   p->thickness_limit,
                                   "exceeds the thickness limit (numerical pile-up)");
     }
@@ -442,7 +442,7 @@ static int check_health(sph_model *m, sph_status *st)
                     b->lateral_melt - b->outflow;
     double tol = p->mass_tolerance * fmax(fabs(expect), fabs(b->mass)) + 1e-300;
     if (fabs(b->mass - expect) > tol)
-        return sph_status_set(st, SPH_STEP_FATAL, -1, "total mass", b->mass, expect,
+        return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "total mass", b->mass, expect,
                               "changed beyond round-off with no source or sink to explain it");
     return SPH_STEP_OK;
 }
@@ -453,25 +453,25 @@ int sph_model_init(sph_model *m, sph_status *st)
     const sph_params *p = &m->prm;
     sph_status_clear(st);
     if (P->n > m->cap)
-        return sph_status_set(st, SPH_STEP_FATAL, -1, "particle count", (double)P->n,
+        return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_CAPACITY, -1, "particle count", (double)P->n,
                               (double)m->cap, "exceeds the model capacity");
     for (size_t k = 0; k < P->n; k++) {
         if (!(P->mass[k] > 0.0) || !isfinite(P->mass[k]))
-            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "mass", P->mass[k], 0.0,
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_INVALID, P->id[k], "mass", P->mass[k], 0.0,
                                   "must be positive");
         if (!(P->thick[k] > 0.0) || !isfinite(P->thick[k]))
-            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "thickness", P->thick[k], 0.0,
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_INVALID, P->id[k], "thickness", P->thick[k], 0.0,
                                   "must be positive");
         if (!(P->conc[k] > 0.0 && P->conc[k] <= 1.0))
-            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "concentration", P->conc[k],
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_INVALID, P->id[k], "concentration", P->conc[k],
                                   1.0, "must be in (0, 1]");
         if (!(P->sml[k] > 0.0) || !isfinite(P->sml[k]))
-            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "smoothing length", P->sml[k],
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_INVALID, P->id[k], "smoothing length", P->sml[k],
                                   0.0, "must be positive");
         if (!(P->sml0[k] > 0.0))
             P->sml0[k] = P->sml[k];
         if (!isfinite(P->x[k]) || !isfinite(P->y[k]))
-            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "position", P->x[k], 0.0,
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_NONFINITE, P->id[k], "position", P->x[k], 0.0,
                                   "is not finite");
     }
     /* The measured stability envelope (docs/bench.md, bench/run.sh,
@@ -481,7 +481,7 @@ int sph_model_init(sph_model *m, sph_status *st)
     const char *why = NULL;
     double dtmax = sph_params_stable_dt(p, spacing, &why);
     if (P->n > 0 && p->dt > dtmax)
-        return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "time step", p->dt, dtmax, why);
+        return sph_status_set(st, SPH_STEP_RECOVERABLE, SPH_FAULT_TIMESTEP, -1, "time step", p->dt, dtmax, why);
     if (m->has_mask)
         sph_mark_near_land(m, m->kern.radius * p->sml_max_factor * sph_max_sml(P, P->n));
     /* Calibrate the kernel's lattice sum: intended M = rho_i A h_i from the
@@ -557,7 +557,7 @@ int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st)
     const sph_params *p = &m->prm;
     sph_status_clear(st);
     if (P->n > m->cap)
-        return sph_status_set(st, SPH_STEP_FATAL, -1, "particle count", (double)P->n,
+        return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_CAPACITY, -1, "particle count", (double)P->n,
                               (double)m->cap, "exceeds the model capacity");
     double sml0_max = 0.0;
     for (size_t k = 0; k < P->n; k++) {
@@ -568,24 +568,24 @@ int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st)
                                             "reference density"};
         for (int q = 0; q < 6; q++)
             if (!(must_pos[q] > 0.0) || !isfinite(must_pos[q]))
-                return sph_status_set(st, SPH_STEP_FATAL, P->id[k], names[q], must_pos[q], 0.0,
+                return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_INVALID, P->id[k], names[q], must_pos[q], 0.0,
                                       "must be positive");
         if (!(P->conc[k] > 0.0 && P->conc[k] <= 1.0))
-            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "concentration", P->conc[k],
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_INVALID, P->id[k], "concentration", P->conc[k],
                                   1.0, "must be in (0, 1]");
         if (!isfinite(P->x[k]) || !isfinite(P->y[k]) || !isfinite(P->u[k]) ||
             !isfinite(P->v[k]))
-            return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "position or velocity",
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_NONFINITE, P->id[k], "position or velocity",
                                   P->x[k], 0.0, "is not finite");
         sml0_max = fmax(sml0_max, P->sml0[k]);
     }
     if (!(c->dens_scale > 0.0) || !isfinite(c->time) || !isfinite(c->thermo_accum))
-        return sph_status_set(st, SPH_STEP_FATAL, -1, "clock", c->dens_scale, 0.0,
+        return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_INVALID, -1, "clock", c->dens_scale, 0.0,
                               "is not valid");
     const char *why = NULL;
     double dtmax = sph_params_stable_dt(p, sph_model_spacing(m), &why);
     if (P->n > 0 && p->dt > dtmax)
-        return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "time step", p->dt, dtmax, why);
+        return sph_status_set(st, SPH_STEP_RECOVERABLE, SPH_FAULT_TIMESTEP, -1, "time step", p->dt, dtmax, why);
     /* the same radius as sph_model_init used: there every sml equalled sml0 */
     if (m->has_mask)
         sph_mark_near_land(m, m->kern.radius * p->sml_max_factor * sml0_max);

@@ -38,7 +38,7 @@ static int explicit_solve(sph_model *m, void *ws, sph_status *st)
     if (dt > lim) {
         double want = ceil(dt / lim);
         if (m->prm.unstable == SPH_UNSTABLE_REFUSE || want > m->prm.max_substeps)
-            return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "time step", dt, lim,
+            return sph_status_set(st, SPH_STEP_RECOVERABLE, SPH_FAULT_SUBSTEPS, -1, "time step", dt, lim,
                                   "exceeds the explicit solver's stability limit");
         nsub = (int)want;
     }
@@ -62,10 +62,7 @@ static int explicit_solve(sph_model *m, void *ws, sph_status *st)
     return SPH_STEP_OK;
 }
 
+/* no workspace; no measured bound: it sub-steps to its own limit */
 const sph_solver_ops sph_solver_explicit = {
-    .name = "explicit",
-    .create = NULL,
-    .free = NULL,
-    .solve = explicit_solve,
-    .stable_dt = NULL, /* it sub-steps to its own limit */
+    .name = "explicit", .create = NULL, .free = NULL, .solve = explicit_solve, .stable_dt = NULL,
 };

@@ -280,7 +280,7 @@ static int implicit_solve(sph_model *m, void *ws, sph_status *st)
             gsl_spmatrix_csc(iw->D, iw->Dt) || gsl_spmatrix_csc(iw->K, iw->Kt) ||
             gsl_spblas_dgemm(1.0, iw->Cm, iw->B, iw->T) || gsl_spblas_dgemm(-dt, iw->D, iw->T, iw->L) ||
             gsl_spmatrix_add(iw->A, iw->K, iw->L))
-            return sph_status_set(st, SPH_STEP_FATAL, -1, "implicit matrix", (double)n3, 0.0,
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_SOLVER, -1, "implicit matrix", (double)n3, 0.0,
                                   "could not be assembled (GSL sparse)");
         /* Jacobi (row) scaling: diag(A)^-1 A u = diag(A)^-1 b */
         for (size_t q = 0; q < n2; q++) {
@@ -294,7 +294,7 @@ static int implicit_solve(sph_model *m, void *ws, sph_status *st)
         while (status == GSL_CONTINUE && iter++ < 500)
             status = gsl_splinalg_itersolve_iterate(iw->A, iw->bv, p->implicit_tol, iw->xv, iw->gmres);
         if (status != GSL_SUCCESS)
-            return sph_status_set(st, SPH_STEP_RECOVERABLE, -1, "GMRES residual",
+            return sph_status_set(st, SPH_STEP_RECOVERABLE, SPH_FAULT_SOLVER, -1, "GMRES residual",
                                   gsl_splinalg_itersolve_normr(iw->gmres), p->implicit_tol,
                                   "did not converge in 500 restarts (implicit solver)");
         change = 0.0;
@@ -302,7 +302,7 @@ static int implicit_solve(sph_model *m, void *ws, sph_status *st)
         for (size_t k = 0; k < n; k++) {
             double u = gsl_vector_get(iw->xv, 2 * k), v = gsl_vector_get(iw->xv, 2 * k + 1);
             if (!isfinite(u) || !isfinite(v))
-                return sph_status_set(st, SPH_STEP_FATAL, P->id[k], "implicit velocity", u, 0.0,
+                return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_NONFINITE, P->id[k], "implicit velocity", u, 0.0,
                                       "is not finite");
             change = fmax(change, fmax(fabs(u - P->u[k]), fabs(v - P->v[k])));
             umax = fmax(umax, hypot(u, v));
@@ -323,10 +323,8 @@ static int implicit_solve(sph_model *m, void *ws, sph_status *st)
     return SPH_STEP_OK;
 }
 
+/* no measured bound */
 const sph_solver_ops sph_solver_implicit = {
-    .name = "implicit",
-    .create = implicit_create,
-    .free = implicit_free,
-    .solve = implicit_solve,
-    .stable_dt = NULL, /* no measured bound */
+    .name = "implicit", .create = implicit_create, .free = implicit_free,
+    .solve = implicit_solve, .stable_dt = NULL,
 };

@@ -118,7 +118,7 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
         }
         resid = r;
         if (!isfinite(r))
-            return sph_status_set(st, SPH_STEP_FATAL, -1, "mEVP residual", r, 0.0,
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_NONFINITE, -1, "mEVP residual", r, 0.0,
                                   "is not finite (the stress iteration diverged)");
         if (r < p->evp_tol) {
             it++;
@@ -157,9 +157,6 @@ static double mevp_stable_dt(const sph_params *p, double spacing, const char **w
 }
 
 const sph_solver_ops sph_solver_mevp = {
-    .name = "mevp",
-    .create = mevp_create,
-    .free = mevp_free,
-    .solve = mevp_solve,
+    .name = "mevp", .create = mevp_create, .free = mevp_free, .solve = mevp_solve,
     .stable_dt = mevp_stable_dt,
 };
