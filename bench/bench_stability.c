@@ -107,9 +107,9 @@ static void run_envelope(const void *arg, bench_row *r)
     for (s = 0; s < steps; s++) {
         int rc = sph_model_step(cc.model, &st);
         if (rc != 0) {
-            if (rc > 0 && strstr(st.what, "max_neighbours"))
+            if (rc > 0 && st.kind == SPH_FAULT_CLUMPING)
                 code = 3;
-            else if (rc > 0 && strstr(st.what, "explicit"))
+            else if (rc > 0 && st.kind == SPH_FAULT_SUBSTEPS)
                 code = 4;
             else
                 code = 2;
@@ -276,7 +276,7 @@ static void run_shear(const void *arg, bench_row *r)
     for (long s = 0; s < steps; s++) {
         int rc = sph_model_step(cc.model, &st);
         if (rc != 0) {
-            clump = rc > 0 && strstr(st.what, "max_neighbours");
+            clump = rc > 0 && st.kind == SPH_FAULT_CLUMPING;
             snprintf(r->status, sizeof r->status, "%s:%s", clump ? "clumping" : "fatal",
                      st.quantity);
             break;

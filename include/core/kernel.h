@@ -9,7 +9,7 @@
 #ifndef SPHICE_CORE_KERNEL_H
 #define SPHICE_CORE_KERNEL_H
 
-#include "core/model.h"
+#include "core/kinds.h"
 
 typedef struct sph_kernel {
     sph_kernel_kind kind;

@@ -1,5 +1,7 @@
-/* The model's choices (kernel, solver, rheology ...): plain enums, so that
- * a header needing one of them does not pull in the whole model API. */
+/* The core's choice enums: which kernel, solver, rheology, pressure form,
+ * physics mode and refusal policy a run uses. Apart from model.h so that
+ * headers needing one enum (kernel.h) do not pull in the whole model API.
+ * The solver and rheology values index the registries (include/core/registry.h). */
 #ifndef SPHICE_CORE_KINDS_H
 #define SPHICE_CORE_KINDS_H
 

@@ -12,6 +12,7 @@
 #define SPHICE_CORE_MODEL_H
 
 #include <stddef.h>
+#include "core/kinds.h"
 #include "core/particles.h"
 #include "core/status.h"
 #include "core/params.h" /* sph_params, the parameter table; the kinds */

@@ -15,7 +15,7 @@
 #define SPHICE_CORE_RHEOLOGY_H
 
 #include <math.h>
-#include "core/model.h"
+#include "core/params.h"
 
 /* Integrated ice strength, N/m. hbar = A h_i. */
 static inline double sph_ice_strength(const sph_params *p, double hbar, double A)

@@ -1,7 +1,9 @@
 /* How core routines report: 0 fine, positive recoverable (retry with a
  * smaller step or simpler physics), negative fatal (SUNDIALS convention).
  * The core does no I/O: it fills sph_status and the driver writes the
- * sentence. `quantity` and `what` point at static strings. */
+ * sentence. `kind` says what went wrong, for callers to decide on;
+ * `quantity` and `what` (prose, for the sentence only) point at static
+ * strings. */
 #ifndef SPHICE_CORE_STATUS_H
 #define SPHICE_CORE_STATUS_H
 
@@ -11,8 +13,29 @@ enum {
     SPH_STEP_FATAL = -1       /* NaN/Inf, speed limit, mass not conserved, bad parameter */
 };
 
+/* What a status reports. The sentence puts `limit` after `what` for the
+ * bounds a value crossed (speed, thickness, explicit limit), as
+ * "(limit L)" for ranges (the stable step, forcing and parameter ranges),
+ * and not at all for the rest. */
+typedef enum {
+    SPH_FAULT_NONE = 0,
+    SPH_FAULT_NONFINITE,  /* a state, forcing or solver value is NaN or infinite */
+    SPH_FAULT_SPEED,      /* speed above params.speed_limit (blow-up) */
+    SPH_FAULT_THICKNESS,  /* mean thickness above params.thickness_limit (pile-up) */
+    SPH_FAULT_MASS,       /* total mass changed with no source or sink to explain it */
+    SPH_FAULT_CLUMPING,   /* a neighbour list overflowed max_neighbours */
+    SPH_FAULT_TIMESTEP,   /* params.dt outside the measured stable region: refused */
+    SPH_FAULT_SUBSTEPS,   /* params.dt beyond the explicit solver's limit, not sub-stepped */
+    SPH_FAULT_SOLVER,     /* a solver failed (sparse assembly, GMRES, conduction column) */
+    SPH_FAULT_INVALID,    /* an input value breaks a rule (must be positive, in (0, 1], valid) */
+    SPH_FAULT_RANGE,      /* a forcing value outside its physical range (limit: the bound) */
+    SPH_FAULT_PARAMETER,  /* a parameter outside its allowed range (value lo, limit hi) */
+    SPH_FAULT_CAPACITY    /* more particles than a model or workspace holds */
+} sph_fault;
+
 typedef struct sph_status {
     int code;             /* SPH_STEP_* */
+    sph_fault kind;       /* SPH_FAULT_*: what went wrong */
     long step;            /* dynamic step index where it happened, -1 if none */
     long particle;        /* particle index (id if known), -1 if none */
     const char *quantity; /* e.g. "velocity", "mass", "thickness" */
@@ -24,6 +47,7 @@ typedef struct sph_status {
 static inline void sph_status_clear(sph_status *s)
 {
     s->code = SPH_STEP_OK;
+    s->kind = SPH_FAULT_NONE;
     s->step = -1;
     s->particle = -1;
     s->quantity = "";
@@ -32,11 +56,13 @@ static inline void sph_status_clear(sph_status *s)
     s->what = "";
 }
 
-static inline int sph_status_set(sph_status *s, int code, long particle, const char *quantity,
-                                 double value, double limit, const char *what)
+static inline int sph_status_set(sph_status *s, int code, sph_fault kind, long particle,
+                                 const char *quantity, double value, double limit,
+                                 const char *what)
 {
     if (s && s->code == SPH_STEP_OK) {
         s->code = code;
+        s->kind = kind;
         s->particle = particle;
         s->quantity = quantity;
         s->value = value;

@@ -125,6 +125,7 @@ int sph_thermo_params_check(const sph_thermo_params *p, const char **name, doubl
 typedef struct {
     double growth, new_ice, melt_top, melt_bottom, lateral_melt; /* kg */
     int code;
+    sph_fault kind;
     const char *quantity, *what;
     double value, limit;
 } particle_outcome;
@@ -208,10 +209,11 @@ void sph_thermo_init_particle(const sph_thermo_params *p, sph_particles *P, size
     column_to_particle(&c, P, k);
 }
 
-static int outcome_fail(particle_outcome *o, const char *quantity, double value, double limit,
-                        const char *what)
+static int outcome_fail(particle_outcome *o, sph_fault kind, const char *quantity, double value,
+                        double limit, const char *what)
 {
     o->code = SPH_STEP_FATAL;
+    o->kind = kind;
     o->quantity = quantity;
     o->value = value;
     o->limit = limit;
@@ -226,48 +228,48 @@ static int check_particle(const sph_thermo_params *p, const sph_particles *P, si
     static const char nonfinite[] = "is not finite";
     double v;
     if (!isfinite(P->thick[k]))
-        return outcome_fail(o, "thickness", P->thick[k], 0.0, nonfinite);
+        return outcome_fail(o, SPH_FAULT_NONFINITE, "thickness", P->thick[k], 0.0, nonfinite);
     if (!isfinite(P->conc[k]))
-        return outcome_fail(o, "concentration", P->conc[k], 0.0, nonfinite);
+        return outcome_fail(o, SPH_FAULT_NONFINITE, "concentration", P->conc[k], 0.0, nonfinite);
     if (!isfinite(P->mass[k]))
-        return outcome_fail(o, "mass", P->mass[k], 0.0, nonfinite);
+        return outcome_fail(o, SPH_FAULT_NONFINITE, "mass", P->mass[k], 0.0, nonfinite);
     v = P->tair[k];
     if (!(v >= -80.0))
-        return outcome_fail(o, "air_temperature", v, -80.0, range);
+        return outcome_fail(o, SPH_FAULT_RANGE, "air_temperature", v, -80.0, range);
     if (!(v <= 50.0))
-        return outcome_fail(o, "air_temperature", v, 50.0, range);
+        return outcome_fail(o, SPH_FAULT_RANGE, "air_temperature", v, 50.0, range);
     v = P->swdn[k];
     if (!(v >= 0.0))
-        return outcome_fail(o, "shortwave_down", v, 0.0, range);
+        return outcome_fail(o, SPH_FAULT_RANGE, "shortwave_down", v, 0.0, range);
     if (!(v <= 1500.0))
-        return outcome_fail(o, "shortwave_down", v, 1500.0, range);
+        return outcome_fail(o, SPH_FAULT_RANGE, "shortwave_down", v, 1500.0, range);
     v = P->lwdn[k];
     if (!(v >= 0.0))
-        return outcome_fail(o, "longwave_down", v, 0.0, range);
+        return outcome_fail(o, SPH_FAULT_RANGE, "longwave_down", v, 0.0, range);
     if (!(v <= 1000.0))
-        return outcome_fail(o, "longwave_down", v, 1000.0, range);
+        return outcome_fail(o, SPH_FAULT_RANGE, "longwave_down", v, 1000.0, range);
     if (!isfinite(P->ua[k]) || !isfinite(P->va[k]))
-        return outcome_fail(o, "wind_speed", isfinite(P->ua[k]) ? P->va[k] : P->ua[k], 0.0, nonfinite);
+        return outcome_fail(o, SPH_FAULT_NONFINITE, "wind_speed", isfinite(P->ua[k]) ? P->va[k] : P->ua[k], 0.0, nonfinite);
     /* Relative humidity over water (WMO convention) from q and T. */
     v = P->qair[k];
     if (!isfinite(v))
-        return outcome_fail(o, "specific_humidity", v, 0.0, nonfinite);
+        return outcome_fail(o, SPH_FAULT_NONFINITE, "specific_humidity", v, 0.0, nonfinite);
     double e = v * p->air_pressure / (0.622 + 0.378 * v);
     double T = P->tair[k];
     double rh = e / (611.2 * exp(17.62 * T / (243.12 + T)));
     if (!(rh >= 0.0))
-        return outcome_fail(o, "relative_humidity", rh, 0.0, range);
+        return outcome_fail(o, SPH_FAULT_RANGE, "relative_humidity", rh, 0.0, range);
     if (!(rh <= 1.05))
-        return outcome_fail(o, "relative_humidity", rh, 1.05, range);
+        return outcome_fail(o, SPH_FAULT_RANGE, "relative_humidity", rh, 1.05, range);
     v = P->sst[k];
     if (isfinite(v) && !(v >= -3.0 && v <= 40.0))
-        return outcome_fail(o, "sea_surface_temperature", v, v < -3.0 ? -3.0 : 40.0, range);
+        return outcome_fail(o, SPH_FAULT_RANGE, "sea_surface_temperature", v, v < -3.0 ? -3.0 : 40.0, range);
     if (isinf(P->fw[k]))
-        return outcome_fail(o, "ocean_heat_flux", P->fw[k], 0.0, nonfinite);
+        return outcome_fail(o, SPH_FAULT_NONFINITE, "ocean_heat_flux", P->fw[k], 0.0, nonfinite);
     if (isinf(P->fsens[k]))
-        return outcome_fail(o, "sensible_heat_flux", P->fsens[k], 0.0, nonfinite);
+        return outcome_fail(o, SPH_FAULT_NONFINITE, "sensible_heat_flux", P->fsens[k], 0.0, nonfinite);
     if (isinf(P->flat[k]))
-        return outcome_fail(o, "latent_heat_flux", P->flat[k], 0.0, nonfinite);
+        return outcome_fail(o, SPH_FAULT_NONFINITE, "latent_heat_flux", P->flat[k], 0.0, nonfinite);
     return SPH_STEP_OK;
 }
 
@@ -326,7 +328,7 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
     int rc = multi ? sph_column_step_multi_layer(p, &c, &f, dt, solver, &r)
                    : sph_column_step_zero_layer(p, &c, &f, dt, solver, &r);
     if (rc == SPH_STEP_FATAL) {
-        outcome_fail(o, "ice_temperature", c.tsurf, 0.0, "has no solution of the conduction equation");
+        outcome_fail(o, SPH_FAULT_SOLVER, "ice_temperature", c.tsurf, 0.0, "has no solution of the conduction equation");
         return;
     }
     /* Column changes, per unit ice area -> kg over the ice part of the footprint. */
@@ -398,14 +400,14 @@ int sph_thermo_step(const sph_thermo_params *p, sph_particles *P, double dt, sph
     if (p->model == SPH_THERMO_OFF || P->n == 0)
         return SPH_STEP_OK;
     if (!w || P->n > w->cap || P->nlayers < 1 || P->nlayers > SPH_MAX_LAYERS)
-        return sph_status_set(st, SPH_STEP_FATAL, -1, "thermo_workspace", (double)P->n, (double)(w ? w->cap : 0),
+        return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_CAPACITY, -1, "thermo_workspace", (double)P->n, (double)(w ? w->cap : 0),
                               "is smaller than the particle set");
     const char *bad;
     double lo, hi;
     if (sph_thermo_params_check(p, &bad, &lo, &hi) != SPH_STEP_OK)
-        return sph_status_set(st, SPH_STEP_FATAL, -1, bad, lo, hi, "is outside its allowed range");
+        return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_PARAMETER, -1, bad, lo, hi, "is outside its allowed range");
     if (!(dt > 0.0))
-        return sph_status_set(st, SPH_STEP_FATAL, -1, "thermo_dt", dt, 0.0, "is not positive");
+        return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_INVALID, -1, "thermo_dt", dt, 0.0, "is not positive");
 
     const long n = (long)P->n;
     int nthreads = omp_get_max_threads();
@@ -423,7 +425,7 @@ int sph_thermo_step(const sph_thermo_params *p, sph_particles *P, double dt, sph
     for (long k = 0; k < n; k++) {
         if (w->out[k].code != SPH_STEP_OK) {
             const particle_outcome *o = &w->out[k];
-            return sph_status_set(st, o->code, k, o->quantity, o->value, o->limit, o->what);
+            return sph_status_set(st, o->code, o->kind, k, o->quantity, o->value, o->limit, o->what);
         }
     }
 
@@ -433,7 +435,7 @@ int sph_thermo_step(const sph_thermo_params *p, sph_particles *P, double dt, sph
     for (long k = 0; k < n; k++) {
         if (w->out[k].code != SPH_STEP_OK) {
             const particle_outcome *o = &w->out[k];
-            return sph_status_set(st, o->code, k, o->quantity, o->value, o->limit, o->what);
+            return sph_status_set(st, o->code, o->kind, k, o->quantity, o->value, o->limit, o->what);
         }
     }
     /* Sums in index order: the same for every thread count. */

@@ -34,23 +34,34 @@
 /* --------------------------------------------------------------- helpers */
 
 /* "speed 12.3 exceeds the speed limit 10 (numerical blow-up)": the limit
- * goes before a parenthesised remark of the core's sentence. */
+ * goes before a parenthesised remark of the core's sentence for a bound the
+ * value crossed, after it as "(limit L)" for a range, and nowhere else. */
 static void fmt_status(const sph_status *st, char *buf, size_t len)
 {
     const char *what = st->what && *st->what ? st->what : "failed";
-    const char *paren = strstr(what, " (");
-    int has_limit = st->limit != 0.0 && strstr(what, "limit");
-    if (has_limit && paren)
-        snprintf(buf, len, "%s %.6g %.*s %.6g%s", st->quantity, st->value, (int)(paren - what), what,
-                 st->limit, paren);
-    else if (has_limit)
-        snprintf(buf, len, "%s %.6g %s %.6g", st->quantity, st->value, what, st->limit);
-    else if (!strcmp(what, "must be in (0, 1]") || strstr(what, "must be"))
-        snprintf(buf, len, "%s %.6g %s", st->quantity, st->value, what);
-    else if (strstr(what, "outside"))
+    switch (st->kind) {
+    case SPH_FAULT_SPEED:
+    case SPH_FAULT_THICKNESS:
+    case SPH_FAULT_SUBSTEPS: {
+        if (st->limit == 0.0)
+            break;
+        const char *paren = strstr(what, " (");
+        if (paren)
+            snprintf(buf, len, "%s %.6g %.*s %.6g%s", st->quantity, st->value, (int)(paren - what), what,
+                     st->limit, paren);
+        else
+            snprintf(buf, len, "%s %.6g %s %.6g", st->quantity, st->value, what, st->limit);
+        return;
+    }
+    case SPH_FAULT_TIMESTEP:
+    case SPH_FAULT_RANGE:
+    case SPH_FAULT_PARAMETER:
         snprintf(buf, len, "%s %.6g %s (limit %.6g)", st->quantity, st->value, what, st->limit);
-    else
-        snprintf(buf, len, "%s %.6g %s", st->quantity, st->value, what);
+        return;
+    default:
+        break;
+    }
+    snprintf(buf, len, "%s %.6g %s", st->quantity, st->value, what);
 }
 
 static void engine_free(engine *e)
@@ -148,7 +159,7 @@ static void particle_where(const engine *e, long id, char *buf, size_t len)
  * A bad clock or particle count stays the file's fault. */
 static int settings_fault(const sph_status *st)
 {
-    return st->particle < 0 && strcmp(st->quantity, "time step") == 0;
+    return st->particle < 0 && (st->kind == SPH_FAULT_TIMESTEP || st->kind == SPH_FAULT_SUBSTEPS);
 }
 
 /* For the other rooms of the engine (forecast_impl.h). */

@@ -1,0 +1,238 @@
+/* Private to the model (SQLite-style private header): struct sph_model, the
+ * rheology and solver operation tables, and the passes the step driver,
+ * the solvers and the rheologies share. Nothing outside src/core includes
+ * it; the public API is include/core/model.h.
+ *
+ * Rooms:
+ *   model.c              parameters, create/free/init/resume, step driver,
+ *                        budgets and health
+ *   coast.c              land mask queries, mirror ghosts, ghost velocity
+ *                        and stress, moves blocked by land, outflow
+ *   operators.c          SPH passes: ordering, density, diagnosis, active
+ *                        set, strain, divergence, gradient correction,
+ *                        free drift, continuity, smoothing length,
+ *                        interpolation
+ *   rheology/<name>.c    one constitutive law each (sph_rheology_ops)
+ *   solver/<name>.c      one stress solver each (sph_solver_ops)
+ *   registry.c           the rheologies by sph_params.rheology and the
+ *                        solvers by sph_params.solver
+ *
+ * Every pass takes a particle list (NULL: all live particles) and runs
+ * over it; operation tables are called once per pass, never per particle,
+ * so the per-particle kernels (include/core/rheology.h, momentum below)
+ * stay inline in the loops.
+ */
+#ifndef SPHICE_CORE_MODEL_IMPL_H
+#define SPHICE_CORE_MODEL_IMPL_H
+
+#include <math.h>
+#include <stddef.h>
+
+#include "core/kernel.h"
+#include "core/model.h"
+#include "core/neighbours.h"
+
+#define OMEGA_EARTH 7.292e-5
+/* Bound of lambda_max h^2 / nu of the SPH viscous operator (measured). */
+#define SPH_VISCOUS_EIG 1.25
+/* Threads pay off only above a few thousand particles: the solver runs
+ * thousands of short passes per step, each a fork/join. */
+#define SPH_OMP_WORTH(n) ((n) >= 4096)
+/* Smallest concentration a parcel is diluted to by divergence. */
+#define SPH_CONC_MIN 0.05
+#define DEG2RAD (M_PI / 180.0)
+
+typedef struct sph_rheology_ops sph_rheology_ops;
+typedef struct sph_solver_ops sph_solver_ops;
+
+struct sph_model {
+    sph_params prm;
+    sph_kernel kern;
+    const sph_rheology_ops *rheo; /* prm.rheology's table */
+    const sph_solver_ops *solver; /* prm.solver's table */
+    void *solver_ws;              /* the solver's own workspace (solver->create) */
+    sph_particles *P; /* capacity 2*cap: live particles then ghosts */
+    size_t cap;
+    size_t ng;        /* ghosts this step, at indices [n, n + ng) */
+    int *ghost_src;
+    double *ghost_nx, *ghost_ny, *ghost_n2x, *ghost_n2y;
+    sph_nbr *nb;
+    int has_mask;
+    sph_landmask mask;
+    unsigned char *land;
+    unsigned char *near_land; /* sea cells within the ghost radius of land */
+    double near_radius;
+    /* workspaces, [2*cap] */
+    double *un, *vn;     /* velocity at the start of the step */
+    double *zeta;        /* last bulk viscosity */
+    double *vfluct;      /* fluctuating velocity (SPH_RHEO_FIELD_VFLUCT; else NULL) */
+    double *dvel;        /* per-particle velocity change of the last iteration */
+    double *scratch;     /* permutation and misc, [2*cap*SPH_MAX_LAYERS] */
+    int *order;
+    int *active;         /* particles iterated by the stress solver */
+    size_t nactive;
+    unsigned char *loose; /* per particle: free drift in auto mode */
+    double dens_scale;   /* lattice calibration of the truncated kernel */
+    double *fcor;        /* Coriolis parameter per particle, set each step */
+    double cos_air, sin_air, cos_water, sin_water; /* turning angles */
+    sph_thermo_work *tw;
+    double *binv;    /* [6*c2] gradient correction per particle: B^-1 of the strain
+                        rates (b11, b12, b22), then of the stress divergence */
+    sph_budget budget;
+    sph_step_stats stats;
+    double time, thermo_accum;
+    long steps;
+};
+
+/* Array length of the per-particle workspaces: live particles and ghosts. */
+static inline size_t sph_model_slots(const sph_model *m) { return m->P->cap; }
+
+/* ------------------------------------------------------------------ */
+/* rheologies (src/core/rheology/)                                     */
+
+/* Fields a rheology needs beside the common ones. */
+#define SPH_RHEO_FIELD_VFLUCT 1u /* m->vfluct: kernel-weighted RMS velocity
+                                    deviation, filled by the strain pass */
+
+struct sph_rheology_ops {
+    const char *name;     /* the configuration's name (model.rheology) */
+    unsigned fields;      /* SPH_RHEO_FIELD_* the model allocates and fills */
+    /* Constitutive stress of the listed particles (NULL: all live) from
+     * their strain rates into s11/s22/s12[k], the bulk viscosity into
+     * m->zeta[k]; loose particles (m->loose) get zero stress. */
+    void (*stress)(sph_model *m, const int *list, size_t count, double *s11, double *s22,
+                   double *s12);
+    /* Upper bound of the bulk viscosity of the listed particles into
+     * out[k], for the explicit solver's stability limit. */
+    void (*zeta_bound)(const sph_model *m, const int *list, size_t count, double *out);
+    /* Projects the EVP stress memory of every live particle back onto what
+     * the current strength allows; NULL: no projection. */
+    void (*project_memory)(sph_model *m);
+    /* The measured stable dynamic step this rheology imposes at initial
+     * spacing `spacing`, with the refusal's message in *why; HUGE_VAL
+     * where it imposes none. */
+    double (*stable_dt)(const sph_params *p, double spacing, const char **why);
+};
+
+/* For a rheology's stress pass: a loose particle (free drift) carries no
+ * stress; 1 if k is one (its stress and zeta zeroed). */
+static inline int sph_stress_loose(sph_model *m, size_t k, double *s11, double *s22, double *s12)
+{
+    if (!m->loose[k])
+        return 0;
+    s11[k] = s22[k] = s12[k] = 0.0;
+    m->zeta[k] = 0.0;
+    return 1;
+}
+
+/* The table for sph_params.rheology; NULL when out of range. */
+const sph_rheology_ops *sph_rheology_ops_of(int kind);
+
+/* ------------------------------------------------------------------ */
+/* stress solvers (src/core/solver/)                                   */
+
+struct sph_solver_ops {
+    const char *name; /* the configuration's name (model.solver) */
+    /* Allocates the solver's workspace for m into *ws (NULL: none needed);
+     * 0 on success. Called outside a step (create, set_params). */
+    int (*create)(const sph_model *m, void **ws);
+    void (*free)(void *ws);
+    /* Internal stress and momentum of the active set m->active for one
+     * dynamic step; fills m->stats. */
+    int (*solve)(sph_model *m, void *ws, sph_status *st);
+    /* The measured stable dynamic step (docs/bench.md) at initial spacing
+     * `spacing`, with the refusal's message in *why; HUGE_VAL where
+     * nothing bounds it (a solver that sub-steps itself or is implicit). */
+    double (*stable_dt)(const sph_params *p, double spacing, const char **why);
+};
+
+/* The table for sph_params.solver; NULL when out of range. */
+const sph_solver_ops *sph_solver_ops_of(int kind);
+
+/* Explicit viscous step limit at the current state (solver/explicit.c). */
+double sph_explicit_limit(sph_model *m);
+
+/* ------------------------------------------------------------------ */
+/* coasts (coast.c)                                                    */
+
+int sph_is_land(const sph_model *m, double x, double y);
+/* Marks sea cells within `radius` of a land cell (done once, at init). */
+void sph_mark_near_land(sph_model *m, double radius);
+void sph_build_ghosts(sph_model *m);
+void sph_ghost_velocity(sph_model *m, double *u, double *v, int mirror);
+void sph_ghost_stress(sph_model *m);
+void sph_move_and_constrain(sph_model *m);
+void sph_remove_outflow(sph_model *m);
+
+/* S' = R S R with R = I - 2 n n^T; S = [[a, b], [b, c]] (a mirror). */
+static inline void sph_reflect_tensor(double nx, double ny, double *a, double *b, double *c)
+{
+    if (nx == 0.0 && ny == 0.0)
+        return;
+    double r11 = 1 - 2 * nx * nx, r12 = -2 * nx * ny, r22 = 1 - 2 * ny * ny;
+    double t11 = r11 * *a + r12 * *b, t12 = r11 * *b + r12 * *c;
+    double t21 = r12 * *a + r22 * *b, t22 = r12 * *b + r22 * *c;
+    double s11 = t11 * r11 + t12 * r12, s12 = t11 * r12 + t12 * r22;
+    double s22 = t21 * r12 + t22 * r22;
+    *a = s11;
+    *b = s12;
+    *c = s22;
+}
+
+/* ------------------------------------------------------------------ */
+/* SPH passes (operators.c)                                            */
+
+double sph_max_sml(const sph_particles *P, size_t n);
+void sph_reorder(sph_model *m);
+void sph_density_pass(sph_model *m);
+void sph_diagnose_pass(sph_model *m);
+void sph_select_active(sph_model *m);
+void sph_strain_pass(sph_model *m, const int *list, size_t count);
+void sph_divergence_pass(sph_model *m, const int *list, size_t count);
+void sph_gradient_correction_pass(sph_model *m);
+void sph_free_drift_pass(sph_model *m);
+void sph_continuity_pass(sph_model *m);
+void sph_update_sml(sph_model *m);
+
+/* Momentum for particle k with implicit water drag (lagged speed) and
+ * trapezoidal Coriolis, solved as a 2x2 system:
+ *   (1+beta) u' = beta u_p + u_n + dt [a_int + tau_a/(rho h) - g grad xi
+ *                 + c R_w (U_w - u') - f k x (u' + u_n)/2]
+ * c = rho_w C_w |U_w - u_p| / M. beta = 0 is a plain implicit
+ * step; beta > 0 is the mEVP pseudo-time iteration (Kimmritz et al. 2015),
+ * whose fixed point is the same time-discrete equation. */
+static inline void sph_momentum(const sph_model *m, size_t k, double beta, double up, double vp,
+                                double un, double vn, double dt, double *uo, double *vo)
+{
+    const sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    /* mass per unit area M = rho_i A h_i: PHYSICS.md eq. 2 applies the
+     * full drag to M (Hibler 1979), so loose ice responds faster */
+    double rho_h = P->dens[k];
+    double ua = P->ua[k], va = P->va[k];
+    /* sqrt rather than hypot: this runs once per particle and iteration
+     * (hypot's overflow care cost 5 % of a packed run), and wind and
+     * current speeds are far from overflow */
+    double sa = sqrt(ua * ua + va * va);
+    double ca = m->cos_air, sna = m->sin_air;
+    double tax = p->rho_a * p->Ca * sa * (ua * ca - va * sna);
+    double tay = p->rho_a * p->Ca * sa * (ua * sna + va * ca);
+    double uw = P->uw[k], vw = P->vw[k];
+    double dux = uw - up, duy = vw - vp;
+    double c = p->rho_w * p->Cw * sqrt(dux * dux + duy * duy) / rho_h;
+    double cw = m->cos_water, sw = m->sin_water;
+    double f = m->fcor[k];
+    double rx = beta * up + un +
+                dt * (P->ax[k] + tax / rho_h + c * (cw * uw - sw * vw) -
+                      p->gravity * P->sshx[k] + 0.5 * f * vn);
+    double ry = beta * vp + vn +
+                dt * (P->ay[k] + tay / rho_h + c * (sw * uw + cw * vw) -
+                      p->gravity * P->sshy[k] - 0.5 * f * un);
+    double d11 = 1.0 + beta + dt * c * cw, d22 = d11;
+    double d12 = -dt * (c * sw + 0.5 * f), d21 = -d12;
+    double det = d11 * d22 - d12 * d21;
+    *uo = (d22 * rx - d12 * ry) / det;
+    *vo = (d11 * ry - d21 * rx) / det;
+}
+
+#endif

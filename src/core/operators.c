@@ -1,0 +1,417 @@
+/* The SPH passes over the particle arrays: ordering, density, diagnosis,
+ * the active set, strain rates, stress divergence, kernel gradient
+ * correction, free drift, continuity, smoothing length, and interpolation
+ * to arbitrary points. Each pass runs over a list of particles (NULL: all
+ * live particles), threaded where that pays. */
+#include "model_impl.h"
+
+#include <math.h>
+
+#include "core/kernel.h"
+#include "core/neighbours.h"
+#include "core/rheology.h"
+
+/* ------------------------------------------------------------------ */
+/* SPH passes                                                          */
+
+double sph_max_sml(const sph_particles *P, size_t n)
+{
+    double hmax = 0.0;
+    for (size_t k = 0; k < n; k++)
+        hmax = fmax(hmax, P->sml[k]);
+    return hmax;
+}
+
+/* Reorders live particles by cell so that neighbours are close in memory. */
+void sph_reorder(sph_model *m)
+{
+    sph_particles *P = m->P;
+    size_t n = P->n;
+    if (n < 2)
+        return;
+    double cell = m->kern.radius * sph_max_sml(P, n);
+    sph_nbr_grid(m->nb, n, P->x, P->y, cell);
+    int ident = 1;
+    for (size_t i = 0; i < n; i++) {
+        m->order[i] = m->nb->sorted[i];
+        ident &= m->order[i] == (int)i;
+    }
+    if (!ident)
+        sph_particles_permute(P, m->order, m->scratch);
+}
+
+void sph_density_pass(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    size_t n = P->n;
+    double scale = m->dens_scale;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
+        const size_t base = nb->off[k];
+        double s = 0.0;
+        for (int q = 0; q < nb->count[k]; q++)
+            s += P->mass[nb->idx[base + q]] * nb->w[base + q];
+        P->dens[k] = scale * s;
+    }
+}
+
+/* Concentration, ridging, strength, and the auto regime's loose flags. */
+void sph_diagnose_pass(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    size_t n = P->n;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
+        double hbar = P->dens[k] / p->rho_i;
+        double A = hbar / P->thick[k];
+        if (A > 1.0) { /* ridging: A = 1, the ice thickens at constant volume */
+            P->thick[k] = hbar;
+            A = 1.0;
+        }
+        P->conc[k] = A;
+        P->pres[k] = sph_ice_strength(p, hbar, A);
+        double factor = exp(-p->C * (1.0 - A));
+        m->loose[k] = p->physics == SPH_PHYSICS_FREE_DRIFT ||
+                      (p->physics == SPH_PHYSICS_AUTO && factor < p->auto_tolerance);
+    }
+}
+
+/* Active set: particles that are packed or have a packed neighbour. */
+void sph_select_active(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    size_t n = P->n, na = 0;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
+        int act = 0;
+        if (m->prm.physics != SPH_PHYSICS_FREE_DRIFT) {
+            const size_t base = nb->off[k];
+            for (int q = 0; q < nb->count[k] && !act; q++) {
+                int j = nb->idx[base + q];
+                size_t src = (size_t)j < n ? (size_t)j : (size_t)m->ghost_src[(size_t)j - n];
+                act = !m->loose[src];
+            }
+        }
+        P->regime[k] &= (unsigned char)~(SPH_REGIME_FREE_DRIFT | SPH_REGIME_RHEOLOGY);
+        P->regime[k] |= act ? SPH_REGIME_RHEOLOGY : SPH_REGIME_FREE_DRIFT;
+    }
+    for (size_t k = 0; k < n; k++) /* serial: the list in particle order */
+        if (P->regime[k] & SPH_REGIME_RHEOLOGY)
+            m->active[na++] = (int)k;
+    m->nactive = na;
+}
+
+/* Strain rates (seed eq. 15, sign settled by the linear-field test) and
+ * the fluctuating velocity for the collision rheology, for the listed
+ * particles (list NULL: all live particles). */
+void sph_strain_pass(sph_model *m, const int *list, size_t count)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    const double *u = P->u, *v = P->v, *mass = P->mass;
+    int want_fluct = (m->rheo->fields & SPH_RHEO_FIELD_VFLUCT) != 0;
+    const int gc = m->prm.gradient_correction;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
+    for (size_t i = 0; i < count; i++) {
+        size_t k = list ? (size_t)list[i] : i;
+        const size_t base = nb->off[k];
+        double a11 = 0, a22 = 0, a12 = 0, a21 = 0, fl = 0, wsum = 0;
+        for (int q = 0; q < nb->count[k]; q++) {
+            size_t s = base + (size_t)q;
+            int j = nb->idx[s];
+            double du = u[j] - u[k], dv = v[j] - v[k];
+            double gx = nb->gx[s], gy = nb->gy[s];
+            a11 += mass[j] * du * gx;
+            a22 += mass[j] * dv * gy;
+            if (gc) { /* the two off-diagonal gradients apart */
+                a12 += mass[j] * dv * gx;
+                a21 += mass[j] * du * gy;
+            } else {
+                a12 += mass[j] * (dv * gx + du * gy);
+            }
+            if (want_fluct) {
+                double wj = mass[j] / P->dens[j] * nb->w[s];
+                fl += wj * (du * du + dv * dv);
+                wsum += wj;
+            }
+        }
+        double iM = 1.0 / P->dens[k];
+        if (gc) {
+            /* velocity gradient G_ab = sum_j m_j dv_a g_b / M_k, i.e.
+             * [[a11, a21], [a12, a22]]; corrected: G B_k^-1 */
+            const double *bi = m->binv + 6 * k;
+            double g11 = a11 * bi[0] + a21 * bi[1], g12 = a11 * bi[1] + a21 * bi[2];
+            double g21 = a12 * bi[0] + a22 * bi[1], g22 = a12 * bi[1] + a22 * bi[2];
+            a11 = g11;
+            a22 = g22;
+            a12 = g12 + g21;
+        }
+        P->e11[k] = a11 * iM;
+        P->e22[k] = a22 * iM;
+        P->e12[k] = 0.5 * a12 * iM;
+        if (want_fluct) {
+            double vf = wsum > 0 ? sqrt(fl / wsum) : 0.0;
+            m->vfluct[k] = fmax(vf, m->prm.coll_vfluct_min);
+        }
+    }
+}
+
+/* The coast ghosts' part of particle k's velocity divergence (the strain
+ * pass's sum restricted to ghost neighbours). */
+static double coast_divergence(const sph_model *m, size_t k)
+{
+    const sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    const size_t base = nb->off[k], n = P->n;
+    double a = 0.0;
+    for (int q = 0; q < nb->count[k]; q++) {
+        size_t s = base + (size_t)q;
+        size_t j = (size_t)nb->idx[s];
+        if (j < n)
+            continue;
+        const double *bi = m->binv + 6 * k;
+        double gx = bi[0] * nb->gx[s] + bi[1] * nb->gy[s], gy = bi[1] * nb->gx[s] + bi[2] * nb->gy[s];
+        a += P->mass[j] * ((P->u[j] - P->u[k]) * gx + (P->v[j] - P->v[k]) * gy);
+    }
+    return a / P->dens[k];
+}
+
+/* Symmetric stress divergence (seed eq. 13): a_k = [div(hbar sigma)/M]_k. */
+void sph_divergence_pass(sph_model *m, const int *list, size_t count)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    const int gc = m->prm.gradient_correction;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
+    for (size_t i = 0; i < count; i++) {
+        size_t k = list ? (size_t)list[i] : i;
+        const size_t base = nb->off[k];
+        double iMk2 = 1.0 / (P->dens[k] * P->dens[k]);
+        double tk11 = P->s11[k] * iMk2, tk22 = P->s22[k] * iMk2, tk12 = P->s12[k] * iMk2;
+        double ax = 0, ay = 0;
+        const double *bk = m->binv + 6 * k + 3;
+        for (int q = 0; q < nb->count[k]; q++) {
+            size_t s = base + (size_t)q;
+            int j = nb->idx[s];
+            double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
+            double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
+                   t12 = P->s12[j] * iMj2 + tk12;
+            double gx = nb->gx[s], gy = nb->gy[s];
+            if (gc) { /* (B_k^-1 + B_j^-1)/2 grad W: still antisymmetric in k, j */
+                const double *bj = m->binv + 6 * (size_t)j + 3;
+                double cx = 0.5 * ((bk[0] + bj[0]) * gx + (bk[1] + bj[1]) * gy);
+                gy = 0.5 * ((bk[1] + bj[1]) * gx + (bk[2] + bj[2]) * gy);
+                gx = cx;
+            }
+            ax += P->mass[j] * (t11 * gx + t12 * gy);
+            ay += P->mass[j] * (t12 * gx + t22 * gy);
+        }
+        P->ax[k] = ax;
+        P->ay[k] = ay;
+    }
+}
+
+/* Free drift (no internal force) for the particles not in the active set. */
+void sph_free_drift_pass(sph_model *m)
+{
+    sph_particles *P = m->P;
+    size_t n = P->n;
+    double dt = m->prm.dt;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
+        if (P->regime[k] & SPH_REGIME_RHEOLOGY)
+            continue;
+        P->ax[k] = P->ay[k] = 0.0;
+        P->s11[k] = P->s22[k] = P->s12[k] = 0.0;
+        /* Picard sweeps on the lagged drag speed until the velocity settles
+         * (long steps need more than a few: c dt >> 1) */
+        double u = m->un[k], v = m->vn[k];
+        for (int it = 0; it < 60; it++) {
+            double un, vn;
+            sph_momentum(m, k, 0.0, u, v, m->un[k], m->vn[k], dt, &un, &vn);
+            double d = fabs(un - u) + fabs(vn - v);
+            /* the plain lagged iteration oscillates when c dt >> 1 (its
+             * derivative tends to -1); averaging removes that mode */
+            if (it == 0) {
+                u = un;
+                v = vn;
+            } else {
+                u = 0.5 * (u + un);
+                v = 0.5 * (v + vn);
+            }
+            if (d <= 1e-13 * (1.0 + fabs(u) + fabs(v)))
+                break;
+        }
+        P->u[k] = u;
+        P->v[k] = v;
+    }
+}
+
+/* Kernel gradient correction (model.gradient_correction; Bonet & Lok
+ * 1999, Randles & Libersky 1996). The SPH gradient of a linear field is
+ * B_k times the true one, B_k = sum_j V_j (-F_kj) d d^T (d = r_k - r_j);
+ * B = I only on a regular lattice with a kernel whose lattice sums are
+ * exact. Where the smoothing length varies (seed eq. 10 under uniaxial
+ * compression shrinks h across the flow too) or spacing is anisotropic,
+ * B departs from I by a few per cent, and the resting stress gradient a
+ * uniform wind needs comes out that much steeper (R300: ridged zone
+ * +2.7 % without, +0.47 % with; docs/dynamics.md). With the correction
+ * the strain rates use B_k^-1 grad W_kj, with V_j = m_j / M_k (the strain
+ * pass's weights: exact for a linear velocity field), and the symmetric
+ * stress divergence (B_k^-1 + B_j^-1)/2 grad W_kj with V_j = m_j / M_j
+ * (the divergence's own consistency weights), which stays antisymmetric
+ * in k, j: internal forces still sum to zero. B^-1 = I where the
+ * correction is off, and where B is ill-conditioned (det B < 1/4: a
+ * corner, a particle with few neighbours). Ghosts take their source's
+ * B^-1, mirrored. */
+static void invert_moment(double b11, double b12, double b22, double *bi)
+{
+    double det = b11 * b22 - b12 * b12;
+    if (det > 0.25 && b11 > 0.0 && b22 > 0.0) {
+        bi[0] = b22 / det;
+        bi[1] = -b12 / det;
+        bi[2] = b11 / det;
+    } else {
+        bi[0] = 1.0;
+        bi[1] = 0.0;
+        bi[2] = 1.0;
+    }
+}
+
+void sph_gradient_correction_pass(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    const size_t n = P->n;
+    if (!m->prm.gradient_correction)
+        return; /* binv stays the identity sph_model_create set */
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
+        double b11 = 0, b12 = 0, b22 = 0, c11 = 0, c12 = 0, c22 = 0;
+        const size_t base = nb->off[k];
+        for (int q = 0; q < nb->count[k]; q++) {
+            size_t s = base + (size_t)q;
+            int j = nb->idx[s];
+            double dx = P->x[k] - P->x[j], dy = P->y[k] - P->y[j];
+            double t11 = -nb->gx[s] * dx, t12 = -nb->gx[s] * dy, t22 = -nb->gy[s] * dy;
+            b11 += P->mass[j] * t11;
+            b12 += P->mass[j] * t12;
+            b22 += P->mass[j] * t22;
+            double V = P->mass[j] / P->dens[j];
+            c11 += V * t11;
+            c12 += V * t12;
+            c22 += V * t22;
+        }
+        double iM = 1.0 / P->dens[k];
+        invert_moment(b11 * iM, b12 * iM, b22 * iM, m->binv + 6 * k);
+        invert_moment(c11, c12, c22, m->binv + 6 * k + 3);
+    }
+    for (size_t g = 0; g < m->ng; g++) {
+        size_t q = n + g, k = (size_t)m->ghost_src[g];
+        for (int h = 0; h < 6; h += 3) {
+            double a = m->binv[6 * k + h], b = m->binv[6 * k + h + 1], c = m->binv[6 * k + h + 2];
+            sph_reflect_tensor(m->ghost_nx[g], m->ghost_ny[g], &a, &b, &c);
+            sph_reflect_tensor(m->ghost_n2x[g], m->ghost_n2y[g], &a, &b, &c);
+            m->binv[6 * q + h] = a;
+            m->binv[6 * q + h + 1] = b;
+            m->binv[6 * q + h + 2] = c;
+        }
+    }
+}
+
+/* Continuity in the Lagrangian frame, implicit so M stays positive, from
+ * the final strain rates (summation_density = 0). Ghosts are true
+ * mirrors, so compression against a coast and its release balance (a row
+ * oscillating at a wall does not ratchet up); the release is capped by
+ * what the coast compressed (coastc), so ice leaving a coast opens water
+ * behind it instead of stretching its parcel. */
+void sph_continuity_pass(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const double dt = m->prm.dt, rho_i = m->prm.rho_i;
+    const size_t n = P->n;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
+        double div = P->e11[k] + P->e22[k];
+        if (P->regime[k] & SPH_REGIME_NEAR_COAST) {
+            double dg = coast_divergence(m, k);
+            if (dg < 0.0) {
+                P->coastc[k] -= dt * dg;
+            } else {
+                double rel = fmin(dg, P->coastc[k] / dt);
+                P->coastc[k] -= dt * rel;
+                div -= dg - rel;
+            }
+        }
+        double fac = 1.0 + dt * div;
+        P->dens[k] /= fac > 0.1 ? fac : 0.1;
+        /* a parcel spread below SPH_CONC_MIN is open water with a trace
+         * of ice: its footprint stops growing (docs/dynamics.md) */
+        double floor_dens = SPH_CONC_MIN * rho_i * P->thick[k];
+        if (P->dens[k] < floor_dens)
+            P->dens[k] = floor_dens;
+    }
+}
+
+void sph_update_sml(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    if (!p->variable_sml)
+        return;
+    size_t n = P->n;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
+        double div = P->e11[k] + P->e22[k];
+        double h = P->sml0[k] * sqrt(P->dens0[k] / P->dens[k]) * (1.0 + 0.5 * p->dt * div);
+        double lo = p->sml_min_factor * P->sml0[k], hi = p->sml_max_factor * P->sml0[k];
+        P->sml[k] = fmin(fmax(h, lo), hi);
+    }
+}
+
+int sph_model_interpolate(sph_model *m, size_t npts, const double *px, const double *py,
+                          int nf, const double *const *fields, double *const *out_f,
+                          double *out_dens)
+{
+    sph_particles *P = m->P;
+    size_t n = P->n;
+    double hmax = sph_max_sml(P, n);
+    double R = m->kern.radius;
+    sph_nbr_grid(m->nb, n, P->x, P->y, R * hmax);
+    const int maxc = 4096;
+    int bad = 0;
+#pragma omp parallel
+    {
+        int cand[4096];
+#pragma omp for schedule(static)
+        for (size_t i = 0; i < npts; i++) {
+            int nc = sph_nbr_candidates(m->nb, px[i], py[i], cand, maxc);
+            if (nc == maxc)
+                bad = 1;
+            double wsum = 0.0, dsum = 0.0;
+            double acc[16] = {0};
+            for (int c = 0; c < nc; c++) {
+                int j = cand[c];
+                double dx = px[i] - P->x[j], dy = py[i] - P->y[j];
+                double W, F;
+                sph_kernel_eval(&m->kern, dx * dx + dy * dy, P->sml[j], &W, &F);
+                if (W <= 0.0)
+                    continue;
+                double wj = P->mass[j] / P->dens[j] * W;
+                wsum += wj;
+                dsum += P->mass[j] * W;
+                for (int f = 0; f < nf && f < 16; f++)
+                    acc[f] += wj * fields[f][j];
+            }
+            for (int f = 0; f < nf && f < 16; f++)
+                out_f[f][i] = wsum > 0.0 ? acc[f] / wsum : NAN;
+            if (out_dens)
+                out_dens[i] = dsum;
+        }
+    }
+    return bad || nf > 16 ? SPH_STEP_RECOVERABLE : SPH_STEP_OK;
+}
+
