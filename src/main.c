@@ -201,7 +201,7 @@ static int cmd_serve(int argc, char **argv)
     opts o;
     int setup = command_setup(argc, argv,
                               "usage: sphice serve CONFIG [--listen ADDR:PORT]\n"
-                              "The daemon: runs scheduled cycles, serves GET /status /runs /health /metrics,\n"
+                              "The daemon: runs scheduled cycles, serves GET /status /config /runs /health /metrics,\n"
                               "reloads CONFIG on SIGHUP (an invalid file is refused and reported), stops on SIGTERM\n"
                               "(a running cycle is cancelled; published products are never touched).",
                               "listen", &o);
