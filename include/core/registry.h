@@ -7,6 +7,24 @@
 #ifndef SPHICE_CORE_REGISTRY_H
 #define SPHICE_CORE_REGISTRY_H
 
+/* One line per rheology (src/core/rheology/<name>.c defines
+ * sph_rheology_<name>), in the order of sph_rheology_kind. */
+#define SPH_RHEOLOGIES(X)                        \
+    X(vp)        /* SPH_RHEOLOGY_VP */        \
+    X(collision) /* SPH_RHEOLOGY_COLLISION */
+
+/* One line per solver (src/core/solver/<name>.c defines sph_solver_<name>),
+ * in the order of sph_solver_kind. */
+#define SPH_SOLVERS(X)                         \
+    X(explicit) /* SPH_SOLVER_EXPLICIT */  \
+    X(mevp)     /* SPH_SOLVER_MEVP */      \
+    X(implicit) /* SPH_SOLVER_IMPLICIT */
+
+/* The names as a NULL-terminated list, for tables that want an array
+ * (the parameter table's enum rows): static const char *const n[] =
+ * {SPH_RHEOLOGIES(SPH_REGISTRY_NAME) NULL}. */
+#define SPH_REGISTRY_NAME(name) #name,
+
 int sph_rheology_count(void);
 const char *sph_rheology_name(int kind); /* NULL when out of range */
 int sph_rheology_lookup(const char *name); /* its kind, or -1 */

@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "core/model.h"
+#include "core/registry.h"
 
 _Static_assert(sizeof(sph_kernel_kind) == sizeof(int), "enums are stored as int");
 _Static_assert(sizeof(sph_solver_kind) == sizeof(int), "enums are stored as int");
@@ -22,10 +23,10 @@ _Static_assert(sizeof(sph_thermo_model) == sizeof(int), "enums are stored as int
 
 /* index = enum value */
 static const char *const kernel_names[] = {"gaussian", "wendland_c2", "cubic_spline", NULL};
-static const char *const solver_names[] = {"explicit", "mevp", "implicit", NULL};
+static const char *const solver_names[] = {SPH_SOLVERS(SPH_REGISTRY_NAME) NULL};
 static const char *const unstable_names[] = {"substep", "refuse", NULL};
 static const char *const physics_names[] = {"auto", "full", "free_drift", NULL};
-static const char *const rheology_names[] = {"vp", "collision", NULL};
+static const char *const rheology_names[] = {SPH_RHEOLOGIES(SPH_REGISTRY_NAME) NULL};
 static const char *const pressure_names[] = {"seed", "hibler", NULL};
 static const char *const thermo_names[] = {"off", "zero_layer", "multi_layer", "auto", NULL};
 

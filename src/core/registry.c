@@ -1,8 +1,8 @@
 /* The registries: rheologies indexed by sph_params.rheology, stress
  * solvers by sph_params.solver; the configuration names them by the
  * tables' names. A new rheology is one file in src/core/rheology/
- * defining a const sph_rheology_ops and one line in RHEOLOGIES; a new
- * solver likewise in src/core/solver/ and SOLVERS (docs/dynamics.md,
+ * defining a const sph_rheology_ops and one line in SPH_RHEOLOGIES (core/registry.h); a new
+ * solver likewise in src/core/solver/ and SPH_SOLVERS (docs/dynamics.md,
  * "Code layout"). */
 #include "model_impl.h"
 
@@ -10,27 +10,14 @@
 
 #include "core/registry.h"
 
-/* One line per rheology (src/core/rheology/<name>.c defines
- * sph_rheology_<name>), in the order of sph_rheology_kind. */
-#define RHEOLOGIES(X)                        \
-    X(vp)        /* SPH_RHEOLOGY_VP */        \
-    X(collision) /* SPH_RHEOLOGY_COLLISION */
-
-/* One line per solver (src/core/solver/<name>.c defines sph_solver_<name>),
- * in the order of sph_solver_kind. */
-#define SOLVERS(X)                         \
-    X(explicit) /* SPH_SOLVER_EXPLICIT */  \
-    X(mevp)     /* SPH_SOLVER_MEVP */      \
-    X(implicit) /* SPH_SOLVER_IMPLICIT */
-
 #define DECLARE_RHEOLOGY(name) extern const sph_rheology_ops sph_rheology_##name;
 #define DECLARE_SOLVER(name) extern const sph_solver_ops sph_solver_##name;
 #define RHEOLOGY_ENTRY(name) &sph_rheology_##name,
 #define SOLVER_ENTRY(name) &sph_solver_##name,
-RHEOLOGIES(DECLARE_RHEOLOGY)
-SOLVERS(DECLARE_SOLVER)
-static const sph_rheology_ops *const rheologies[] = {RHEOLOGIES(RHEOLOGY_ENTRY)};
-static const sph_solver_ops *const solvers[] = {SOLVERS(SOLVER_ENTRY)};
+SPH_RHEOLOGIES(DECLARE_RHEOLOGY)
+SPH_SOLVERS(DECLARE_SOLVER)
+static const sph_rheology_ops *const rheologies[] = {SPH_RHEOLOGIES(RHEOLOGY_ENTRY)};
+static const sph_solver_ops *const solvers[] = {SPH_SOLVERS(SOLVER_ENTRY)};
 
 #define COUNT(a) ((int)(sizeof(a) / sizeof((a)[0])))
 
