@@ -143,9 +143,9 @@ int main(int argc, char **argv)
     CHECK(a.rc == SPH_OK, "forecast: %s", a.err.msg);
     printf("  6 h run: %.2f s wall, %ld -> %ld particles, residual %.3g, area %.1f km2, volume %.6f km3, "
            "free drift %.3f, rheology %.3f, zero-layer %.3f, multi-layer %.3f\n",
-           a.wall, a.res.particles_start, a.res.particles_end, a.res.budget_residual, a.res.ice_area_km2,
-           a.res.ice_volume_km3, a.res.frac_free_drift, a.res.frac_rheology, a.res.frac_zero_layer,
-           a.res.frac_multi_layer);
+           a.wall, a.res.run.particles_start, a.res.run.particles_end, a.res.run.budget_residual, a.res.ice_area_km2,
+           a.res.ice_volume_km3, a.res.run.frac_free_drift, a.res.run.frac_rheology, a.res.run.frac_zero_layer,
+           a.res.run.frac_multi_layer);
     CHECK(exists(a.stage, "sphice_fields.nc"), "fields file");
     CHECK(exists(a.stage, "sphice_edge.geojson"), "edge GeoJSON");
     CHECK(exists(a.stage, "sphice_particles.nc"), "particles file");
@@ -155,13 +155,13 @@ int main(int argc, char **argv)
     cycle_restart_name(EC_CYCLE + 6 * 3600.0, rname, sizeof rname);
     CHECK(exists(a.stage, rname), "restart file %s", rname);
     CHECK(strcmp(a.res.start_mode, "cold") == 0, "start mode %s", a.res.start_mode);
-    CHECK(a.res.budget_residual < 1e-10, "budget residual %g", a.res.budget_residual);
+    CHECK(a.res.run.budget_residual < 1e-10, "budget residual %g", a.res.run.budget_residual);
     CHECK(a.res.has_scores && isfinite(a.res.iiee_km2) && a.res.iiee_km2 > 0 && exists(a.stage, "sphice_scores.json"),
           "scores against the observation: IIEE %g km2", a.res.iiee_km2);
     printf("  verification against the initial field at +6 h: IIEE %.1f km2, bias %.3f\n", a.res.iiee_km2,
            a.res.conc_bias);
-    CHECK(a.res.particles_start > 400 && a.res.particles_end == a.res.particles_start,
-          "particles %ld -> %ld", a.res.particles_start, a.res.particles_end);
+    CHECK(a.res.run.particles_start > 400 && a.res.run.particles_end == a.res.run.particles_start,
+          "particles %ld -> %ld", a.res.run.particles_start, a.res.run.particles_end);
     int listed = 0;
     for (int k = 0; k < a.res.nproducts; k++)
         listed += strcmp(a.res.products[k], rname) == 0 || strcmp(a.res.products[k], "sphice_fields.nc") == 0;
@@ -233,9 +233,9 @@ int main(int argc, char **argv)
     run_at(cfg, "stage-warm", EC_CYCLE + 6 * 3600.0, 1, restart, NULL, &w);
     CHECK(w.rc == SPH_OK, "warm start: %s", w.err.msg);
     CHECK(strcmp(w.res.start_mode, "warm") == 0, "warm start mode %s", w.res.start_mode);
-    CHECK(w.res.particles_start == a.res.particles_end, "warm start particles %ld (previous end %ld)",
-          w.res.particles_start, a.res.particles_end);
-    CHECK(w.res.budget_residual < 1e-10, "warm budget residual %g", w.res.budget_residual);
+    CHECK(w.res.run.particles_start == a.res.run.particles_end, "warm start particles %ld (previous end %ld)",
+          w.res.run.particles_start, a.res.run.particles_end);
+    CHECK(w.res.run.budget_residual < 1e-10, "warm budget residual %g", w.res.run.budget_residual);
 
     /* ---- auto time stepping (model.dt = 0): the step is the largest
      * divisor of the thermodynamic step (600 s; output 1 h, cycles 6 h)
@@ -249,7 +249,7 @@ int main(int argc, char **argv)
             run_out au, aw;
             run(ca, "stage-auto", 1, NULL, NULL, &au);
             CHECK(au.rc == SPH_OK, "auto dt run: %s", au.err.msg);
-            CHECK(au.res.dt_auto == 1 && fabs(au.res.dt - want) < 1e-9, "auto dt %g s (want %g s)", au.res.dt,
+            CHECK(au.res.run.dt_auto == 1 && fabs(au.res.run.dt - want) < 1e-9, "auto dt %g s (want %g s)", au.res.run.dt,
                   want);
             snprintf(path, sizeof path, "%s/sphice_fields.nc", au.stage);
             int nc;
@@ -257,7 +257,7 @@ int main(int argc, char **argv)
             char pol[16] = "";
             size_t pl = 0;
             if (nc_open(path, NC_NOWRITE, &nc) == NC_NOERR) {
-                CHECK(nc_get_att_double(nc, NC_GLOBAL, "sphice_dt_dynamics", &dtv) == NC_NOERR && dtv == au.res.dt,
+                CHECK(nc_get_att_double(nc, NC_GLOBAL, "sphice_dt_dynamics", &dtv) == NC_NOERR && dtv == au.res.run.dt,
                       "fields file: sphice_dt_dynamics %g", dtv);
                 CHECK(nc_inq_attlen(nc, NC_GLOBAL, "sphice_dt_policy", &pl) == NC_NOERR && pl < sizeof pol &&
                           nc_get_att_text(nc, NC_GLOBAL, "sphice_dt_policy", pol) == NC_NOERR &&
@@ -267,18 +267,18 @@ int main(int argc, char **argv)
                  * step within the configured cap, written as attributes */
                 double mit = -1, stl = -1;
                 CHECK(nc_get_att_double(nc, NC_GLOBAL, "sphice_solver_mean_iterations", &mit) == NC_NOERR &&
-                          mit == au.res.solver_iterations && mit >= 0 && mit <= 120 &&
+                          mit == au.res.run.solver_iterations && mit >= 0 && mit <= 120 &&
                           nc_get_att_double(nc, NC_GLOBAL, "sphice_solver_stalled_fraction", &stl) == NC_NOERR &&
-                          stl == au.res.solver_stalled && stl >= 0 && stl <= 1,
+                          stl == au.res.run.solver_stalled && stl >= 0 && stl <= 1,
                       "fields file: solver iterations %g, stalled %g", mit, stl);
                 nc_close(nc);
             } else {
                 CHECK(0, "open %s", path);
             }
             run_at(ca, "stage-auto-warm", EC_CYCLE + 6 * 3600.0, 1, restart, NULL, &aw);
-            CHECK(aw.rc == SPH_OK && aw.res.dt_auto == 1 && fabs(aw.res.dt - want) < 1e-9,
-                  "auto dt after a warm start: %g s: %s", aw.res.dt, aw.err.msg);
-            CHECK(a.res.dt_auto == 0 && a.res.dt == 300, "a configured dt is used as given (%g s)", a.res.dt);
+            CHECK(aw.rc == SPH_OK && aw.res.run.dt_auto == 1 && fabs(aw.res.run.dt - want) < 1e-9,
+                  "auto dt after a warm start: %g s: %s", aw.res.run.dt, aw.err.msg);
+            CHECK(a.res.run.dt_auto == 0 && a.res.run.dt == 300, "a configured dt is used as given (%g s)", a.res.run.dt);
             sph_config_free(ca);
         }
     }

@@ -260,7 +260,10 @@ static int full_run(const char *stage, prod_summary *sum, int with_obs)
         CHECK(rc == SPH_OK, "add_time %d: %s", t, err.msg);
         plon[0] += 0.01;
     }
-    prod_run_info ri = { 0.6, 0.4, 1.0, 0.0, 1000, 990, 1e-12, 150.0, 1, 37.5, 0.25 };
+    prod_run_info ri = {.frac_free_drift = 0.6, .frac_rheology = 0.4, .frac_zero_layer = 1.0,
+                         .frac_multi_layer = 0.0, .particles_start = 1000, .particles_end = 990,
+                         .budget_residual = 1e-12, .dt = 150.0, .dt_auto = 1, .solver_iterations = 37.5,
+                         .solver_stalled = 0.25};
     products_set_run_info(p, &ri);
     if (rc == SPH_OK) {
         rc = products_close(p, sum, &err);

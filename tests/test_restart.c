@@ -378,7 +378,7 @@ static void engine_level(void)
                 int same = a.n == b.n && !memcmp(a.lon, b.lon, a.n * sizeof *a.lon) &&
                            !memcmp(a.lat, b.lat, a.n * sizeof *a.lat) && !memcmp(a.id, b.id, a.n * sizeof *a.id);
                 CHECK(same, "warm-started forecast ends on the uninterrupted one's positions, bit for bit");
-                CHECK(r2.budget_residual < 1e-10, "residual %g", r2.budget_residual);
+                CHECK(r2.run.budget_residual < 1e-10, "residual %g", r2.run.budget_residual);
             }
             prod_particles_free(&a);
             prod_particles_free(&b);

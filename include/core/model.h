@@ -121,6 +121,26 @@ typedef struct sph_step_stats {
 } sph_step_stats;
 const sph_step_stats *sph_model_stats(const sph_model *m);
 
+/* Statistics of a whole run, the one struct that goes from the core to the
+ * service's result, cycle.json, the status and the products' attributes:
+ * sph_run_stats_begin after init, sph_run_stats_add after every step,
+ * sph_run_stats_end after the last. The fractions and solver numbers are
+ * means over the steps (0 when there was none). */
+typedef struct sph_run_stats {
+    double frac_free_drift, frac_rheology, frac_zero_layer, frac_multi_layer;
+    double solver_iterations;   /* mean stress-solver iterations per step: mEVP, or Picard
+                                   for the implicit solver (0: no stress solve) */
+    double solver_stalled;      /* fraction of steps the auto mode stopped at a stall */
+    long particles_start, particles_end;
+    double budget_residual;     /* relative mass budget residual (sph_budget_residual) */
+    double dt;                  /* dynamic step used, s */
+    int dt_auto;                /* 1: chosen by auto time stepping (model.dt = 0) */
+    long steps;                 /* steps added */
+} sph_run_stats;
+void sph_run_stats_begin(sph_run_stats *r, sph_model *m, int dt_auto);
+void sph_run_stats_add(sph_run_stats *r, const sph_model *m);
+void sph_run_stats_end(sph_run_stats *r, sph_model *m);
+
 /* Normalised (Shepard-corrected) SPH interpolation of particle fields to
  * arbitrary points: out_f[q][i] = sum_j (m_j/M_j) f_q,j W / sum_j (m_j/M_j) W.
  * `fields` are nf arrays of particle values. Also returns at each point the

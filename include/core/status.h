@@ -7,6 +7,8 @@
 #ifndef SPHICE_CORE_STATUS_H
 #define SPHICE_CORE_STATUS_H
 
+#include <math.h>
+
 enum {
     SPH_STEP_OK = 0,
     SPH_STEP_RECOVERABLE = 1, /* e.g. stability limit exceeded: sub-step or refuse */
@@ -90,5 +92,19 @@ typedef struct sph_budget {
     double volume;         /* ice volume sum m/rho_i, m^3 */
     double kinetic_energy; /* sum m |V|^2 / 2, J */
 } sph_budget;
+
+/* The mass the budget's sources and sinks explain, kg: what `mass` must
+ * equal to round-off. */
+static inline double sph_budget_expected(const sph_budget *b)
+{
+    return b->mass_initial + b->growth + b->new_ice - b->melt_top - b->melt_bottom - b->lateral_melt -
+           b->outflow;
+}
+
+/* |mass - expected| / mass_initial (0 for an empty start). */
+static inline double sph_budget_residual(const sph_budget *b)
+{
+    return b->mass_initial > 0 ? fabs(sph_budget_expected(b) - b->mass) / b->mass_initial : 0.0;
+}
 
 #endif

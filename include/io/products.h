@@ -26,6 +26,7 @@
 #define SPHICE_IO_PRODUCTS_H
 
 #include <stddef.h>
+#include "core/model.h"
 #include "io/edge.h"
 #include "io/verify.h"
 #include "util/err.h"
@@ -70,17 +71,9 @@ typedef struct prod_meta {
     const char *start_mode;     /* "cold", "warm", "reinit"; may be NULL */
 } prod_meta;
 
-/* Run statistics known only at the end (written as global attributes). */
-typedef struct prod_run_info {
-    double frac_free_drift, frac_rheology, frac_zero_layer, frac_multi_layer;
-    long particles_start, particles_end;
-    double budget_residual;     /* relative mass budget residual */
-    double dt;                  /* dynamic step used, s */
-    int dt_auto;                /* 1: chosen by auto time stepping (model.dt = 0) */
-    double solver_iterations;   /* mean stress-solver iterations per step: mEVP, or Picard
-                                   for the implicit solver (0: no stress solve) */
-    double solver_stalled;      /* fraction of steps the auto mode stopped at a stall */
-} prod_run_info;
+/* Run statistics known only at the end (written as global attributes):
+ * the core's own run statistics, not a copy. */
+typedef sph_run_stats prod_run_info;
 
 /* Gridded fields at one output time: nlat*nlon doubles, row-major, south
  * to north. Only conc is required; a NULL field is written as fill.

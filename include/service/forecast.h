@@ -12,6 +12,7 @@
 
 #include <signal.h>
 #include <stddef.h>
+#include "core/model.h"
 #include "util/err.h"
 #include "util/limits.h"
 
@@ -49,17 +50,12 @@ typedef struct forecast_request {
 #define FC_MAX_PRODUCTS 32
 typedef struct forecast_result {
     double wall_seconds;
-    long particles_start, particles_end;
+    sph_run_stats run;           /* the core's run statistics: particles, regimes, solver,
+                                    budget residual, time step */
     double ice_area_km2, ice_volume_km3, ice_mass_kg;
     double edge_distance_nm;     /* NaN if not configured */
     int has_scores;
     double iiee_km2, aee_km2, me_km2, edge_displacement_km, conc_bias, conc_rmse, skill_persistence;
-    double frac_free_drift, frac_rheology, frac_zero_layer, frac_multi_layer;
-    double budget_residual;      /* relative mass budget residual */
-    double dt;                   /* dynamic step used, s */
-    int dt_auto;                 /* 1: chosen by auto time stepping */
-    double solver_iterations;    /* mean stress-solver iterations per step */
-    double solver_stalled;       /* fraction of steps stopped at an mEVP stall (auto) */
     char start_mode[16];         /* "cold", "warm", "reinit" */
     int nproducts;
     char products[FC_MAX_PRODUCTS][512]; /* file names relative to stage_dir */

@@ -320,8 +320,7 @@ static int check_health(sph_model *m, sph_status *st)
                                   "exceeds the thickness limit (numerical pile-up)");
     }
     const sph_budget *b = &m->budget;
-    double expect = b->mass_initial + b->growth + b->new_ice - b->melt_top - b->melt_bottom -
-                    b->lateral_melt - b->outflow;
+    double expect = sph_budget_expected(b);
     double tol = p->mass_tolerance * fmax(fabs(expect), fabs(b->mass)) + 1e-300;
     if (fabs(b->mass - expect) > tol)
         return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "total mass", b->mass, expect,

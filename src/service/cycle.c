@@ -261,12 +261,12 @@ int cycle_test_engine(const struct sph_config *cfg, const forecast_request *req,
     if ((rc = atomic_write_file(path, "restart\n", 8, err)))
         return rc;
     memset(res, 0, sizeof *res);
-    res->particles_start = res->particles_end = 1000;
+    res->run.particles_start = res->run.particles_end = 1000;
     res->ice_area_km2 = 1234.5;
     res->ice_volume_km3 = 0.25;
     res->edge_distance_nm = NAN;
-    res->frac_free_drift = 0.25;
-    res->frac_rheology = 0.75;
+    res->run.frac_free_drift = 0.25;
+    res->run.frac_rheology = 0.75;
     snprintf(res->start_mode, sizeof res->start_mode, "%s", req->warm_start ? "warm" : "cold");
     res->nproducts = 2;
     snprintf(res->products[0], sizeof res->products[0], "fields.txt");
@@ -397,25 +397,25 @@ static int fetch_all(const struct sph_config *cfg, const cycle_opts *o, const ch
 static cJSON *result_json(const forecast_result *r)
 {
     cJSON *o = cJSON_CreateObject();
-    cJSON_AddNumberToObject(o, "particles_start", (double)r->particles_start);
-    cJSON_AddNumberToObject(o, "particles_end", (double)r->particles_end);
+    cJSON_AddNumberToObject(o, "particles_start", (double)r->run.particles_start);
+    cJSON_AddNumberToObject(o, "particles_end", (double)r->run.particles_end);
 #define NUM(k, v) (isfinite(v) ? cJSON_AddNumberToObject(o, k, v) : cJSON_AddNullToObject(o, k))
     NUM("ice_area_km2", r->ice_area_km2);
     NUM("ice_volume_km3", r->ice_volume_km3);
     NUM("edge_distance_nm", r->edge_distance_nm);
-    NUM("budget_residual", r->budget_residual);
+    NUM("budget_residual", r->run.budget_residual);
     NUM("wall_seconds", r->wall_seconds);
-    if (r->dt > 0) {
-        NUM("dt", r->dt);
-        cJSON_AddStringToObject(o, "dt_policy", r->dt_auto ? "auto" : "configured");
+    if (r->run.dt > 0) {
+        NUM("dt", r->run.dt);
+        cJSON_AddStringToObject(o, "dt_policy", r->run.dt_auto ? "auto" : "configured");
         cJSON *rg = cJSON_AddObjectToObject(o, "regimes");
-        cJSON_AddNumberToObject(rg, "free_drift", r->frac_free_drift);
-        cJSON_AddNumberToObject(rg, "rheology", r->frac_rheology);
-        cJSON_AddNumberToObject(rg, "zero_layer", r->frac_zero_layer);
-        cJSON_AddNumberToObject(rg, "multi_layer", r->frac_multi_layer);
+        cJSON_AddNumberToObject(rg, "free_drift", r->run.frac_free_drift);
+        cJSON_AddNumberToObject(rg, "rheology", r->run.frac_rheology);
+        cJSON_AddNumberToObject(rg, "zero_layer", r->run.frac_zero_layer);
+        cJSON_AddNumberToObject(rg, "multi_layer", r->run.frac_multi_layer);
         cJSON *sv = cJSON_AddObjectToObject(o, "solver");
-        cJSON_AddNumberToObject(sv, "mean_iterations", r->solver_iterations);
-        cJSON_AddNumberToObject(sv, "stalled_fraction", r->solver_stalled);
+        cJSON_AddNumberToObject(sv, "mean_iterations", r->run.solver_iterations);
+        cJSON_AddNumberToObject(sv, "stalled_fraction", r->run.solver_stalled);
     }
 #undef NUM
     return o;

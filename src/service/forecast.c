@@ -259,7 +259,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     if (rc)
         goto fail;
     sph_particles *P = sph_model_particles(e->m);
-    res->particles_start = (long)P->n;
+    sph_run_stats_begin(&res->run, e->m, e->dt_auto);
     prog->particles = (long)P->n;
 
     /* products */
@@ -283,6 +283,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
 
     /* 6. time loop */
     const double dt = e->prm.dt;
+    res->run.dt = dt;
     prog->dt = dt;
     prog->dt_auto = e->dt_auto;
     const long nsteps = (long)ceil(hours * 3600.0 / dt - 1e-9);
@@ -295,8 +296,6 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
                  e->cname, restart_step * dt);
     int nout = 0;
     double next_out = e->t0;
-    double sum_fd = 0, sum_rh = 0, sum_zl = 0, sum_ml = 0, sum_it = 0, sum_stall = 0;
-    long nstat = 0;
     cycle_set_phase(prog, e->t0, FC_PHASE_RUNNING, "forecast: time loop");
     if ((rc = fc_write_output(e, e->t0, er)))
         goto fail;
@@ -319,13 +318,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         }
         double t1 = e->t0 + (s + 1) * dt;
         const sph_step_stats *ss = sph_model_stats(e->m);
-        sum_fd += ss->frac_free_drift;
-        sum_rh += ss->frac_rheology;
-        sum_zl += ss->frac_zero_layer;
-        sum_ml += ss->frac_multi_layer;
-        sum_it += ss->iterations;
-        sum_stall += ss->stalled;
-        nstat++;
+        sph_run_stats_add(&res->run, e->m);
         prog->model_time = t1;
         prog->percent = 100.0 * (double)(s + 1) / (double)nsteps;
         prog->particles = (long)P->n;
@@ -350,32 +343,14 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     /* 7. close the products */
     cycle_set_phase(prog, e->t0, FC_PHASE_WRITING, "forecast: closing the products");
     const sph_budget *b = sph_model_budget(e->m);
-    double expect = b->mass_initial + b->growth + b->new_ice - b->melt_top - b->melt_bottom - b->lateral_melt -
-                    b->outflow;
-    double resid = b->mass_initial > 0 ? fabs(expect - b->mass) / b->mass_initial : 0.0;
-    prod_run_info info;
-    memset(&info, 0, sizeof info);
-    if (nstat > 0) {
-        info.frac_free_drift = sum_fd / nstat;
-        info.frac_rheology = sum_rh / nstat;
-        info.frac_zero_layer = sum_zl / nstat;
-        info.frac_multi_layer = sum_ml / nstat;
-        info.solver_iterations = sum_it / nstat;
-        info.solver_stalled = sum_stall / nstat;
-    }
-    info.particles_start = res->particles_start;
-    info.particles_end = (long)P->n;
-    info.budget_residual = resid;
-    info.dt = dt;
-    info.dt_auto = e->dt_auto;
-    products_set_run_info(e->pw, &info);
+    sph_run_stats_end(&res->run, e->m);
+    products_set_run_info(e->pw, &res->run);
     prod_summary sum;
     rc = products_close(e->pw, &sum, er);
     e->pw = NULL;
     if (rc)
         goto fail;
 
-    res->particles_end = (long)P->n;
     res->ice_area_km2 = sum.ice_area_km2;
     res->ice_volume_km3 = sum.ice_volume_km3;
     res->ice_mass_kg = b->mass;
@@ -390,15 +365,6 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         res->conc_rmse = sum.scores.conc_rmse;
         res->skill_persistence = sum.scores.skill_persistence;
     }
-    res->frac_free_drift = info.frac_free_drift;
-    res->frac_rheology = info.frac_rheology;
-    res->frac_zero_layer = info.frac_zero_layer;
-    res->frac_multi_layer = info.frac_multi_layer;
-    res->solver_iterations = info.solver_iterations;
-    res->solver_stalled = info.solver_stalled;
-    res->dt = dt;
-    res->dt_auto = e->dt_auto;
-    res->budget_residual = resid;
     snprintf(res->start_mode, sizeof res->start_mode, "%.15s", e->start_mode);
     int np = 0;
     for (int k = 0; k < sum.nproducts && np < FC_MAX_PRODUCTS - 1; k++)
@@ -407,7 +373,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     res->nproducts = np;
     res->wall_seconds = time_monotonic() - wall0;
     log_info("forecast %s: %ld steps, %d output times, %ld -> %ld particles, budget residual %.3g, %.1f s",
-             e->cname, nsteps, nout, res->particles_start, res->particles_end, resid, res->wall_seconds);
+             e->cname, nsteps, nout, res->run.particles_start, res->run.particles_end, res->run.budget_residual,
+             res->wall_seconds);
     e->restart_written = 0; /* keep it */
     engine_free(e);
     free(stations);
