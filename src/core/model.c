@@ -328,14 +328,23 @@ static int check_health(sph_model *m, sph_status *st)
     return SPH_STEP_OK;
 }
 
+/* What init and resume check first: a clear status and room for the
+ * particles. */
+static int start_checks(sph_model *m, sph_status *st)
+{
+    sph_status_clear(st);
+    if (m->P->n > m->cap)
+        return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_CAPACITY, -1, "particle count", (double)m->P->n,
+                              (double)m->cap, "exceeds the model capacity");
+    return SPH_STEP_OK;
+}
+
 int sph_model_init(sph_model *m, sph_status *st)
 {
     sph_particles *P = m->P;
     const sph_params *p = &m->prm;
-    sph_status_clear(st);
-    if (P->n > m->cap)
-        return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_CAPACITY, -1, "particle count", (double)P->n,
-                              (double)m->cap, "exceeds the model capacity");
+    if (start_checks(m, st))
+        return st->code;
     for (size_t k = 0; k < P->n; k++) {
         if (!(P->mass[k] > 0.0) || !isfinite(P->mass[k]))
             return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_INVALID, P->id[k], "mass", P->mass[k], 0.0,
@@ -436,10 +445,8 @@ int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st)
 {
     sph_particles *P = m->P;
     const sph_params *p = &m->prm;
-    sph_status_clear(st);
-    if (P->n > m->cap)
-        return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_CAPACITY, -1, "particle count", (double)P->n,
-                              (double)m->cap, "exceeds the model capacity");
+    if (start_checks(m, st))
+        return st->code;
     double sml0_max = 0.0;
     for (size_t k = 0; k < P->n; k++) {
         const double must_pos[] = {P->mass[k], P->thick[k], P->sml[k], P->sml0[k], P->dens[k],

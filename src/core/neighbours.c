@@ -140,6 +140,29 @@ static inline void add_pair(sph_nbr *nb, const sph_kernel *k, size_t q, int j, c
     (*cnt)++;
 }
 
+/* A query's list is complete: its count, the next query's offset, the
+ * pair total, and the first query that overflowed its capacity. */
+static inline void end_query(sph_nbr *nb, size_t q, int cnt, int over, size_t *cursor, long *pairs,
+                             long *first_over)
+{
+    nb->count[q] = cnt;
+    *cursor += (size_t)cnt;
+    *pairs += cnt;
+    if (over) {
+#pragma omp critical(sph_nbr_over)
+        if (*first_over < 0 || (long)q < *first_over)
+            *first_over = (long)q;
+    }
+}
+
+static int end_build(sph_nbr *nb, long pairs, long first_over, long *overflow)
+{
+    nb->pairs = pairs;
+    if (overflow)
+        *overflow = first_over;
+    return first_over >= 0;
+}
+
 int sph_nbr_build(sph_nbr *nb, const sph_kernel *k, size_t nq, const double *x,
                   const double *y, const double *h, long *overflow)
 {
@@ -166,20 +189,10 @@ int sph_nbr_build(sph_nbr *nb, const sph_kernel *k, size_t nq, const double *x,
                     add_pair(nb, k, q, nb->sorted[s], x, y, h, cursor, &cnt, &over);
             }
         }
-        nb->count[q] = cnt;
-        cursor += (size_t)cnt;
-        pairs += cnt;
-        if (over) {
-#pragma omp critical(sph_nbr_over)
-            if (first_over < 0 || (long)q < first_over)
-                first_over = (long)q;
-        }
+        end_query(nb, q, cnt, over, &cursor, &pairs, &first_over);
     }
     }
-    nb->pairs = pairs;
-    if (overflow)
-        *overflow = first_over;
-    return first_over >= 0;
+    return end_build(nb, pairs, first_over, overflow);
 }
 
 int sph_nbr_build_brute(sph_nbr *nb, const sph_kernel *k, size_t nq, size_t n,
@@ -196,20 +209,10 @@ int sph_nbr_build_brute(sph_nbr *nb, const sph_kernel *k, size_t nq, size_t n,
         nb->off[q] = cursor;
         for (size_t j = 0; j < n; j++)
             add_pair(nb, k, q, (int)j, x, y, h, cursor, &cnt, &over);
-        nb->count[q] = cnt;
-        cursor += (size_t)cnt;
-        pairs += cnt;
-        if (over) {
-#pragma omp critical(sph_nbr_over)
-            if (first_over < 0 || (long)q < first_over)
-                first_over = (long)q;
-        }
+        end_query(nb, q, cnt, over, &cursor, &pairs, &first_over);
     }
     }
-    nb->pairs = pairs;
-    if (overflow)
-        *overflow = first_over;
-    return first_over >= 0;
+    return end_build(nb, pairs, first_over, overflow);
 }
 
 int sph_nbr_candidates(const sph_nbr *nb, double px, double py, int *out, int max)

@@ -421,6 +421,23 @@ typedef struct {
     double dz, q;
 } segment;
 
+/* Melts segment s with energy E (J/m^2): the whole segment when E covers
+ * its enthalpy, else the part E pays for. Adds the melted thickness to
+ * *melt and returns the energy left. */
+static double melt_segment(segment *s, double E, double *melt)
+{
+    double need = -s->q * s->dz;
+    if (E >= need) {
+        *melt += s->dz;
+        s->dz = 0.0;
+        return E - need;
+    }
+    double d = E / -s->q;
+    s->dz -= d;
+    *melt += d;
+    return 0.0;
+}
+
 /* Conservative remap of segments (top first) onto n equal layers. */
 static void remap_layers(int nseg, const segment *seg, double h, int n, double *enth)
 {
@@ -585,19 +602,8 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
         nseg++;
     } else {
         double E = Eb;
-        for (int k = nseg - 1; k >= top && E > 0.0; k--) {
-            double need = -seg[k].q * seg[k].dz;
-            if (E >= need) {
-                E -= need;
-                r->melt_bottom += seg[k].dz;
-                seg[k].dz = 0.0;
-            } else {
-                double d = E / -seg[k].q;
-                seg[k].dz -= d;
-                r->melt_bottom += d;
-                E = 0.0;
-            }
-        }
+        for (int k = nseg - 1; k >= top && E > 0.0; k--)
+            E = melt_segment(&seg[k], E, &r->melt_bottom);
         r->energy_to_ocean += E;
     }
 
@@ -614,21 +620,9 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
             hs = 0.0;
             Em -= Esnow;
         }
-        for (int k = 0; k < nseg && Em > 0.0; k++) {
-            if (seg[k].dz <= 0.0)
-                continue;
-            double need = -seg[k].q * seg[k].dz;
-            if (Em >= need) {
-                Em -= need;
-                r->melt_top += seg[k].dz;
-                seg[k].dz = 0.0;
-            } else {
-                double d = Em / -seg[k].q;
-                seg[k].dz -= d;
-                r->melt_top += d;
-                Em = 0.0;
-            }
-        }
+        for (int k = 0; k < nseg && Em > 0.0; k++)
+            if (seg[k].dz > 0.0)
+                Em = melt_segment(&seg[k], Em, &r->melt_top);
         r->energy_to_ocean += Em;
     }
 
