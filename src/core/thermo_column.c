@@ -12,6 +12,21 @@
 #define SPH_STEFAN_BOLTZMANN 5.670374419e-8
 #define SPH_KELVIN 273.15
 
+/* Surface melt energy Em (J/m^2) spent on the snow of depth *hs first:
+ * sets the snow melted (m) and returns the energy left for the ice. */
+static double melt_snow(const sph_thermo_params *p, double Em, double *hs, double *snow_melt)
+{
+    double Esnow = p->rho_s * p->L0 * *hs;
+    if (Em <= Esnow) {
+        *snow_melt = Em / (p->rho_s * p->L0);
+        *hs -= *snow_melt;
+        return 0.0;
+    }
+    *snow_melt = *hs;
+    *hs = 0.0;
+    return Em - Esnow;
+}
+
 /* ---------------- Bitz & Lipscomb (1999) material functions -------- */
 
 double sph_bl_salinity(const sph_thermo_params *p, double z)
@@ -344,16 +359,7 @@ int sph_column_step_zero_layer(const sph_thermo_params *p, sph_column *c, const 
     /* Surface melt: snow first, then ice. */
     double Em = fmelt * dt;
     if (Em > 0.0) {
-        double Esnow = p->rho_s * p->L0 * hs;
-        if (Em <= Esnow) {
-            r->snow_melt = Em / (p->rho_s * p->L0);
-            hs -= r->snow_melt;
-            Em = 0.0;
-        } else {
-            r->snow_melt = hs;
-            hs = 0.0;
-            Em -= Esnow;
-        }
+        Em = melt_snow(p, Em, &hs, &r->snow_melt);
         double dh = Em / (p->rho_i * Ltop);
         if (dh >= h) {
             r->melt_top = h;
@@ -610,16 +616,7 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
     /* Surface: melt flux (and any internal excess) on snow, then ice. */
     double Em = fmelt * dt + Eexcess;
     if (Em > 0.0) {
-        double Esnow = p->rho_s * p->L0 * hs;
-        if (Em <= Esnow) {
-            r->snow_melt = Em / (p->rho_s * p->L0);
-            hs -= r->snow_melt;
-            Em = 0.0;
-        } else {
-            r->snow_melt = hs;
-            hs = 0.0;
-            Em -= Esnow;
-        }
+        Em = melt_snow(p, Em, &hs, &r->snow_melt);
         for (int k = 0; k < nseg && Em > 0.0; k++)
             if (seg[k].dz > 0.0)
                 Em = melt_segment(&seg[k], Em, &r->melt_top);
