@@ -21,6 +21,7 @@
 #include "service/http.h"
 #include "service/schedule.h"
 #include "util/fileio.h"
+#include "util/jsonutil.h"
 #include "util/log.h"
 #include "util/timeutil.h"
 #include "util/version.h"
@@ -110,25 +111,6 @@ static const char *state_name(const svc *s)
     return "idle";
 }
 
-static void add_time(cJSON *o, const char *k, double t)
-{
-    if (isfinite(t)) {
-        char b[32];
-        time_format_iso(t, b, sizeof b);
-        cJSON_AddStringToObject(o, k, b);
-    } else {
-        cJSON_AddNullToObject(o, k);
-    }
-}
-
-static void add_num(cJSON *o, const char *k, double v)
-{
-    if (isfinite(v))
-        cJSON_AddNumberToObject(o, k, v);
-    else
-        cJSON_AddNullToObject(o, k);
-}
-
 static int scheduler_alive(const svc *s) { return time_monotonic() - s->last_tick_mono < 10.0; }
 
 /* ------------------------------------------------------------- routes */
@@ -142,12 +124,12 @@ static char *status_json(svc *s)
     cJSON_AddStringToObject(sv, "version", SPHICE_VERSION);
     cJSON_AddStringToObject(sv, "git", SPHICE_GIT);
     cJSON_AddNumberToObject(sv, "pid", (double)getpid());
-    add_time(sv, "started", s->started_wall);
+    json_add_time(sv, "started", s->started_wall);
     cJSON_AddNumberToObject(sv, "uptime_s", time_monotonic() - s->started_mono);
     cJSON_AddBoolToObject(sv, "scheduler_alive", scheduler_alive(s));
     cJSON_AddStringToObject(sv, "config_file", s->config_path);
     cJSON_AddStringToObject(sv, "config_sha256", s->cfg->sha256);
-    add_time(sv, "config_loaded", s->config_loaded);
+    json_add_time(sv, "config_loaded", s->config_loaded);
     if (s->config_error[0])
         cJSON_AddStringToObject(sv, "config_error", s->config_error);
     else
@@ -157,10 +139,10 @@ static char *status_json(svc *s)
 
     if (s->worker_running) {
         cJSON *cur = cJSON_AddObjectToObject(root, "current");
-        add_time(cur, "cycle", s->current_cycle);
-        add_time(cur, "started", s->current_started);
+        json_add_time(cur, "cycle", s->current_cycle);
+        json_add_time(cur, "started", s->current_started);
         cJSON_AddStringToObject(cur, "phase", phase_name(s->prog.phase));
-        add_time(cur, "model_time", s->prog.model_time > 0 ? s->prog.model_time : NAN);
+        json_add_time(cur, "model_time", s->prog.model_time > 0 ? s->prog.model_time : NAN);
         cJSON_AddNumberToObject(cur, "percent", s->prog.percent);
         cJSON_AddNumberToObject(cur, "particles", (double)s->prog.particles);
         cJSON *rg = cJSON_AddObjectToObject(cur, "regimes");
@@ -175,14 +157,14 @@ static char *status_json(svc *s)
     } else {
         cJSON_AddNullToObject(root, "current");
     }
-    add_time(root, "next_cycle", s->next_cycle);
+    json_add_time(root, "next_cycle", s->next_cycle);
     if (s->have_last) {
         cJSON *fc = cJSON_AddArrayToObject(root, "forcing");
         for (size_t i = 0; i < s->last.nsources; i++) {
             cJSON *o = cJSON_CreateObject();
             cJSON_AddStringToObject(o, "name", s->last.source_name[i]);
-            add_num(o, "age_hours", s->last.source_age_h[i]);
-            add_time(o, "issue", isfinite(s->last.source_age_h[i])
+            json_add_num(o, "age_hours", s->last.source_age_h[i]);
+            json_add_time(o, "issue", isfinite(s->last.source_age_h[i])
                                      ? s->last.cycle - s->last.source_age_h[i] * 3600.0
                                      : NAN);
             cJSON_AddItemToArray(fc, o);

@@ -12,6 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "util/jsonutil.h"
 #include "util/timeutil.h"
 
 struct history {
@@ -218,25 +219,6 @@ int history_latest(history *h, history_run *r)
     return found;
 }
 
-static void add_num(cJSON *o, const char *k, double v)
-{
-    if (isfinite(v))
-        cJSON_AddNumberToObject(o, k, v);
-    else
-        cJSON_AddNullToObject(o, k);
-}
-
-static void add_time(cJSON *o, const char *k, double v)
-{
-    if (isfinite(v)) {
-        char b[32];
-        time_format_iso(v, b, sizeof b);
-        cJSON_AddStringToObject(o, k, b);
-    } else {
-        cJSON_AddNullToObject(o, k);
-    }
-}
-
 static void add_raw(cJSON *o, const char *k, const char *json)
 {
     cJSON *v = json ? cJSON_Parse(json) : NULL;
@@ -246,15 +228,15 @@ static void add_raw(cJSON *o, const char *k, const char *json)
 static cJSON *row_json(const history_run *r)
 {
     cJSON *o = cJSON_CreateObject();
-    add_time(o, "cycle", r->cycle);
-    add_time(o, "started", r->started);
-    add_time(o, "ended", r->ended);
-    add_num(o, "duration_s", isfinite(r->ended) && isfinite(r->started) ? r->ended - r->started : NAN);
+    json_add_time(o, "cycle", r->cycle);
+    json_add_time(o, "started", r->started);
+    json_add_time(o, "ended", r->ended);
+    json_add_num(o, "duration_s", isfinite(r->ended) && isfinite(r->started) ? r->ended - r->started : NAN);
     cJSON_AddStringToObject(o, "result", r->result);
     cJSON_AddStringToObject(o, "message", r->message);
-    add_num(o, "ice_area_km2", r->area_km2);
-    add_num(o, "ice_volume_km3", r->volume_km3);
-    add_num(o, "edge_distance_nm", r->edge_nm);
+    json_add_num(o, "ice_area_km2", r->area_km2);
+    json_add_num(o, "ice_volume_km3", r->volume_km3);
+    json_add_num(o, "edge_distance_nm", r->edge_nm);
     add_raw(o, "scores", r->scores_json);
     add_raw(o, "products", r->products_json);
     cJSON_AddBoolToObject(o, "stale", r->stale);

@@ -1,0 +1,14 @@
+/* Small cJSON helpers shared by the status, the history and the cycle
+ * records: a number that may be NaN, a time that may be unknown. */
+#ifndef SPHICE_UTIL_JSONUTIL_H
+#define SPHICE_UTIL_JSONUTIL_H
+
+#include <cjson/cJSON.h>
+
+/* k: v, or k: null where v is not finite. */
+void json_add_num(cJSON *o, const char *k, double v);
+/* k: "YYYY-MM-DDTHH:MM:SSZ" for t seconds since 1970, or null where t is
+ * not finite. */
+void json_add_time(cJSON *o, const char *k, double t);
+
+#endif

@@ -1,0 +1,25 @@
+/* Small cJSON helpers (util/jsonutil.h). */
+#include "util/jsonutil.h"
+
+#include <math.h>
+
+#include "util/timeutil.h"
+
+void json_add_num(cJSON *o, const char *k, double v)
+{
+    if (isfinite(v))
+        cJSON_AddNumberToObject(o, k, v);
+    else
+        cJSON_AddNullToObject(o, k);
+}
+
+void json_add_time(cJSON *o, const char *k, double t)
+{
+    if (isfinite(t)) {
+        char b[32];
+        time_format_iso(t, b, sizeof b);
+        cJSON_AddStringToObject(o, k, b);
+    } else {
+        cJSON_AddNullToObject(o, k);
+    }
+}
