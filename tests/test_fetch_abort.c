@@ -6,7 +6,9 @@
  *     within 1 s of the cancellation (SPH_ERR_CANCELLED, no .part left);
  *   - the cycle passes its cancel flag to the download;
  *   - a `.part` left by `sphice run` killed with -9 during a download is
- *     swept by the next `sphice run`.
+ *     swept by the next `sphice run`;
+ *   - `sphice serve` given SIGTERM while its cycle downloads exits 0
+ *     within 1 s.
  * Times are measured with the monotonic clock and printed. */
 #include "io/fetch.h"
 #include "service/config.h"
@@ -138,6 +140,52 @@ static double fetch_cancelled(const char *url, fetch_options *o, sph_error *e)
     return back - cancelled_at;
 }
 
+/* A configuration for `sphice run` / `sphice serve` whose forcing is
+ * http://127.0.0.1:PORT/NAME_%Y%m%d%H.nc, cache in cache, written to
+ * tmp/run.json (its path in path). */
+static void write_config(char *path, size_t len, int port, const char *name, const char *cache,
+                         const char *schedule)
+{
+    snprintf(path, len, "%s/run.json", tmp);
+    char text[4096];
+    int n = snprintf(text, sizeof text,
+                     "{\"engine\": \"test-double\", \"test\": {\"engine_seconds\": 0.01},"
+                     " \"domain\": {\"lon_min\": 119, \"lon_max\": 122, \"lat_min\": 38, \"lat_max\": 41},"
+                     " \"forcing\": [{\"name\": \"atm\", \"kind\": \"atmosphere\","
+                     "   \"urls\": \"http://127.0.0.1:%d/%s_%%Y%%m%%d%%H.nc\", \"issue_hours\": 24}],"
+                     " \"output\": {\"dir\": \"%s/out-%s\"}, \"status\": {\"enabled\": false},"
+                     " \"schedule\": {\"late_data\": {\"wait_minutes\": 0, \"policy\": \"fail\"}%s},"
+                     " \"paths\": {\"state_dir\": \"%s/state-%s\", \"cache_dir\": \"%s\"}}\n",
+                     port, name, tmp, name, schedule, tmp, name, cache);
+    CHECK(atomic_write_file(path, text, (size_t)n, NULL) == 0, "wrote %s", path);
+}
+
+/* Starts `sphice CMD CONFIG` (run: for 2024-02-08T00Z) and waits up to 10 s
+ * until its download has a .part file in cache (named in part). */
+static pid_t start_download(const char *exe, const char *cmd, const char *cfgp, const char *logp,
+                            const char *cache, char *part, size_t len)
+{
+    pid_t pid = fork();
+    if (pid == 0) {
+        int fd = open(logp, O_CREAT | O_WRONLY | O_APPEND, 0644);
+        if (fd >= 0) {
+            dup2(fd, 1);
+            dup2(fd, 2);
+        }
+        if (!strcmp(cmd, "run"))
+            execl(exe, exe, "run", cfgp, "--cycle", "2024-02-08T00:00Z", (char *)NULL);
+        else
+            execl(exe, exe, cmd, cfgp, (char *)NULL);
+        _exit(127);
+    }
+    part[0] = '\0';
+    double end = time_monotonic() + 10;
+    while (time_monotonic() < end && count_parts(cache, part, len) == 0)
+        nap(0.05);
+    CHECK(part[0] != '\0', "sphice %s: the running download has a .part file", cmd);
+    return pid;
+}
+
 int main(void)
 {
     signal(SIGPIPE, SIG_IGN);
@@ -233,43 +281,17 @@ int main(void)
     }
 
     /* 5. kill -9 of `sphice run` during a download leaves a .part; the next run sweeps it */
+    const char *build = getenv("BUILD") ? getenv("BUILD") : "build";
+    char cwd[256], exe[600], cfgp[400], logp[400], cache2[400], part[300] = "";
+    if (!getcwd(cwd, sizeof cwd))
+        return 1;
+    snprintf(exe, sizeof exe, "%s/%s/sphice", cwd, build);
+    CHECK(access(exe, X_OK) == 0, "%s built", exe);
+    snprintf(logp, sizeof logp, "%s/run.log", tmp);
     {
-        const char *build = getenv("BUILD") ? getenv("BUILD") : "build";
-        char cwd[256], exe[600], cfgp[400], logp[400];
-        if (!getcwd(cwd, sizeof cwd))
-            return 1;
-        snprintf(exe, sizeof exe, "%s/%s/sphice", cwd, build);
-        snprintf(cfgp, sizeof cfgp, "%s/run.json", tmp);
-        snprintf(logp, sizeof logp, "%s/run.log", tmp);
-        char cache2[400];
         snprintf(cache2, sizeof cache2, "%s/cache2", tmp);
-        char text[4096];
-        int n = snprintf(text, sizeof text,
-                         "{\"engine\": \"test-double\", \"test\": {\"engine_seconds\": 0.01},"
-                         " \"domain\": {\"lon_min\": 119, \"lon_max\": 122, \"lat_min\": 38, \"lat_max\": 41},"
-                         " \"forcing\": [{\"name\": \"atm\", \"kind\": \"atmosphere\","
-                         "   \"urls\": \"http://127.0.0.1:%d/switch_%%Y%%m%%d%%H.nc\", \"issue_hours\": 24}],"
-                         " \"output\": {\"dir\": \"%s/out2\"}, \"status\": {\"enabled\": false},"
-                         " \"schedule\": {\"late_data\": {\"wait_minutes\": 0, \"policy\": \"fail\"}},"
-                         " \"paths\": {\"state_dir\": \"%s/state2\", \"cache_dir\": \"%s\"}}\n",
-                         port, tmp, tmp, cache2);
-        CHECK(atomic_write_file(cfgp, text, (size_t)n, NULL) == 0, "wrote %s", cfgp);
-        CHECK(access(exe, X_OK) == 0, "%s built", exe);
-        pid_t pid = fork();
-        if (pid == 0) {
-            int fd = open(logp, O_CREAT | O_WRONLY | O_APPEND, 0644);
-            if (fd >= 0) {
-                dup2(fd, 1);
-                dup2(fd, 2);
-            }
-            execl(exe, exe, "run", cfgp, "--cycle", "2024-02-08T00:00Z", (char *)NULL);
-            _exit(127);
-        }
-        char part[300] = "";
-        double end = time_monotonic() + 10;
-        while (time_monotonic() < end && count_parts(cache2, part, sizeof part) == 0)
-            nap(0.05);
-        CHECK(part[0] != '\0', "the running download has a .part file");
+        write_config(cfgp, sizeof cfgp, port, "switch", cache2, "");
+        pid_t pid = start_download(exe, "run", cfgp, logp, cache2, part, sizeof part);
         kill(pid, SIGKILL);
         int st;
         waitpid(pid, &st, 0);
@@ -288,6 +310,29 @@ int main(void)
         read_file(logp, &log, NULL, NULL);
         CHECK(log && strstr(log, pidtag), "the sweep is logged, naming the file");
         free(log);
+    }
+
+    /* 6. SIGTERM to `sphice serve` while its cycle downloads: exits 0 within 1 s */
+    {
+        snprintf(cache2, sizeof cache2, "%s/cache3", tmp);
+        write_config(cfgp, sizeof cfgp, port, "slow", cache2, ", \"every_seconds\": 3600");
+        pid_t pid = start_download(exe, "serve", cfgp, logp, cache2, part, sizeof part);
+        nap(0.5);
+        double t0 = time_monotonic();
+        kill(pid, SIGTERM);
+        int st = 0;
+        pid_t w = 0;
+        while ((w = waitpid(pid, &st, WNOHANG)) == 0 && time_monotonic() < t0 + 20)
+            nap(0.01);
+        double dt = time_monotonic() - t0;
+        if (w == 0) {
+            kill(pid, SIGKILL);
+            waitpid(pid, &st, 0);
+        }
+        printf("sphice serve: SIGTERM during a download, exited %.3f s later\n", dt);
+        CHECK(w == pid && WIFEXITED(st) && WEXITSTATUS(st) == 0, "serve exits 0 on SIGTERM (status %d)", st);
+        CHECK(dt < 1.0, "serve exits within 1 s of SIGTERM during a download: %.3f s", dt);
+        CHECK(count_parts(cache2, part, sizeof part) == 0, "the cancelled download left no .part (%s)", part);
     }
 
     atomic_store(&stopping, 1);
