@@ -22,19 +22,34 @@
  * 403, not NetCDF, missing variable) are not.
  *
  * Timeouts: connect_timeout_s for the connection, timeout_s for the whole
- * transfer, and a stall limit: less than 1 byte/s for stall_timeout_s
- * (CURLOPT_LOW_SPEED_LIMIT/TIME) aborts a server that stops sending.
+ * transfer, and a low-speed limit: less than low_speed_bytes per second for
+ * stall_timeout_s (CURLOPT_LOW_SPEED_LIMIT/TIME) aborts a server that stops
+ * sending or trickles.
+ *
+ * Cancellation: when *cancel becomes non-zero the transfer is aborted
+ * within about 0.1 s (the transfer loop polls in 100 ms slices and the
+ * libcurl xferinfo callback checks the flag), and so is a backoff sleep
+ * between retries; the call then fails with SPH_ERR_CANCELLED and leaves
+ * the cache as it was.
+ *
+ * A download that fails its check (not NetCDF, truncated, a variable of
+ * expect_vars missing) never replaces the cached copy or its .etag.
+ * Interrupted processes can leave "<name>.part.<pid>.<serial>" files
+ * (kill -9): fetch_sweep_parts removes those of processes that are gone.
  */
 #ifndef SPHICE_IO_FETCH_H
 #define SPHICE_IO_FETCH_H
 
+#include <signal.h>
 #include <stddef.h>
 #include "util/err.h"
 
 typedef struct fetch_options {
     double timeout_s;         /* whole transfer (default 600) */
     double connect_timeout_s; /* default 30 */
-    double stall_timeout_s;   /* abort below 1 byte/s for this long (default 60; >= 1) */
+    double stall_timeout_s;   /* abort below low_speed_bytes/s for this long (default 60; >= 1) */
+    long low_speed_bytes;     /* bytes/s of the low-speed limit (default 1024; >= 1) */
+    const volatile sig_atomic_t *cancel; /* non-zero: abort (NULL: never) */
     int retries;              /* extra attempts on transient failures (default 3) */
     double backoff_s;         /* first wait between attempts, doubled each time (default 5) */
     const char *cache_dir;    /* required for remote URLs; created if missing */
@@ -60,6 +75,19 @@ int fetch_url(const char *url, const fetch_options *opt, char *local_path, size_
               char sha256_hex[65], sph_error *err);
 int fetch_url_ex(const char *url, const fetch_options *opt, char *local_path, size_t len,
                  char sha256_hex[65], fetch_result *result, sph_error *err);
+
+/* The cached copy of `url` (fetch_cache_path in opt->cache_dir) without
+ * any network access, if it is there and passes the same check as a new
+ * download (opt->check_netcdf, opt->expect_vars); else an error naming
+ * the URL. For a cycle that may run on the last good download when the
+ * server fails. */
+int fetch_cached_copy(const char *url, const fetch_options *opt, char *local_path, size_t len,
+                      char sha256_hex[65], sph_error *err);
+
+/* Removes "*.part.<pid>.*" files in cache_dir left by processes that no
+ * longer run (kill -9 during a download). Parts of live processes stay.
+ * Returns the number removed (0 if cache_dir does not exist). */
+int fetch_sweep_parts(const char *cache_dir);
 
 /* The cache file name fetch_url uses for `url` (no I/O). */
 int fetch_cache_path(const char *url, const char *cache_dir, char *path, size_t len,

@@ -121,6 +121,10 @@ struct sph_config {
 
     struct { char *listen; int enabled, max_connections, per_ip_limit; } status;
     struct { char *state_dir, *cache_dir, *hindcast_dir; } paths;
+    struct {
+        double connect_timeout_s, timeout_s, low_speed_s, backoff_s;
+        int low_speed_bytes, retries;
+    } fetch;                    /* downloads (io/fetch.h) */
 };
 
 /* Reads and validates a configuration file. On failure *out is NULL and err

@@ -44,8 +44,17 @@ int cycle_test_engine(const struct sph_config *cfg, const forecast_request *req,
  * template, downloads it when it is a URL, and returns the local path and
  * its sha256. Returns SPH_OK, or an error (SPH_ERR_IO / SPH_ERR_DOWNLOAD)
  * when the file is not (yet) there. */
-typedef int (*cycle_fetch_fn)(const char *tmpl, double t, const char *cache_dir, char *local, size_t len,
-                              char sha256[65], sph_error *err);
+typedef struct cycle_fetch_ctx {
+    const struct sph_config *cfg;        /* fetch.* keys, paths.cache_dir */
+    const char *const *expect_vars;      /* variables a download must hold (the source's
+                                            mapped `variables`); a file without them never
+                                            replaces the cached copy */
+    size_t n_expect;
+    const volatile sig_atomic_t *cancel; /* aborts a download within about 0.1 s */
+    int cache_only;                      /* 1: no network, the last good cached copy only */
+} cycle_fetch_ctx;
+typedef int (*cycle_fetch_fn)(const char *tmpl, double t, const cycle_fetch_ctx *ctx, char *local,
+                              size_t len, char sha256[65], sph_error *err);
 /* NULL restores the built-in fetcher (local paths, file://, and
  * http(s)/ftp downloads through io/fetch.h into paths.cache_dir). */
 void cycle_set_fetcher(cycle_fetch_fn fn);

@@ -224,6 +224,19 @@ static const cfg_key tail_keys[] = {
        "Downloaded forcing."),
     C_("paths.hindcast_dir", CT_STRING, paths.hindcast_dir, "\"\"", 0, 4095, R, NULL,
        "Hindcast products; empty: output.dir/hindcast."),
+
+    C_("fetch.connect_timeout_s", CT_DOUBLE, fetch.connect_timeout_s, "30", 0.1, 3600, R, NULL,
+       "Downloads: seconds to establish a connection."),
+    C_("fetch.timeout_s", CT_DOUBLE, fetch.timeout_s, "600", 1, 86400, R, NULL,
+       "Downloads: seconds one attempt may take in all."),
+    C_("fetch.low_speed_bytes", CT_INT, fetch.low_speed_bytes, "1024", 1, 1000000000, R, NULL,
+       "Downloads: an attempt slower than this many bytes/s for fetch.low_speed_s is abandoned."),
+    C_("fetch.low_speed_s", CT_DOUBLE, fetch.low_speed_s, "60", 1, 3600, R, NULL,
+       "Downloads: seconds below fetch.low_speed_bytes per second before an attempt is abandoned."),
+    C_("fetch.retries", CT_INT, fetch.retries, "3", 0, 20, R, NULL,
+       "Downloads: extra attempts after a transient failure (HTTP 408, 429, 5xx, timeouts, resets)."),
+    C_("fetch.backoff_s", CT_DOUBLE, fetch.backoff_s, "5", 0, 3600, R, NULL,
+       "Downloads: seconds before the first retry, doubled for each further one."),
 };
 #undef R
 

@@ -28,7 +28,7 @@ static cycle_engine_fn engine_fn = forecast_run;
 
 void cycle_set_engine(cycle_engine_fn fn) { engine_fn = fn ? fn : forecast_run; }
 
-static int local_fetch(const char *tmpl, double t, const char *cache_dir, char *local, size_t len,
+static int local_fetch(const char *tmpl, double t, const cycle_fetch_ctx *ctx, char *local, size_t len,
                        char sha256[65], sph_error *err);
 static cycle_fetch_fn fetch_fn = local_fetch;
 
@@ -52,7 +52,7 @@ int cycle_remove_tree(const char *path)
 
 /* The built-in fetcher: local paths and file:// URLs as they are, remote
  * URLs downloaded into the cache (tests may register another one). */
-static int local_fetch(const char *tmpl, double t, const char *cache_dir, char *local, size_t len,
+static int local_fetch(const char *tmpl, double t, const cycle_fetch_ctx *ctx, char *local, size_t len,
                        char sha256[65], sph_error *err)
 {
     char path[4096];
@@ -65,9 +65,21 @@ static int local_fetch(const char *tmpl, double t, const char *cache_dir, char *
     } else if (strstr(p, "://")) {
         /* http(s):// and ftp://: libcurl with timeouts, retries, a cache,
          * conditional requests, validated NetCDF (io/fetch.h) */
+        const struct sph_config *cfg = ctx->cfg;
         fetch_options o;
         fetch_options_default(&o);
-        o.cache_dir = cache_dir;
+        o.cache_dir = cfg->paths.cache_dir;
+        o.connect_timeout_s = cfg->fetch.connect_timeout_s;
+        o.timeout_s = cfg->fetch.timeout_s;
+        o.low_speed_bytes = cfg->fetch.low_speed_bytes;
+        o.stall_timeout_s = cfg->fetch.low_speed_s;
+        o.retries = cfg->fetch.retries;
+        o.backoff_s = cfg->fetch.backoff_s;
+        o.expect_vars = ctx->expect_vars;
+        o.n_expect = ctx->n_expect;
+        o.cancel = ctx->cancel;
+        if (ctx->cache_only)
+            return fetch_cached_copy(path, &o, local, len, sha256, err);
         return fetch_url(path, &o, local, len, sha256, err);
     }
     if (access(p, R_OK) != 0)
@@ -298,10 +310,57 @@ static void fetched_free(fetched *f)
     memset(f, 0, sizeof *f);
 }
 
-/* Tries every template of source s with issue time t; all must be there. */
-static int try_source(const struct sph_config *cfg, size_t s, double t, fetched *f, sph_error *why)
+/* The forcing quantity (FQ_* flag) a CF standard name gives, 0 if none
+ * (the names io/inputs/forcing.c looks for). */
+static int quantity_of(const char *std)
+{
+    static const struct { const char *name; int flag; } q[] = {
+        {"eastward_wind", FQ_WIND}, {"northward_wind", FQ_WIND}, {"x_wind", FQ_WIND}, {"y_wind", FQ_WIND},
+        {"air_temperature", FQ_TAIR}, {"specific_humidity", FQ_HUMIDITY},
+        {"dew_point_temperature", FQ_HUMIDITY}, {"relative_humidity", FQ_HUMIDITY},
+        {"surface_downwelling_shortwave_flux_in_air", FQ_SWDN},
+        {"surface_downwelling_longwave_flux_in_air", FQ_LWDN},
+        {"eastward_sea_water_velocity", FQ_CURRENT}, {"northward_sea_water_velocity", FQ_CURRENT},
+        {"surface_eastward_sea_water_velocity", FQ_CURRENT},
+        {"surface_northward_sea_water_velocity", FQ_CURRENT}, {"sea_water_x_velocity", FQ_CURRENT},
+        {"sea_water_y_velocity", FQ_CURRENT}, {"sea_surface_height_above_geoid", FQ_SSH},
+        {"sea_surface_height", FQ_SSH}, {"sea_surface_height_above_sea_level", FQ_SSH},
+        {"sea_surface_temperature", FQ_SST}, {"upward_sea_ice_basal_heat_flux", FQ_OCEAN_FLUX}};
+    for (size_t i = 0; i < sizeof q / sizeof q[0]; i++)
+        if (!strcmp(q[i].name, std))
+            return q[i].flag;
+    return 0;
+}
+
+/* The variables a download of source src must hold: the mapped variables
+ * (`variables`) of its `required` quantities; with no `required` list,
+ * every mapped variable whose quantity is not listed as `optional`. */
+static size_t required_vars(const cfg_forcing_source *src, const char **vars, size_t max)
+{
+    int req = 0, opt = 0; /* the names are checked when the configuration is read */
+    for (size_t i = 0; i < src->required.n; i++)
+        req |= config_quantity_flag(src->required.v[i]);
+    for (size_t i = 0; i < src->optional_q.n; i++)
+        opt |= config_quantity_flag(src->optional_q.v[i]);
+    size_t n = 0;
+    for (size_t i = 0; i < src->variables.n && n < max; i++) {
+        int q = quantity_of(src->variables.key[i]);
+        if (src->required.n ? (q & req) != 0 : !(q & opt))
+            vars[n++] = src->variables.val[i];
+    }
+    return n;
+}
+
+/* Tries every template of source s with issue time t; all must be there.
+ * cache_only: the last good cached downloads, no network. */
+static int try_source(const struct sph_config *cfg, size_t s, double t, fetched *f, sph_error *why,
+                      const volatile sig_atomic_t *cancel, int cache_only)
 {
     const cfg_forcing_source *src = &cfg->forcing[s];
+    /* a download must hold the variables the source maps, or it does not
+     * replace the cached copy */
+    const char *vars[64];
+    cycle_fetch_ctx ctx = {cfg, vars, required_vars(src, vars, 64), cancel, cache_only};
     char *files[CYCLE_MAX_FILES] = {0};
     char sums[CYCLE_MAX_FILES][65];
     size_t n = 0;
@@ -309,7 +368,7 @@ static int try_source(const struct sph_config *cfg, size_t s, double t, fetched 
         char local[4096];
         sph_error e;
         sph_error_clear(&e);
-        if (fetch_fn(src->urls.v[i], t, cfg->paths.cache_dir, local, sizeof local, sums[n], &e)) {
+        if (fetch_fn(src->urls.v[i], t, &ctx, local, sizeof local, sums[n], &e)) {
             sph_error_clear(why);
             sph_err_set(why, e.code, "%s", e.msg);
             for (size_t j = 0; j < n; j++)
@@ -343,14 +402,19 @@ static int fetch_all(const struct sph_config *cfg, const cycle_opts *o, const ch
         snprintf(rep->source_name[s], sizeof rep->source_name[s], "%s", cfg->forcing[s].name);
     }
     rep->nsources = ns;
+    /* .part files of downloads killed with -9 (daemon start, `run`) */
+    fetch_sweep_parts(cfg->paths.cache_dir);
     int logged = 0;
     for (;;) {
         int missing = 0;
         for (size_t s = 0; s < ns; s++) {
             if (f->found[s])
                 continue;
-            if (try_source(cfg, s, o->cycle_time, f, &why[s]) == 0)
+            if (try_source(cfg, s, o->cycle_time, f, &why[s], cancel, 0) == 0)
                 rep->source_age_h[s] = 0;
+            else if (cancel && *cancel)
+                return sph_err_set(err, SPH_ERR_CANCELLED, "cycle %s: cancelled while fetching forcing: %s",
+                                   cname, why[s].msg);
             else if (!cfg->forcing[s].optional_source)
                 missing++;
         }
@@ -368,11 +432,21 @@ static int fetch_all(const struct sph_config *cfg, const cycle_opts *o, const ch
         if (f->found[s])
             continue;
         if (cfg->schedule.late_data.policy == CFG_LATE_STALE) {
+            /* the last good download of this very issue, kept in the cache
+             * when the server failed or sent a file that failed the check */
+            sph_error e0;
+            sph_error_clear(&e0);
+            if (try_source(cfg, s, o->cycle_time, f, &e0, cancel, 1) == 0) {
+                rep->source_age_h[s] = 0;
+                rep->stale = 1;
+                log_warn("cycle %s: forcing %s: %s; using the last good cached download (stale)", cname,
+                         src->name, why[s].msg);
+            }
             for (int k = 1; k * src->issue_hours <= src->max_age_hours + 1e-9 && !f->found[s]; k++) {
                 double t = o->cycle_time - k * src->issue_hours * 3600.0;
                 sph_error e;
                 sph_error_clear(&e);
-                if (try_source(cfg, s, t, f, &e) == 0) {
+                if (try_source(cfg, s, t, f, &e, cancel, 0) == 0) {
                     rep->source_age_h[s] = k * src->issue_hours;
                     rep->stale = 1;
                     log_warn("cycle %s: forcing %s: using the issue of %g h before the cycle (stale)", cname,

@@ -2,6 +2,7 @@
 #include "io/fetch.h"
 
 #include <curl/curl.h>
+#include <dirent.h>
 #include <errno.h>
 #include <math.h>
 #include <netcdf.h>
@@ -26,6 +27,7 @@ void fetch_options_default(fetch_options *o)
     o->timeout_s = 600;
     o->connect_timeout_s = 30;
     o->stall_timeout_s = 60;
+    o->low_speed_bytes = 1024;
     o->retries = 3;
     o->backoff_s = 5;
     o->check_netcdf = 1;
@@ -335,7 +337,61 @@ static void read_etag(const char *etag_path, char *etag, size_t len)
 }
 
 /* Outcome of one attempt. */
-enum { ATTEMPT_OK, ATTEMPT_NOT_MODIFIED, ATTEMPT_TRANSIENT, ATTEMPT_FATAL };
+enum { ATTEMPT_OK, ATTEMPT_NOT_MODIFIED, ATTEMPT_TRANSIENT, ATTEMPT_FATAL, ATTEMPT_CANCELLED };
+
+static int cancelled(const fetch_options *o) { return o->cancel && *o->cancel; }
+
+/* libcurl's progress callback: non-zero aborts the transfer. */
+static int on_progress(void *userdata, curl_off_t dltotal, curl_off_t dlnow, curl_off_t ultotal,
+                       curl_off_t ulnow)
+{
+    (void)dltotal; (void)dlnow; (void)ultotal; (void)ulnow;
+    return cancelled(userdata);
+}
+
+/* curl_easy_perform, but through the multi interface in 100 ms slices so
+ * that a cancellation is seen even while nothing arrives. */
+static CURLcode perform_cancellable(CURL *c, const fetch_options *o, int *was_cancelled)
+{
+    *was_cancelled = 0;
+    CURLM *m = curl_multi_init();
+    if (!m)
+        return CURLE_OUT_OF_MEMORY;
+    if (curl_multi_add_handle(m, c) != CURLM_OK) {
+        curl_multi_cleanup(m);
+        return CURLE_FAILED_INIT;
+    }
+    CURLcode cc = CURLE_OK;
+    int running = 1;
+    while (running) {
+        if (curl_multi_perform(m, &running) != CURLM_OK) {
+            cc = CURLE_FAILED_INIT;
+            break;
+        }
+        if (!running)
+            break;
+        if (cancelled(o)) {
+            *was_cancelled = 1;
+            break;
+        }
+        if (curl_multi_poll(m, NULL, 0, 100, NULL) != CURLM_OK) {
+            cc = CURLE_FAILED_INIT;
+            break;
+        }
+    }
+    if (!*was_cancelled) {
+        CURLMsg *msg;
+        int left;
+        while ((msg = curl_multi_info_read(m, &left)))
+            if (msg->msg == CURLMSG_DONE && msg->easy_handle == c)
+                cc = msg->data.result;
+    }
+    curl_multi_remove_handle(m, c);
+    curl_multi_cleanup(m);
+    if (cc == CURLE_ABORTED_BY_CALLBACK && cancelled(o))
+        *was_cancelled = 1;
+    return cc;
+}
 
 static int one_attempt(const char *url, const fetch_options *o, const char *tmp,
                        const char *cached, const char *etag_path, fetch_result *res,
@@ -368,7 +424,10 @@ static int one_attempt(const char *url, const fetch_options *o, const char *tmp,
     curl_easy_setopt(c, CURLOPT_USERAGENT, "sphice/" SPHICE_VERSION);
     curl_easy_setopt(c, CURLOPT_TIMEOUT_MS, (long)(o->timeout_s * 1000));
     curl_easy_setopt(c, CURLOPT_CONNECTTIMEOUT_MS, (long)(o->connect_timeout_s * 1000));
-    curl_easy_setopt(c, CURLOPT_LOW_SPEED_LIMIT, 1L);
+    curl_easy_setopt(c, CURLOPT_LOW_SPEED_LIMIT, o->low_speed_bytes < 1 ? 1L : o->low_speed_bytes);
+    curl_easy_setopt(c, CURLOPT_XFERINFOFUNCTION, on_progress);
+    curl_easy_setopt(c, CURLOPT_XFERINFODATA, (void *)o);
+    curl_easy_setopt(c, CURLOPT_NOPROGRESS, 0L);
     curl_easy_setopt(c, CURLOPT_LOW_SPEED_TIME,
                      (long)(o->stall_timeout_s < 1 ? 1 : ceil(o->stall_timeout_s)));
     struct stat st;
@@ -384,7 +443,8 @@ static int one_attempt(const char *url, const fetch_options *o, const char *tmp,
         }
     }
     res->attempts++;
-    CURLcode cc = curl_easy_perform(c);
+    int was_cancelled = 0;
+    CURLcode cc = perform_cancellable(c, o, &was_cancelled);
     long status = 0, unmet = 0;
     curl_off_t expected = -1;
     curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &status);
@@ -398,6 +458,10 @@ static int one_attempt(const char *url, const fetch_options *o, const char *tmp,
     snprintf(etag_out, etag_len, "%s", t.etag);
     int is_http = strncmp(url, "http", 4) == 0;
 
+    if (was_cancelled) {
+        snprintf(why, why_len, "cancelled after %lld bytes", t.bytes);
+        return ATTEMPT_CANCELLED;
+    }
     if (cc == CURLE_OK && (status == 304 || unmet)) {
         res->not_modified = 1;
         return ATTEMPT_NOT_MODIFIED;
@@ -417,7 +481,9 @@ static int one_attempt(const char *url, const fetch_options *o, const char *tmp,
         break;
     case CURLE_OPERATION_TIMEDOUT:
         if (strstr(curl_err, "too slow"))
-            snprintf(why, why_len, "timed out: stalled (under 1 byte/s for %.0f s) after %lld bytes",
+            snprintf(why, why_len,
+                     "timed out: stalled or too slow (under %ld bytes/s for %.0f s) after %lld bytes",
+                     o->low_speed_bytes < 1 ? 1L : o->low_speed_bytes,
                      o->stall_timeout_s < 1 ? 1 : ceil(o->stall_timeout_s), t.bytes);
         else
             snprintf(why, why_len, "timed out after %lld bytes (limit %.3g s connect, %.3g s "
@@ -451,12 +517,19 @@ static int one_attempt(const char *url, const fetch_options *o, const char *tmp,
     return ATTEMPT_OK;
 }
 
-static void sleep_s(double s)
+/* Sleeps s seconds in slices of at most 50 ms; returns 1 if cancelled. */
+static int sleep_s(double s, const fetch_options *o)
 {
-    if (s <= 0)
-        return;
-    struct timespec ts = {(time_t)s, (long)((s - floor(s)) * 1e9)};
-    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
+    double end = time_monotonic() + s;
+    for (;;) {
+        if (cancelled(o))
+            return 1;
+        double left = end - time_monotonic();
+        if (left <= 0)
+            return 0;
+        double d = left < 0.05 ? left : 0.05;
+        struct timespec ts = {0, (long)(d * 1e9)};
+        nanosleep(&ts, NULL);
     }
 }
 
@@ -546,7 +619,11 @@ int fetch_url_ex(const char *url, const fetch_options *opt, char *local_path, si
         if (attempt > 0) {
             log_warn("download %s: %s; retry %d of %d in %.3g s", url, why, attempt, opt->retries,
                      wait);
-            sleep_s(wait);
+            if (sleep_s(wait, opt)) {
+                outcome = ATTEMPT_CANCELLED;
+                snprintf(why, sizeof why, "cancelled while waiting to retry");
+                break;
+            }
             wait *= 2;
         }
         why[0] = '\0';
@@ -562,6 +639,10 @@ int fetch_url_ex(const char *url, const fetch_options *opt, char *local_path, si
             res->bytes = (long long)st.st_size;
         log_info("download %s: not modified, using %s", url, final);
         return sha256_hex ? sha256_file(final, sha256_hex, err) : SPH_OK;
+    }
+    if (outcome == ATTEMPT_CANCELLED) {
+        unlink(tmp);
+        return sph_err_set(err, SPH_ERR_CANCELLED, "download %s: %s", url, why);
     }
     if (outcome != ATTEMPT_OK) {
         unlink(tmp);
@@ -609,6 +690,68 @@ int fetch_url(const char *url, const fetch_options *opt, char *local_path, size_
               char sha256_hex[65], sph_error *err)
 {
     return fetch_url_ex(url, opt, local_path, len, sha256_hex, NULL, err);
+}
+
+int fetch_cached_copy(const char *url, const fetch_options *opt, char *local_path, size_t len,
+                      char sha256_hex[65], sph_error *err)
+{
+    fetch_options defaults;
+    if (!opt) {
+        fetch_options_default(&defaults);
+        opt = &defaults;
+    }
+    char final[4096];
+    int rc = fetch_cache_path(url, opt->cache_dir, final, sizeof final, err);
+    if (rc != SPH_OK)
+        return rc;
+    if (access(final, R_OK) != 0)
+        return sph_err_set(err, SPH_ERR_IO, "download %s: no cached copy (%s)", url, final);
+    if (opt->check_netcdf) {
+        char label[4200];
+        snprintf(label, sizeof label, "cached copy of %s", url);
+        rc = fetch_check_netcdf(final, label, opt->expect_vars, opt->n_expect, err);
+        if (rc != SPH_OK)
+            return rc;
+    }
+    if ((size_t)snprintf(local_path, len, "%s", final) >= len)
+        return sph_err_set(err, SPH_ERR_PARAM, "download %s: cache path longer than %zu", url, len - 1);
+    return sha256_hex ? sha256_file(final, sha256_hex, err) : SPH_OK;
+}
+
+int fetch_sweep_parts(const char *cache_dir)
+{
+    if (!cache_dir || !*cache_dir)
+        return 0;
+    DIR *d = opendir(cache_dir);
+    if (!d)
+        return 0;
+    int removed = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        /* "<name>.part.<pid>.<serial>": the last ".part." of the name */
+        const char *p = NULL;
+        for (const char *q = strstr(e->d_name, ".part."); q; q = strstr(q + 1, ".part."))
+            p = q;
+        if (!p)
+            continue;
+        char *end;
+        errno = 0;
+        long pid = strtol(p + 6, &end, 10);
+        if (errno || pid <= 0 || end == p + 6 || *end != '.')
+            continue;
+        if (kill((pid_t)pid, 0) == 0 || errno != ESRCH)
+            continue; /* that process still runs (or is not ours to judge) */
+        char path[4400];
+        if ((size_t)snprintf(path, sizeof path, "%s/%s", cache_dir, e->d_name) >= sizeof path)
+            continue;
+        if (unlink(path) == 0) {
+            removed++;
+            log_info("cache %s: removed %s, left by process %ld that is gone", cache_dir, e->d_name,
+                     pid);
+        }
+    }
+    closedir(d);
+    return removed;
 }
 
 /* ------------------------------------------------- GET into memory */
