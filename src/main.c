@@ -13,7 +13,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
+#include "io/ncfile.h"
 #include "io/quicklook.h"
 #include "service/check.h"
 #include "service/config.h"
@@ -299,6 +301,19 @@ static int cmd_check(int argc, char **argv)
     return code;
 }
 
+/* A NetCDF file that could not be closed (a full disk) would crash HDF5's
+ * exit handler (io/ncfile.h): then leave without the exit handlers, with
+ * this command's own status. */
+static int leave(int code)
+{
+    if (ncfile_abandoned() > 0) {
+        fflush(stdout);
+        fflush(stderr);
+        _exit(code);
+    }
+    return code;
+}
+
 int main(int argc, char **argv)
 {
     atexit(quicklook_release_caches);
@@ -321,11 +336,11 @@ int main(int argc, char **argv)
         sph_config_doc(stdout);
         return 0;
     }
-    if (!strcmp(cmd, "run")) return cmd_run(argc, argv);
-    if (!strcmp(cmd, "serve")) return cmd_serve(argc, argv);
-    if (!strcmp(cmd, "hindcast")) return cmd_hindcast(argc, argv);
-    if (!strcmp(cmd, "status")) return cmd_status(argc, argv);
-    if (!strcmp(cmd, "check")) return cmd_check(argc, argv);
+    if (!strcmp(cmd, "run")) return leave(cmd_run(argc, argv));
+    if (!strcmp(cmd, "serve")) return leave(cmd_serve(argc, argv));
+    if (!strcmp(cmd, "hindcast")) return leave(cmd_hindcast(argc, argv));
+    if (!strcmp(cmd, "status")) return leave(cmd_status(argc, argv));
+    if (!strcmp(cmd, "check")) return leave(cmd_check(argc, argv));
     fprintf(stderr, "sphice: unknown command \"%s\"\n", cmd);
     return usage(stderr, 2);
 }
