@@ -50,35 +50,28 @@ int main(void)
     int rc = parse("", "/f/atm_%Y%m%d%H%M%S_%j_%y_100%%.nc", "/f/sea_%Y%m%d.nc", "/f/ice_%Y%m%d.nc", "", "", &e);
     CHECK(rc == SPH_OK, "the documented fields are accepted: %s", e.msg);
 
-    /* ---- templates */
-    rc = parse("", "/f/atm_%Y.nc", "/f/sea_%Q.nc", "", "", "", &e);
-    CHECK(rc == SPH_ERR_CONFIG && strstr(e.msg, "forcing[1].urls[1]") && strstr(e.msg, "%Q") &&
-              strstr(e.msg, "test.json") && count_lines(e.msg) == 1,
-          "%%Q in forcing[1].urls[1]: refused naming the key and the field: %s", e.msg);
-    rc = parse("", "https://example.org/gfs_%Y%m%d_%H%k.nc", "/f/sea.nc", "", "", "", &e);
-    CHECK(rc == SPH_ERR_CONFIG && strstr(e.msg, "forcing[0].urls[0]") && strstr(e.msg, "%k"),
-          "%%k in a URL: refused: %s", e.msg);
-    rc = parse("", "/f/atm.nc", "/f/sea.nc", "/f/ice_%Y%m%d_%Q.nc", "", "", &e);
-    CHECK(rc == SPH_ERR_CONFIG && strstr(e.msg, "initial.path") && strstr(e.msg, "%Q"),
-          "%%Q in initial.path: refused: %s", e.msg);
-    rc = parse("", "/f/atm_%", "/f/sea.nc", "", "", "", &e);
-    CHECK(rc == SPH_ERR_CONFIG && strstr(e.msg, "forcing[0].urls[0]"), "a lone %% at the end: refused: %s",
-          e.msg);
-    rc = parse("\"observations\": {\"path\": \"/obs/%Y%m%d%Q.nc\"},", "/f/atm.nc", "/f/sea.nc", "", "", "", &e);
-    CHECK(rc == SPH_ERR_CONFIG && strstr(e.msg, "observations.path") && strstr(e.msg, "%Q"),
-          "%%Q in observations.path: refused: %s", e.msg);
-
-    /* ---- duplicate keys */
-    rc = parse("\"log_level\": \"info\", \"log_level\": \"debug\",", "/f/atm.nc", "/f/sea.nc", "", "", "", &e);
-    CHECK(rc == SPH_ERR_CONFIG && strstr(e.msg, "log_level") && strstr(e.msg, "twice") &&
-              count_lines(e.msg) == 1,
-          "log_level twice: refused naming it: %s", e.msg);
-    rc = parse("", "/f/atm.nc", "/f/sea.nc", "", ", \"dt\": 30", "", &e);
-    CHECK(rc == SPH_ERR_CONFIG && strstr(e.msg, "model.dt") && strstr(e.msg, "twice"),
-          "model.dt twice: refused naming it: %s", e.msg);
-    rc = parse("", "/f/atm.nc", "/f/sea.nc", "", "", ", \"name\": \"again\"", &e);
-    CHECK(rc == SPH_ERR_CONFIG && strstr(e.msg, "forcing[0].name") && strstr(e.msg, "twice"),
-          "forcing[0].name twice: refused naming it: %s", e.msg);
+    /* ---- templates and duplicate keys: each refused with one line naming the key and the problem */
+    static const struct {
+        const char *top, *url0, *url1, *initial, *model, *forcing0_extra; /* the case */
+        const char *key, *what;                                          /* the line names */
+    } bad[] = {
+        {"", "/f/atm_%Y.nc", "/f/sea_%Q.nc", "", "", "", "forcing[1].urls[1]", "%Q"},
+        {"", "https://example.org/gfs_%Y%m%d_%H%k.nc", "/f/sea.nc", "", "", "", "forcing[0].urls[0]", "%k"},
+        {"", "/f/atm.nc", "/f/sea.nc", "/f/ice_%Y%m%d_%Q.nc", "", "", "initial.path", "%Q"},
+        {"", "/f/atm_%", "/f/sea.nc", "", "", "", "forcing[0].urls[0]", "unsupported field"},
+        {"\"observations\": {\"path\": \"/obs/%Y%m%d%Q.nc\"},", "/f/atm.nc", "/f/sea.nc", "", "", "",
+         "observations.path", "%Q"},
+        {"\"log_level\": \"info\", \"log_level\": \"debug\",", "/f/atm.nc", "/f/sea.nc", "", "", "", "log_level",
+         "twice"},
+        {"", "/f/atm.nc", "/f/sea.nc", "", ", \"dt\": 30", "", "model.dt", "twice"},
+        {"", "/f/atm.nc", "/f/sea.nc", "", "", ", \"name\": \"again\"", "forcing[0].name", "twice"},
+    };
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        rc = parse(bad[k].top, bad[k].url0, bad[k].url1, bad[k].initial, bad[k].model, bad[k].forcing0_extra, &e);
+        CHECK(rc == SPH_ERR_CONFIG && strstr(e.msg, "test.json") && strstr(e.msg, bad[k].key) &&
+                  strstr(e.msg, bad[k].what) && count_lines(e.msg) == 1,
+              "case %zu: refused naming %s and \"%s\": %s", k, bad[k].key, bad[k].what, e.msg);
+    }
     /* the same name in two different objects is not a duplicate */
     rc = parse("\"observations\": {\"path\": \"/obs/%Y.nc\"}, \"status\": {\"enabled\": false},", "/f/atm.nc",
                "/f/sea.nc", "", "", "", &e);

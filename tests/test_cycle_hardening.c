@@ -10,16 +10,16 @@
  *     0) and says --force runs it again; --force does; usage errors (no
  *     CONFIG, `--cycle yesterday`) exit 2. */
 #include <dirent.h>
-#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
 #include <sys/file.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include "check.h"
+#include "exec_case.h"
 #include "service/config.h"
 #include "service/cycle.h"
 #include "service/history.h"
@@ -74,54 +74,28 @@ static int run_cycle(const struct sph_config *c, double t, int hindcast, history
     return cycle_run(c, &o, NULL, NULL, rep, e);
 }
 
-/* exe with argv, stdout and stderr into log; engine: SPHICE_TEST_ENGINE
- * (NULL: unset). Returns the exit status (128 + signal when killed). */
-static int run_cmd(char *const argv[], const char *log, const char *engine)
-{
-    fflush(NULL);
-    pid_t pid = fork();
-    if (pid == 0) {
-        if (engine)
-            setenv("SPHICE_TEST_ENGINE", engine, 1);
-        else
-            unsetenv("SPHICE_TEST_ENGINE");
-        int fd = open(log, O_CREAT | O_WRONLY | O_TRUNC, 0644);
-        if (fd >= 0) {
-            dup2(fd, 1);
-            dup2(fd, 2);
-        }
-        execv(exe, argv);
-        _exit(127);
-    }
-    int st;
-    if (waitpid(pid, &st, 0) != pid)
-        return -1;
-    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-}
-
 static int log_has(const char *log, const char *what)
 {
-    char *text = NULL;
-    size_t len;
-    sph_error e;
-    sph_error_clear(&e);
-    if (read_file(log, &text, &len, &e) != SPH_OK)
-        return 0;
-    int found = strstr(text, what) != NULL;
-    if (!found)
-        fprintf(stderr, "--- %s (looking for \"%s\")\n%s---\n", log, what, text);
+    char *text = xc_slurp(log);
+    int found = text && strstr(text, what) != NULL;
     free(text);
+    if (!found)
+        xc_show_log(log);
     return found;
+}
+
+static int run_engine(char *const argv[], const char *log, const char *engine)
+{
+    xc_opts o = {engine, 0};
+    return xc_run(argv, log, &o);
 }
 
 int main(void)
 {
     sph_log_level = LOG_LVL_ERROR;
-    const char *build = getenv("BUILD") ? getenv("BUILD") : "build";
-    char cwd[256];
-    if (!getcwd(cwd, sizeof cwd) || !mkdtemp(tmp))
+    if (!mkdtemp(tmp))
         return 1;
-    snprintf(exe, sizeof exe, "%s/%s/sphice", cwd, build);
+    int built = xc_find_sphice(exe, sizeof exe) == 0;
     char p[2048], text[4096], state[512], out[512];
     sph_error e;
     sph_error_clear(&e);
@@ -220,32 +194,32 @@ int main(void)
     snprintf(config, sizeof config, "%s/sphice.json", tmp);
     snprintf(log, sizeof log, "%s/log.txt", tmp);
     atomic_write_file(config, text, strlen(text), &e);
-    if (access(exe, X_OK) != 0) {
+    if (!built) {
         CHECK(0, "%s: not built", exe);
     } else {
         char *no_config[] = {exe, "run", NULL};
-        rc = run_cmd(no_config, log, NULL);
+        rc = run_engine(no_config, log, NULL);
         CHECK(rc == 2 && log_has(log, "CONFIG missing"), "run without CONFIG: exit 2 (%d)", rc);
         char *bad_cycle[] = {exe, "run", config, "--cycle", "yesterday", NULL};
-        rc = run_cmd(bad_cycle, log, NULL);
+        rc = run_engine(bad_cycle, log, NULL);
         CHECK(rc == 2 && log_has(log, "\"yesterday\""), "run --cycle yesterday: exit 2 (%d)", rc);
         char *check_none[] = {exe, "check", NULL};
-        rc = run_cmd(check_none, log, NULL);
+        rc = run_engine(check_none, log, NULL);
         CHECK(rc == 2, "check without CONFIG: exit 2 (%d)", rc);
         char *hc_none[] = {exe, "hindcast", "--from", "2024-02-08T00:00Z", "--to", "2024-02-08T00:00Z", NULL};
-        rc = run_cmd(hc_none, log, NULL);
+        rc = run_engine(hc_none, log, NULL);
         CHECK(rc == 2, "hindcast without CONFIG: exit 2 (%d)", rc);
 
         char *cyc[] = {exe, "run", config, "--cycle", "2024-03-01T00:00Z", NULL};
-        rc = run_cmd(cyc, log, "fail");
+        rc = run_engine(cyc, log, "fail");
         CHECK(rc == 1, "a failing cycle: exit 1 (%d)", rc);
-        rc = run_cmd(cyc, log, "sleep:0");
+        rc = run_engine(cyc, log, "sleep:0");
         CHECK(rc == 1 && log_has(log, "already ran and failed") && log_has(log, "--force"),
               "the failed cycle again: exit 1 and --force named (%d)", rc);
         char *forced[] = {exe, "run", config, "--cycle", "2024-03-01T00:00Z", "--force", NULL};
-        rc = run_cmd(forced, log, "sleep:0");
+        rc = run_engine(forced, log, "sleep:0");
         CHECK(rc == 0, "--force re-runs it: exit 0 (%d)", rc);
-        rc = run_cmd(cyc, log, "sleep:0");
+        rc = run_engine(cyc, log, "sleep:0");
         CHECK(rc == 0 && log_has(log, "already ran (ok)"), "a cycle that ran ok again: exit 0 (%d)", rc);
         snprintf(p, sizeof p, "%s/20240301T00Z", out);
         CHECK(access(p, F_OK) == 0, "published %s", p);

@@ -7,71 +7,28 @@
  * the small real case (tests/engine_case.h) must then exit 1 with one
  * error line -- not die with SIGSEGV (139) in HDF5's exit handler -- and
  * leave the published cycle and `latest` exactly as they were. */
-#include <fcntl.h>
-#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include "check.h"
 #include "engine_case.h"
+#include "exec_case.h"
 #include "service/cycle.h"
 #include "util/fileio.h"
 
 static char dir[] = "/tmp/sphice-disk-full-XXXXXX";
 static char exe[512];
 
-/* Runs exe with argv; fsize > 0: with that file-size limit (bytes) and
- * SIGXFSZ ignored. Returns the exit status, 128 + signal when killed. */
-static int run_cmd(char *const argv[], const char *log, rlim_t fsize)
-{
-    pid_t pid = fork();
-    if (pid == 0) {
-        unsetenv("SPHICE_TEST_ENGINE");
-        int fd = open(log, O_CREAT | O_WRONLY | O_TRUNC, 0644);
-        if (fd >= 0) {
-            dup2(fd, 1);
-            dup2(fd, 2);
-        }
-        if (fsize > 0) {
-            signal(SIGXFSZ, SIG_IGN); /* kept across exec */
-            struct rlimit rl = {fsize, fsize};
-            if (setrlimit(RLIMIT_FSIZE, &rl) != 0)
-                _exit(126);
-        }
-        execv(exe, argv);
-        _exit(127);
-    }
-    int st;
-    if (waitpid(pid, &st, 0) != pid)
-        return -1;
-    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-}
-
-static void show_log(const char *log)
-{
-    char *text = NULL;
-    size_t len;
-    sph_error e;
-    sph_error_clear(&e);
-    if (read_file(log, &text, &len, &e) == SPH_OK)
-        fprintf(stderr, "--- %s\n%s---\n", log, text);
-    free(text);
-}
-
 /* Lines of the log that say "error" (the one error line and the program's
  * own line repeating it are both allowed: at most 2). */
 static int error_lines(const char *log)
 {
-    char *text = NULL;
-    size_t len;
-    sph_error e;
-    sph_error_clear(&e);
-    if (read_file(log, &text, &len, &e) != SPH_OK)
+    char *text = xc_slurp(log);
+    if (!text)
         return -1;
     int n = 0;
     for (char *line = text; line && *line;) {
@@ -96,37 +53,28 @@ int main(int argc, char **argv)
 {
     (void)argc;
     ec_passive_openmp(argv);
-    const char *build = getenv("BUILD") ? getenv("BUILD") : "build";
-    char cwd[256];
-    if (!getcwd(cwd, sizeof cwd))
+    if (xc_find_sphice(exe, sizeof exe))
         return 1;
-    snprintf(exe, sizeof exe, "%s/%s/sphice", cwd, build);
-    if (access(exe, X_OK) != 0) {
-        fprintf(stderr, "%s: not built\n", exe);
-        return 1;
-    }
     CHECK(mkdtemp(dir) != NULL, "mkdtemp");
     ec_write_inputs(dir);
+    /* run: cycles 06Z and 12Z for 3 h; hindcast: 06Z for the configured
+     * 6 h (the forcing ends at 15Z) */
     char text[8192], config[1024], log[1024], out[1024], hc[1024];
     ec_config(text, sizeof text, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "\"log_level\": \"warn\",");
-    char *fh = strstr(text, "\"forecast_hours\": 6"); /* hindcast: 3 h as run --hours 3 */
-    CHECK(fh != NULL, "config text");
-    if (fh)
-        fh[18] = '3';
-    snprintf(config, sizeof config, "%s/sphice.json", dir);
-    snprintf(log, sizeof log, "%s/log.txt", dir);
-    snprintf(out, sizeof out, "%s/run", dir);
-    snprintf(hc, sizeof hc, "%s/hc", dir);
+    const struct { char *buf; const char *name; } paths[] = {
+        {config, "sphice.json"}, {log, "log.txt"}, {out, "run"}, {hc, "hc"}};
+    for (size_t k = 0; k < sizeof paths / sizeof paths[0]; k++)
+        snprintf(paths[k].buf, 1024, "%s/%s", dir, paths[k].name);
     sph_error e;
     sph_error_clear(&e);
     CHECK(atomic_write_file(config, text, strlen(text), &e) == SPH_OK, "%s", e.msg);
 
     /* a good cycle first: what must stay */
     char *good[] = {exe, "run", config, "--cycle", "1999-02-08T06:00Z", "--hours", "3", "--out", out, NULL};
-    int rc = run_cmd(good, log, 0);
+    int rc = xc_run(good, log, NULL);
     CHECK(rc == 0, "the good cycle exits 0 (got %d)", rc);
     if (rc)
-        show_log(log);
+        xc_show_log(log);
     char fields[2048], sum_before[65] = "", sum_after[65] = "";
     snprintf(fields, sizeof fields, "%s/19990208T06Z/sphice_fields.nc", out);
     long size = file_size(fields);
@@ -146,12 +94,13 @@ int main(int argc, char **argv)
     rlim_t limits[2] = {(rlim_t)(rsize > 8192 ? rsize / 2 : 4096), (rlim_t)((rsize + products) / 2)};
     for (int k = 0; k < 2; k++) {
         char *full[] = {exe, "run", config, "--cycle", "1999-02-08T12:00Z", "--hours", "3", "--out", out, NULL};
-        rc = run_cmd(full, log, limits[k]);
+        xc_opts full_disk = {NULL, (long)limits[k]};
+        rc = xc_run(full, log, &full_disk);
         CHECK(rc == 1, "limit %ld: run on a full disk exits 1, not %d (139: SIGSEGV at exit)", (long)limits[k], rc);
         int nerr = error_lines(log);
         CHECK(nerr >= 1 && nerr <= 2, "limit %ld: run on a full disk: one error line (%d)", (long)limits[k], nerr);
         if (rc != 1 || nerr < 1 || nerr > 2)
-            show_log(log);
+            xc_show_log(log);
         char p[2048], target[256];
         snprintf(p, sizeof p, "%s/latest", out);
         ssize_t n = readlink(p, target, sizeof target - 1);
@@ -166,14 +115,14 @@ int main(int argc, char **argv)
         CHECK(ec_count_entries(out) == 2, "only the good cycle and latest in %s (%d entries)", out,
               ec_count_entries(out));
 
-        char *hfull[] = {exe, "hindcast", config, "--from", "1999-02-08T12:00Z", "--to", "1999-02-08T12:00Z",
+        char *hfull[] = {exe, "hindcast", config, "--from", "1999-02-08T06:00Z", "--to", "1999-02-08T06:00Z",
                          "--out", hc, "--force", NULL};
-        rc = run_cmd(hfull, log, limits[k]);
+        rc = xc_run(hfull, log, &full_disk);
         CHECK(rc == 1, "limit %ld: hindcast on a full disk exits 1, not %d (139: SIGSEGV at exit)",
               (long)limits[k], rc);
         if (rc != 1)
-            show_log(log);
-        snprintf(p, sizeof p, "%s/19990208T12Z", hc);
+            xc_show_log(log);
+        snprintf(p, sizeof p, "%s/19990208T06Z", hc);
         CHECK(access(p, F_OK) != 0, "nothing published by the failed hindcast (%s)", p);
     }
 
