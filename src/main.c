@@ -13,7 +13,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
+#include "io/ncfile.h"
 #include "io/quicklook.h"
 #include "service/check.h"
 #include "service/config.h"
@@ -112,12 +114,19 @@ static int parse_time_arg(const char *cmd, const char *what, const char *text, d
     return 0;
 }
 
+/* A usage error: CONFIG not given. Returns 1 (and says so) when missing. */
+static int config_missing(const char *cmd, const char *path)
+{
+    if (path)
+        return 0;
+    fprintf(stderr, "sphice %s: CONFIG missing (see --help)\n", cmd);
+    return 1;
+}
+
 static struct sph_config *load_config(const char *cmd, const char *path)
 {
-    if (!path) {
-        fprintf(stderr, "sphice %s: CONFIG missing (see --help)\n", cmd);
+    if (config_missing(cmd, path))
         return NULL;
-    }
     struct sph_config *c = NULL;
     sph_error e;
     sph_error_clear(&e);
@@ -136,7 +145,8 @@ static int cmd_run(int argc, char **argv)
     opts o;
     int setup = command_setup(argc, argv,
                               "usage: sphice run CONFIG [--cycle TIME] [--hours N] [--out DIR] [--force]\n"
-                              "Runs one forecast cycle and exits: 0 published (or already published), 1 failed.\n"
+                              "Runs one forecast cycle and exits: 0 published (or already published), 1 failed\n"
+                              "(now, or in an earlier run the history records: --force runs it again), 2 usage.\n"
                               "  --cycle TIME  cycle time (default: the latest scheduled cycle)\n"
                               "  --hours N     forecast length (default: schedule.forecast_hours)\n"
                               "  --out DIR     write there instead of output.dir (not recorded in the history)\n"
@@ -144,6 +154,8 @@ static int cmd_run(int argc, char **argv)
                               "cycle hours out force", &o);
     if (setup >= 0)
         return setup;
+    if (config_missing("run", o.config))
+        return 2;
     struct sph_config *cfg = load_config("run", o.config);
     if (!cfg)
         return 1;
@@ -153,8 +165,10 @@ static int cmd_run(int argc, char **argv)
     co.force = o.force;
     int code = 1;
     history *h = NULL;
-    if (o.cycle && parse_time_arg("run", "--cycle", o.cycle, &co.cycle_time))
+    if (o.cycle && parse_time_arg("run", "--cycle", o.cycle, &co.cycle_time)) {
+        code = 2;
         goto out;
+    }
     if (o.hours) {
         char *end;
         co.hours = strtod(o.hours, &end);
@@ -183,6 +197,10 @@ static int cmd_run(int argc, char **argv)
     int rc = cycle_run(cfg, &co, NULL, &service_term, &rep, &e);
     if (rc) {
         fprintf(stderr, "sphice run: %s\n", e.msg);
+        code = 1;
+    } else if (rep.result == CYCLE_SKIPPED && rep.skipped_failed) {
+        /* not run again, but not a success either: cron and timers see it */
+        fprintf(stderr, "sphice run: %s\n", rep.message);
         code = 1;
     } else {
         printf("%s\n", rep.message);
@@ -227,6 +245,8 @@ static int cmd_hindcast(int argc, char **argv)
                               "from to out force", &o);
     if (setup >= 0)
         return setup;
+    if (config_missing("hindcast", o.config))
+        return 2;
     if (!o.from || !o.to) {
         fprintf(stderr, "sphice hindcast: --from and --to are required\n");
         return 2;
@@ -290,12 +310,27 @@ static int cmd_check(int argc, char **argv)
                               "cycle json", &o);
     if (setup >= 0)
         return setup;
+    if (config_missing("check", o.config))
+        return 2;
     struct sph_config *cfg = load_config("check", o.config);
     if (!cfg)
         return 1;
     double t = schedule_prev(cfg, time_now());
     int code = o.cycle && parse_time_arg("check", "--cycle", o.cycle, &t) ? 2 : service_check(cfg, t, o.json, stdout);
     sph_config_free(cfg);
+    return code;
+}
+
+/* A NetCDF file that could not be closed (a full disk) would crash HDF5's
+ * exit handler (io/ncfile.h): then leave without the exit handlers, with
+ * this command's own status. */
+static int leave(int code)
+{
+    if (ncfile_abandoned() > 0) {
+        fflush(stdout);
+        fflush(stderr);
+        _exit(code);
+    }
     return code;
 }
 
@@ -321,11 +356,11 @@ int main(int argc, char **argv)
         sph_config_doc(stdout);
         return 0;
     }
-    if (!strcmp(cmd, "run")) return cmd_run(argc, argv);
-    if (!strcmp(cmd, "serve")) return cmd_serve(argc, argv);
-    if (!strcmp(cmd, "hindcast")) return cmd_hindcast(argc, argv);
-    if (!strcmp(cmd, "status")) return cmd_status(argc, argv);
-    if (!strcmp(cmd, "check")) return cmd_check(argc, argv);
+    if (!strcmp(cmd, "run")) return leave(cmd_run(argc, argv));
+    if (!strcmp(cmd, "serve")) return leave(cmd_serve(argc, argv));
+    if (!strcmp(cmd, "hindcast")) return leave(cmd_hindcast(argc, argv));
+    if (!strcmp(cmd, "status")) return leave(cmd_status(argc, argv));
+    if (!strcmp(cmd, "check")) return leave(cmd_check(argc, argv));
     fprintf(stderr, "sphice: unknown command \"%s\"\n", cmd);
     return usage(stderr, 2);
 }

@@ -72,6 +72,7 @@ typedef struct cycle_opts {
 
 typedef struct cycle_report {
     int result;            /* CYCLE_* */
+    int skipped_failed;    /* CYCLE_SKIPPED because the history says the cycle failed */
     double cycle, started, ended;
     int stale;
     char mode[16];         /* cold, warm, reinit */
@@ -84,7 +85,8 @@ typedef struct cycle_report {
 } cycle_report;
 
 /* Runs one cycle. Returns SPH_OK when the cycle was published or skipped
- * (rep->result says which), otherwise the error (rep and err say why).
+ * (rep->result says which; a skipped cycle that failed before sets
+ * rep->skipped_failed), otherwise the error (rep and err say why).
  * prog may be NULL; cancel may be NULL. */
 int cycle_run(const struct sph_config *cfg, const cycle_opts *o, forecast_progress *prog,
               const volatile sig_atomic_t *cancel, cycle_report *rep, sph_error *err);

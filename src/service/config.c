@@ -9,6 +9,7 @@
  * defaults written as JSON (sph_param_default_json), their bounds its
  * bounds, save the service's own overrides (model_overrides). */
 #include "service/config.h"
+#include "service/cycle_name.h"
 #include "service/http.h"
 
 #include <cjson/cJSON.h>
@@ -701,6 +702,68 @@ int config_log_level(const struct sph_config *c)
     return lv[c->log_level];
 }
 
+/* A template (strftime fields of the cycle time) with a field that
+ * cycle_expand_template does not know is a configuration error now, not
+ * "forcing missing" after the late-data wait. */
+static int check_template(const char *tmpl, const char *origin, const char *key, sph_error *err)
+{
+    if (!tmpl || !tmpl[0])
+        return SPH_OK;
+    char out[8192];
+    sph_error e;
+    sph_error_clear(&e);
+    if (cycle_expand_template(tmpl, 0, out, sizeof out, &e))
+        return sph_err_set(err, SPH_ERR_CONFIG, "config %s: %s: %s", origin, key, e.msg);
+    return SPH_OK;
+}
+
+static int check_templates(const struct sph_config *c, const char *origin, sph_error *err)
+{
+    char key[64];
+    int rc;
+    for (size_t i = 0; i < c->nforcing; i++)
+        for (size_t j = 0; j < c->forcing[i].urls.n; j++) {
+            snprintf(key, sizeof key, "forcing[%zu].urls[%zu]", i, j);
+            if ((rc = check_template(c->forcing[i].urls.v[j], origin, key, err)))
+                return rc;
+        }
+    if ((rc = check_template(c->initial.path, origin, "initial.path", err)) ||
+        (rc = check_template(c->observations.path, origin, "observations.path", err)))
+        return rc;
+    /* ESRI ASCII: initial.thick_var names a file, a template too */
+    if (c->initial.format == CFG_INIT_ESRI &&
+        (rc = check_template(c->initial.thick_var, origin, "initial.thick_var", err)))
+        return rc;
+    return SPH_OK;
+}
+
+/* cJSON keeps every member of an object, also a key given twice, and the
+ * reader takes the first: a duplicate is refused, naming the key, before
+ * anything is read. `where` is the object's path ("" at the top). */
+static int check_duplicates(const cJSON *node, const char *where, const char *origin, sph_error *err)
+{
+    const cJSON *m;
+    size_t i = 0;
+    cJSON_ArrayForEach(m, node) {
+        char path[320];
+        if (cJSON_IsObject(node)) {
+            join(path, sizeof path, where, m->string ? m->string : "");
+            for (const cJSON *q = node->child; q && q != m; q = q->next)
+                if (q->string && m->string && !strcmp(q->string, m->string))
+                    return sph_err_set(err, SPH_ERR_CONFIG, "config %s: %s: key given twice", origin, path);
+        } else {
+            snprintf(path, sizeof path, "%s[%zu]", where, i);
+        }
+        i++;
+        if (cJSON_IsObject(m) || cJSON_IsArray(m)) {
+            int rc = check_duplicates(m, path, origin, err);
+            if (rc)
+                return rc;
+        }
+    }
+    return SPH_OK;
+}
+
 /* Rules between keys, after every key was read. */
 static int cross_check(const struct sph_config *c, const char *origin, sph_error *err)
 {
@@ -732,6 +795,9 @@ static int cross_check(const struct sph_config *c, const char *origin, sph_error
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config %s: schedule.cycles: empty and schedule.every_hours is 0: no cycle would run",
                            origin);
+    int trc = check_templates(c, origin, err);
+    if (trc)
+        return trc;
     sph_error le;
     sph_error_clear(&le);
     if (http_check_listen(c->status.listen, &le))
@@ -768,8 +834,10 @@ int sph_config_parse(const char *text, const char *origin, struct sph_config **o
      * defaults are the core's (model.dt's override aside). */
     sph_params_default(&c->model);
     const cfg_table *t = config_table();
-    int rc = c->file && t->keys ? table_parse(t, c, root, "", where, err)
+    int rc = c->file && t->keys ? check_duplicates(root, "", where, err)
                                 : sph_err_set(err, SPH_ERR_NOMEM, "config: out of memory");
+    if (!rc)
+        rc = table_parse(t, c, root, "", where, err);
     cJSON_Delete(root);
     if (!rc)
         rc = cross_check(c, where, err);

@@ -88,20 +88,45 @@ static int local_fetch(const char *tmpl, double t, const cycle_fetch_ctx *ctx, c
     return sha256_file(p, sha256, err);
 }
 
+/* A lock file may be removed by its holder when it is done (release_lock):
+ * a lock taken on a file that is no longer the one at `path` (removed, or
+ * removed and created anew by a third process, between our open and our
+ * flock) locks nothing, so it is dropped and taken again. */
 static int take_lock(const char *path, int *fd_out, sph_error *err)
 {
-    int fd = open(path, O_CREAT | O_RDWR | O_CLOEXEC, 0644);
-    if (fd < 0)
-        return sph_err_set(err, SPH_ERR_IO, "lock %s: %s", path, strerror(errno));
-    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
-        int e = errno;
+    for (int attempt = 0;; attempt++) {
+        int fd = open(path, O_CREAT | O_RDWR | O_CLOEXEC, 0644);
+        if (fd < 0)
+            return sph_err_set(err, SPH_ERR_IO, "lock %s: %s", path, strerror(errno));
+        if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+            int e = errno;
+            close(fd);
+            if (e == EWOULDBLOCK)
+                return sph_err_set(err, SPH_ERR_LOCKED, "lock %s: held by another sphice process", path);
+            return sph_err_set(err, SPH_ERR_IO, "lock %s: %s", path, strerror(e));
+        }
+        struct stat held, named;
+        if (fstat(fd, &held) == 0 && stat(path, &named) == 0 && held.st_dev == named.st_dev &&
+            held.st_ino == named.st_ino) {
+            *fd_out = fd;
+            return SPH_OK;
+        }
         close(fd);
-        if (e == EWOULDBLOCK)
-            return sph_err_set(err, SPH_ERR_LOCKED, "lock %s: held by another sphice process", path);
-        return sph_err_set(err, SPH_ERR_IO, "lock %s: %s", path, strerror(e));
+        if (attempt >= 100)
+            return sph_err_set(err, SPH_ERR_LOCKED, "lock %s: removed and created again while being taken",
+                               path);
     }
-    *fd_out = fd;
-    return SPH_OK;
+}
+
+/* Removes the lock file while still holding the lock, then drops it: no
+ * file is left per cycle, and take_lock tells a removed file from the one
+ * at the path. */
+static void release_lock(const char *path, int fd)
+{
+    if (fd < 0)
+        return;
+    (void)unlink(path);
+    close(fd);
 }
 
 /* Sleeps up to `seconds`, in short slices; returns 1 if cancelled. */
@@ -562,12 +587,37 @@ static void fsync_dir(const char *dir)
     }
 }
 
+/* OUTDIR/latest must be a symbolic link, or absent: a directory or file
+ * there cannot be switched atomically, and is not ours to remove. Checked
+ * before the cycle runs and again before publishing, so that a cycle
+ * either publishes and switches latest or publishes nothing. */
+static int check_latest(const char *out_dir, sph_error *err)
+{
+    char link[4200];
+    snprintf(link, sizeof link, "%s/latest", out_dir);
+    struct stat st;
+    if (lstat(link, &st) != 0) {
+        if (errno == ENOENT)
+            return SPH_OK;
+        return sph_err_set(err, SPH_ERR_IO, "publish: %s: %s", link, strerror(errno));
+    }
+    if (!S_ISLNK(st.st_mode))
+        return sph_err_set(err, SPH_ERR_IO,
+                           "publish: %s is a %s, not a symbolic link: move it away (sphice points latest at the "
+                           "newest cycle by replacing a symbolic link)",
+                           link, S_ISDIR(st.st_mode) ? "directory" : "file");
+    return SPH_OK;
+}
+
 static int publish(const struct sph_config *cfg, const char *out_dir, const char *stage, const char *cname,
                    double cycle_time, char *final, size_t flen, sph_error *err)
 {
     snprintf(final, flen, "%s/%s", out_dir, cname);
     if (fault_point("cycle.publish"))
         return sph_err_set(err, SPH_ERR_IO, "publish %s: injected fault (SPHICE_FAULT=cycle.publish)", final);
+    int rc = check_latest(out_dir, err);
+    if (rc)
+        return rc;
     char old[4200] = "";
     struct stat st;
     if (lstat(final, &st) == 0) {
@@ -594,8 +644,7 @@ static int publish(const struct sph_config *cfg, const char *out_dir, const char
     if (n > 0)
         target[n] = 0;
     if (n <= 0 || cycle_name_parse(target, &cur) != 0 || cur <= cycle_time) {
-        int rc = atomic_symlink(cname, link, err);
-        if (rc)
+        if ((rc = atomic_symlink(cname, link, err)))
             return rc;
         fsync_dir(out_dir);
     }
@@ -673,7 +722,7 @@ int cycle_run(const struct sph_config *cfg, const cycle_opts *o, forecast_progre
     const char *out_dir = o->out_dir ? o->out_dir : cfg->output.dir;
     double hours = o->hours > 0 ? o->hours : cfg->schedule.forecast_hours;
     int run_fd = -1, cyc_fd = -1, rc;
-    char stage[4200] = "", lockp[4200];
+    char stage[4200] = "", lockp[4200] = "";
     fetched f;
     memset(&f, 0, sizeof f);
     sph_error e;
@@ -700,9 +749,15 @@ int cycle_run(const struct sph_config *cfg, const cycle_opts *o, forecast_progre
         }
         if (found && (!strcmp(prev.result, "ok") || !strcmp(prev.result, "failed"))) {
             rep->result = CYCLE_SKIPPED;
-            snprintf(rep->message, sizeof rep->message, "cycle %s already ran (%s)", cname, prev.result);
+            rep->skipped_failed = !strcmp(prev.result, "failed");
+            if (rep->skipped_failed)
+                snprintf(rep->message, sizeof rep->message,
+                         "cycle %s already ran and failed (%.700s); --force runs it again", cname,
+                         prev.message[0] ? prev.message : "no message");
+            else
+                snprintf(rep->message, sizeof rep->message, "cycle %s already ran (%s)", cname, prev.result);
             history_run_clear(&prev);
-            close(cyc_fd);
+            release_lock(lockp, cyc_fd);
             if (run_fd >= 0)
                 close(run_fd);
             return SPH_OK;
@@ -710,6 +765,8 @@ int cycle_run(const struct sph_config *cfg, const cycle_opts *o, forecast_progre
         if (found)
             history_run_clear(&prev);
     }
+    if ((rc = check_latest(out_dir, &e)))
+        goto done;
     snprintf(rep->message, sizeof rep->message, "running");
     record(o->hist, rep, "running");
     sweep_stages(out_dir);
@@ -814,8 +871,7 @@ done:
         record(o->hist, rep, "ok");
         log_info("cycle %s: %s in %.1f s", cname, rep->message, rep->ended - rep->started);
     }
-    if (cyc_fd >= 0)
-        close(cyc_fd);
+    release_lock(lockp, cyc_fd);
     if (run_fd >= 0)
         close(run_fd);
     return rc;

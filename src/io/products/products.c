@@ -818,8 +818,7 @@ static int fields_finish(prod_writer *p, sph_error *err)
                 "write attribute to");
     }
     NCT(nc_enddef(nc), "end definitions of");
-    p->nc = -1;
-    NCT(nc_close(nc), "close");
+    NCT(ncfile_close(&p->nc), "close");
     return prod_file_commit(p, &p->fields, err);
 }
 
@@ -957,9 +956,7 @@ void products_abort(prod_writer *p)
 {
     if (!p)
         return;
-    if (p->nc >= 0)
-        nc_close(p->nc);
-    p->nc = -1;
+    (void)ncfile_close(&p->nc);
     prod_file_discard(&p->fields);
     prod_stations_abort(p);
     prod_particles_abort(p);

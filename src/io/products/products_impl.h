@@ -3,6 +3,7 @@
 #define SPHICE_IO_PRODUCTS_IMPL_H
 
 #include <stdio.h>
+#include "io/ncfile.h"
 #include "io/products.h"
 
 #define PROD_PATH 4096

@@ -218,17 +218,13 @@ int prod_particles_close(prod_writer *p, sph_error *err)
 {
     if (!p->opts.write_particles)
         return SPH_OK;
-    int nc = p->pt_nc;
-    p->pt_nc = -1;
-    NCP(nc_close(nc), "close");
+    NCP(ncfile_close(&p->pt_nc), "close");
     return prod_file_commit(p, &p->pt, err);
 }
 
 void prod_particles_abort(prod_writer *p)
 {
-    if (p->pt_nc >= 0)
-        nc_close(p->pt_nc);
-    p->pt_nc = -1;
+    (void)ncfile_close(&p->pt_nc);
     prod_file_discard(&p->pt);
 }
 

@@ -215,9 +215,7 @@ int prod_stations_close(prod_writer *p, sph_error *err)
 {
     if (p->opts.nstations <= 0)
         return SPH_OK;
-    int nc = p->st_ncid;
-    p->st_ncid = -1;
-    NCS(nc_close(nc), "close");
+    NCS(ncfile_close(&p->st_ncid), "close");
     FILE *f = p->csv;
     p->csv = NULL;
     int bad = fflush(f) != 0 || ferror(f);
@@ -234,9 +232,7 @@ int prod_stations_close(prod_writer *p, sph_error *err)
 
 void prod_stations_abort(prod_writer *p)
 {
-    if (p->st_ncid >= 0)
-        nc_close(p->st_ncid);
-    p->st_ncid = -1;
+    (void)ncfile_close(&p->st_ncid);
     if (p->csv)
         fclose(p->csv);
     p->csv = NULL;

@@ -1,5 +1,6 @@
 /* Restart particle files: see io/restart.h. */
 #include "io/restart.h"
+#include "io/ncfile.h"
 
 #include <math.h>
 #include <netcdf.h>
@@ -140,7 +141,7 @@ int restart_write(const char *path, const sph_particles *P, const restart_header
     if (st != NC_NOERR)
         return nc_fail(st, "create", tmp, err);
     int rc = write_body(nc, P, h, path, err);
-    st = nc_close(nc);
+    st = ncfile_close(&nc);
     if (rc == SPH_OK && st != NC_NOERR)
         rc = nc_fail(st, "close", path, err);
     if (rc == SPH_OK && fault_point("restart-write"))
