@@ -139,11 +139,19 @@ int service_check(const struct sph_config *cfg, double t, int json, FILE *out)
                 cJSON_AddStringToObject(r, "time_first", t0);
                 cJSON_AddStringToObject(r, "time_last", t1);
                 cJSON_AddNumberToObject(r, "fill_fraction", info[i].fill_fraction);
+                if (info[i].orientation[0])
+                    cJSON_AddStringToObject(r, "orientation", info[i].orientation);
                 cJSON_AddItemToArray(vars, r);
                 if (!json)
                     fprintf(out, "variable     %-10s %-44s %-8s %-12s %-30s %s..%s fill %.3f\n",
                            info[i].source, info[i].standard_name, info[i].variable, info[i].units,
                            info[i].grid, t0, t1, info[i].fill_fraction);
+                /* one line per vector quantity, after its second component */
+                if (!json && info[i].orientation[0] &&
+                    (strncmp(info[i].standard_name, "northward", 9) == 0))
+                    fprintf(out, "vectors      %-10s %-44s %s\n", info[i].source,
+                            strstr(info[i].standard_name, "wind") ? "wind" : "current",
+                            info[i].orientation);
             }
         }
         forcing_close(f);

@@ -228,6 +228,34 @@ static int nc_levels(fsource *s, const char *path, void *fh, int varid, fvfile *
     return 0;
 }
 
+/* ROMS C grid: the angle (eta_rho, xi_rho) at the u points (eta_u =
+ * eta_rho, xi_u = xi_rho - 1) or v points (eta_v = eta_rho - 1, xi_v =
+ * xi_rho) of an ny x nx grid, as the mean direction of the two rho points
+ * each lies between. Returns 2 when done, 0 when the shapes do not fit. */
+static int c_grid_angle(int ncid, int id, size_t ny, size_t nx, double fac, double *out)
+{
+    int dd[2];
+    size_t ry, rx;
+    if (nc_inq_vardimid(ncid, id, dd) != NC_NOERR || nc_inq_dimlen(ncid, dd[0], &ry) != NC_NOERR ||
+        nc_inq_dimlen(ncid, dd[1], &rx) != NC_NOERR)
+        return 0;
+    int du = ry == ny && rx == nx + 1, dv = ry == ny + 1 && rx == nx;
+    if (!du && !dv)
+        return 0;
+    double *a = malloc(ry * rx * sizeof *a);
+    if (!a || nc_get_var_double(ncid, id, a) != NC_NOERR) {
+        free(a);
+        return 0;
+    }
+    for (size_t j = 0; j < ny; j++)
+        for (size_t i = 0; i < nx; i++) {
+            double a0 = a[j * rx + i] * fac, a1 = (du ? a[j * rx + i + 1] : a[(j + 1) * rx + i]) * fac;
+            out[j * nx + i] = atan2(sin(a0) + sin(a1), cos(a0) + cos(a1));
+        }
+    free(a);
+    return 2;
+}
+
 static int grid_read(fsource *s, const char *path, int ncid, int varid, fvfile *vf, fgrid **out,
                      sph_error *err)
 {
@@ -388,8 +416,20 @@ static int grid_read(fsource *s, const char *path, int ncid, int varid, fvfile *
                         for (size_t p = 0; p < nx * ny; p++)
                             angle[p] *= fac;
                         found = 1;
+                    } else {
+                        found = c_grid_angle(ncid, id, ny, nx, fac, angle);
                     }
+                    if (nd == 2)
+                        snprintf(g->angle_var, sizeof g->angle_var, "%.60s", nm);
+                    if (found)
+                        snprintf(g->angle_from, sizeof g->angle_from,
+                                 "the file's angle variable '%.60s'%s", nm,
+                                 found == 2 ? " (mean of the two rho points)" : "");
                 }
+                if (!found)
+                    snprintf(g->angle_from, sizeof g->angle_from,
+                             "the angle of the grid's x axis from '%.40s'/'%.40s'", lonname,
+                             latname);
                 fgrid_angles(g, found ? angle : NULL);
             }
             free(angle);
@@ -715,8 +755,10 @@ static int tide_open(fsource *s, int ncid, cf_units *units, double t_ref, int no
         snprintf(v->file0, sizeof v->file0, "%s", path);
         if ((rc = grid_read(s, path, ncid, av, &v->vfiles[0], &v->grid, err)))
             goto done;
-        if (v->grid->curvilinear && v->which == FV_UCUR)
-            v->grid_relative = 0; /* the format stores eastward/northward components */
+        v->grid_relative = 0; /* the format stores eastward/northward components */
+        if (v->which == FV_UCUR || v->which == FV_VCUR)
+            snprintf(v->orient, sizeof v->orient,
+                     "earth-relative (a harmonic tide file holds east/north components)");
         char un[64] = "", pun[64] = "degree";
         double a = 1, b = 0, pa = 1, pb = 0;
         if (fnc_text_att(ncid, av, "units", un, sizeof un) != 0 ||
