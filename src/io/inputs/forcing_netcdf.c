@@ -5,6 +5,7 @@
  * raw time coordinate, horizontal slices, and the sphice harmonic tide
  * format ("harmonic-1", docs/forcing.md). */
 #include "forcing_impl.h"
+#include "io/fetch.h"
 
 #include <ctype.h>
 #include <math.h>
@@ -462,6 +463,21 @@ static int nc_probe(const char *path)
 
 static int nc_open_file(fsource *s, int file, void **fh, sph_error *err)
 {
+    /* A classic-format file is checked like a download: one whose header
+     * promises more records or bytes than the file holds is refused (the
+     * library would read the missing records as fill). */
+    unsigned char m[4] = {0};
+    FILE *fp = fopen(s->paths[file], "rb");
+    size_t got = fp ? fread(m, 1, sizeof m, fp) : 0;
+    if (fp)
+        fclose(fp);
+    if (got == 4 && memcmp(m, "CDF", 3) == 0) {
+        sph_error e;
+        sph_error_clear(&e);
+        int crc = fetch_check_netcdf(s->paths[file], s->paths[file], NULL, 0, &e);
+        if (crc)
+            return sph_err_set(err, crc, "forcing '%s': %s", s->name, e.msg);
+    }
     int *box = malloc(sizeof *box);
     if (!box)
         return forcing_fail(err, s, s->paths[file], SPH_ERR_NOMEM, "out of memory");
