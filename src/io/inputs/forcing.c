@@ -47,6 +47,26 @@ static const struct slot_def {
     [FV_RH] = {{"relative_humidity"}, {NULL}, "1", 0},
 };
 
+/* Physical bounds of each slot in sphice units (docs/forcing.md): a value
+ * outside them that is not a declared missing value is bad input (an
+ * undeclared fill such as 1e30, an Inf, wrong units), refused at reading. */
+static const struct { double lo, hi; } slot_bounds[FV_COUNT] = {
+    [FV_UWIND] = {-100.0, 100.0},        /* m/s: above any surface wind on record */
+    [FV_VWIND] = {-100.0, 100.0},
+    [FV_TAIR] = {-123.15, 76.85},        /* degC: 150 .. 350 K */
+    [FV_DEW] = {-123.15, 76.85},
+    [FV_QAIR] = {0.0, 0.1},              /* kg/kg: saturation at 50 degC is 0.09 */
+    [FV_PSURF] = {10000.0, 120000.0},    /* Pa: above the highest summits, below any record */
+    [FV_SW] = {-10.0, 1500.0},           /* W/m2: solar constant 1361; packing noise below 0 */
+    [FV_LW] = {0.0, 1000.0},             /* W/m2: sigma (350 K)^4 = 851 */
+    [FV_UCUR] = {-10.0, 10.0},           /* m/s: the fastest tidal races are about 7 m/s */
+    [FV_VCUR] = {-10.0, 10.0},
+    [FV_SSH] = {-100.0, 100.0},          /* m: geoid offsets and tides together */
+    [FV_SST] = {-5.0, 45.0},             /* degC: sea water freezes at about -2 */
+    [FV_FW] = {-2000.0, 2000.0},         /* W/m2 */
+    [FV_RH] = {0.0, 1.5},                /* fraction: supersaturation stays far below 1.5 */
+};
+
 /* FVEC_STD_EARTH or FVEC_STD_GRID when standard name sn names slot w's
  * quantity, else -1. */
 static int std_kind(const struct slot_def *d, const char *sn)
@@ -468,6 +488,19 @@ static int read_slice_at(forcing *f, fvar *v, size_t ti, size_t mi, double *dst,
         x = vf->a * x + vf->b;
         if (v->accumulated)
             x /= ft ? ft->period : 1.0;
+        if (!missing && !(x >= slot_bounds[v->which].lo && x <= slot_bounds[v->which].hi)) {
+            char when[40] = "static";
+            if (ft)
+                iso(ft->t, when, sizeof when);
+            return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                                "value %g %s of variable '%s' (%s) at %s (time index %zu), point "
+                                "%zu (lon %.4f, lat %.4f), is outside the physical bounds %g .. "
+                                "%g %s and not a declared _FillValue or missing_value",
+                                x, slot_defs[v->which].target, v->varname, v->standard_name, when,
+                                ft ? ft->k : 0, p, v->grid->lon2[p], v->grid->lat2[p],
+                                slot_bounds[v->which].lo, slot_bounds[v->which].hi,
+                                slot_defs[v->which].target);
+        }
         dst[p] = missing ? NAN : x;
     }
     return 0;
