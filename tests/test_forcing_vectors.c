@@ -81,9 +81,14 @@ static double ps_alpha(double lon)
     return -(lon - PS_LON0) * DEG;
 }
 
-/* Lambert conformal conic, one standard parallel (tangent cone). */
-#define LCC_LON0 15.0
-#define LCC_LAT0 63.3
+/* Grid-relative components written everywhere (the velocity along x and
+ * along y of the grid). */
+#define UX 0.6
+#define UY -0.3
+
+/* Lambert conformal conic, one standard parallel (tangent cone); MEPS's
+ * parameters by default, NCEP NAM's for the NAM file. */
+static double LCC_LON0 = 15.0, LCC_LAT0 = 63.3, LCC_R = R_EARTH;
 static double lcc_n(void) { return sin(LCC_LAT0 * DEG); }
 static double lcc_F(void)
 {
@@ -92,28 +97,102 @@ static double lcc_F(void)
 }
 static double lcc_rho(double lat)
 {
-    return R_EARTH * lcc_F() / pow(tan(M_PI / 4 + lat * DEG / 2), lcc_n());
+    return LCC_R * lcc_F() / pow(tan(M_PI / 4 + lat * DEG / 2), lcc_n());
 }
 static void lcc_inverse(double x, double y, double *lon, double *lat)
 {
     double n = lcc_n(), r0 = lcc_rho(LCC_LAT0);
     double rho = hypot(x, r0 - y), th = atan2(x, r0 - y);
     *lon = LCC_LON0 + th / n / DEG;
-    *lat = (2 * atan(pow(R_EARTH * lcc_F() / rho, 1 / n)) - M_PI / 2) / DEG;
+    *lat = (2 * atan(pow(LCC_R * lcc_F() / rho, 1 / n)) - M_PI / 2) / DEG;
+}
+static void lcc_forward(double lon, double lat, double *x, double *y)
+{
+    double n = lcc_n(), r0 = lcc_rho(LCC_LAT0), r = lcc_rho(lat);
+    *x = r * sin(n * (lon - LCC_LON0) * DEG);
+    *y = r0 - r * cos(n * (lon - LCC_LON0) * DEG);
 }
 /* x = rho sin(n dlon), y = rho0 - rho cos(n dlon): east is along
  * (cos(n dlon), sin(n dlon)), so the x axis is at -n dlon from east. */
 static double lcc_alpha(double lon)
 {
-    return -lcc_n() * (lon - LCC_LON0) * DEG;
+    return -lcc_n() * remainder(lon - LCC_LON0, 360.0) * DEG;
+}
+
+/* NCEP NAM 12 km (grid 218) as THREDDS NetCDF Subset Service writes it:
+ * x, y in km, LambertConformal_Projection, no latitude/longitude, GRIB
+ * names without standard_name; NCEP's winds on this grid are grid-relative
+ * (GRIB2 resolution and component flags), so the source says
+ * forcing[].vectors "grid". */
+static void write_nam(const char *path)
+{
+    const size_t nx = 40, ny = 30, nt = 2;
+    LCC_LON0 = 265.0, LCC_LAT0 = 25.0, LCC_R = 6371229.0;
+    int nc, dt, dh, dy, dx;
+    NCW(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc));
+    NCW(nc_def_dim(nc, "time", nt, &dt));
+    NCW(nc_def_dim(nc, "height_above_ground1", 1, &dh));
+    NCW(nc_def_dim(nc, "y", ny, &dy));
+    NCW(nc_def_dim(nc, "x", nx, &dx));
+    int vt, vh, vy, vx, vproj, vu, vv;
+    NCW(nc_def_var(nc, "time", NC_DOUBLE, 1, &dt, &vt));
+    att(nc, vt, "units", "Hour since 2023-11-14T22:00:00Z");
+    att(nc, vt, "standard_name", "time");
+    NCW(nc_def_var(nc, "height_above_ground1", NC_FLOAT, 1, &dh, &vh));
+    att(nc, vh, "units", "m");
+    att(nc, vh, "positive", "up");
+    NCW(nc_def_var(nc, "y", NC_FLOAT, 1, &dy, &vy));
+    att(nc, vy, "standard_name", "projection_y_coordinate");
+    att(nc, vy, "units", "km");
+    NCW(nc_def_var(nc, "x", NC_FLOAT, 1, &dx, &vx));
+    att(nc, vx, "standard_name", "projection_x_coordinate");
+    att(nc, vx, "units", "km");
+    NCW(nc_def_var(nc, "LambertConformal_Projection", NC_INT, 0, NULL, &vproj));
+    att(nc, vproj, "grid_mapping_name", "lambert_conformal_conic");
+    attd(nc, vproj, "latitude_of_projection_origin", 25.0);
+    attd(nc, vproj, "longitude_of_central_meridian", 265.0);
+    attd(nc, vproj, "standard_parallel", 25.0);
+    attd(nc, vproj, "earth_radius", 6371229.0);
+    int d4[4] = {dt, dh, dy, dx};
+    NCW(nc_def_var(nc, "u-component_of_wind_height_above_ground", NC_FLOAT, 4, d4, &vu));
+    att(nc, vu, "long_name", "u-component of wind @ Specified height level above ground");
+    NCW(nc_def_var(nc, "v-component_of_wind_height_above_ground", NC_FLOAT, 4, d4, &vv));
+    att(nc, vv, "long_name", "v-component of wind @ Specified height level above ground");
+    for (int c = 0; c < 2; c++) {
+        int v = c ? vv : vu;
+        att(nc, v, "units", "m/s");
+        att(nc, v, "grid_mapping", "LambertConformal_Projection");
+        att(nc, v, "coordinates", "reftime time height_above_ground1 y x ");
+        float fill = NAN;
+        NCW(nc_put_att_float(nc, v, "_FillValue", NC_FLOAT, 1, &fill));
+    }
+    NCW(nc_enddef(nc));
+    /* hours since 2023-11-14T22:00Z: T0 is 22:13:20, so 0.2222 h and 1.2222 h */
+    double tv[2] = {(T0 - 1699999200.0) / 3600.0, (T0 - 1699999200.0) / 3600.0 + 1};
+    float hv = 10.0f;
+    NCW(nc_put_var_double(nc, vt, tv));
+    NCW(nc_put_var_float(nc, vh, &hv));
+    double xc, yc;
+    lcc_forward(-75.0, 42.0, &xc, &yc);
+    float X[40], Y[30];
+    for (size_t i = 0; i < nx; i++)
+        X[i] = (float)((xc + ((double)i - 19.5) * 36000.0) / 1000.0);
+    for (size_t j = 0; j < ny; j++)
+        Y[j] = (float)((yc + ((double)j - 14.5) * 36000.0) / 1000.0);
+    NCW(nc_put_var_float(nc, vx, X));
+    NCW(nc_put_var_float(nc, vy, Y));
+    float *w = malloc(nt * nx * ny * sizeof *w);
+    for (int c = 0; c < 2; c++) {
+        for (size_t p = 0; p < nt * nx * ny; p++)
+            w[p] = (float)(c ? 10 * UY : 10 * UX);
+        NCW(nc_put_var_float(nc, c ? vv : vu, w));
+    }
+    NCW(nc_close(nc));
+    free(w);
 }
 
 /* ---- the files ---- */
 
-/* Grid-relative components written everywhere (the velocity along x and
- * along y of the grid). */
-#define UX 0.6
-#define UY -0.3
 
 /* met.no ocean model on polar stereographic; names_std 0: u, v without
  * standard_name (to be mapped by name). */
@@ -578,6 +657,53 @@ int main(void)
         check_orientation(f, "grid-relative", "x_wind", "lambert");
     }
     forcing_close(f);
+
+    /* NAM on its Lambert grid without latitude/longitude: the grid from
+     * the grid mapping, the rotation from the projection's convergence. */
+    {
+        char nam[300];
+        snprintf(nam, sizeof nam, "%s/nam_218_conus.nc", dir);
+        write_nam(nam);
+        const forcing_name_map wmap[] = {
+            {"eastward_wind", "u-component_of_wind_height_above_ground"},
+            {"northward_wind", "v-component_of_wind_height_above_ground"}};
+        static const double nlon[] = {-80.0, -75.0, -71.0, -78.0, -72.5};
+        static const double nlat[] = {40.0, 42.0, 44.0, 43.5, 40.5};
+        const char *files[1] = {nam};
+        forcing_source_spec sp = {.name = "nam", .kind = FORCING_ATMOSPHERE, .files = files,
+                                  .nfiles = 1, .map = wmap, .nmap = 2, .required = FQ_WIND,
+                                  .vectors = FORCING_VECTORS_AUTO};
+        sph_error_clear(&e);
+        rc = forcing_open(&f, &sp, 1, T0, T0 + 3600, -80, -70, 40, 44, &e);
+        check_refusal(rc, &e, nam, "'u-component_of_wind_height_above_ground'",
+                      "'v-component_of_wind_height_above_ground'", "nam mapped, auto");
+        forcing_close(f);
+        f = NULL;
+        sp.vectors = FORCING_VECTORS_GRID;
+        sph_error_clear(&e);
+        rc = forcing_open(&f, &sp, 1, T0, T0 + 3600, -80, -70, 40, 44, &e);
+        CHECK(rc == 0, "nam, vectors grid: open: %s", e.msg);
+        if (rc == 0) {
+            double ue[NP], vn[NP];
+            forcing_sample s = {.u_east = ue, .v_north = vn};
+            rc = forcing_sample_at(f, T0 + 1800, NP, nlon, nlat, &s, &e);
+            CHECK(rc == 0, "nam: sample: %s", e.msg);
+            for (int p = 0; p < NP && rc == 0; p++) {
+                double a = lcc_alpha(nlon[p]);
+                double we = 10 * (UX * cos(a) - UY * sin(a)), wn = 10 * (UX * sin(a) + UY * cos(a));
+                double d = remainder(atan2(vn[p], ue[p]) - atan2(wn, we), 2 * M_PI) / DEG;
+                CHECK(fabs(d) < 0.5, "nam: point %d direction off by %.3f deg (grid angle %.2f)",
+                      p, d, a / DEG);
+                CHECK(fabs(hypot(ue[p], vn[p]) - 10 * hypot(UX, UY)) < 0.1 * hypot(UX, UY),
+                      "nam: point %d speed %.4f", p, hypot(ue[p], vn[p]));
+            }
+            check_orientation(f, "grid-relative", "grid mapping 'LambertConformal_Projection'",
+                              "nam");
+        }
+        forcing_close(f);
+        f = NULL;
+        LCC_LON0 = 15.0, LCC_LAT0 = 63.3, LCC_R = R_EARTH;
+    }
 
     /* ROMS: u, v by name; the angle variable says grid-relative (and gives
      * the angle, on the rho points), u and v on their own C-grid points. */
