@@ -21,6 +21,8 @@
  */
 #include "check.h"
 #include "io/forcing.h"
+#include "service/check.h"
+#include "service/config.h"
 #include "util/err.h"
 
 #include <math.h>
@@ -726,6 +728,41 @@ int main(void)
         check_orientation(f, "grid-relative", "staggered C-grid", "roms staggered");
     }
     forcing_close(f);
+
+    /* sphice check: one line per vector quantity, earth or grid and why;
+     * with "auto" the refusal names the key */
+    for (int k = 0; k < 2; k++) {
+        char text[2048], *out = NULL;
+        size_t outlen = 0;
+        snprintf(text, sizeof text,
+                 "{\"domain\": {\"lon_min\": 14, \"lon_max\": 26, \"lat_min\": 73.5, "
+                 "\"lat_max\": 76.5}, \"schedule\": {\"forecast_hours\": 1},"
+                 " \"forcing\": [{\"name\": \"norkyst\", \"kind\": \"ocean\", \"urls\": \"%s\","
+                 " \"required\": [\"current\"], \"vectors\": \"%s\", \"variables\": "
+                 "{\"eastward_sea_water_velocity\": \"u\", \"northward_sea_water_velocity\": \"v\"}}],"
+                 " \"output\": {\"dir\": \"%s/out\"}}",
+                 metno_plain, k ? "auto" : "grid", dir);
+        struct sph_config *cfg = NULL;
+        sph_error_clear(&e);
+        rc = sph_config_parse(text, "vectors.json", &cfg, &e);
+        CHECK(rc == 0, "config with forcing[].vectors: %s", e.msg);
+        if (rc)
+            continue;
+        FILE *mf = open_memstream(&out, &outlen);
+        service_check(cfg, T0, 0, mf);
+        fclose(mf);
+        if (k == 0)
+            CHECK(strstr(out, "vectors      norkyst    current") &&
+                      strstr(out, "grid-relative (forcing[].vectors \"grid\"), rotated by the angle "
+                                  "of the grid's x axis from 'lon'/'lat'"),
+                  "check does not say grid-relative and why:\n%s", out);
+        else
+            CHECK(strstr(out, "PROBLEM") && strstr(out, "forcing[].vectors") &&
+                      strstr(out, metno_plain),
+                  "check does not report the undecidable pair:\n%s", out);
+        free(out);
+        sph_config_free(cfg);
+    }
 
     snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
     if (system(cmd) != 0)
