@@ -81,42 +81,40 @@ int main(void)
     sph_error e;
     int rc;
 
-    bad_which = 0, bad_k = 0, bad_value = INFINITY;
-    rc = try_file("wind_inf", FORCING_ATMOSPHERE, 0, 0, 0, &e, p, sizeof p);
-    refused("Inf in the wind", rc, &e, p, "'u10'");
-
-    bad_value = 1e30;
-    rc = try_file("wind_1e30", FORCING_ATMOSPHERE, 0, 0, 0, &e, p, sizeof p);
-    refused("undeclared 1e30 in the wind", rc, &e, p, "'u10'");
-
-    bad_which = 1, bad_k = 2, bad_value = -1e30; /* in a later slice: refused when sampled */
-    rc = try_file("wind_late", FORCING_ATMOSPHERE, 0, 0, 1, &e, p, sizeof p);
-    refused("-1e30 in a later slice of the wind", rc, &e, p, "'v10'");
-
-    bad_which = 0, bad_k = 0, bad_value = 1e30; /* declared: a missing value, filled nearby */
-    rc = try_file("wind_fill", FORCING_ATMOSPHERE, 1, 1e30, 0, &e, p, sizeof p);
-    CHECK(rc == 0, "1e30 declared as _FillValue: %s", e.msg);
-
-    bad_value = 99.0;
-    rc = try_file("wind_99", FORCING_ATMOSPHERE, 0, 0, 0, &e, p, sizeof p);
-    CHECK(rc == 0, "99 m/s wind: %s", e.msg);
-
-    bad_which = 2, bad_value = 400.0;
-    rc = try_file("tair_400K", FORCING_ATMOSPHERE, 0, 0, 0, &e, p, sizeof p);
-    refused("air temperature 400 K", rc, &e, p, "'t2m'");
-    bad_value = 140.0;
-    rc = try_file("tair_140K", FORCING_ATMOSPHERE, 0, 0, 0, &e, p, sizeof p);
-    refused("air temperature 140 K", rc, &e, p, "'t2m'");
-    bad_value = 155.0;
-    rc = try_file("tair_155K", FORCING_ATMOSPHERE, 0, 0, 0, &e, p, sizeof p);
-    CHECK(rc == 0, "air temperature 155 K: %s", e.msg);
-
-    bad_which = 3, bad_value = 15.0;
-    rc = try_file("current_15", FORCING_OCEAN, 0, 0, 0, &e, p, sizeof p);
-    refused("current 15 m/s", rc, &e, p, "'uo'");
-    bad_value = 9.0;
-    rc = try_file("current_9", FORCING_OCEAN, 0, 0, 0, &e, p, sizeof p);
-    CHECK(rc == 0, "current 9 m/s: %s", e.msg);
+    /* bad variable, time index, value, declared fill, refused?, variable named */
+    static const struct {
+        const char *name;
+        forcing_kind kind;
+        int which;
+        size_t k;
+        double value;
+        int declared, refused;
+        const char *var;
+    } cases[] = {
+        {"wind_inf", FORCING_ATMOSPHERE, 0, 0, INFINITY, 0, 1, "'u10'"},
+        {"wind_1e30", FORCING_ATMOSPHERE, 0, 0, 1e30, 0, 1, "'u10'"},
+        /* in a later slice: refused when sampled */
+        {"wind_late", FORCING_ATMOSPHERE, 1, 2, -1e30, 0, 1, "'v10'"},
+        /* declared: a missing value, filled from the nodes nearby */
+        {"wind_fill", FORCING_ATMOSPHERE, 0, 0, 1e30, 1, 0, NULL},
+        {"wind_99", FORCING_ATMOSPHERE, 0, 0, 99.0, 0, 0, NULL},
+        {"tair_400K", FORCING_ATMOSPHERE, 2, 0, 400.0, 0, 1, "'t2m'"},
+        {"tair_140K", FORCING_ATMOSPHERE, 2, 0, 140.0, 0, 1, "'t2m'"},
+        {"tair_155K", FORCING_ATMOSPHERE, 2, 0, 155.0, 0, 0, NULL},
+        {"current_15", FORCING_OCEAN, 3, 0, 15.0, 0, 1, "'uo'"},
+        {"current_9", FORCING_OCEAN, 3, 0, 9.0, 0, 0, NULL},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        bad_which = cases[c].which;
+        bad_k = cases[c].k;
+        bad_value = cases[c].value;
+        rc = try_file(cases[c].name, cases[c].kind, cases[c].declared, cases[c].value,
+                      cases[c].k > 0, &e, p, sizeof p);
+        if (cases[c].refused)
+            refused(cases[c].name, rc, &e, p, cases[c].var);
+        else
+            CHECK(rc == 0, "%s: %s", cases[c].name, e.msg);
+    }
 
     snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
     if (system(cmd) != 0)

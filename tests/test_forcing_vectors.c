@@ -23,39 +23,80 @@
 #include "io/forcing.h"
 #include "service/check.h"
 #include "service/config.h"
+#include "test_forcing_nc.h"
 #include "util/err.h"
 
 #include <math.h>
 #include <netcdf.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
-#define NCW(call)                                                                   \
-    do {                                                                            \
-        int rc_ = (call);                                                           \
-        if (rc_ != NC_NOERR) {                                                      \
-            fprintf(stderr, "%s:%d: %s: %s\n", __FILE__, __LINE__, #call,           \
-                    nc_strerror(rc_));                                              \
-            exit(2);                                                                \
-        }                                                                           \
-    } while (0)
-
 #define DEG (M_PI / 180.0)
 #define R_EARTH 6371000.0
 #define T0 1700000000.0 /* 2023-11-14T22:13:20Z: file times T0, T0 + 3600 */
-
-static char dir[256];
 
 static void att(int nc, int v, const char *name, const char *text)
 {
     NCW(nc_put_att_text(nc, v, name, strlen(text), text));
 }
 
+/* Defines a variable with text attributes given as name, value pairs
+ * ending with NULL. */
+static int defv(int nc, const char *name, nc_type type, int nd, const int *dims, ...)
+{
+    int v;
+    NCW(nc_def_var(nc, name, type, nd, dims, &v));
+    va_list ap;
+    va_start(ap, dims);
+    for (const char *k = va_arg(ap, const char *); k; k = va_arg(ap, const char *))
+        att(nc, v, k, va_arg(ap, const char *));
+    va_end(ap);
+    return v;
+}
+
 static void attd(int nc, int v, const char *name, double x)
 {
     NCW(nc_put_att_double(nc, v, name, NC_DOUBLE, 1, &x));
+}
+
+/* A new netCDF-4 file with dimensions time (nt, or NC_UNLIMITED), a
+ * vertical one (name[0], nz), y (name[1], ny) and x (name[2], nx). */
+static int create4(const char *path, size_t nt, const char *const name[3], size_t nz, size_t ny,
+                   size_t nx, int *dt, int *dz, int *dy, int *dx)
+{
+    int nc;
+    NCW(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc));
+    NCW(nc_def_dim(nc, "time", nt, dt));
+    NCW(nc_def_dim(nc, name[0], nz, dz));
+    NCW(nc_def_dim(nc, name[1], ny, dy));
+    NCW(nc_def_dim(nc, name[2], nx, dx));
+    return nc;
+}
+
+/* A CF lambert_conformal_conic grid mapping with one standard parallel. */
+static int def_lcc(int nc, const char *name, double lat0, double lon0, double radius)
+{
+    int v = defv(nc, name, NC_INT, 0, NULL, "grid_mapping_name", "lambert_conformal_conic", NULL);
+    attd(nc, v, "standard_parallel", lat0);
+    attd(nc, v, "longitude_of_central_meridian", lon0);
+    attd(nc, v, "latitude_of_projection_origin", lat0);
+    attd(nc, v, "earth_radius", radius);
+    return v;
+}
+
+/* Units, grid mapping, coordinates and _FillValue of a wind pair. */
+static void wind_atts(int nc, int vu, int vv, const char *gm, const char *coords, float fill)
+{
+    for (int c = 0; c < 2; c++) {
+        int v = c ? vv : vu;
+        att(nc, v, "units", "m/s");
+        att(nc, v, "grid_mapping", gm);
+        att(nc, v, "coordinates", coords);
+        NCW(nc_put_att_float(nc, v, "_FillValue", NC_FLOAT, 1, &fill));
+    }
 }
 
 /* ---- projections, spherical (the angle of the grid axes does not depend
@@ -78,10 +119,7 @@ static void ps_forward(double lon, double lat, double *x, double *y)
 }
 /* Angle (counter-clockwise) from east to the projection's x axis: east is
  * d(x, y)/d lon, along (cos(lon - lon0), sin(lon - lon0)). */
-static double ps_alpha(double lon)
-{
-    return -(lon - PS_LON0) * DEG;
-}
+static double ps_alpha(double lon) { return -(lon - PS_LON0) * DEG; }
 
 /* Grid-relative components written everywhere (the velocity along x and
  * along y of the grid). */
@@ -116,9 +154,29 @@ static void lcc_forward(double lon, double lat, double *x, double *y)
 }
 /* x = rho sin(n dlon), y = rho0 - rho cos(n dlon): east is along
  * (cos(n dlon), sin(n dlon)), so the x axis is at -n dlon from east. */
-static double lcc_alpha(double lon)
+static double lcc_alpha(double lon) { return -lcc_n() * remainder(lon - LCC_LON0, 360.0) * DEG; }
+
+/* The grid-relative wind 10 (UX, UY) at all n values of u and v. */
+static void put_wind(int nc, int vu, int vv, size_t n)
 {
-    return -lcc_n() * remainder(lon - LCC_LON0, 360.0) * DEG;
+    float *w = malloc(n * sizeof *w);
+    for (int c = 0; c < 2; c++) {
+        for (size_t p = 0; p < n; p++)
+            w[p] = (float)(c ? 10 * UY : 10 * UX);
+        NCW(nc_put_var_float(nc, c ? vv : vu, w));
+    }
+    free(w);
+}
+
+/* The NAM grid's angle, with NAM's cone (the MEPS one is restored after
+ * the files are written). */
+static double nam_alpha(double lon)
+{
+    double keep[3] = {LCC_LON0, LCC_LAT0, LCC_R};
+    LCC_LON0 = 265.0, LCC_LAT0 = 25.0, LCC_R = 6371229.0;
+    double a = lcc_alpha(lon);
+    LCC_LON0 = keep[0], LCC_LAT0 = keep[1], LCC_R = keep[2];
+    return a;
 }
 
 /* NCEP NAM 12 km (grid 218) as THREDDS NetCDF Subset Service writes it:
@@ -130,44 +188,24 @@ static void write_nam(const char *path)
 {
     const size_t nx = 40, ny = 30, nt = 2;
     LCC_LON0 = 265.0, LCC_LAT0 = 25.0, LCC_R = 6371229.0;
-    int nc, dt, dh, dy, dx;
-    NCW(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc));
-    NCW(nc_def_dim(nc, "time", nt, &dt));
-    NCW(nc_def_dim(nc, "height_above_ground1", 1, &dh));
-    NCW(nc_def_dim(nc, "y", ny, &dy));
-    NCW(nc_def_dim(nc, "x", nx, &dx));
-    int vt, vh, vy, vx, vproj, vu, vv;
-    NCW(nc_def_var(nc, "time", NC_DOUBLE, 1, &dt, &vt));
-    att(nc, vt, "units", "Hour since 2023-11-14T22:00:00Z");
-    att(nc, vt, "standard_name", "time");
-    NCW(nc_def_var(nc, "height_above_ground1", NC_FLOAT, 1, &dh, &vh));
-    att(nc, vh, "units", "m");
-    att(nc, vh, "positive", "up");
-    NCW(nc_def_var(nc, "y", NC_FLOAT, 1, &dy, &vy));
-    att(nc, vy, "standard_name", "projection_y_coordinate");
-    att(nc, vy, "units", "km");
-    NCW(nc_def_var(nc, "x", NC_FLOAT, 1, &dx, &vx));
-    att(nc, vx, "standard_name", "projection_x_coordinate");
-    att(nc, vx, "units", "km");
-    NCW(nc_def_var(nc, "LambertConformal_Projection", NC_INT, 0, NULL, &vproj));
-    att(nc, vproj, "grid_mapping_name", "lambert_conformal_conic");
-    attd(nc, vproj, "latitude_of_projection_origin", 25.0);
-    attd(nc, vproj, "longitude_of_central_meridian", 265.0);
-    attd(nc, vproj, "standard_parallel", 25.0);
-    attd(nc, vproj, "earth_radius", 6371229.0);
+    static const char *const dn[3] = {"height_above_ground1", "y", "x"};
+    int dt, dh, dy, dx, nc = create4(path, nt, dn, 1, ny, nx, &dt, &dh, &dy, &dx);
+    int vt, vh, vy, vx, vu, vv;
+    vt = defv(nc, "time", NC_DOUBLE, 1, &dt, "units", "Hour since 2023-11-14T22:00:00Z",
+              "standard_name", "time", NULL);
+    vh = defv(nc, "height_above_ground1", NC_FLOAT, 1, &dh, "units", "m", "positive", "up", NULL);
+    vy = defv(nc, "y", NC_FLOAT, 1, &dy, "standard_name", "projection_y_coordinate", "units", "km",
+              NULL);
+    vx = defv(nc, "x", NC_FLOAT, 1, &dx, "standard_name", "projection_x_coordinate", "units", "km",
+              NULL);
+    def_lcc(nc, "LambertConformal_Projection", 25.0, 265.0, 6371229.0);
     int d4[4] = {dt, dh, dy, dx};
-    NCW(nc_def_var(nc, "u-component_of_wind_height_above_ground", NC_FLOAT, 4, d4, &vu));
-    att(nc, vu, "long_name", "u-component of wind @ Specified height level above ground");
-    NCW(nc_def_var(nc, "v-component_of_wind_height_above_ground", NC_FLOAT, 4, d4, &vv));
-    att(nc, vv, "long_name", "v-component of wind @ Specified height level above ground");
-    for (int c = 0; c < 2; c++) {
-        int v = c ? vv : vu;
-        att(nc, v, "units", "m/s");
-        att(nc, v, "grid_mapping", "LambertConformal_Projection");
-        att(nc, v, "coordinates", "reftime time height_above_ground1 y x ");
-        float fill = NAN;
-        NCW(nc_put_att_float(nc, v, "_FillValue", NC_FLOAT, 1, &fill));
-    }
+    vu = defv(nc, "u-component_of_wind_height_above_ground", NC_FLOAT, 4, d4, "long_name",
+              "u-component of wind @ Specified height level above ground", NULL);
+    vv = defv(nc, "v-component_of_wind_height_above_ground", NC_FLOAT, 4, d4, "long_name",
+              "v-component of wind @ Specified height level above ground", NULL);
+    wind_atts(nc, vu, vv, "LambertConformal_Projection", "reftime time height_above_ground1 y x ",
+              NAN);
     NCW(nc_enddef(nc));
     /* hours since 2023-11-14T22:00Z: T0 is 22:13:20, so 0.2222 h and 1.2222 h */
     double tv[2] = {(T0 - 1699999200.0) / 3600.0, (T0 - 1699999200.0) / 3600.0 + 1};
@@ -183,18 +221,54 @@ static void write_nam(const char *path)
         Y[j] = (float)((yc + ((double)j - 14.5) * 36000.0) / 1000.0);
     NCW(nc_put_var_float(nc, vx, X));
     NCW(nc_put_var_float(nc, vy, Y));
-    float *w = malloc(nt * nx * ny * sizeof *w);
-    for (int c = 0; c < 2; c++) {
-        for (size_t p = 0; p < nt * nx * ny; p++)
-            w[p] = (float)(c ? 10 * UY : 10 * UX);
-        NCW(nc_put_var_float(nc, c ? vv : vu, w));
-    }
+    put_wind(nc, vu, vv, nt * nx * ny);
     NCW(nc_close(nc));
-    free(w);
 }
 
 /* ---- the files ---- */
 
+/* The centred x/y axes (spacing d, m) and their longitude/latitude by
+ * the projection's inverse inv, into the variables of def_projected. */
+static void put_projected(int nc, const int ids[6], size_t nx, size_t ny, double xc, double yc,
+                          double d, void (*inv)(double x, double y, double *lon, double *lat))
+{
+    double *X = malloc(nx * sizeof *X), *Y = malloc(ny * sizeof *Y);
+    double *lon = malloc(nx * ny * sizeof *lon), *lat = malloc(nx * ny * sizeof *lat);
+    for (size_t i = 0; i < nx; i++)
+        X[i] = xc + ((double)i - (double)(nx - 1) / 2) * d;
+    for (size_t j = 0; j < ny; j++)
+        Y[j] = yc + ((double)j - (double)(ny - 1) / 2) * d;
+    for (size_t j = 0; j < ny; j++)
+        for (size_t i = 0; i < nx; i++)
+            inv(X[i], Y[j], &lon[j * nx + i], &lat[j * nx + i]);
+    NCW(nc_put_var_double(nc, ids[3], X));
+    NCW(nc_put_var_double(nc, ids[2], Y));
+    NCW(nc_put_var_double(nc, ids[4], lon));
+    NCW(nc_put_var_double(nc, ids[5], lat));
+    free(X), free(Y), free(lon), free(lat);
+}
+
+/* Time, a vertical coordinate (dims dz, standard name zstd, positive
+ * zpos, in m), y, x (m) and 2-D longitude/latitude (units deg + "east" /
+ * "north") named nm[0..5]: ids in the same order. */
+static void def_projected(int nc, const int dims[4], const char *const nm[6], const char *tunits,
+                          const char *zstd, const char *zpos, const char *deg, int ids[6])
+{
+    char ue[32], un[32];
+    snprintf(ue, sizeof ue, "%seast", deg);
+    snprintf(un, sizeof un, "%snorth", deg);
+    int d2[2] = {dims[2], dims[3]};
+    ids[0] =
+        defv(nc, nm[0], NC_DOUBLE, 1, &dims[0], "standard_name", "time", "units", tunits, NULL);
+    ids[1] = defv(nc, nm[1], NC_DOUBLE, 1, &dims[1], "standard_name", zstd, "units", "m",
+                  "positive", zpos, NULL);
+    ids[2] = defv(nc, nm[2], NC_DOUBLE, 1, &dims[2], "standard_name", "projection_y_coordinate",
+                  "units", "m", NULL);
+    ids[3] = defv(nc, nm[3], NC_DOUBLE, 1, &dims[3], "standard_name", "projection_x_coordinate",
+                  "units", "m", NULL);
+    ids[4] = defv(nc, nm[4], NC_DOUBLE, 2, d2, "standard_name", "longitude", "units", ue, NULL);
+    ids[5] = defv(nc, nm[5], NC_DOUBLE, 2, d2, "standard_name", "latitude", "units", un, NULL);
+}
 
 /* met.no ocean model on polar stereographic; names_std 0: u, v without
  * standard_name (to be mapped by name). */
@@ -202,39 +276,21 @@ static void write_metno(const char *path, int names_std)
 {
     const size_t nx = 50, ny = 50, nz = 3, nt = 2;
     int nc, dt, dz, dy, dx;
-    NCW(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc));
-    NCW(nc_def_dim(nc, "time", NC_UNLIMITED, &dt));
-    NCW(nc_def_dim(nc, "depth", nz, &dz));
-    NCW(nc_def_dim(nc, "Y", ny, &dy));
-    NCW(nc_def_dim(nc, "X", nx, &dx));
-    int vt, vz, vy, vx, vlon, vlat, vproj, vu, vv, vzeta;
-    NCW(nc_def_var(nc, "time", NC_DOUBLE, 1, &dt, &vt));
-    att(nc, vt, "standard_name", "time");
-    att(nc, vt, "units", "seconds since 1970-01-01 00:00:00");
-    NCW(nc_def_var(nc, "depth", NC_DOUBLE, 1, &dz, &vz));
-    att(nc, vz, "standard_name", "depth");
-    att(nc, vz, "units", "m");
-    att(nc, vz, "positive", "down");
-    NCW(nc_def_var(nc, "Y", NC_DOUBLE, 1, &dy, &vy));
-    att(nc, vy, "standard_name", "projection_y_coordinate");
-    att(nc, vy, "units", "m");
-    NCW(nc_def_var(nc, "X", NC_DOUBLE, 1, &dx, &vx));
-    att(nc, vx, "standard_name", "projection_x_coordinate");
-    att(nc, vx, "units", "m");
-    int d2[2] = {dy, dx};
-    NCW(nc_def_var(nc, "lon", NC_DOUBLE, 2, d2, &vlon));
-    att(nc, vlon, "standard_name", "longitude");
-    att(nc, vlon, "units", "degree_east");
-    NCW(nc_def_var(nc, "lat", NC_DOUBLE, 2, d2, &vlat));
-    att(nc, vlat, "standard_name", "latitude");
-    att(nc, vlat, "units", "degree_north");
-    NCW(nc_def_var(nc, "projection_stere", NC_INT, 0, NULL, &vproj));
-    att(nc, vproj, "grid_mapping_name", "polar_stereographic");
+    static const char *const dn[3] = {"depth", "Y", "X"};
+    nc = create4(path, NC_UNLIMITED, dn, nz, ny, nx, &dt, &dz, &dy, &dx);
+    int vt, vz, vproj, vu, vv, vzeta;
+    static const char *const nm[6] = {"time", "depth", "Y", "X", "lon", "lat"};
+    int ids5[6], d4[4] = {dt, dz, dy, dx};
+    def_projected(nc, d4, nm, "seconds since 1970-01-01 00:00:00", "depth", "down", "degree_",
+                  ids5);
+    vt = ids5[0], vz = ids5[1];
+    vproj = defv(nc, "projection_stere", NC_INT, 0, NULL, "grid_mapping_name",
+                 "polar_stereographic", NULL);
     attd(nc, vproj, "straight_vertical_longitude_from_pole", PS_LON0);
     attd(nc, vproj, "latitude_of_projection_origin", 90.0);
     attd(nc, vproj, "standard_parallel", 60.0);
     attd(nc, vproj, "earth_radius", R_EARTH);
-    int d4[4] = {dt, dz, dy, dx}, d3[3] = {dt, dy, dx};
+    int d3[3] = {dt, dy, dx};
     const char *names[2] = {"u", "v"};
     const char *stds[2] = {"x_sea_water_velocity", "y_sea_water_velocity"};
     int *ids[2] = {&vu, &vv};
@@ -242,8 +298,8 @@ static void write_metno(const char *path, int names_std)
         NCW(nc_def_var(nc, names[c], NC_SHORT, 4, d4, ids[c]));
         if (names_std)
             att(nc, *ids[c], "standard_name", stds[c]);
-        att(nc, *ids[c], "long_name", c ? "velocity component in y direction"
-                                        : "velocity component in x direction");
+        att(nc, *ids[c], "long_name",
+            c ? "velocity component in y direction" : "velocity component in x direction");
         att(nc, *ids[c], "units", "m s-1");
         att(nc, *ids[c], "grid_mapping", "projection_stere");
         att(nc, *ids[c], "coordinates", "lon lat");
@@ -252,12 +308,9 @@ static void write_metno(const char *path, int names_std)
         attd(nc, *ids[c], "scale_factor", 0.001);
         attd(nc, *ids[c], "add_offset", 0.0);
     }
-    NCW(nc_def_var(nc, "zeta", NC_FLOAT, 3, d3, &vzeta));
-    att(nc, vzeta, "standard_name", "sea_surface_elevation");
-    att(nc, vzeta, "long_name", "Sea surface elevation");
-    att(nc, vzeta, "units", "meter");
-    att(nc, vzeta, "grid_mapping", "projection_stere");
-    att(nc, vzeta, "coordinates", "lon lat");
+    vzeta = defv(nc, "zeta", NC_FLOAT, 3, d3, "standard_name", "sea_surface_elevation", "long_name",
+                 "Sea surface elevation", "units", "meter", "grid_mapping", "projection_stere",
+                 "coordinates", "lon lat", NULL);
     NCW(nc_enddef(nc));
     double tv[2] = {T0, T0 + 3600}, zv[3] = {0, 10, 50};
     NCW(nc_put_var_double(nc, vz, zv));
@@ -266,19 +319,7 @@ static void write_metno(const char *path, int names_std)
     /* grid centred on 20 E 75 N, 25 km spacing */
     double xc, yc;
     ps_forward(20.0, 75.0, &xc, &yc);
-    double *X = malloc(nx * sizeof *X), *Y = malloc(ny * sizeof *Y);
-    double *lon = malloc(nx * ny * sizeof *lon), *lat = malloc(nx * ny * sizeof *lat);
-    for (size_t i = 0; i < nx; i++)
-        X[i] = xc + ((double)i - (double)(nx - 1) / 2) * 25000.0;
-    for (size_t j = 0; j < ny; j++)
-        Y[j] = yc + ((double)j - (double)(ny - 1) / 2) * 25000.0;
-    for (size_t j = 0; j < ny; j++)
-        for (size_t i = 0; i < nx; i++)
-            ps_inverse(X[i], Y[j], &lon[j * nx + i], &lat[j * nx + i]);
-    NCW(nc_put_var_double(nc, vx, X));
-    NCW(nc_put_var_double(nc, vy, Y));
-    NCW(nc_put_var_double(nc, vlon, lon));
-    NCW(nc_put_var_double(nc, vlat, lat));
+    put_projected(nc, ids5, nx, ny, xc, yc, 25000.0, ps_inverse);
     short *q = malloc(nt * nz * nx * ny * sizeof *q);
     float *z = malloc(nt * nx * ny * sizeof *z);
     for (int c = 0; c < 2; c++) {
@@ -291,59 +332,25 @@ static void write_metno(const char *path, int names_std)
         z[p] = 0.25f;
     NCW(nc_put_var_float(nc, vzeta, z));
     NCW(nc_close(nc));
-    free(X), free(Y), free(lon), free(lat), free(q), free(z);
+    free(q), free(z);
 }
 
 /* MEPS-style Lambert wind. */
 static void write_lambert(const char *path)
 {
     const size_t nx = 50, ny = 50, nt = 2;
-    int nc, dt, dh, dy, dx;
-    NCW(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc));
-    NCW(nc_def_dim(nc, "time", NC_UNLIMITED, &dt));
-    NCW(nc_def_dim(nc, "height7", 1, &dh));
-    NCW(nc_def_dim(nc, "y", ny, &dy));
-    NCW(nc_def_dim(nc, "x", nx, &dx));
-    int vt, vh, vy, vx, vlon, vlat, vproj, vu, vv;
-    NCW(nc_def_var(nc, "time", NC_DOUBLE, 1, &dt, &vt));
-    att(nc, vt, "standard_name", "time");
-    att(nc, vt, "units", "seconds since 1970-01-01 00:00:00 +00:00");
-    NCW(nc_def_var(nc, "height7", NC_DOUBLE, 1, &dh, &vh));
-    att(nc, vh, "standard_name", "height");
-    att(nc, vh, "units", "m");
-    att(nc, vh, "positive", "up");
-    NCW(nc_def_var(nc, "y", NC_DOUBLE, 1, &dy, &vy));
-    att(nc, vy, "standard_name", "projection_y_coordinate");
-    att(nc, vy, "units", "m");
-    NCW(nc_def_var(nc, "x", NC_DOUBLE, 1, &dx, &vx));
-    att(nc, vx, "standard_name", "projection_x_coordinate");
-    att(nc, vx, "units", "m");
-    int d2[2] = {dy, dx};
-    NCW(nc_def_var(nc, "longitude", NC_DOUBLE, 2, d2, &vlon));
-    att(nc, vlon, "standard_name", "longitude");
-    att(nc, vlon, "units", "degrees_east");
-    NCW(nc_def_var(nc, "latitude", NC_DOUBLE, 2, d2, &vlat));
-    att(nc, vlat, "standard_name", "latitude");
-    att(nc, vlat, "units", "degrees_north");
-    NCW(nc_def_var(nc, "projection_lambert", NC_INT, 0, NULL, &vproj));
-    att(nc, vproj, "grid_mapping_name", "lambert_conformal_conic");
-    attd(nc, vproj, "standard_parallel", LCC_LAT0);
-    attd(nc, vproj, "longitude_of_central_meridian", LCC_LON0);
-    attd(nc, vproj, "latitude_of_projection_origin", LCC_LAT0);
-    attd(nc, vproj, "earth_radius", R_EARTH);
-    int d4[4] = {dt, dh, dy, dx};
-    NCW(nc_def_var(nc, "x_wind_10m", NC_FLOAT, 4, d4, &vu));
-    att(nc, vu, "standard_name", "x_wind");
-    NCW(nc_def_var(nc, "y_wind_10m", NC_FLOAT, 4, d4, &vv));
-    att(nc, vv, "standard_name", "y_wind");
-    for (int c = 0; c < 2; c++) {
-        int v = c ? vv : vu;
-        att(nc, v, "units", "m/s");
-        att(nc, v, "grid_mapping", "projection_lambert");
-        att(nc, v, "coordinates", "longitude latitude");
-        float fill = 9.96921e36f;
-        NCW(nc_put_att_float(nc, v, "_FillValue", NC_FLOAT, 1, &fill));
-    }
+    static const char *const dn[3] = {"height7", "y", "x"};
+    int dt, dh, dy, dx, nc = create4(path, NC_UNLIMITED, dn, 1, ny, nx, &dt, &dh, &dy, &dx);
+    int vt, vh, vu, vv;
+    static const char *const nm[6] = {"time", "height7", "y", "x", "longitude", "latitude"};
+    int ids5[6], d4[4] = {dt, dh, dy, dx};
+    def_projected(nc, d4, nm, "seconds since 1970-01-01 00:00:00 +00:00", "height", "up",
+                  "degrees_", ids5);
+    vt = ids5[0], vh = ids5[1];
+    def_lcc(nc, "projection_lambert", LCC_LAT0, LCC_LON0, R_EARTH);
+    vu = defv(nc, "x_wind_10m", NC_FLOAT, 4, d4, "standard_name", "x_wind", NULL);
+    vv = defv(nc, "y_wind_10m", NC_FLOAT, 4, d4, "standard_name", "y_wind", NULL);
+    wind_atts(nc, vu, vv, "projection_lambert", "longitude latitude", 9.96921e36f);
     NCW(nc_enddef(nc));
     double tv[2] = {T0, T0 + 3600}, hv = 10.0;
     size_t s0 = 0, ntv = nt;
@@ -352,27 +359,11 @@ static void write_lambert(const char *path)
     /* 2.5 km spacing in MEPS, here every 25 km, around 20 E 75 N (the x
      * axis turns from 0 to 10 degrees off east over the domain) */
     double r0 = lcc_rho(LCC_LAT0), n = lcc_n(), rc = lcc_rho(75.0);
-    double xc = rc * sin(n * (20.0 - LCC_LON0) * DEG), yc = r0 - rc * cos(n * (20.0 - LCC_LON0) * DEG);
-    double X[50], Y[50], *lon = malloc(nx * ny * sizeof *lon), *lat = malloc(nx * ny * sizeof *lat);
-    for (size_t i = 0; i < nx; i++)
-        X[i] = xc + ((double)i - 24.5) * 25000.0;
-    for (size_t j = 0; j < ny; j++)
-        Y[j] = yc + ((double)j - 24.5) * 25000.0;
-    for (size_t j = 0; j < ny; j++)
-        for (size_t i = 0; i < nx; i++)
-            lcc_inverse(X[i], Y[j], &lon[j * nx + i], &lat[j * nx + i]);
-    NCW(nc_put_var_double(nc, vx, X));
-    NCW(nc_put_var_double(nc, vy, Y));
-    NCW(nc_put_var_double(nc, vlon, lon));
-    NCW(nc_put_var_double(nc, vlat, lat));
-    float *w = malloc(nt * nx * ny * sizeof *w);
-    for (int c = 0; c < 2; c++) {
-        for (size_t p = 0; p < nt * nx * ny; p++)
-            w[p] = (float)(c ? 10 * UY : 10 * UX);
-        NCW(nc_put_var_float(nc, c ? vv : vu, w));
-    }
+    double xc = rc * sin(n * (20.0 - LCC_LON0) * DEG),
+           yc = r0 - rc * cos(n * (20.0 - LCC_LON0) * DEG);
+    put_projected(nc, ids5, nx, ny, xc, yc, 25000.0, lcc_inverse);
+    put_wind(nc, vu, vv, nt * nx * ny);
     NCW(nc_close(nc));
-    free(lon), free(lat), free(w);
 }
 
 /* ROMS grid: rho points on the polar stereographic plane above, the xi
@@ -405,54 +396,46 @@ static void write_roms(const char *path, int with_angle)
     NCW(nc_def_dim(nc, "eta_v", ROMS_NY - 1, &dev));
     NCW(nc_def_dim(nc, "s_rho", nr, &ds));
     NCW(nc_def_dim(nc, "ocean_time", NC_UNLIMITED, &dt));
-    int vs, vt, vang, vmask, vu, vv;
-    NCW(nc_def_var(nc, "s_rho", NC_DOUBLE, 1, &ds, &vs));
-    att(nc, vs, "long_name", "S-coordinate at RHO-points");
+    int vs, vt, vang = -1, vmask, vu, vv;
+    vs = defv(nc, "s_rho", NC_DOUBLE, 1, &ds, "long_name", "S-coordinate at RHO-points", NULL);
     attd(nc, vs, "valid_min", -1.0);
     attd(nc, vs, "valid_max", 0.0);
     att(nc, vs, "positive", "up");
     att(nc, vs, "standard_name", "ocean_s_coordinate_g2");
     att(nc, vs, "formula_terms", "s: s_rho C: Cs_r eta: zeta depth: h depth_c: hc");
-    NCW(nc_def_var(nc, "ocean_time", NC_DOUBLE, 1, &dt, &vt));
-    att(nc, vt, "long_name", "time since initialization");
-    att(nc, vt, "units", "seconds since 1970-01-01 00:00:00");
-    att(nc, vt, "calendar", "gregorian");
+    vt = defv(nc, "ocean_time", NC_DOUBLE, 1, &dt, "long_name", "time since initialization",
+              "units", "seconds since 1970-01-01 00:00:00", "calendar", "gregorian", NULL);
     static const char *pts[3] = {"rho", "u", "v"};
-    int dims[3][2] = {{der, dxr}, {deu, dxu}, {dev, dxv}}, vlon[3], vlat[3];
-    for (int k = 0; k < 3; k++) {
-        char nm[16], ln[64];
-        snprintf(nm, sizeof nm, "lon_%s", pts[k]);
-        NCW(nc_def_var(nc, nm, NC_DOUBLE, 2, dims[k], &vlon[k]));
-        snprintf(ln, sizeof ln, "longitude of %s-points", k == 0 ? "RHO" : k == 1 ? "U" : "V");
-        att(nc, vlon[k], "long_name", ln);
-        att(nc, vlon[k], "units", "degree_east");
-        att(nc, vlon[k], "standard_name", "longitude");
-        snprintf(nm, sizeof nm, "lat_%s", pts[k]);
-        NCW(nc_def_var(nc, nm, NC_DOUBLE, 2, dims[k], &vlat[k]));
-        snprintf(ln, sizeof ln, "latitude of %s-points", k == 0 ? "RHO" : k == 1 ? "U" : "V");
-        att(nc, vlat[k], "long_name", ln);
-        att(nc, vlat[k], "units", "degree_north");
-        att(nc, vlat[k], "standard_name", "latitude");
-    }
+    int dims[3][2] = {{der, dxr}, {deu, dxu}, {dev, dxv}}, vll[2][3];
+    static const char *const axis[2] = {"longitude", "latitude"};
+    static const char *const unit[2] = {"degree_east", "degree_north"};
+    for (int k = 0; k < 3; k++)
+        for (int c = 0; c < 2; c++) {
+            char nm[16], ln[64];
+            snprintf(nm, sizeof nm, "%.3s_%s", axis[c], pts[k]);
+            snprintf(ln, sizeof ln, "%s of %s-points", axis[c],
+                     k == 0   ? "RHO"
+                     : k == 1 ? "U"
+                              : "V");
+            vll[c][k] = defv(nc, nm, NC_DOUBLE, 2, dims[k], "long_name", ln, "units", unit[c],
+                             "standard_name", axis[c], NULL);
+        }
+    int *vlon = vll[0], *vlat = vll[1];
     if (with_angle) {
-        NCW(nc_def_var(nc, "angle", NC_DOUBLE, 2, dims[0], &vang));
-        att(nc, vang, "long_name", "angle between XI-axis and EAST");
-        att(nc, vang, "units", "radians");
-        att(nc, vang, "coordinates", "lon_rho lat_rho");
+        vang =
+            defv(nc, "angle", NC_DOUBLE, 2, dims[0], "long_name", "angle between XI-axis and EAST",
+                 "units", "radians", "coordinates", "lon_rho lat_rho", NULL);
     }
-    NCW(nc_def_var(nc, "mask_rho", NC_DOUBLE, 2, dims[0], &vmask));
-    att(nc, vmask, "long_name", "mask on RHO-points");
+    vmask = defv(nc, "mask_rho", NC_DOUBLE, 2, dims[0], "long_name", "mask on RHO-points", NULL);
     double fv[2] = {0, 1};
     NCW(nc_put_att_double(nc, vmask, "flag_values", NC_DOUBLE, 2, fv));
     att(nc, vmask, "flag_meanings", "land water");
     att(nc, vmask, "coordinates", "lon_rho lat_rho");
     int du[4] = {dt, ds, deu, dxu}, dv[4] = {dt, ds, dev, dxv};
-    NCW(nc_def_var(nc, "u", NC_FLOAT, 4, du, &vu));
-    att(nc, vu, "long_name", "u-momentum component");
-    att(nc, vu, "coordinates", "lon_u lat_u s_rho ocean_time");
-    NCW(nc_def_var(nc, "v", NC_FLOAT, 4, dv, &vv));
-    att(nc, vv, "long_name", "v-momentum component");
-    att(nc, vv, "coordinates", "lon_v lat_v s_rho ocean_time");
+    vu = defv(nc, "u", NC_FLOAT, 4, du, "long_name", "u-momentum component", "coordinates",
+              "lon_u lat_u s_rho ocean_time", NULL);
+    vv = defv(nc, "v", NC_FLOAT, 4, dv, "long_name", "v-momentum component", "coordinates",
+              "lon_v lat_v s_rho ocean_time", NULL);
     for (int c = 0; c < 2; c++) {
         int v = c ? vv : vu;
         att(nc, v, "units", "meter second-1");
@@ -468,7 +451,8 @@ static void write_roms(const char *path, int with_angle)
     NCW(nc_put_vara_double(nc, vt, &s0, &ntv, tv));
     size_t nxs[3] = {ROMS_NX, ROMS_NX - 1, ROMS_NX}, nys[3] = {ROMS_NY, ROMS_NY, ROMS_NY - 1};
     double off[3][2] = {{0, 0}, {0.5, 0}, {0, 0.5}};
-    double *lon = malloc(ROMS_NX * ROMS_NY * sizeof *lon), *lat = malloc(ROMS_NX * ROMS_NY * sizeof *lat);
+    double *lon = malloc(ROMS_NX * ROMS_NY * sizeof *lon),
+           *lat = malloc(ROMS_NX * ROMS_NY * sizeof *lat);
     double *ang = malloc(ROMS_NX * ROMS_NY * sizeof *ang);
     for (int k = 0; k < 3; k++) {
         for (size_t j = 0; j < nys[k]; j++)
@@ -502,54 +486,35 @@ static void write_roms(const char *path, int with_angle)
 
 /* ---- checks ---- */
 
-static const double plon[] = {15.0, 20.0, 25.0, 18.0, 23.0};
-static const double plat[] = {74.0, 75.0, 76.0, 75.5, 74.5};
 #define NP 5
 
-static int open1(forcing **f, const char *path, const char *name, forcing_kind kind,
-                 unsigned req, const forcing_name_map *map, size_t nmap, int vectors,
-                 sph_error *e)
+static double ps_alpha_ll(double lon) { return ps_alpha(lon); }
+static double roms_alpha_ll(double lon) { return ROMS_BETA + ps_alpha(lon); }
+static double zero_ll(double lon)
 {
-    const char *files[1] = {path};
-    forcing_source_spec sp = {.name = name, .kind = kind, .files = files, .nfiles = 1,
-                              .map = map, .nmap = nmap, .required = req, .vectors = vectors};
-    sph_error_clear(e);
-    return forcing_open(f, &sp, 1, T0, T0 + 3600, 14, 26, 73.5, 76.5, e);
+    (void)lon;
+    return 0.0;
 }
 
-/* The sampled (east, north) against the hand rotation of (ux, uy) by alpha
- * at each point: direction within 0.5 degrees, speed within 1 %. */
-static void check_rotated(forcing *f, int wind, double ux, double uy,
-                          double (*alpha_at)(double lon, double lat), const char *what)
-{
-    double ue[NP], vn[NP];
-    forcing_sample s = {0};
-    if (wind) {
-        s.u_east = ue;
-        s.v_north = vn;
-    } else {
-        s.uw_east = ue;
-        s.vw_north = vn;
-    }
-    sph_error e;
-    sph_error_clear(&e);
-    int rc = forcing_sample_at(f, T0 + 1800, NP, plon, plat, &s, &e);
-    CHECK(rc == 0, "%s: sample: %s", what, e.msg);
-    for (int p = 0; p < NP && rc == 0; p++) {
-        double a = alpha_at(plon[p], plat[p]);
-        double we = ux * cos(a) - uy * sin(a), wn = ux * sin(a) + uy * cos(a);
-        double d = remainder(atan2(vn[p], ue[p]) - atan2(wn, we), 2 * M_PI) / DEG;
-        CHECK(fabs(d) < 0.5, "%s: point %d direction off by %.3f deg (got %.4f, %.4f, want %.4f, "
-              "%.4f; grid angle %.2f deg)", what, p, d, ue[p], vn[p], we, wn, a / DEG);
-        CHECK(fabs(hypot(ue[p], vn[p]) - hypot(ux, uy)) < 0.01 * hypot(ux, uy),
-              "%s: point %d speed %.4f want %.4f", what, p, hypot(ue[p], vn[p]), hypot(ux, uy));
-    }
-}
-
-static double ps_alpha_ll(double lon, double lat) { (void)lat; return ps_alpha(lon); }
-static double lcc_alpha_ll(double lon, double lat) { (void)lat; return lcc_alpha(lon); }
-static double roms_alpha_ll(double lon, double lat) { (void)lat; return ROMS_BETA + ps_alpha(lon); }
-static double zero_ll(double lon, double lat) { (void)lon; (void)lat; return 0.0; }
+/* One case: a file opened as one source, then either refused (one line
+ * naming the file, var1 and var2, and the key) or sampled at NP points and
+ * compared with the hand rotation of the grid components (UX, UY) x scale
+ * by alpha(lon) at each point: direction within 0.5 degrees, speed within
+ * 1 %; and what forcing_describe says about the orientation. */
+typedef struct vcase {
+    const char *what, *file, *source;
+    forcing_kind kind;
+    unsigned req;
+    const forcing_name_map *map;
+    size_t nmap;
+    int vectors;
+    const char *var1, *var2; /* refused: the variables named; NULL: accepted */
+    double scale;            /* UX, UY times this */
+    double (*alpha)(double lon);
+    const char *orient, *why; /* orientation starts with orient and contains why */
+    const double *lon, *lat;  /* sample points */
+    double box[4];            /* domain lon_min, lon_max, lat_min, lat_max */
+} vcase;
 
 static void check_orientation(forcing *f, const char *want, const char *why, const char *what)
 {
@@ -567,167 +532,153 @@ static void check_orientation(forcing *f, const char *want, const char *why, con
     CHECK(seen == 2, "%s: %zu vector components described, want 2", what, seen);
 }
 
-/* One line naming the file, the variables (or variable) and the key. */
-static void check_refusal(int rc, const sph_error *e, const char *path, const char *var1,
-                          const char *var2, const char *what)
+static void run_case(const vcase *c)
 {
-    CHECK(rc != 0, "%s: accepted", what);
-    CHECK(strchr(e->msg, '\n') == NULL, "%s: more than one line: %s", what, e->msg);
-    CHECK(strstr(e->msg, path) != NULL, "%s: file not named: %s", what, e->msg);
-    CHECK(strstr(e->msg, var1) != NULL && (!var2 || strstr(e->msg, var2) != NULL),
-          "%s: variables not named: %s", what, e->msg);
-    CHECK(strstr(e->msg, "forcing[].vectors") != NULL, "%s: key not named: %s", what, e->msg);
+    const char *files[1] = {c->file};
+    forcing_source_spec sp = {.name = c->source,
+                              .kind = c->kind,
+                              .files = files,
+                              .nfiles = 1,
+                              .map = c->map,
+                              .nmap = c->nmap,
+                              .required = c->req,
+                              .vectors = c->vectors};
+    forcing *f = NULL;
+    sph_error e;
+    sph_error_clear(&e);
+    int rc =
+        forcing_open(&f, &sp, 1, T0, T0 + 3600, c->box[0], c->box[1], c->box[2], c->box[3], &e);
+    if (c->var1) {
+        CHECK(rc != 0, "%s: accepted", c->what);
+        CHECK(strchr(e.msg, '\n') == NULL, "%s: more than one line: %s", c->what, e.msg);
+        CHECK(strstr(e.msg, c->file) != NULL, "%s: file not named: %s", c->what, e.msg);
+        CHECK(strstr(e.msg, c->var1) != NULL && (!c->var2 || strstr(e.msg, c->var2) != NULL),
+              "%s: variables not named: %s", c->what, e.msg);
+        CHECK(strstr(e.msg, "forcing[].vectors") != NULL, "%s: key not named: %s", c->what, e.msg);
+        forcing_close(f);
+        return;
+    }
+    CHECK(rc == 0, "%s: open: %s", c->what, e.msg);
+    if (rc) {
+        forcing_close(f);
+        return;
+    }
+    double ue[NP], vn[NP], ssh[NP];
+    int wind = c->kind == FORCING_ATMOSPHERE;
+    forcing_sample s = {.u_east = wind ? ue : NULL,
+                        .v_north = wind ? vn : NULL,
+                        .uw_east = wind ? NULL : ue,
+                        .vw_north = wind ? NULL : vn,
+                        .ssh = (c->req & FQ_SSH) ? ssh : NULL};
+    rc = forcing_sample_at(f, T0 + 1800, NP, c->lon, c->lat, &s, &e);
+    CHECK(rc == 0, "%s: sample: %s", c->what, e.msg);
+    double ux = c->scale * UX, uy = c->scale * UY;
+    for (int p = 0; p < NP && rc == 0; p++) {
+        double a = c->alpha(c->lon[p]);
+        double we = ux * cos(a) - uy * sin(a), wn = ux * sin(a) + uy * cos(a);
+        double d = remainder(atan2(vn[p], ue[p]) - atan2(wn, we), 2 * M_PI) / DEG;
+        CHECK(fabs(d) < 0.5,
+              "%s: point %d direction off by %.3f deg (got %.4f, %.4f, want %.4f, "
+              "%.4f; grid angle %.2f deg)",
+              c->what, p, d, ue[p], vn[p], we, wn, a / DEG);
+        CHECK(fabs(hypot(ue[p], vn[p]) - hypot(ux, uy)) < 0.01 * hypot(ux, uy),
+              "%s: point %d speed %.4f want %.4f", c->what, p, hypot(ue[p], vn[p]), hypot(ux, uy));
+    }
+    if (rc == 0 && (c->req & FQ_SSH)) {
+        CHECK(s.provided & FQ_SSH, "%s: no sea-surface height", c->what);
+        CHECK_CLOSE(ssh[2], 0.25, 1e-6, 1e-6, "zeta as sea_surface_elevation");
+    }
+    check_orientation(f, c->orient, c->why, c->what);
+    forcing_close(f);
 }
 
 int main(void)
 {
-    snprintf(dir, sizeof dir, "/tmp/test_forcing_vectors.%d", (int)getpid());
-    char cmd[300];
-    snprintf(cmd, sizeof cmd, "mkdir -p %s", dir);
-    if (system(cmd) != 0)
+    char dir[] = "/tmp/test_forcing_vectors.XXXXXX";
+    if (!mkdtemp(dir))
         return 2;
-    char metno[300], metno_plain[300], lam[300], roms[300], roms_plain[300];
-    snprintf(metno, sizeof metno, "%s/norkyst800_his.nc", dir);
-    snprintf(metno_plain, sizeof metno_plain, "%s/norkyst800_plain.nc", dir);
-    snprintf(lam, sizeof lam, "%s/meps_det_2_5km.nc", dir);
-    snprintf(roms, sizeof roms, "%s/roms_his_0001.nc", dir);
-    snprintf(roms_plain, sizeof roms_plain, "%s/roms_noangle.nc", dir);
+    enum { METNO, METNO_PLAIN, MEPS, ROMS, ROMS_PLAIN, NAM, NFILES };
+    static const char *const fname[NFILES] = {"norkyst800_his.nc", "norkyst800_plain.nc",
+                                              "meps_det_2_5km.nc", "roms_his_0001.nc",
+                                              "roms_noangle.nc",   "nam_218_conus.nc"};
+    char path[NFILES][300];
+    for (int k = 0; k < NFILES; k++)
+        snprintf(path[k], sizeof path[k], "%s/%s", dir, fname[k]);
+    const char *metno = path[METNO], *metno_plain = path[METNO_PLAIN], *lam = path[MEPS];
+    const char *roms = path[ROMS], *roms_plain = path[ROMS_PLAIN], *nam = path[NAM];
     write_metno(metno, 1);
     write_metno(metno_plain, 0);
     write_lambert(lam);
     write_roms(roms, 1);
     write_roms(roms_plain, 0);
-    forcing *f = NULL;
-    sph_error e;
+    write_nam(nam);
+    LCC_LON0 = 15.0, LCC_LAT0 = 63.3, LCC_R = R_EARTH; /* MEPS again */
     const forcing_name_map cur_map[] = {{"eastward_sea_water_velocity", "u"},
                                         {"northward_sea_water_velocity", "v"}};
-
-    /* met.no: grid-relative from the standard name, rotated by the angle
-     * of the 2-D lon/lat; SSH under sea_surface_elevation. */
-    int rc = open1(&f, metno, "norkyst", FORCING_OCEAN, FQ_CURRENT | FQ_SSH, NULL, 0,
-                   FORCING_VECTORS_AUTO, &e);
-    CHECK(rc == 0, "met.no: open: %s", e.msg);
-    if (rc == 0) {
-        check_rotated(f, 0, UX, UY, ps_alpha_ll, "met.no x_sea_water_velocity");
-        check_orientation(f, "grid-relative", "x_sea_water_velocity", "met.no");
-        double ssh[NP];
-        forcing_sample s = {.ssh = ssh};
-        CHECK(forcing_sample_at(f, T0, NP, plon, plat, &s, &e) == 0 && (s.provided & FQ_SSH),
-              "met.no: no sea_surface_elevation: %s", e.msg);
-        CHECK_CLOSE(ssh[2], 0.25, 1e-6, 1e-6, "met.no: zeta as sea_surface_elevation");
-    }
-    forcing_close(f);
-    /* the same with an explicit key that agrees */
-    rc = open1(&f, metno, "norkyst", FORCING_OCEAN, FQ_CURRENT, NULL, 0, FORCING_VECTORS_GRID, &e);
-    CHECK(rc == 0, "met.no, vectors grid: open: %s", e.msg);
-    forcing_close(f);
-    /* and one that contradicts the standard name: refused */
-    rc = open1(&f, metno, "norkyst", FORCING_OCEAN, FQ_CURRENT, NULL, 0, FORCING_VECTORS_EARTH,
-               &e);
-    check_refusal(rc, &e, metno, "'u'", NULL, "met.no, vectors earth against x_sea_water_velocity");
-    forcing_close(f);
-
-    /* met.no without standard names, mapped by name: auto cannot tell */
-    rc = open1(&f, metno_plain, "norkyst", FORCING_OCEAN, FQ_CURRENT, cur_map, 2,
-               FORCING_VECTORS_AUTO, &e);
-    check_refusal(rc, &e, metno_plain, "'u'", "'v'", "met.no mapped by name, auto");
-    forcing_close(f);
-    /* ... "grid" rotates them as the standard name did */
-    rc = open1(&f, metno_plain, "norkyst", FORCING_OCEAN, FQ_CURRENT, cur_map, 2,
-               FORCING_VECTORS_GRID, &e);
-    CHECK(rc == 0, "met.no mapped, vectors grid: open: %s", e.msg);
-    if (rc == 0) {
-        check_rotated(f, 0, UX, UY, ps_alpha_ll, "met.no mapped, vectors grid");
-        check_orientation(f, "grid-relative", "forcing[].vectors \"grid\"", "met.no mapped grid");
-    }
-    forcing_close(f);
-    /* ... "earth" takes them as they are */
-    rc = open1(&f, metno_plain, "norkyst", FORCING_OCEAN, FQ_CURRENT, cur_map, 2,
-               FORCING_VECTORS_EARTH, &e);
-    CHECK(rc == 0, "met.no mapped, vectors earth: open: %s", e.msg);
-    if (rc == 0) {
-        check_rotated(f, 0, UX, UY, zero_ll, "met.no mapped, vectors earth");
-        check_orientation(f, "earth-relative", "forcing[].vectors \"earth\"", "met.no mapped earth");
-    }
-    forcing_close(f);
-
-    /* Lambert-conformal wind: x_wind / y_wind */
-    rc = open1(&f, lam, "meps", FORCING_ATMOSPHERE, FQ_WIND, NULL, 0, FORCING_VECTORS_AUTO, &e);
-    CHECK(rc == 0, "lambert: open: %s", e.msg);
-    if (rc == 0) {
-        check_rotated(f, 1, 10 * UX, 10 * UY, lcc_alpha_ll, "lambert x_wind");
-        check_orientation(f, "grid-relative", "x_wind", "lambert");
-    }
-    forcing_close(f);
-
-    /* NAM on its Lambert grid without latitude/longitude: the grid from
-     * the grid mapping, the rotation from the projection's convergence. */
-    {
-        char nam[300];
-        snprintf(nam, sizeof nam, "%s/nam_218_conus.nc", dir);
-        write_nam(nam);
-        const forcing_name_map wmap[] = {
-            {"eastward_wind", "u-component_of_wind_height_above_ground"},
-            {"northward_wind", "v-component_of_wind_height_above_ground"}};
-        static const double nlon[] = {-80.0, -75.0, -71.0, -78.0, -72.5};
-        static const double nlat[] = {40.0, 42.0, 44.0, 43.5, 40.5};
-        const char *files[1] = {nam};
-        forcing_source_spec sp = {.name = "nam", .kind = FORCING_ATMOSPHERE, .files = files,
-                                  .nfiles = 1, .map = wmap, .nmap = 2, .required = FQ_WIND,
-                                  .vectors = FORCING_VECTORS_AUTO};
-        sph_error_clear(&e);
-        rc = forcing_open(&f, &sp, 1, T0, T0 + 3600, -80, -70, 40, 44, &e);
-        check_refusal(rc, &e, nam, "'u-component_of_wind_height_above_ground'",
-                      "'v-component_of_wind_height_above_ground'", "nam mapped, auto");
-        forcing_close(f);
-        f = NULL;
-        sp.vectors = FORCING_VECTORS_GRID;
-        sph_error_clear(&e);
-        rc = forcing_open(&f, &sp, 1, T0, T0 + 3600, -80, -70, 40, 44, &e);
-        CHECK(rc == 0, "nam, vectors grid: open: %s", e.msg);
-        if (rc == 0) {
-            double ue[NP], vn[NP];
-            forcing_sample s = {.u_east = ue, .v_north = vn};
-            rc = forcing_sample_at(f, T0 + 1800, NP, nlon, nlat, &s, &e);
-            CHECK(rc == 0, "nam: sample: %s", e.msg);
-            for (int p = 0; p < NP && rc == 0; p++) {
-                double a = lcc_alpha(nlon[p]);
-                double we = 10 * (UX * cos(a) - UY * sin(a)), wn = 10 * (UX * sin(a) + UY * cos(a));
-                double d = remainder(atan2(vn[p], ue[p]) - atan2(wn, we), 2 * M_PI) / DEG;
-                CHECK(fabs(d) < 0.5, "nam: point %d direction off by %.3f deg (grid angle %.2f)",
-                      p, d, a / DEG);
-                CHECK(fabs(hypot(ue[p], vn[p]) - 10 * hypot(UX, UY)) < 0.1 * hypot(UX, UY),
-                      "nam: point %d speed %.4f", p, hypot(ue[p], vn[p]));
-            }
-            check_orientation(f, "grid-relative", "grid mapping 'LambertConformal_Projection'",
-                              "nam");
-        }
-        forcing_close(f);
-        f = NULL;
-        LCC_LON0 = 15.0, LCC_LAT0 = 63.3, LCC_R = R_EARTH;
-    }
-
-    /* ROMS: u, v by name; the angle variable says grid-relative (and gives
-     * the angle, on the rho points), u and v on their own C-grid points. */
-    rc = open1(&f, roms, "roms", FORCING_OCEAN, FQ_CURRENT, cur_map, 2, FORCING_VECTORS_AUTO, &e);
-    CHECK(rc == 0, "roms: open: %s", e.msg);
-    if (rc == 0) {
-        check_rotated(f, 0, UX, UY, roms_alpha_ll, "roms angle");
-        check_orientation(f, "grid-relative", "angle", "roms");
-        check_orientation(f, "grid-relative", "rotated by the file's angle variable 'angle'",
-                          "roms rotation");
-    }
-    forcing_close(f);
-    /* ROMS without the angle: staggered u and v say grid-relative; the
-     * angle from lon_u/lat_u */
-    rc = open1(&f, roms_plain, "roms", FORCING_OCEAN, FQ_CURRENT, cur_map, 2,
-               FORCING_VECTORS_AUTO, &e);
-    CHECK(rc == 0, "roms without angle: open: %s", e.msg);
-    if (rc == 0) {
-        check_rotated(f, 0, UX, UY, roms_alpha_ll, "roms staggered, angle from lon_u/lat_u");
-        check_orientation(f, "grid-relative", "staggered C-grid", "roms staggered");
-    }
-    forcing_close(f);
+    const forcing_name_map wmap[] = {{"eastward_wind", "u-component_of_wind_height_above_ground"},
+                                     {"northward_wind", "v-component_of_wind_height_above_ground"}};
+    static const double plon[NP] = {15.0, 20.0, 25.0, 18.0, 23.0};
+    static const double plat[NP] = {74.0, 75.0, 76.0, 75.5, 74.5};
+    static const double nlon[NP] = {-80.0, -75.0, -71.0, -78.0, -72.5};
+    static const double nlat[NP] = {40.0, 42.0, 44.0, 43.5, 40.5};
+#define ARCTIC                                                                                     \
+    plon, plat, { 14, 26, 73.5, 76.5 }
+#define CONUS                                                                                      \
+    nlon, nlat, { -80, -70, 40, 44 }
+    const char *u = "'u'", *v = "'v'";
+    const char *nu = "'u-component_of_wind_height_above_ground'";
+    const char *nv = "'v-component_of_wind_height_above_ground'";
+    const vcase cases[] = {
+        /* met.no: grid-relative from the standard name, rotated by the
+         * angle of the 2-D lon/lat; SSH under sea_surface_elevation */
+        {"met.no x_sea_water_velocity", metno, "norkyst", FORCING_OCEAN, FQ_CURRENT | FQ_SSH, NULL,
+         0, FORCING_VECTORS_AUTO, NULL, NULL, 1, ps_alpha_ll, "grid-relative",
+         "x_sea_water_velocity", ARCTIC},
+        /* an explicit key that agrees */
+        {"met.no, vectors grid", metno, "norkyst", FORCING_OCEAN, FQ_CURRENT, NULL, 0,
+         FORCING_VECTORS_GRID, NULL, NULL, 1, ps_alpha_ll, "grid-relative", "x_sea_water_velocity",
+         ARCTIC},
+        /* one that contradicts the standard name: refused */
+        {"met.no, vectors earth against x_sea_water_velocity", metno, "norkyst", FORCING_OCEAN,
+         FQ_CURRENT, NULL, 0, FORCING_VECTORS_EARTH, u, NULL, 0, NULL, NULL, NULL, ARCTIC},
+        /* without standard names, mapped by name: auto cannot tell */
+        {"met.no mapped by name, auto", metno_plain, "norkyst", FORCING_OCEAN, FQ_CURRENT, cur_map,
+         2, FORCING_VECTORS_AUTO, u, v, 0, NULL, NULL, NULL, ARCTIC},
+        /* ... "grid" rotates them as the standard name did */
+        {"met.no mapped, vectors grid", metno_plain, "norkyst", FORCING_OCEAN, FQ_CURRENT, cur_map,
+         2, FORCING_VECTORS_GRID, NULL, NULL, 1, ps_alpha_ll, "grid-relative",
+         "forcing[].vectors \"grid\"", ARCTIC},
+        /* ... "earth" takes them as they are */
+        {"met.no mapped, vectors earth", metno_plain, "norkyst", FORCING_OCEAN, FQ_CURRENT, cur_map,
+         2, FORCING_VECTORS_EARTH, NULL, NULL, 1, zero_ll, "earth-relative",
+         "forcing[].vectors \"earth\"", ARCTIC},
+        /* Lambert-conformal wind: x_wind / y_wind */
+        {"MEPS x_wind", lam, "meps", FORCING_ATMOSPHERE, FQ_WIND, NULL, 0, FORCING_VECTORS_AUTO,
+         NULL, NULL, 10, lcc_alpha, "grid-relative", "x_wind", ARCTIC},
+        /* ROMS: u, v by name; the angle variable says grid-relative (and
+         * gives the angle, on the rho points), u and v on their own
+         * C-grid points */
+        {"ROMS angle", roms, "roms", FORCING_OCEAN, FQ_CURRENT, cur_map, 2, FORCING_VECTORS_AUTO,
+         NULL, NULL, 1, roms_alpha_ll, "grid-relative",
+         "angle'), rotated by the file's angle variable 'angle'", ARCTIC},
+        /* ROMS without the angle: staggered u and v say grid-relative; the
+         * angle from lon_u/lat_u */
+        {"ROMS staggered", roms_plain, "roms", FORCING_OCEAN, FQ_CURRENT, cur_map, 2,
+         FORCING_VECTORS_AUTO, NULL, NULL, 1, roms_alpha_ll, "grid-relative", "staggered C-grid",
+         ARCTIC},
+        /* NAM on its Lambert grid without latitude/longitude: the grid from
+         * the grid mapping, the rotation from the projection's convergence;
+         * GRIB names without standard_name */
+        {"NAM mapped, auto", nam, "nam", FORCING_ATMOSPHERE, FQ_WIND, wmap, 2, FORCING_VECTORS_AUTO,
+         nu, nv, 0, NULL, NULL, NULL, CONUS},
+        {"NAM, vectors grid", nam, "nam", FORCING_ATMOSPHERE, FQ_WIND, wmap, 2,
+         FORCING_VECTORS_GRID, NULL, NULL, 10, nam_alpha, "grid-relative",
+         "grid mapping 'LambertConformal_Projection'", CONUS},
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++)
+        run_case(&cases[k]);
+    sph_error e;
+    int rc;
 
     /* sphice check: one line per vector quantity, earth or grid and why;
      * with "auto" the refusal names the key */
@@ -737,9 +688,11 @@ int main(void)
         snprintf(text, sizeof text,
                  "{\"domain\": {\"lon_min\": 14, \"lon_max\": 26, \"lat_min\": 73.5, "
                  "\"lat_max\": 76.5}, \"schedule\": {\"forecast_hours\": 1},"
-                 " \"forcing\": [{\"name\": \"norkyst\", \"kind\": \"ocean\", \"urls\": \"%s\","
+                 " \"forcing\": [{\"name\": \"norkyst\", \"kind\": \"ocean\", \"urls\": "
+                 "\"%s\","
                  " \"required\": [\"current\"], \"vectors\": \"%s\", \"variables\": "
-                 "{\"eastward_sea_water_velocity\": \"u\", \"northward_sea_water_velocity\": \"v\"}}],"
+                 "{\"eastward_sea_water_velocity\": \"u\", "
+                 "\"northward_sea_water_velocity\": \"v\"}}],"
                  " \"output\": {\"dir\": \"%s/out\"}}",
                  metno_plain, k ? "auto" : "grid", dir);
         struct sph_config *cfg = NULL;
@@ -753,7 +706,8 @@ int main(void)
         fclose(mf);
         if (k == 0)
             CHECK(strstr(out, "vectors      norkyst    current") &&
-                      strstr(out, "grid-relative (forcing[].vectors \"grid\"), rotated by the angle "
+                      strstr(out, "grid-relative (forcing[].vectors \"grid\"), "
+                                  "rotated by the angle "
                                   "of the grid's x axis from 'lon'/'lat'"),
                   "check does not say grid-relative and why:\n%s", out);
         else
@@ -764,8 +718,8 @@ int main(void)
         sph_config_free(cfg);
     }
 
-    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
-    if (system(cmd) != 0)
-        fprintf(stderr, "could not remove %s\n", dir);
+    for (int k = 0; k < NFILES; k++)
+        unlink(path[k]);
+    CHECK(rmdir(dir) == 0, "the test's folder %s is left", dir);
     return check_summary("test_forcing_vectors");
 }

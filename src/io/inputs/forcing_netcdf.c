@@ -258,6 +258,21 @@ static int c_grid_angle(int ncid, int id, size_t ny, size_t nx, double fac, doub
     return 2;
 }
 
+/* Sizes of the horizontal grid of a variable whose vf->xdim and ydim are
+ * known; sets vf->transpose. */
+static int grid_shape(fsource *s, const char *path, int ncid, const int *dimids,
+                      const char *vname, fvfile *vf, size_t *nx, size_t *ny, sph_error *err)
+{
+    vf->transpose = vf->xdim < vf->ydim;
+    nc_inq_dimlen(ncid, dimids[vf->xdim], nx);
+    nc_inq_dimlen(ncid, dimids[vf->ydim], ny);
+    if (*nx < 2 || *ny < 2)
+        return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                            "variable '%s': grid %zux%zu has fewer than 2 points per axis", vname,
+                            *nx, *ny);
+    return 0;
+}
+
 /* A numeric attribute (the first value), or NaN. */
 static double num_att(int ncid, int varid, const char *name, int index)
 {
@@ -427,14 +442,10 @@ static int projected_grid(fsource *s, const char *path, int ncid, int varid, con
     if (cf_proj(ncid, gm, def, sizeof def, why, sizeof why) != 0)
         return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
                             "grid mapping '%s' of variable '%s' %s", gmname, vname, why);
-    vf->transpose = vf->xdim < vf->ydim;
     size_t nx, ny;
-    nc_inq_dimlen(ncid, dimids[vf->xdim], &nx);
-    nc_inq_dimlen(ncid, dimids[vf->ydim], &ny);
-    if (nx < 2 || ny < 2)
-        return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
-                            "variable '%s': grid %zux%zu has fewer than 2 points per axis", vname,
-                            nx, ny);
+    int src = grid_shape(s, path, ncid, dimids, vname, vf, &nx, &ny, err);
+    if (src)
+        return src;
     char xn[NC_MAX_NAME + 1], yn[NC_MAX_NAME + 1], key[600];
     nc_inq_varname(ncid, xv, xn);
     nc_inq_varname(ncid, yv, yn);
@@ -592,14 +603,10 @@ static int grid_read(fsource *s, const char *path, int ncid, int varid, fvfile *
                                 "variable '%s': coordinates do not match its dimensions", vname);
         curv = 1;
     }
-    vf->transpose = vf->xdim < vf->ydim;
     size_t nx, ny;
-    nc_inq_dimlen(ncid, dimids[vf->xdim], &nx);
-    nc_inq_dimlen(ncid, dimids[vf->ydim], &ny);
-    if (nx < 2 || ny < 2)
-        return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
-                            "variable '%s': grid %zux%zu has fewer than 2 points per axis", vname,
-                            nx, ny);
+    int src = grid_shape(s, path, ncid, dimids, vname, vf, &nx, &ny, err);
+    if (src)
+        return src;
     char latname[NC_MAX_NAME + 1], lonname[NC_MAX_NAME + 1];
     nc_inq_varname(ncid, latv, latname);
     nc_inq_varname(ncid, lonv, lonname);
