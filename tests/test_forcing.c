@@ -33,11 +33,11 @@ static double phys(int q, double lon, double lat, double k)
     case VW: return -2 + 0.05 * lon - 0.1 * y - 0.25 * k;
     case TA: return -10 + 0.3 * lon - 0.2 * y + k;
     case TD: return -15 + 0.1 * lon + 0.1 * y;
-    case SW: return 100 + 2 * lon + y;
+    case SW: return 100 + 0.5 * lon + y; /* >= 0 over the globe (physical bounds) */
     case UC: return 0.1 + 0.01 * lon + 0.02 * y;
     case VC: return -0.05 + 0.02 * lon - 0.01 * y + 0.01 * k;
     case SSH: return 0.01 * lon + 0.02 * y;
-    case RH: return 0.75 + 0.01 * lon - 0.02 * y + 0.02 * k;
+    case RH: return 0.75 + 0.001 * lon - 0.02 * y + 0.02 * k; /* 0.4 .. 1.2 over the globe */
     }
     return NAN;
 }

@@ -40,6 +40,8 @@ typedef enum {
                               from the ocean into the ice, so the sign is kept */
 } forcing_quantity;
 
+enum { FORCING_VECTORS_AUTO = 0, FORCING_VECTORS_EARTH, FORCING_VECTORS_GRID };
+
 typedef struct forcing_name_map {
     const char *standard_name; /* e.g. "eastward_wind" */
     const char *variable;      /* name in the file, e.g. "u10" */
@@ -55,11 +57,17 @@ typedef struct forcing_source_spec {
     unsigned required;         /* forcing_quantity flags that must be found */
     unsigned optional;         /* flags used when present (required == optional == 0:
                                   everything the kind can provide, as optional) */
-    /* Added: 1 = vector variables found by mapped name are along the grid
-     * axes of a curvilinear grid and are rotated to east/north (variables
-     * with standard_name x_wind, y_wind, sea_water_x_velocity,
-     * sea_water_y_velocity are always rotated). */
-    int vectors_grid_relative;
+    /* Orientation of the vector pairs (wind, current): FORCING_VECTORS_*.
+     * AUTO: from the standard_name (eastward_wind ... earth; x_wind,
+     * sea_water_x_velocity, x_sea_water_velocity ... grid), else from the
+     * file's conventions (a ROMS `angle` variable, u and v on staggered
+     * C-grid points), else earth on a regular longitude/latitude grid;
+     * a pair found by name on any other grid is refused. EARTH / GRID:
+     * every pair of the source, found by standard_name or by name (a
+     * standard_name that says the opposite is refused). Grid-relative
+     * pairs are rotated to east/north by the file's angle variable, else
+     * by the angle of the grid's x axis from its 2-D latitude/longitude. */
+    int vectors;
     /* Added: 1 = harmonic tides without nodal corrections (f = 1, u = 0). */
     int tide_no_nodal;
 } forcing_source_spec;
@@ -103,6 +111,9 @@ typedef struct forcing_var_info {
     char grid[96];            /* "regular 0.25x0.25 deg 121x81", "curvilinear 50x40" */
     double t_first, t_last;   /* seconds since 1970 */
     double fill_fraction;     /* fraction of missing values in the first slice */
+    /* Vector components: "earth-relative (...why...)" or "grid-relative
+     * (...why...), rotated by ..."; "" for scalars. */
+    char orientation[192];
 } forcing_var_info;
 size_t forcing_describe(const forcing *f, forcing_var_info *info, size_t max);
 

@@ -47,6 +47,7 @@ typedef struct cfg_forcing_source {
     double max_age_hours;   /* how old the newest forcing may be (stale policy) */
     double issue_hours;     /* how often the provider issues new files */
     int optional_source;    /* key "optional_source": a missing source is not an error */
+    int vectors;            /* FORCING_VECTORS_*: orientation of wind and current pairs */
 } cfg_forcing_source;
 
 typedef struct cfg_station { char *name; double lon, lat; } cfg_station;

@@ -305,8 +305,9 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
     f.flat = P->flat[k];
     f.albedo = NAN;
     f.sst = P->sst[k];
-    /* fw = 0 is what an unset forcing array holds: take the default too. */
-    f.fw = isfinite(P->fw[k]) && P->fw[k] != 0.0 ? P->fw[k] : p->fw_default;
+    /* Zero is a value: only an absent flux (NaN, as a fresh particle set
+     * and the coupling leave it) takes the default. */
+    f.fw = isfinite(P->fw[k]) ? P->fw[k] : p->fw_default;
     f.tsurf_prescribed = NAN;
     f.snowfall = 0.0; /* no snowfall forcing on particles yet */
 

@@ -123,6 +123,7 @@ int service_check(const struct sph_config *cfg, double t, int json, FILE *out)
         } else {
             forcing_var_info info[32];
             size_t ni = forcing_describe(f, info, 32);
+            int second = 0; /* 1 between the two components of a vector pair */
             for (size_t i = 0; i < ni && i < 32; i++) {
                 char t0[32] = "harmonic", t1[32] = "any time";
                 if (isfinite(info[i].t_first) && fabs(info[i].t_first) < 1e13) {
@@ -139,11 +140,21 @@ int service_check(const struct sph_config *cfg, double t, int json, FILE *out)
                 cJSON_AddStringToObject(r, "time_first", t0);
                 cJSON_AddStringToObject(r, "time_last", t1);
                 cJSON_AddNumberToObject(r, "fill_fraction", info[i].fill_fraction);
+                if (info[i].orientation[0])
+                    cJSON_AddStringToObject(r, "orientation", info[i].orientation);
                 cJSON_AddItemToArray(vars, r);
                 if (!json)
                     fprintf(out, "variable     %-10s %-44s %-8s %-12s %-30s %s..%s fill %.3f\n",
                            info[i].source, info[i].standard_name, info[i].variable, info[i].units,
                            info[i].grid, t0, t1, info[i].fill_fraction);
+                /* one line per vector quantity, after its second component
+                 * (forcing_describe lists the two components together) */
+                if (info[i].orientation[0])
+                    second = !second;
+                if (!json && info[i].orientation[0] && second == 0)
+                    fprintf(out, "vectors      %-10s %-44s %s\n", info[i].source,
+                            strstr(info[i].standard_name, "wind") ? "wind" : "current",
+                            info[i].orientation);
             }
         }
         forcing_close(f);

@@ -64,6 +64,7 @@ static const char *const grid_names[] = {"regular", "raster", NULL};
 static const char *const late_names[] = {"fail", "stale", NULL};
 static const char *const engine_names[] = {"forecast", "test-double", NULL};
 static const char *const level_names[] = {"error", "warn", "info", "debug", NULL};
+static const char *const vectors_names[] = {"auto", "earth", "grid", NULL};
 
 static const cfg_key forcing_keys[] = {
     K(cfg_forcing_source, "name", CT_STRING, name, NULL, 1, SPHICE_MAX_NAME, 0, NULL,
@@ -84,6 +85,8 @@ static const cfg_key forcing_keys[] = {
       "How often the provider issues new files; older issues are looked for in these steps."),
     K(cfg_forcing_source, "optional_source", CT_BOOL, optional_source, "false", 0, 0, 0, NULL,
       "A missing optional source does not fail the cycle (e.g. tides)."),
+    K(cfg_forcing_source, "vectors", CT_ENUM, vectors, "\"auto\"", 0, 0, 0, vectors_names,
+      "Wind and current components: auto (from the standard_name or the file's conventions; a pair found by name on a curvilinear grid is refused), earth (east/north) or grid (along the grid axes, rotated)."),
 };
 static const cfg_table forcing_table = {forcing_keys, sizeof forcing_keys / sizeof forcing_keys[0],
                                         sizeof(cfg_forcing_source)};

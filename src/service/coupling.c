@@ -46,6 +46,7 @@ int forecast_source_spec(const struct sph_config *cfg, size_t s, const char *con
         sp->map = *map;
         sp->nmap = src->variables.n;
     }
+    sp->vectors = src->vectors; /* FORCING_VECTORS_* in the order of the key's names */
     for (size_t k = 0; k < src->required.n; k++)
         sp->required |= (unsigned)config_quantity_flag(src->required.v[k]);
     for (size_t k = 0; k < src->optional_q.n; k++)

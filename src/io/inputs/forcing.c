@@ -16,29 +16,69 @@
 
 /* What each slot is called and in which units sphice wants it. */
 static const struct slot_def {
-    const char *std[3];      /* earth-relative standard names, canonical first */
-    const char *grid_std;    /* grid-relative standard name (rotated), or NULL */
+    const char *std[4];      /* earth-relative standard names, canonical first */
+    const char *grid_std[3]; /* grid-relative standard names (rotated) */
     const char *target;      /* sphice units */
     int accumulable;         /* may come as J m-2 */
 } slot_defs[FV_COUNT] = {
-    [FV_UWIND] = {{"eastward_wind"}, "x_wind", "m s-1", 0},
-    [FV_VWIND] = {{"northward_wind"}, "y_wind", "m s-1", 0},
-    [FV_TAIR] = {{"air_temperature"}, NULL, "degC", 0},
-    [FV_DEW] = {{"dew_point_temperature"}, NULL, "degC", 0},
-    [FV_QAIR] = {{"specific_humidity"}, NULL, "1", 0},
-    [FV_PSURF] = {{"surface_air_pressure", "air_pressure_at_mean_sea_level"}, NULL, "Pa", 0},
-    [FV_SW] = {{"surface_downwelling_shortwave_flux_in_air"}, NULL, "W m-2", 1},
-    [FV_LW] = {{"surface_downwelling_longwave_flux_in_air"}, NULL, "W m-2", 1},
+    [FV_UWIND] = {{"eastward_wind"}, {"x_wind"}, "m s-1", 0},
+    [FV_VWIND] = {{"northward_wind"}, {"y_wind"}, "m s-1", 0},
+    [FV_TAIR] = {{"air_temperature"}, {NULL}, "degC", 0},
+    [FV_DEW] = {{"dew_point_temperature"}, {NULL}, "degC", 0},
+    [FV_QAIR] = {{"specific_humidity"}, {NULL}, "1", 0},
+    [FV_PSURF] = {{"surface_air_pressure", "air_pressure_at_mean_sea_level"}, {NULL}, "Pa", 0},
+    [FV_SW] = {{"surface_downwelling_shortwave_flux_in_air"}, {NULL}, "W m-2", 1},
+    [FV_LW] = {{"surface_downwelling_longwave_flux_in_air"}, {NULL}, "W m-2", 1},
+    /* grid-relative: the CF names, met.no's and ROMS's spellings, and
+     * ROMS's names at the u and v points of its C grid */
     [FV_UCUR] = {{"eastward_sea_water_velocity", "surface_eastward_sea_water_velocity"},
-                 "sea_water_x_velocity", "m s-1", 0},
+                 {"sea_water_x_velocity", "x_sea_water_velocity",
+                  "sea_water_x_velocity_at_u_location"},
+                 "m s-1", 0},
     [FV_VCUR] = {{"northward_sea_water_velocity", "surface_northward_sea_water_velocity"},
-                 "sea_water_y_velocity", "m s-1", 0},
+                 {"sea_water_y_velocity", "y_sea_water_velocity",
+                  "sea_water_y_velocity_at_v_location"},
+                 "m s-1", 0},
     [FV_SSH] = {{"sea_surface_height_above_geoid", "sea_surface_height",
-                 "sea_surface_height_above_sea_level"}, NULL, "m", 0},
-    [FV_SST] = {{"sea_surface_temperature"}, NULL, "degC", 0},
-    [FV_FW] = {{"upward_sea_ice_basal_heat_flux"}, NULL, "W m-2", 1},
-    [FV_RH] = {{"relative_humidity"}, NULL, "1", 0},
+                 "sea_surface_height_above_sea_level", "sea_surface_elevation"},
+                {NULL}, "m", 0},
+    [FV_SST] = {{"sea_surface_temperature"}, {NULL}, "degC", 0},
+    [FV_FW] = {{"upward_sea_ice_basal_heat_flux"}, {NULL}, "W m-2", 1},
+    [FV_RH] = {{"relative_humidity"}, {NULL}, "1", 0},
 };
+
+/* Physical bounds of each slot in sphice units (docs/forcing.md): a value
+ * outside them that is not a declared missing value is bad input (an
+ * undeclared fill such as 1e30, an Inf, wrong units), refused at reading. */
+static const struct { double lo, hi; } slot_bounds[FV_COUNT] = {
+    [FV_UWIND] = {-100.0, 100.0},        /* m/s: above any surface wind on record */
+    [FV_VWIND] = {-100.0, 100.0},
+    [FV_TAIR] = {-123.15, 76.85},        /* degC: 150 .. 350 K */
+    [FV_DEW] = {-123.15, 76.85},
+    [FV_QAIR] = {0.0, 0.1},              /* kg/kg: saturation at 50 degC is 0.09 */
+    [FV_PSURF] = {10000.0, 120000.0},    /* Pa: above the highest summits, below any record */
+    [FV_SW] = {-10.0, 1500.0},           /* W/m2: solar constant 1361; packing noise below 0 */
+    [FV_LW] = {0.0, 1000.0},             /* W/m2: sigma (350 K)^4 = 851 */
+    [FV_UCUR] = {-10.0, 10.0},           /* m/s: the fastest tidal races are about 7 m/s */
+    [FV_VCUR] = {-10.0, 10.0},
+    [FV_SSH] = {-100.0, 100.0},          /* m: geoid offsets and tides together */
+    [FV_SST] = {-5.0, 45.0},             /* degC: sea water freezes at about -2 */
+    [FV_FW] = {-2000.0, 2000.0},         /* W/m2 */
+    [FV_RH] = {0.0, 1.5},                /* fraction: supersaturation stays far below 1.5 */
+};
+
+/* FVEC_STD_EARTH or FVEC_STD_GRID when standard name sn names slot w's
+ * quantity, else -1. */
+static int std_kind(const struct slot_def *d, const char *sn)
+{
+    for (int k = 0; k < 4 && d->std[k]; k++)
+        if (strcmp(sn, d->std[k]) == 0)
+            return FVEC_STD_EARTH;
+    for (int k = 0; k < 3 && d->grid_std[k]; k++)
+        if (strcmp(sn, d->grid_std[k]) == 0)
+            return FVEC_STD_GRID;
+    return -1;
+}
 
 /* Built-in names of known products, tried after the spec's map. */
 static const forcing_name_map default_names[] = {
@@ -144,28 +184,19 @@ static void fvar_free(fvar *v)
  * standard_name first, then the spec's map, then the built-in product
  * names. *varid is an index into vars. */
 static int find_var(const forcing_varinfo *vars, size_t nv, const forcing_source_spec *spec,
-                    fv_slot w, int *varid, int *grid_rel, char *sn_out, size_t sn_len,
+                    fv_slot w, int *varid, int *how, char *sn_out, size_t sn_len,
                     char *tried, size_t tried_len)
 {
     const struct slot_def *d = &slot_defs[w];
     for (size_t i = 0; i < nv; i++) {
         const char *sn = vars[i].standard_name;
-        int id = (int)i;
-        if (!sn[0])
+        int kind = sn[0] ? std_kind(d, sn) : -1;
+        if (kind < 0)
             continue;
-        for (int k = 0; k < 3 && d->std[k]; k++)
-            if (strcmp(sn, d->std[k]) == 0) {
-                *varid = id;
-                *grid_rel = 0;
-                snprintf(sn_out, sn_len, "%s", sn);
-                return 0;
-            }
-        if (d->grid_std && strcmp(sn, d->grid_std) == 0) {
-            *varid = id;
-            *grid_rel = 1;
-            snprintf(sn_out, sn_len, "%s", sn);
-            return 0;
-        }
+        *varid = (int)i;
+        *how = kind;
+        snprintf(sn_out, sn_len, "%s", sn);
+        return 0;
     }
     size_t nd;
     const forcing_name_map *dn = forcing_default_names(&nd);
@@ -176,7 +207,7 @@ static int find_var(const forcing_varinfo *vars, size_t nv, const forcing_source
         size_t nm = pass == 0 ? spec->nmap : nd;
         for (size_t i = 0; m && i < nm; i++) {
             int match = 0;
-            for (int k = 0; k < 3 && d->std[k]; k++)
+            for (int k = 0; k < 4 && d->std[k]; k++)
                 match |= m[i].standard_name && strcmp(m[i].standard_name, d->std[k]) == 0;
             if (!match || !m[i].variable)
                 continue;
@@ -189,8 +220,8 @@ static int find_var(const forcing_varinfo *vars, size_t nv, const forcing_source
                     *varid = (int)j;
             if (*varid >= 0) {
                 const char *sn = vars[*varid].standard_name;
-                *grid_rel = spec->vectors_grid_relative ||
-                            (d->grid_std && strcmp(sn, d->grid_std) == 0);
+                int kind = sn[0] ? std_kind(d, sn) : -1;
+                *how = kind >= 0 ? kind : FVEC_NAME;
                 snprintf(sn_out, sn_len, "%s", d->std[0]);
                 return 0;
             }
@@ -342,9 +373,9 @@ static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsign
         /* air temperature also where humidity may come as relative humidity */
         if (!(slot_flag((fv_slot)w) & want) && !(w == FV_TAIR && (want & FQ_HUMIDITY)))
             continue;
-        int vi, grid_rel;
+        int vi, how;
         char sn[96], tried[256];
-        if (find_var(vars, nv, spec, (fv_slot)w, &vi, &grid_rel, sn, sizeof sn, tried,
+        if (find_var(vars, nv, spec, (fv_slot)w, &vi, &how, sn, sizeof sn, tried,
                      sizeof tried))
             continue;
         int varid = vars[vi].id;
@@ -359,7 +390,7 @@ static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsign
             v->src = s;
             v->which = (fv_slot)w;
             v->slot_k[0] = v->slot_k[1] = (size_t)-1;
-            v->grid_relative = grid_rel;
+            v->found_how = how;
             snprintf(v->standard_name, sizeof v->standard_name, "%s", sn);
             snprintf(v->varname, sizeof v->varname, "%.*s", (int)sizeof v->varname - 1,
                      vars[vi].name);
@@ -457,6 +488,19 @@ static int read_slice_at(forcing *f, fvar *v, size_t ti, size_t mi, double *dst,
         x = vf->a * x + vf->b;
         if (v->accumulated)
             x /= ft ? ft->period : 1.0;
+        if (!missing && !(x >= slot_bounds[v->which].lo && x <= slot_bounds[v->which].hi)) {
+            char when[40] = "static";
+            if (ft)
+                iso(ft->t, when, sizeof when);
+            return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                                "value %g %s of variable '%s' (%s) at %s (time index %zu), point "
+                                "%zu (lon %.4f, lat %.4f), is outside the physical bounds %g .. "
+                                "%g %s and not a declared _FillValue or missing_value",
+                                x, slot_defs[v->which].target, v->varname, v->standard_name, when,
+                                ft ? ft->k : 0, p, v->grid->lon2[p], v->grid->lat2[p],
+                                slot_bounds[v->which].lo, slot_bounds[v->which].hi,
+                                slot_defs[v->which].target);
+        }
         dst[p] = missing ? NAN : x;
     }
     return 0;
@@ -659,6 +703,79 @@ static int check_coverage(forcing *f, fvar *v, double t0, double t1, double lon0
     return 0;
 }
 
+static const char *const vectors_names[] = {"auto", "earth", "grid"};
+
+/* Decides whether the pair (u, v) is earth- or grid-relative (see
+ * forcing_source_spec.vectors) and records why in their orient. */
+static int vector_pair(fsource *s, const forcing_source_spec *spec, fvar *u, fvar *v,
+                       sph_error *err)
+{
+    if (!u || !v)
+        return 0;
+    int key = spec->vectors >= FORCING_VECTORS_AUTO && spec->vectors <= FORCING_VECTORS_GRID
+                  ? spec->vectors
+                  : FORCING_VECTORS_AUTO;
+    const fvar *by_std = NULL;
+    for (int c = 0; c < 2; c++) {
+        const fvar *x = c ? v : u;
+        if (x->found_how == FVEC_NAME)
+            continue;
+        if (by_std && by_std->found_how != x->found_how)
+            return forcing_fail(err, s, u->file0, SPH_ERR_BAD_DATA,
+                                "vector components '%s' (standard_name '%s') and '%s' "
+                                "(standard_name '%s') disagree on east/north against grid axes",
+                                by_std->varname, by_std->standard_name, x->varname,
+                                x->standard_name);
+        if (!by_std)
+            by_std = x;
+    }
+    char why[160];
+    int grid;
+    if (by_std) {
+        grid = by_std->found_how == FVEC_STD_GRID;
+        if ((key == FORCING_VECTORS_EARTH && grid) || (key == FORCING_VECTORS_GRID && !grid))
+            return forcing_fail(err, s, u->file0, SPH_ERR_CONFIG,
+                                "variable '%s' has standard_name '%s' (%s-relative) but "
+                                "forcing[].vectors is \"%s\"",
+                                by_std->varname, by_std->standard_name, grid ? "grid" : "earth",
+                                vectors_names[key]);
+        snprintf(why, sizeof why, "standard_name '%.60s' of '%.40s'", by_std->standard_name,
+                 by_std->varname);
+    } else if (key != FORCING_VECTORS_AUTO) {
+        grid = key == FORCING_VECTORS_GRID;
+        snprintf(why, sizeof why, "forcing[].vectors \"%s\"", vectors_names[key]);
+    } else if (!u->grid->curvilinear && !v->grid->curvilinear) {
+        grid = 0;
+        snprintf(why, sizeof why, "regular longitude/latitude grid: its axes point east and north");
+    } else if (u->grid->angle_var[0]) {
+        grid = 1;
+        snprintf(why, sizeof why, "ROMS convention: the file's angle variable '%.60s'",
+                 u->grid->angle_var);
+    } else if (u->grid != v->grid) {
+        grid = 1;
+        snprintf(why, sizeof why, "'%.40s' and '%.40s' on staggered C-grid points", u->varname,
+                 v->varname);
+    } else {
+        return forcing_fail(err, s, u->file0, SPH_ERR_CONFIG,
+                            "variables '%s' and '%s' were found by name on a curvilinear grid and "
+                            "the file does not say whether they are east/north or along the grid "
+                            "axes: set forcing[].vectors to \"earth\" or \"grid\"",
+                            u->varname, v->varname);
+    }
+    u->grid_relative = v->grid_relative = grid;
+    const fgrid *g = u->grid;
+    if (!grid)
+        snprintf(u->orient, sizeof u->orient, "earth-relative (%s)", why);
+    else if (g->curvilinear)
+        snprintf(u->orient, sizeof u->orient, "grid-relative (%.80s), rotated by %.80s", why,
+                 g->angle_from);
+    else
+        snprintf(u->orient, sizeof u->orient,
+                 "grid-relative (%.80s), regular longitude/latitude grid: no rotation", why);
+    snprintf(v->orient, sizeof v->orient, "%s", u->orient);
+    return 0;
+}
+
 static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, double t_start,
                        cf_units *units, sph_error *err)
 {
@@ -754,7 +871,7 @@ static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, 
         return forcing_fail(err, s, where, SPH_ERR_MISSING_VAR,
                             "variable for %s not found (looked for standard_name%s%s%s)", what,
                             tried[0] ? " and mapped name " : "", tried,
-                            slot_defs[w].grid_std ? " and the grid-relative standard_name" : "");
+                            slot_defs[w].grid_std[0] ? " and the grid-relative standard_name" : "");
     }
     if (s->vars[FV_UWIND] && !s->vars[FV_VWIND])
         return forcing_fail(err, s, s->vars[FV_UWIND]->file0, SPH_ERR_MISSING_VAR,
@@ -762,6 +879,9 @@ static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, 
     if (s->vars[FV_UCUR] && !s->vars[FV_VCUR])
         return forcing_fail(err, s, s->vars[FV_UCUR]->file0, SPH_ERR_MISSING_VAR,
                             "eastward_sea_water_velocity found but not northward_sea_water_velocity");
+    if (vector_pair(s, spec, s->vars[FV_UWIND], s->vars[FV_VWIND], err) ||
+        vector_pair(s, spec, s->vars[FV_UCUR], s->vars[FV_VCUR], err))
+        return err->code;
     for (int w = 0; w < FV_COUNT; w++)
         if (s->vars[w] && finish_var(s, s->vars[w], err))
             return err->code;
@@ -1076,6 +1196,7 @@ size_t forcing_describe(const forcing *f, forcing_var_info *info, size_t max)
                     d->t_last = v->times[v->ntimes - 1].t;
                 }
                 d->fill_fraction = v->fill_fraction;
+                snprintf(d->orientation, sizeof d->orientation, "%s", v->orient);
             }
             m++;
         }

@@ -26,6 +26,9 @@ typedef enum {
     FV_UCUR, FV_VCUR, FV_SSH, FV_SST, FV_FW, FV_RH, FV_COUNT
 } fv_slot;
 
+/* How a vector component was found (fvar.found_how). */
+enum { FVEC_STD_EARTH = 0, FVEC_STD_GRID, FVEC_NAME };
+
 /* A grid in canonical layout: node (i, j) is element j * nx + i, i along
  * the x (longitude-like) dimension, j along y. */
 typedef struct fgrid {
@@ -35,6 +38,8 @@ typedef struct fgrid {
     int lon_wrap;          /* regular and global: a cell joins column nx-1 to column 0 */
     double *lon2, *lat2;   /* node coordinates [ny*nx] for both kinds (lon in [-180,180)) */
     double *cosang, *sinang; /* curvilinear: angle from east to the x axis, per node */
+    char angle_var[64];    /* curvilinear: the file's angle variable ("" if none) */
+    char angle_from[128];  /* where the angle comes from, for `sphice check` */
     char key[600];         /* coordinate variable names + sizes: grids with equal keys are shared */
     char desc[96];
     /* Per-call point stencils (filled once per forcing_sample_at call). */
@@ -94,6 +99,8 @@ typedef struct fvar {
     char file0[512];         /* file of the first time */
     int accumulated;         /* J m-2: divided by the accumulation period */
     int grid_relative;       /* vector component along the grid axes */
+    int found_how;           /* FVEC_*: how a vector component was found */
+    char orient[192];        /* vector components: orientation and why (forcing_var_info) */
     fgrid *grid;
     fvfile *vfiles;
     size_t nvfiles;

@@ -5,6 +5,8 @@
  * raw time coordinate, horizontal slices, and the sphice harmonic tide
  * format ("harmonic-1", docs/forcing.md). */
 #include "forcing_impl.h"
+#include "io/fetch.h"
+#include "io/geo.h"
 
 #include <ctype.h>
 #include <math.h>
@@ -228,6 +230,296 @@ static int nc_levels(fsource *s, const char *path, void *fh, int varid, fvfile *
     return 0;
 }
 
+/* ROMS C grid: the angle (eta_rho, xi_rho) at the u points (eta_u =
+ * eta_rho, xi_u = xi_rho - 1) or v points (eta_v = eta_rho - 1, xi_v =
+ * xi_rho) of an ny x nx grid, as the mean direction of the two rho points
+ * each lies between. Returns 2 when done, 0 when the shapes do not fit. */
+static int c_grid_angle(int ncid, int id, size_t ny, size_t nx, double fac, double *out)
+{
+    int dd[2];
+    size_t ry, rx;
+    if (nc_inq_vardimid(ncid, id, dd) != NC_NOERR || nc_inq_dimlen(ncid, dd[0], &ry) != NC_NOERR ||
+        nc_inq_dimlen(ncid, dd[1], &rx) != NC_NOERR)
+        return 0;
+    int du = ry == ny && rx == nx + 1, dv = ry == ny + 1 && rx == nx;
+    if (!du && !dv)
+        return 0;
+    double *a = malloc(ry * rx * sizeof *a);
+    if (!a || nc_get_var_double(ncid, id, a) != NC_NOERR) {
+        free(a);
+        return 0;
+    }
+    for (size_t j = 0; j < ny; j++)
+        for (size_t i = 0; i < nx; i++) {
+            double a0 = a[j * rx + i] * fac, a1 = (du ? a[j * rx + i + 1] : a[(j + 1) * rx + i]) * fac;
+            out[j * nx + i] = atan2(sin(a0) + sin(a1), cos(a0) + cos(a1));
+        }
+    free(a);
+    return 2;
+}
+
+/* Sizes of the horizontal grid of a variable whose vf->xdim and ydim are
+ * known; sets vf->transpose. */
+static int grid_shape(fsource *s, const char *path, int ncid, const int *dimids,
+                      const char *vname, fvfile *vf, size_t *nx, size_t *ny, sph_error *err)
+{
+    vf->transpose = vf->xdim < vf->ydim;
+    nc_inq_dimlen(ncid, dimids[vf->xdim], nx);
+    nc_inq_dimlen(ncid, dimids[vf->ydim], ny);
+    if (*nx < 2 || *ny < 2)
+        return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                            "variable '%s': grid %zux%zu has fewer than 2 points per axis", vname,
+                            *nx, *ny);
+    return 0;
+}
+
+/* A numeric attribute (the first value), or NaN. */
+static double num_att(int ncid, int varid, const char *name, int index)
+{
+    size_t n;
+    double v[4];
+    if (nc_inq_attlen(ncid, varid, name, &n) != NC_NOERR || n == 0 || n > 4 || (size_t)index >= n ||
+        nc_get_att_double(ncid, varid, name, v) != NC_NOERR)
+        return NAN;
+    return v[index];
+}
+
+/* PROJ definition of a CF grid mapping variable (CF conventions, appendix
+ * F); 0, or -1 with why filled. */
+static int cf_proj(int ncid, int gm, char *def, size_t len, char *why, size_t wlen)
+{
+    char name[96] = "", buf[1024];
+    if (fnc_text_att(ncid, gm, "proj4", buf, sizeof buf) == 0 ||
+        fnc_text_att(ncid, gm, "proj4text", buf, sizeof buf) == 0 ||
+        fnc_text_att(ncid, gm, "proj4_params", buf, sizeof buf) == 0) {
+        if (strstr(buf, "+proj=")) {
+            snprintf(def, len, "%s", buf);
+            return 0;
+        }
+    }
+    if (fnc_text_att(ncid, gm, "grid_mapping_name", name, sizeof name) != 0) {
+        snprintf(why, wlen, "has no grid_mapping_name");
+        return -1;
+    }
+    char earth[160];
+    double R = num_att(ncid, gm, "earth_radius", 0), a = num_att(ncid, gm, "semi_major_axis", 0);
+    double b = num_att(ncid, gm, "semi_minor_axis", 0), rf = num_att(ncid, gm, "inverse_flattening", 0);
+    if (isfinite(R))
+        snprintf(earth, sizeof earth, "+R=%.10g", R);
+    else if (isfinite(a) && isfinite(rf) && rf > 0)
+        snprintf(earth, sizeof earth, "+a=%.10g +rf=%.12g", a, rf);
+    else if (isfinite(a) && isfinite(b))
+        snprintf(earth, sizeof earth, "+a=%.10g +b=%.10g", a, b);
+    else if (isfinite(a))
+        snprintf(earth, sizeof earth, "+R=%.10g", a);
+    else
+        snprintf(earth, sizeof earth, "+ellps=WGS84");
+    double fe = num_att(ncid, gm, "false_easting", 0), fn = num_att(ncid, gm, "false_northing", 0);
+    if (!isfinite(fe))
+        fe = 0;
+    if (!isfinite(fn))
+        fn = 0;
+    double lat0 = num_att(ncid, gm, "latitude_of_projection_origin", 0);
+    double lonc = num_att(ncid, gm, "longitude_of_central_meridian", 0);
+    double lonp = num_att(ncid, gm, "longitude_of_projection_origin", 0);
+    char head[256];
+    if (strcmp(name, "lambert_conformal_conic") == 0) {
+        double p1 = num_att(ncid, gm, "standard_parallel", 0), p2 = num_att(ncid, gm, "standard_parallel", 1);
+        if (!isfinite(p1) || !isfinite(lonc) || !isfinite(lat0)) {
+            snprintf(why, wlen, "(%s) lacks standard_parallel, longitude_of_central_meridian or "
+                     "latitude_of_projection_origin", name);
+            return -1;
+        }
+        snprintf(head, sizeof head, "+proj=lcc +lat_1=%.10g +lat_2=%.10g +lat_0=%.10g +lon_0=%.10g",
+                 p1, isfinite(p2) ? p2 : p1, lat0, lonc);
+    } else if (strcmp(name, "polar_stereographic") == 0) {
+        double lonv = num_att(ncid, gm, "straight_vertical_longitude_from_pole", 0);
+        double ts = num_att(ncid, gm, "standard_parallel", 0);
+        double k0 = num_att(ncid, gm, "scale_factor_at_projection_origin", 0);
+        if (!isfinite(lonv))
+            lonv = lonp;
+        if (!isfinite(lonv) || !isfinite(lat0) || fabs(fabs(lat0) - 90) > 1e-9 ||
+            (!isfinite(ts) && !isfinite(k0))) {
+            snprintf(why, wlen, "(%s) lacks straight_vertical_longitude_from_pole, "
+                     "latitude_of_projection_origin +-90, or standard_parallel / "
+                     "scale_factor_at_projection_origin", name);
+            return -1;
+        }
+        if (isfinite(ts))
+            snprintf(head, sizeof head, "+proj=stere +lat_0=%g +lat_ts=%.10g +lon_0=%.10g", lat0,
+                     ts, lonv);
+        else
+            snprintf(head, sizeof head, "+proj=stere +lat_0=%g +k_0=%.10g +lon_0=%.10g", lat0, k0,
+                     lonv);
+    } else if (strcmp(name, "stereographic") == 0 ||
+               strcmp(name, "lambert_azimuthal_equal_area") == 0) {
+        double k0 = num_att(ncid, gm, "scale_factor_at_projection_origin", 0);
+        if (!isfinite(lonp) || !isfinite(lat0)) {
+            snprintf(why, wlen, "(%s) lacks longitude_of_projection_origin or "
+                     "latitude_of_projection_origin", name);
+            return -1;
+        }
+        if (name[0] == 's')
+            snprintf(head, sizeof head, "+proj=stere +lat_0=%.10g +lon_0=%.10g +k_0=%.10g", lat0,
+                     lonp, isfinite(k0) ? k0 : 1.0);
+        else
+            snprintf(head, sizeof head, "+proj=laea +lat_0=%.10g +lon_0=%.10g", lat0, lonp);
+    } else if (strcmp(name, "transverse_mercator") == 0) {
+        double k0 = num_att(ncid, gm, "scale_factor_at_central_meridian", 0);
+        if (!isfinite(lonc) || !isfinite(lat0) || !isfinite(k0)) {
+            snprintf(why, wlen, "(%s) lacks longitude_of_central_meridian, "
+                     "latitude_of_projection_origin or scale_factor_at_central_meridian", name);
+            return -1;
+        }
+        snprintf(head, sizeof head, "+proj=tmerc +lat_0=%.10g +lon_0=%.10g +k_0=%.10g", lat0, lonc,
+                 k0);
+    } else {
+        snprintf(why, wlen, "grid_mapping_name '%s' is not supported", name);
+        return -1;
+    }
+    snprintf(def, len, "%s +x_0=%.10g +y_0=%.10g %s +units=m +no_defs +type=crs", head, fe, fn,
+             earth);
+    return 0;
+}
+
+/* Projected grid: 1-D x/y coordinates (projection_x/y_coordinate, m or
+ * km) and the variable's CF grid_mapping, without latitude/longitude in
+ * the file: node positions by PROJ's inverse, the angle of the x axis by
+ * PROJ (geo_grid_angle: the projection's meridian convergence). Returns 1
+ * when the variable has no grid_mapping (not this kind of grid). */
+static int projected_grid(fsource *s, const char *path, int ncid, int varid, const int *dimids,
+                          int ndims, fvfile *vf, fgrid **out, sph_error *err)
+{
+    char vname[NC_MAX_NAME + 1] = "?", gmname[NC_MAX_NAME + 1], buf[128];
+    nc_inq_varname(ncid, varid, vname);
+    int gm;
+    if (fnc_text_att(ncid, varid, "grid_mapping", gmname, sizeof gmname) != 0 ||
+        nc_inq_varid(ncid, gmname, &gm) != NC_NOERR)
+        return 1;
+    int xv = -1, yv = -1;
+    for (int d = 0; d < ndims; d++) {
+        int cv = coord_var(ncid, dimids[d]);
+        if (cv < 0 || d == vf->tdim)
+            continue;
+        int isx = 0, isy = 0;
+        if (fnc_text_att(ncid, cv, "standard_name", buf, sizeof buf) == 0) {
+            isx = strcmp(buf, "projection_x_coordinate") == 0;
+            isy = strcmp(buf, "projection_y_coordinate") == 0;
+        } else if (fnc_text_att(ncid, cv, "axis", buf, sizeof buf) == 0) {
+            isx = strcasecmp(buf, "X") == 0;
+            isy = strcasecmp(buf, "Y") == 0;
+        }
+        if (isx) {
+            vf->xdim = d;
+            xv = cv;
+        } else if (isy) {
+            vf->ydim = d;
+            yv = cv;
+        }
+    }
+    if (xv < 0 || yv < 0)
+        return forcing_fail(err, s, path, SPH_ERR_MISSING_VAR,
+                            "variable '%s' has grid_mapping '%s' but no projection_x/y_coordinate "
+                            "dimensions", vname, gmname);
+    double fac[2];
+    for (int c = 0; c < 2; c++) {
+        static const char *const m[] = {"m", "meter", "meters", "metre", "metres", NULL};
+        static const char *const km[] = {"km", "kilometer", "kilometers", "kilometre", "kilometres",
+                                         NULL};
+        char u[64] = "";
+        int cv = c ? yv : xv;
+        fnc_text_att(ncid, cv, "units", u, sizeof u);
+        fac[c] = units_is(u, m) ? 1.0 : units_is(u, km) ? 1000.0 : 0.0;
+        if (fac[c] == 0.0) {
+            char cn[NC_MAX_NAME + 1] = "?";
+            nc_inq_varname(ncid, cv, cn);
+            return forcing_fail(err, s, path, SPH_ERR_UNITS,
+                                "projection coordinate '%s' of variable '%s' has units '%s' "
+                                "(not m or km)", cn, vname, u);
+        }
+    }
+    char def[1200], why[256] = "";
+    if (cf_proj(ncid, gm, def, sizeof def, why, sizeof why) != 0)
+        return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                            "grid mapping '%s' of variable '%s' %s", gmname, vname, why);
+    size_t nx, ny;
+    int src = grid_shape(s, path, ncid, dimids, vname, vf, &nx, &ny, err);
+    if (src)
+        return src;
+    char xn[NC_MAX_NAME + 1], yn[NC_MAX_NAME + 1], key[600];
+    nc_inq_varname(ncid, xv, xn);
+    nc_inq_varname(ncid, yv, yn);
+    snprintf(key, sizeof key, "%.200s/%.200s/%zu/%zu/proj:%.80s", xn, yn, nx, ny, gmname);
+    fgrid *g = fgrid_find(s, key);
+    if (g) {
+        *out = g;
+        return 0;
+    }
+    g = calloc(1, sizeof *g);
+    double *X = malloc(nx * ny * sizeof *X), *Y = malloc(nx * ny * sizeof *Y);
+    double *x1 = malloc(nx * sizeof *x1), *y1 = malloc(ny * sizeof *y1);
+    double *ang = malloc(nx * ny * sizeof *ang);
+    int rc = 0;
+    if (!g || !X || !Y || !x1 || !y1 || !ang || !(g->lon2 = malloc(nx * ny * sizeof(double))) ||
+        !(g->lat2 = malloc(nx * ny * sizeof(double))) ||
+        !(g->cosang = malloc(nx * ny * sizeof(double))) ||
+        !(g->sinang = malloc(nx * ny * sizeof(double)))) {
+        rc = forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
+    } else if (nc_get_var_double(ncid, xv, x1) != NC_NOERR ||
+               nc_get_var_double(ncid, yv, y1) != NC_NOERR) {
+        rc = forcing_fail(err, s, path, SPH_ERR_NETCDF, "cannot read coordinates '%s', '%s'", xn, yn);
+    }
+    geo_proj *pj = NULL;
+    if (!rc) {
+        sph_error e;
+        sph_error_clear(&e);
+        pj = geo_proj_create(def, 0.0, 0.0, &e);
+        if (!pj)
+            rc = forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                              "grid mapping '%s' of variable '%s': PROJ cannot build '%s': %s",
+                              gmname, vname, def, e.msg);
+    }
+    if (!rc) {
+        for (size_t j = 0; j < ny; j++)
+            for (size_t i = 0; i < nx; i++) {
+                X[j * nx + i] = x1[i] * fac[0];
+                Y[j * nx + i] = y1[j] * fac[1];
+            }
+        sph_error e;
+        sph_error_clear(&e);
+        if (geo_inverse(pj, nx * ny, X, Y, g->lon2, g->lat2, &e) != 0)
+            rc = forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                              "grid mapping '%s' of variable '%s': a node does not invert: %s",
+                              gmname, vname, e.msg);
+    }
+    for (size_t p = 0; !rc && p < nx * ny; p++) {
+        /* geo_grid_angle: from east to the plane's x axis, anticlockwise */
+        ang[p] = geo_grid_angle(pj, g->lon2[p], g->lat2[p]);
+        if (!isfinite(ang[p]))
+            rc = forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                              "grid mapping '%s': no grid angle at node %zu", gmname, p);
+    }
+    geo_proj_free(pj);
+    if (!rc) {
+        g->curvilinear = 1;
+        g->nx = nx;
+        g->ny = ny;
+        snprintf(g->key, sizeof g->key, "%s", key);
+        fgrid_angles(g, ang);
+        snprintf(g->angle_from, sizeof g->angle_from,
+                 "the grid mapping '%.60s' (meridian convergence by PROJ)", gmname);
+        snprintf(g->desc, sizeof g->desc, "projected %zux%zu (%.60s)", nx, ny, gmname);
+    }
+    free(X), free(Y), free(x1), free(y1), free(ang);
+    if (rc) {
+        fgrid_free(g);
+        return rc;
+    }
+    fgrid_add(s, g);
+    *out = g;
+    return 0;
+}
+
 static int grid_read(fsource *s, const char *path, int ncid, int varid, fvfile *vf, fgrid **out,
                      sph_error *err)
 {
@@ -290,9 +582,14 @@ static int grid_read(fsource *s, const char *path, int ncid, int varid, fvfile *
             else if (lonv < 0 && fnc_is_lon(ncid, id))
                 lonv = id;
         }
-        if (latv < 0 || lonv < 0)
+        if (latv < 0 || lonv < 0) {
+            vf->ydim = vf->xdim = -1;
+            int prc = projected_grid(s, path, ncid, varid, dimids, ndims, vf, out, err);
+            if (prc != 1)
+                return prc;
             return forcing_fail(err, s, path, SPH_ERR_MISSING_VAR,
                                 "variable '%s': no latitude/longitude coordinates found", vname);
+        }
         int dd[2];
         nc_inq_vardimid(ncid, latv, dd);
         for (int d = 0; d < ndims; d++) {
@@ -306,14 +603,10 @@ static int grid_read(fsource *s, const char *path, int ncid, int varid, fvfile *
                                 "variable '%s': coordinates do not match its dimensions", vname);
         curv = 1;
     }
-    vf->transpose = vf->xdim < vf->ydim;
     size_t nx, ny;
-    nc_inq_dimlen(ncid, dimids[vf->xdim], &nx);
-    nc_inq_dimlen(ncid, dimids[vf->ydim], &ny);
-    if (nx < 2 || ny < 2)
-        return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
-                            "variable '%s': grid %zux%zu has fewer than 2 points per axis", vname,
-                            nx, ny);
+    int src = grid_shape(s, path, ncid, dimids, vname, vf, &nx, &ny, err);
+    if (src)
+        return src;
     char latname[NC_MAX_NAME + 1], lonname[NC_MAX_NAME + 1];
     nc_inq_varname(ncid, latv, latname);
     nc_inq_varname(ncid, lonv, lonname);
@@ -388,8 +681,20 @@ static int grid_read(fsource *s, const char *path, int ncid, int varid, fvfile *
                         for (size_t p = 0; p < nx * ny; p++)
                             angle[p] *= fac;
                         found = 1;
+                    } else {
+                        found = c_grid_angle(ncid, id, ny, nx, fac, angle);
                     }
+                    if (nd == 2)
+                        snprintf(g->angle_var, sizeof g->angle_var, "%.60s", nm);
+                    if (found)
+                        snprintf(g->angle_from, sizeof g->angle_from,
+                                 "the file's angle variable '%.60s'%s", nm,
+                                 found == 2 ? " (mean of the two rho points)" : "");
                 }
+                if (!found)
+                    snprintf(g->angle_from, sizeof g->angle_from,
+                             "the angle of the grid's x axis from '%.40s'/'%.40s'", lonname,
+                             latname);
                 fgrid_angles(g, found ? angle : NULL);
             }
             free(angle);
@@ -422,6 +727,21 @@ static int nc_probe(const char *path)
 
 static int nc_open_file(fsource *s, int file, void **fh, sph_error *err)
 {
+    /* A classic-format file is checked like a download: one whose header
+     * promises more records or bytes than the file holds is refused (the
+     * library would read the missing records as fill). */
+    unsigned char m[4] = {0};
+    FILE *fp = fopen(s->paths[file], "rb");
+    size_t got = fp ? fread(m, 1, sizeof m, fp) : 0;
+    if (fp)
+        fclose(fp);
+    if (got == 4 && memcmp(m, "CDF", 3) == 0) {
+        sph_error e;
+        sph_error_clear(&e);
+        int crc = fetch_check_netcdf(s->paths[file], s->paths[file], NULL, 0, &e);
+        if (crc)
+            return sph_err_set(err, crc, "forcing '%s': %s", s->name, e.msg);
+    }
     int *box = malloc(sizeof *box);
     if (!box)
         return forcing_fail(err, s, s->paths[file], SPH_ERR_NOMEM, "out of memory");
@@ -715,8 +1035,10 @@ static int tide_open(fsource *s, int ncid, cf_units *units, double t_ref, int no
         snprintf(v->file0, sizeof v->file0, "%s", path);
         if ((rc = grid_read(s, path, ncid, av, &v->vfiles[0], &v->grid, err)))
             goto done;
-        if (v->grid->curvilinear && v->which == FV_UCUR)
-            v->grid_relative = 0; /* the format stores eastward/northward components */
+        v->grid_relative = 0; /* the format stores eastward/northward components */
+        if (v->which == FV_UCUR || v->which == FV_VCUR)
+            snprintf(v->orient, sizeof v->orient,
+                     "earth-relative (a harmonic tide file holds east/north components)");
         char un[64] = "", pun[64] = "degree";
         double a = 1, b = 0, pa = 1, pb = 0;
         if (fnc_text_att(ncid, av, "units", un, sizeof un) != 0 ||
