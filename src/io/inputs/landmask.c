@@ -702,7 +702,7 @@ typedef struct {
     size_t nflags;
     double flag[MAX_FLAGS];
     int flag_land[MAX_FLAGS]; /* 1 land, 0 sea, -1 no information (sea) */
-    char why[160];
+    char why[512];
 } classifier;
 
 static int is_mask_standard_name(int ncid, int v)
@@ -779,7 +779,7 @@ static int classify_mask(rd_ctx *c, int v, const landmask_read_opts *o, classifi
     }
     /* older ROMS files: option_0 = "land", option_1 = "water" */
     for (int k = 0; k < 10 && cl->nflags < MAX_FLAGS; k++) {
-        char att[16], text[128];
+        char att[32], text[128];
         snprintf(att, sizeof att, "option_%d", k);
         if (!att_text(c->ncid, v, att, text, sizeof text)[0])
             continue;
