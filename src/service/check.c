@@ -156,7 +156,7 @@ int service_check(const struct sph_config *cfg, double t, int json, FILE *out)
     if (cfg->landmask.source == CFG_LAND_NETCDF || cfg->landmask.source == CFG_LAND_FORCING) {
         char lpath[4096] = "", why[512] = "";
         const char *tmpl = cfg->landmask.path[0] ? cfg->landmask.path : NULL;
-        for (size_t s = 0; !tmpl && s < cfg->nforcing; s++)
+        for (size_t s = 0; !tmpl && cfg->landmask.source == CFG_LAND_FORCING && s < cfg->nforcing; s++)
             if (cfg->forcing[s].kind == FORCING_OCEAN && cfg->forcing[s].urls.n)
                 tmpl = cfg->forcing[s].urls.v[0];
         sph_error e;

@@ -122,8 +122,10 @@ int fc_build_landmask(engine *e, double xmin, double xmax, double ymin, double y
     }
     case CFG_LAND_NETCDF:
     case CFG_LAND_FORCING: {
+        /* netcdf: landmask.path only; forcing: else the first ocean file */
         const char *path = cfg->landmask.path && cfg->landmask.path[0] ? cfg->landmask.path
-                                                                       : ocean_file(cfg, e->req);
+                           : cfg->landmask.source == CFG_LAND_FORCING ? ocean_file(cfg, e->req)
+                                                                      : NULL;
         int rc = forecast_landmask_read(cfg, path, &e->lm, NULL, 0, err);
         if (rc)
             return rc;
