@@ -480,70 +480,25 @@ static landmask *read_opts(const char *path, const char *var, landmask_from from
     return landmask_read_model(path, &o, err);
 }
 
+/* Reads with these options and checks the result against truth. */
+static void expect_native(const char *path, const char *var, landmask_from from, landmask_polarity pol,
+                          double land_value, const double *lon, const double *lat,
+                          const unsigned char *truth, int nx, int ny, const char *what)
+{
+    sph_error err;
+    landmask *m = read_opts(path, var, from, pol, land_value, 1, &err);
+    CHECK(m != NULL, "%s: %s", what, err.msg);
+    if (m)
+        check_native(m, lon, lat, truth, nx, ny, what);
+    landmask_free(m);
+}
+
 /* ------------------------------------------------------------ engine */
 
 static double atm_fn(int which, double lon, double lat, size_t k)
 {
     (void)lon; (void)lat; (void)k;
     return which == 0 ? 10.0 : which == 1 ? 0.0 : 263.15; /* wind from the west, toward the land */
-}
-
-static void write_atm(const char *path, double hours)
-{
-    tgrid g;
-    memset(&g, 0, sizeof g);
-    g.nx = 29;
-    g.ny = 13;
-    g.lon0 = 11.5;
-    g.dlon = 0.25;
-    g.lat0 = 75.0;
-    g.dlat = 0.25;
-    g.time_units = "hours since 1999-02-08 00:00:00";
-    g.calendar = "standard";
-    g.tv0 = 3.0;
-    g.dtv = 1.0;
-    tvar v[3];
-    memset(v, 0, sizeof v);
-    v[0] = (tvar){"u10", "eastward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, atm_fn, 0};
-    v[1] = (tvar){"v10", "northward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, atm_fn, 1};
-    v[2] = (tvar){"t2m", "air_temperature", "K", NC_FLOAT, 0, 0, 0, 0, 0, atm_fn, 2};
-    tnc_write(path, &g, v, 3, 0, (size_t)(hours + 3) + 1, NC_NETCDF4);
-}
-
-/* Ice: A = 0.9, h = 0.5 m on a 0.02 x 0.01 deg raster west of the coast. */
-static void write_ice(const char *path)
-{
-    enum { NLON = 126, NLAT = 61 }; /* 13.5-16.0 E, 76.2-76.8 N */
-    int nc, dlon, dlat, vlon, vlat, vc, vt;
-    NCW(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc));
-    NCW(nc_def_dim(nc, "lat", NLAT, &dlat));
-    NCW(nc_def_dim(nc, "lon", NLON, &dlon));
-    NCW(nc_def_var(nc, "lat", NC_DOUBLE, 1, &dlat, &vlat));
-    NCW(nc_def_var(nc, "lon", NC_DOUBLE, 1, &dlon, &vlon));
-    put_text(nc, vlat, "units", "degrees_north");
-    put_text(nc, vlon, "units", "degrees_east");
-    int d2[2] = {dlat, dlon};
-    NCW(nc_def_var(nc, "siconc", NC_DOUBLE, 2, d2, &vc));
-    put_text(nc, vc, "standard_name", "sea_ice_area_fraction");
-    put_text(nc, vc, "units", "1");
-    NCW(nc_def_var(nc, "sithick", NC_DOUBLE, 2, d2, &vt));
-    put_text(nc, vt, "standard_name", "sea_ice_thickness");
-    put_text(nc, vt, "units", "m");
-    NCW(nc_enddef(nc));
-    static double lon[NLON], lat[NLAT], c[NLAT * NLON], t[NLAT * NLON];
-    for (int i = 0; i < NLON; i++)
-        lon[i] = 13.5 + 0.02 * i;
-    for (int j = 0; j < NLAT; j++)
-        lat[j] = 76.2 + 0.01 * j;
-    for (int k = 0; k < NLAT * NLON; k++) {
-        c[k] = 0.9;
-        t[k] = 0.5;
-    }
-    NCW(nc_put_var_double(nc, vlon, lon));
-    NCW(nc_put_var_double(nc, vlat, lat));
-    NCW(nc_put_var_double(nc, vc, c));
-    NCW(nc_put_var_double(nc, vt, t));
-    NCW(nc_close(nc));
 }
 
 /* max_neighbours 160: at the stair-step coast of a rotated native grid a
@@ -585,11 +540,12 @@ static void engine_on_the_coast(const char *roms)
 {
     char p[2048], lm[1200];
     snprintf(p, sizeof p, "%s/atm.nc", dir);
-    write_atm(p, 48);
+    ec_write_atm_at(p, 48, 11.5, 75.0, 29, 13, atm_fn);
     static char atm[1024];
     snprintf(atm, sizeof atm, "%s/atm.nc", dir);
     snprintf(p, sizeof p, "%s/ice.nc", dir);
-    write_ice(p);
+    /* ice: A = 0.9, h = 0.5 m on a 0.02 x 0.01 deg raster, 13.5-16.0 E, 76.2-76.8 N */
+    ec_write_ice_at(p, 126, 61, 13.5, 76.2, 0.02, 0.01, 0.9, 0.5, -1);
     snprintf(lm, sizeof lm, "{\"source\": \"netcdf\", \"path\": \"%s\"}", roms);
     struct sph_config *cfg = engine_config(lm);
     if (!cfg)
@@ -682,18 +638,12 @@ int main(int argc, char **argv)
     }
     snprintf(path, sizeof path, "%s/roms_bare.nc", dir);
     write_roms(path, MASK_BARE_RHO);
-    m = read_opts(path, NULL, LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, 1, &err);
-    CHECK(m != NULL, "ROMS bare mask_rho: %s", err.msg);
-    if (m)
-        check_native(m, rlon, rlat, rland, NX, NY, "ROMS mask_rho (ROMS convention 0 land)");
-    landmask_free(m);
+    expect_native(path, NULL, LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, rlon, rlat, rland,
+                  NX, NY, "ROMS mask_rho (ROMS convention 0 land)");
     snprintf(path, sizeof path, "%s/roms_opt.nc", dir);
     write_roms(path, MASK_OPTIONS);
-    m = read_opts(path, "mask_rho", LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, 1, &err);
-    CHECK(m != NULL, "ROMS mask_rho with option_0/option_1: %s", err.msg);
-    if (m)
-        check_native(m, rlon, rlat, rland, NX, NY, "ROMS mask_rho (option_0 land, option_1 water)");
-    landmask_free(m);
+    expect_native(path, "mask_rho", LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, rlon, rlat, rland,
+                  NX, NY, "ROMS mask_rho (option_0 land, option_1 water)");
 
     /* ROMS: the fill pattern of u on its own u points (surface level) */
     m = read_opts(roms, "u", LANDMASK_FROM_FILL, LANDMASK_POL_AUTO, NAN, 1, &err);
@@ -716,11 +666,8 @@ int main(int argc, char **argv)
     /* met.no: fill of the current at the level nearest the surface */
     snprintf(path, sizeof path, "%s/metno.nc", dir);
     write_metno(path, MET_PLAIN);
-    m = read_opts(path, NULL, LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, 1, &err);
-    CHECK(m != NULL, "met.no fill: %s", err.msg);
-    if (m)
-        check_native(m, mlon, mlat, mland, MNX, MNY, "met.no u_eastward fill at 0 m");
-    landmask_free(m);
+    expect_native(path, NULL, LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, mlon, mlat, mland,
+                  MNX, MNY, "met.no u_eastward fill at 0 m");
     /* a mask file only (source netcdf): no mask variable is refused */
     m = read_opts(path, NULL, LANDMASK_FROM_MASK, LANDMASK_POL_AUTO, NAN, 0, &err);
     CHECK(m == NULL && strstr(err.msg, path) && strstr(err.msg, "landmask.variable"),
@@ -736,11 +683,8 @@ int main(int argc, char **argv)
     for (size_t k = 0; k < sizeof ok / sizeof ok[0]; k++) {
         snprintf(path, sizeof path, "%s/metno_%zu.nc", dir, k);
         write_metno(path, ok[k].style);
-        m = read_opts(path, NULL, LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, 1, &err);
-        CHECK(m != NULL, "%s: %s", ok[k].what, err.msg);
-        if (m)
-            check_native(m, mlon, mlat, mland, MNX, MNY, ok[k].what);
-        landmask_free(m);
+        expect_native(path, NULL, LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, mlon, mlat, mland, MNX,
+                      MNY, ok[k].what);
     }
 
     /* a 0/1 mask that does not say which value is land: refused, unless a key says */
@@ -751,16 +695,10 @@ int main(int argc, char **argv)
     CHECK(strstr(err.msg, "landmask.land_value") != NULL, "names landmask.land_value too");
     m = read_opts(path, "mask", LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, 1, &err);
     check_refused(m, &err, path, "mask", "landmask.polarity", "named 0/1 mask without meanings");
-    m = read_opts(path, "mask", LANDMASK_FROM_AUTO, LANDMASK_POL_LAND_IS_1, NAN, 1, &err);
-    CHECK(m != NULL, "polarity land_is_1: %s", err.msg);
-    if (m)
-        check_native(m, mlon, mlat, mland, MNX, MNY, "landmask.polarity land_is_1");
-    landmask_free(m);
-    m = read_opts(path, "mask", LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, 1.0, 1, &err);
-    CHECK(m != NULL, "land_value 1: %s", err.msg);
-    if (m)
-        check_native(m, mlon, mlat, mland, MNX, MNY, "landmask.land_value 1");
-    landmask_free(m);
+    expect_native(path, "mask", LANDMASK_FROM_AUTO, LANDMASK_POL_LAND_IS_1, NAN, mlon, mlat, mland,
+                  MNX, MNY, "landmask.polarity land_is_1");
+    expect_native(path, "mask", LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, 1.0, mlon, mlat, mland,
+                  MNX, MNY, "landmask.land_value 1");
     m = read_opts(path, "mask", LANDMASK_FROM_AUTO, LANDMASK_POL_WATER_IS_1, NAN, 1, &err);
     CHECK(m != NULL, "polarity water_is_1: %s", err.msg);
     if (m) {

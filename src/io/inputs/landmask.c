@@ -606,18 +606,6 @@ static long native_nearest(const landmask *m, double lon, double lat)
 
 /* ------------------------------------------------------ NetCDF masks */
 
-typedef struct {
-    int ncid;
-    const char *path;
-    sph_error *err;
-} rd_ctx;
-
-static int rd_fail(rd_ctx *c, int status, const char *what)
-{
-    return sph_err_set(c->err, SPH_ERR_NETCDF, "land mask %s: %s: %s", c->path, what,
-                       nc_strerror(status));
-}
-
 /* Text attribute into buf ("" when absent or too long). */
 static const char *att_text(int ncid, int varid, const char *att, char *buf, size_t cap)
 {
@@ -725,7 +713,7 @@ static int has_flag_land(int ncid, int v)
 }
 
 /* How a mask variable says land; refuses what it does not say. */
-static int classify_mask(rd_ctx *c, int v, const landmask_read_opts *o, classifier *cl)
+static int classify_mask(nc_ctx *c, int v, const landmask_read_opts *o, classifier *cl)
 {
     char name[NC_MAX_NAME + 1], sn[128];
     var_name(c->ncid, v, name);
@@ -876,7 +864,7 @@ static int find_fill_var(int ncid)
 
 /* The index to read along a leading dimension: time-like or of size 1: 0;
  * vertical: the level nearest the surface; anything else is refused. */
-static int leading_index(rd_ctx *c, int v, int dimid, size_t *index)
+static int leading_index(nc_ctx *c, int v, int dimid, size_t *index)
 {
     char dname[NC_MAX_NAME + 1], vname[NC_MAX_NAME + 1];
     size_t len = 0;
@@ -918,7 +906,7 @@ static int leading_index(rd_ctx *c, int v, int dimid, size_t *index)
     int status = nc_get_var_double(c->ncid, cv, z);
     if (status != NC_NOERR) {
         free(z);
-        return rd_fail(c, status, dname);
+        return nc_fail(c, status, dname);
     }
     for (size_t k = 1; k < len; k++)
         if (down ? fabs(z[k]) < fabs(z[*index]) : z[k] > z[*index])
@@ -976,7 +964,7 @@ static int coord2d_var(int ncid, int v, int ydim, int xdim, int kind)
     return -1;
 }
 
-static double *read_all(rd_ctx *c, int v, size_t n)
+static double *read_all(nc_ctx *c, int v, size_t n)
 {
     double *a = malloc(sizeof *a * (n ? n : 1));
     if (!a) {
@@ -985,7 +973,7 @@ static double *read_all(rd_ctx *c, int v, size_t n)
     }
     int status = nc_get_var_double(c->ncid, v, a);
     if (status != NC_NOERR) {
-        rd_fail(c, status, "read coordinates");
+        nc_fail(c, status, "read coordinates");
         free(a);
         return NULL;
     }
@@ -1036,10 +1024,10 @@ landmask *landmask_read_model(const char *path, const landmask_read_opts *opts, 
         o = *opts;
     else
         o = (landmask_read_opts){NULL, LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, 0};
-    rd_ctx c = {-1, path, err};
+    nc_ctx c = {-1, path, err};
     int status = nc_open(path, NC_NOWRITE, &c.ncid);
     if (status != NC_NOERR) {
-        rd_fail(&c, status, "open");
+        nc_fail(&c, status, "open");
         return NULL;
     }
     int v = -1, fill = o.from == LANDMASK_FROM_FILL;
@@ -1135,7 +1123,7 @@ landmask *landmask_read_model(const char *path, const landmask_read_opts *opts, 
         } else if (cx >= 0 && cy >= 0) {
             if ((status = nc_get_var_double(c.ncid, cx, lon)) != NC_NOERR ||
                 (status = nc_get_var_double(c.ncid, cy, lat)) != NC_NOERR) {
-                rd_fail(&c, status, "read 2-D longitude/latitude");
+                nc_fail(&c, status, "read 2-D longitude/latitude");
                 v = -1;
             }
         } else {
@@ -1153,7 +1141,7 @@ landmask *landmask_read_model(const char *path, const landmask_read_opts *opts, 
         if (!vals || !land)
             sph_err_set(err, SPH_ERR_NOMEM, "land mask %s: out of memory", path);
         else if ((status = nc_get_vara_double(c.ncid, v, start, count, vals)) != NC_NOERR)
-            rd_fail(&c, status, "read mask variable");
+            nc_fail(&c, status, "read mask variable");
         else {
             double fv = NAN, missing = NAN, scale = 1, offset = 0;
             int has_fill = nc_get_att_double(c.ncid, v, "_FillValue", &fv) == NC_NOERR;
