@@ -37,16 +37,19 @@ static double ec_atm_fn(int which, double lon, double lat, size_t k)
     return which == 0 ? EC_WIND_U : which == 1 ? EC_WIND_V : EC_TAIR_K;
 }
 
-/* hours: forcing from cycle - 3 h to cycle + hours (hourly). */
-static inline void ec_write_atm(const char *path, double hours)
+/* An hourly atmosphere from cycle - 3 h to cycle + hours on nx x ny
+ * nodes every 0.25 deg from (lon0, lat0): u10, v10, t2m from fn. */
+static inline void ec_write_atm_at(const char *path, double hours, double lon0, double lat0,
+                                   size_t nx, size_t ny,
+                                   double (*fn)(int, double, double, size_t))
 {
     tgrid g;
     memset(&g, 0, sizeof g);
-    g.nx = 9;
-    g.ny = 7;
-    g.lon0 = 120.5;
+    g.nx = nx;
+    g.ny = ny;
+    g.lon0 = lon0;
     g.dlon = 0.25;
-    g.lat0 = 39.5;
+    g.lat0 = lat0;
     g.dlat = 0.25;
     g.time_units = "hours since 1999-02-08 00:00:00";
     g.calendar = "standard";
@@ -54,11 +57,17 @@ static inline void ec_write_atm(const char *path, double hours)
     g.dtv = 1.0;
     tvar v[3];
     memset(v, 0, sizeof v);
-    v[0] = (tvar){"u10", "eastward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, ec_atm_fn, 0};
-    v[1] = (tvar){"v10", "northward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, ec_atm_fn, 1};
-    v[2] = (tvar){"t2m", "air_temperature", "K", NC_FLOAT, 0, 0, 0, 0, 0, ec_atm_fn, 2};
+    v[0] = (tvar){"u10", "eastward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, fn, 0};
+    v[1] = (tvar){"v10", "northward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, fn, 1};
+    v[2] = (tvar){"t2m", "air_temperature", "K", NC_FLOAT, 0, 0, 0, 0, 0, fn, 2};
     size_t nt = (size_t)(hours + 3) + 1;
     tnc_write(path, &g, v, 3, 0, nt, NC_NETCDF4);
+}
+
+/* hours: forcing from cycle - 3 h to cycle + hours (hourly). */
+static inline void ec_write_atm(const char *path, double hours)
+{
+    ec_write_atm_at(path, hours, 120.5, 39.5, 9, 7, ec_atm_fn);
 }
 
 #define EC_CURRENT_E 0.1   /* ocean.nc: eastward current, m/s */
@@ -96,14 +105,17 @@ static inline void ec_write_ocean(const char *path)
     tnc_write(path, &g, v, 2, 0, 13, NC_NETCDF4);
 }
 
-/* Ice raster; nan_cell >= 0 puts an undeclared NaN there. */
-static inline void ec_write_ice(const char *path, int nan_cell)
+/* Ice raster of nlon x nlat nodes from (lon0, lat0) every (dlon, dlat),
+ * concentration conc, thickness thick (standard names); nan_cell >= 0
+ * puts an undeclared NaN there. */
+static inline void ec_write_ice_at(const char *path, int nlon, int nlat, double lon0, double lat0,
+                                   double dlon_, double dlat_, double conc, double thick,
+                                   int nan_cell)
 {
-    enum { NLON = 31, NLAT = 21 };
     int nc, dlon, dlat, vlon, vlat, vc, vt;
     NCW(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc));
-    NCW(nc_def_dim(nc, "lat", NLAT, &dlat));
-    NCW(nc_def_dim(nc, "lon", NLON, &dlon));
+    NCW(nc_def_dim(nc, "lat", (size_t)nlat, &dlat));
+    NCW(nc_def_dim(nc, "lon", (size_t)nlon, &dlon));
     NCW(nc_def_var(nc, "lat", NC_DOUBLE, 1, &dlat, &vlat));
     NCW(nc_def_var(nc, "lon", NC_DOUBLE, 1, &dlon, &vlon));
     NCW(nc_put_att_text(nc, vlat, "units", 13, "degrees_north"));
@@ -116,14 +128,17 @@ static inline void ec_write_ice(const char *path, int nan_cell)
     NCW(nc_put_att_text(nc, vt, "standard_name", 17, "sea_ice_thickness"));
     NCW(nc_put_att_text(nc, vt, "units", 1, "m"));
     NCW(nc_enddef(nc));
-    double lon[NLON], lat[NLAT], c[NLAT * NLON], t[NLAT * NLON];
-    for (int i = 0; i < NLON; i++)
-        lon[i] = 121.2 + 0.02 * i;
-    for (int j = 0; j < NLAT; j++)
-        lat[j] = 40.1 + 0.02 * j;
-    for (int k = 0; k < NLAT * NLON; k++) {
-        c[k] = EC_CONC;
-        t[k] = EC_THICK;
+    double *lon = malloc(sizeof *lon * (size_t)nlon), *lat = malloc(sizeof *lat * (size_t)nlat);
+    double *c = malloc(sizeof *c * (size_t)(nlat * nlon)), *t = malloc(sizeof *t * (size_t)(nlat * nlon));
+    if (!lon || !lat || !c || !t)
+        exit(2);
+    for (int i = 0; i < nlon; i++)
+        lon[i] = lon0 + dlon_ * i;
+    for (int j = 0; j < nlat; j++)
+        lat[j] = lat0 + dlat_ * j;
+    for (int k = 0; k < nlat * nlon; k++) {
+        c[k] = conc;
+        t[k] = thick;
     }
     if (nan_cell >= 0)
         c[nan_cell] = NAN;
@@ -132,6 +147,16 @@ static inline void ec_write_ice(const char *path, int nan_cell)
     NCW(nc_put_var_double(nc, vc, c));
     NCW(nc_put_var_double(nc, vt, t));
     NCW(nc_close(nc));
+    free(lon);
+    free(lat);
+    free(c);
+    free(t);
+}
+
+/* Ice raster; nan_cell >= 0 puts an undeclared NaN there. */
+static inline void ec_write_ice(const char *path, int nan_cell)
+{
+    ec_write_ice_at(path, 31, 21, 121.2, 40.1, 0.02, 0.02, EC_CONC, EC_THICK, nan_cell);
 }
 
 static inline void ec_write_mask(const char *path)

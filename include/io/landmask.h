@@ -13,7 +13,16 @@
  *    > 0.5), sea_binary_mask (land where < 0.5), land_area_fraction or
  *    ERA5 "lsm" (land where > 0.5), or a variable "mask" (land where > 0.5);
  *  - the fill pattern of a forcing variable: land where the value is the
- *    _FillValue / missing_value or NaN.
+ *    _FillValue / missing_value or NaN;
+ *  - an ocean model's own file on its native grid (landmask_read_model):
+ *    a mask variable whose flag_values/flag_meanings, standard name
+ *    (land_binary_mask, sea_binary_mask, land/sea_area_fraction) or ROMS
+ *    name (mask_rho: 1 water, 0 land) says which value is land, or a key
+ *    (land_value, polarity) that says it; else the fill pattern of a
+ *    current or sea-surface height at the level nearest the surface.
+ *    Curvilinear grids (2-D lon/lat) stay native: a point is land where
+ *    the cell with the nearest centre is land. A 0/1 mask that does not say
+ *    which value is land is refused, never guessed.
  */
 #ifndef SPHICE_IO_LANDMASK_H
 #define SPHICE_IO_LANDMASK_H
@@ -48,6 +57,35 @@ typedef enum {
  * more than two dimensions the first index of the leading ones is used. */
 landmask *landmask_read_netcdf(const char *path, const char *variable, landmask_nc_mode mode,
                                sph_error *err);
+
+typedef enum {
+    LANDMASK_FROM_AUTO = 0, /* a mask variable; else (fill_fallback) the fill of a current */
+    LANDMASK_FROM_MASK,     /* a mask variable only */
+    LANDMASK_FROM_FILL      /* the fill pattern of `variable` (or of a current) */
+} landmask_from;
+typedef enum {
+    LANDMASK_POL_AUTO = 0,    /* from flag meanings, standard name or ROMS name; else refused */
+    LANDMASK_POL_LAND_IS_1,   /* land where the value is > 0.5 */
+    LANDMASK_POL_WATER_IS_1   /* land where the value is < 0.5 */
+} landmask_polarity;
+typedef struct landmask_read_opts {
+    const char *variable;     /* NULL or "": found in the file */
+    landmask_from from;
+    landmask_polarity polarity;
+    double land_value;        /* land where the (unpacked) value equals it; NAN: unset */
+    int fill_fallback;        /* AUTO without a mask variable: use a current's fill */
+} landmask_read_opts;
+/* Reads land from a model or mask file; a 1-D regular lon/lat grid gives a
+ * regular mask, anything else (2-D lon/lat, irregular axes) a native one.
+ * Errors are one line naming the file, the variable and the key
+ * (landmask.variable, landmask.land_value, landmask.polarity). */
+landmask *landmask_read_model(const char *path, const landmask_read_opts *opts, sph_error *err);
+/* 1 if the mask is on a native (not regular lon/lat) grid; its
+ * landmask_get_grid gives nx, ny and NAN origin and steps. */
+int landmask_is_native(const landmask *m);
+/* A native mask's mean distance between neighbouring cell centres, m
+ * (NAN for a regular mask). */
+double landmask_native_spacing_m(const landmask *m);
 
 /* A mask from an array (copied), e.g. for tests or a model grid. */
 landmask *landmask_create_array(int nlon, int nlat, double lon0, double lat0, double dlon,

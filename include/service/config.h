@@ -92,6 +92,9 @@ struct sph_config {
         int source;             /* CFG_LAND_* */
         char *path, *variable;
         int resolution;         /* CFG_LAND_RES_* */
+        int from;               /* landmask_from: auto, mask, fill */
+        int polarity;           /* landmask_polarity: auto, land_is_1, water_is_1 */
+        char *land_value;       /* "" or a number: the value that is land */
     } landmask;
 
     struct {

@@ -67,6 +67,15 @@ typedef struct forecast_result {
 int forecast_source_spec(const struct sph_config *cfg, size_t s, const char *const *files,
                          forcing_source_spec *sp, forcing_name_map **map, sph_error *err);
 
+/* The land mask of a netcdf or forcing landmask source read from path
+ * (the landmask.path, or the ocean source's first file) with the
+ * landmask.* keys; why (may be NULL) gets a line of what was found.
+ * Returns SPH_OK, or an error with one line naming the file, the
+ * variable and the key. *out is freed with landmask_free. */
+struct landmask;
+int forecast_landmask_read(const struct sph_config *cfg, const char *path, struct landmask **out,
+                           char *why, size_t why_len, sph_error *err);
+
 /* Returns SPH_OK, or an error code with one clear line in err. Checks
  * *cancel between steps; when set, stops and returns SPH_ERR_CANCELLED. */
 int forecast_run(const struct sph_config *cfg, const forecast_request *req,

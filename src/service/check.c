@@ -10,6 +10,7 @@
 #include <sys/stat.h>
 
 #include "io/forcing.h"
+#include "io/landmask.h"
 #include "service/config.h"
 #include "service/cycle_name.h"
 #include "service/forecast.h"
@@ -161,6 +162,37 @@ int service_check(const struct sph_config *cfg, double t, int json, FILE *out)
         free(map);
     }
     free(paths);
+    /* landmask: read it as the cycle will, so that a mask whose polarity
+     * the file does not say is reported here, not at the cycle */
+    if (cfg->landmask.source == CFG_LAND_NETCDF || cfg->landmask.source == CFG_LAND_FORCING) {
+        char lpath[4096] = "", why[512] = "";
+        const char *tmpl = cfg->landmask.path[0] ? cfg->landmask.path : NULL;
+        for (size_t s = 0; !tmpl && cfg->landmask.source == CFG_LAND_FORCING && s < cfg->nforcing; s++)
+            if (cfg->forcing[s].kind == FORCING_OCEAN && cfg->forcing[s].urls.n)
+                tmpl = cfg->forcing[s].urls.v[0];
+        sph_error e;
+        sph_error_clear(&e);
+        int rc = tmpl ? cycle_expand_template(tmpl, t, lpath, sizeof lpath, &e) : SPH_OK;
+        const char *lp = !strncmp(lpath, "file://", 7) ? lpath + 7 : lpath;
+        struct stat st;
+        if (!rc && (!lp[0] || (!strstr(lp, "://") && stat(lp, &st) == 0))) {
+            struct landmask *lm = NULL;
+            rc = forecast_landmask_read(cfg, lp, &lm, why, sizeof why, &e);
+            landmask_free(lm);
+        } else if (!rc) {
+            rc = -1; /* remote or missing: listed above */
+        }
+        if (rc >= 0) {
+            cJSON *r = cJSON_CreateObject();
+            cJSON_AddStringToObject(r, "source", "landmask");
+            cJSON_AddStringToObject(r, rc ? "problem" : "land", rc ? e.msg : why);
+            cJSON_AddItemToArray(vars, r);
+            if (rc)
+                problems++;
+            if (!json)
+                fprintf(out, rc ? "PROBLEM      %s\n" : "landmask     %s\n", rc ? e.msg : why);
+        }
+    }
     if (problems)
         missing_required++;
     cJSON_AddBoolToObject(root, "ok", missing_required == 0);

@@ -60,6 +60,8 @@ static const char *const init_format_names[] = {"netcdf", "esri", NULL};
 static const char *const reinit_names[] = {"warm", "cold", "newer_raster", NULL};
 static const char *const land_names[] = {"none", "gshhg", "netcdf", "forcing", NULL};
 static const char *const landres_names[] = {"crude", "low", "intermediate", "high", "full", NULL};
+static const char *const landfrom_names[] = {"auto", "mask", "fill", NULL};
+static const char *const landpol_names[] = {"auto", "land_is_1", "water_is_1", NULL};
 static const char *const grid_names[] = {"regular", "raster", NULL};
 static const char *const late_names[] = {"fail", "stale", NULL};
 static const char *const engine_names[] = {"forecast", "test-double", NULL};
@@ -146,10 +148,16 @@ static const cfg_key tail_keys[] = {
     C_("landmask.source", CT_ENUM, landmask.source, "\"none\"", 0, 0, R, land_names,
        "none, gshhg (shoreline polygons), netcdf (mask variable), forcing (ocean model's land)."),
     C_("landmask.path", CT_STRING, landmask.path, "\"\"", 0, 4095, R, NULL, "Land mask file."),
-    C_("landmask.variable", CT_STRING, landmask.variable, "\"mask\"", 1, 63, R, NULL,
-       "Mask variable (netcdf source)."),
+    C_("landmask.variable", CT_STRING, landmask.variable, "\"\"", 0, 63, R, NULL,
+       "Mask variable, or (from fill) the variable whose fill marks land; empty: found in the file (a land/sea mask by standard name, flag meanings or ROMS mask_rho; for source forcing else a current's fill)."),
     C_("landmask.resolution", CT_ENUM, landmask.resolution, "\"intermediate\"", 0, 0, R, landres_names,
        "GSHHG resolution."),
+    C_("landmask.from", CT_ENUM, landmask.from, "\"auto\"", 0, 0, R, landfrom_names,
+       "netcdf/forcing sources: auto (a mask variable; for forcing, else the fill pattern of a current), mask (a mask variable only), fill (land where landmask.variable, or a current, is _FillValue/missing/NaN, at the level nearest the surface)."),
+    C_("landmask.polarity", CT_ENUM, landmask.polarity, "\"auto\"", 0, 0, R, landpol_names,
+       "Which value of a 0/1 mask is land: auto (from flag_meanings, standard name land_binary_mask/sea_binary_mask or ROMS mask_rho; a mask that says nothing is refused), land_is_1, water_is_1."),
+    C_("landmask.land_value", CT_STRING, landmask.land_value, "\"\"", 0, 31, R, NULL,
+       "The mask value that is land (a number, after scale_factor/add_offset); empty: see landmask.polarity. Overrides flag meanings."),
 
     C_("output.dir", CT_STRING, output.dir, NULL, 1, 4095, 0, NULL,
        "Product directory: one <YYYYMMDDTHHZ>/ per cycle and a `latest` symlink."),

@@ -47,6 +47,51 @@ static const char *ocean_file(const struct sph_config *cfg, const forecast_reque
     return NULL;
 }
 
+int forecast_landmask_read(const struct sph_config *cfg, const char *path, landmask **out,
+                           char *why, size_t why_len, sph_error *err)
+{
+    *out = NULL;
+    int from_forcing = cfg->landmask.source == CFG_LAND_FORCING;
+    if (!path || !path[0])
+        return sph_err_set(err, SPH_ERR_CONFIG, from_forcing
+                           ? "config: landmask.source forcing: no forcing file to take the land "
+                             "from (set landmask.path)"
+                           : "config: landmask.path: required for source netcdf");
+    landmask_read_opts o;
+    memset(&o, 0, sizeof o);
+    o.variable = cfg->landmask.variable;
+    o.from = (landmask_from)cfg->landmask.from;
+    if (!from_forcing && o.from == LANDMASK_FROM_AUTO)
+        o.from = LANDMASK_FROM_MASK; /* a mask file: its mask, never a fill guess */
+    o.polarity = (landmask_polarity)cfg->landmask.polarity;
+    o.fill_fallback = from_forcing;
+    o.land_value = NAN;
+    const char *lv = cfg->landmask.land_value;
+    if (lv && lv[0]) {
+        char *end = NULL;
+        o.land_value = strtod(lv, &end);
+        while (end && (*end == ' ' || *end == '\t'))
+            end++;
+        if (!end || end == lv || *end || !isfinite(o.land_value))
+            return sph_err_set(err, SPH_ERR_CONFIG, "config: landmask.land_value: \"%s\" is not a "
+                               "number", lv);
+    }
+    *out = landmask_read_model(path, &o, err);
+    if (!*out)
+        return err->code ? err->code : SPH_ERR_IO;
+    if (why && why_len) {
+        int nx, ny;
+        landmask_get_grid(*out, &nx, &ny, NULL, NULL, NULL, NULL);
+        size_t nl = 0;
+        const unsigned char *d = landmask_data(*out);
+        for (size_t k = 0; k < (size_t)nx * (size_t)ny; k++)
+            nl += d[k];
+        snprintf(why, why_len, "%s: %zu of %zu cells land on its %s grid (%d x %d)", path, nl,
+                 (size_t)nx * (size_t)ny, landmask_is_native(*out) ? "native" : "lon/lat", nx, ny);
+    }
+    return SPH_OK;
+}
+
 int fc_build_landmask(engine *e, double xmin, double xmax, double ymin, double ymax, double cell,
                           sph_error *err)
 {
@@ -76,34 +121,24 @@ int fc_build_landmask(engine *e, double xmin, double xmax, double ymin, double y
         break;
     }
     case CFG_LAND_NETCDF:
-        if (!cfg->landmask.path || !cfg->landmask.path[0])
-            return sph_err_set(err, SPH_ERR_CONFIG, "config: landmask.path: required for source netcdf");
-        /* the default "mask" is one of the names the automatic search tries
-         * (after land_binary_mask, sea_binary_mask, lsm ...) */
-        e->lm = landmask_read_netcdf(cfg->landmask.path,
-                                     cfg->landmask.variable && cfg->landmask.variable[0] &&
-                                             strcmp(cfg->landmask.variable, "mask")
-                                         ? cfg->landmask.variable : NULL,
-                                     LANDMASK_NC_AUTO, err);
-        if (!e->lm)
-            return err->code ? err->code : SPH_ERR_IO;
-        break;
     case CFG_LAND_FORCING: {
+        /* netcdf: landmask.path only; forcing: else the first ocean file */
         const char *path = cfg->landmask.path && cfg->landmask.path[0] ? cfg->landmask.path
-                                                                       : ocean_file(cfg, e->req);
-        if (!path)
-            return sph_err_set(err, SPH_ERR_CONFIG,
-                               "config: landmask.source forcing: no forcing file to take the land from");
-        e->lm = landmask_read_netcdf(path, cfg->landmask.variable, LANDMASK_NC_FILL, err);
-        if (!e->lm)
-            return err->code ? err->code : SPH_ERR_IO;
+                           : cfg->landmask.source == CFG_LAND_FORCING ? ocean_file(cfg, e->req)
+                                                                      : NULL;
+        int rc = forecast_landmask_read(cfg, path, &e->lm, NULL, 0, err);
+        if (rc)
+            return rc;
         break;
     }
     default:
         return sph_err_set(err, SPH_ERR_CONFIG, "config: landmask.source: unknown value %d",
                            cfg->landmask.source);
     }
-    /* plane grid over the projected domain box */
+    /* plane grid over the projected domain box; on a native model grid in
+     * cells of at most a third of the model's, so that its coast is kept */
+    if (e->lm && landmask_is_native(e->lm) && landmask_native_spacing_m(e->lm) / 3 < cell)
+        cell = landmask_native_spacing_m(e->lm) / 3;
     int nx = (int)ceil((xmax - xmin) / cell), ny = (int)ceil((ymax - ymin) / cell);
     while ((double)nx * ny > (double)MAX_PLANE_CELLS) {
         cell *= 1.5;

@@ -43,9 +43,16 @@
 #include "util/log.h"
 
 struct landmask {
-    int nlon, nlat;
+    int nlon, nlat; /* native: nx, ny */
     double lon0, lat0, dlon, dlat; /* south-west corner of cell (0,0), cell size */
     unsigned char *land;
+    /* native grid (see "native grids" below) */
+    int native;
+    float *xyz;       /* unit vectors of the cell centres, 3 per cell */
+    float *reach2;    /* squared chord to the farthest neighbouring centre */
+    double bmin[3], bsize, spacing; /* spacing: mean chord between neighbours */
+    int nb[3];
+    uint32_t *bstart, *bidx;
 };
 
 static landmask *mask_alloc(int nlon, int nlat, double lon0, double lat0, double dlon,
@@ -78,6 +85,10 @@ void landmask_free(landmask *m)
     if (!m)
         return;
     free(m->land);
+    free(m->xyz);
+    free(m->reach2);
+    free(m->bstart);
+    free(m->bidx);
     free(m);
 }
 
@@ -91,10 +102,16 @@ landmask *landmask_create_array(int nlon, int nlat, double lon0, double lat0, do
     return m;
 }
 
+static long native_nearest(const landmask *m, double lon, double lat);
+
 int landmask_is_land(const landmask *m, double lon, double lat)
 {
     if (!m || !isfinite(lon) || !isfinite(lat))
         return -1;
+    if (m->native) {
+        long k = native_nearest(m, lon, lat);
+        return k < 0 ? -1 : m->land[k];
+    }
     double u = lon - m->lon0;
     u -= 360.0 * floor(u / 360.0); /* 0..360 east of the grid's west edge */
     double fi = u / m->dlon, fj = (lat - m->lat0) / m->dlat;
@@ -115,6 +132,13 @@ void landmask_get_grid(const landmask *m, int *nlon, int *nlat, double *lon0, do
 }
 
 const unsigned char *landmask_data(const landmask *m) { return m ? m->land : NULL; }
+
+int landmask_is_native(const landmask *m) { return m && m->native; }
+
+double landmask_native_spacing_m(const landmask *m)
+{
+    return m && m->native ? m->spacing * 6371000.0 : NAN;
+}
 
 /* ---------------------------------------------------------------- GSHHG */
 
@@ -388,175 +412,808 @@ landmask *landmask_create_gshhg(const char *path, const landmask_grid *g, sph_er
 
 /* ------------------------------------------------------ NetCDF masks */
 
-/* A regular 1-D coordinate: first value and step (may be negative). */
-static int read_regular_axis(nc_ctx *c, int dimid, const char *what, size_t *n, double *first,
-                             double *step)
+/* ------------------------------------------------------ native grids
+ *
+ * A mask on the model's own grid (curvilinear with 2-D lon/lat, or 1-D
+ * axes that are not regular): a point is land where the cell whose centre
+ * is nearest (on the sphere) is land. Centres are unit vectors bucketed in
+ * a 3-D grid; a point farther from the nearest centre than that cell's
+ * reach (its largest distance to a neighbouring centre) is outside the
+ * grid (-1). */
+
+static void unit_vec(double lon, double lat, double v[3])
 {
-    char name[NC_MAX_NAME + 1];
-    int status = nc_inq_dim(c->ncid, dimid, name, n);
-    if (status != NC_NOERR)
-        return nc_fail(c, status, "dimension");
-    int varid;
-    if (nc_inq_varid(c->ncid, name, &varid) != NC_NOERR)
-        return sph_err_set(c->err, SPH_ERR_MISSING_VAR,
-                           "land mask %s: no coordinate variable for %s dimension \"%s\"", c->path,
-                           what, name);
-    double *v = malloc(sizeof *v * (*n ? *n : 1));
-    if (!v)
-        return sph_err_set(c->err, SPH_ERR_NOMEM, "land mask %s: out of memory", c->path);
-    status = nc_get_var_double(c->ncid, varid, v);
-    if (status != NC_NOERR) {
-        free(v);
-        return nc_fail(c, status, name);
-    }
-    int rc = SPH_OK;
-    if (*n < 2) {
-        rc = sph_err_set(c->err, SPH_ERR_BAD_DATA, "land mask %s: %s axis \"%s\" has %zu value(s)",
-                         c->path, what, name, *n);
-    } else {
-        *first = v[0];
-        *step = (v[*n - 1] - v[0]) / (double)(*n - 1);
-        for (size_t k = 1; k < *n && rc == SPH_OK; k++)
-            if (!(fabs(v[k] - v[k - 1] - *step) <= 1e-3 * fabs(*step)) || *step == 0)
-                rc = sph_err_set(c->err, SPH_ERR_BAD_DATA,
-                                 "land mask %s: %s axis \"%s\" is not regular at index %zu",
-                                 c->path, what, name, k);
-    }
-    free(v);
-    return rc;
+    double a = lon * M_PI / 180.0, b = lat * M_PI / 180.0;
+    v[0] = cos(b) * cos(a);
+    v[1] = cos(b) * sin(a);
+    v[2] = sin(b);
 }
 
-static int att_text_equals(int ncid, int varid, const char *att, const char *want)
+static double chord2(const float *a, const double *b)
+{
+    double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    return dx * dx + dy * dy + dz * dz;
+}
+
+static int bucket_coord(const landmask *m, double x, int d)
+{
+    int c = (int)floor((x - m->bmin[d]) / m->bsize);
+    return c < 0 ? 0 : c >= m->nb[d] ? m->nb[d] - 1 : c;
+}
+
+/* Takes lon/lat (nx*ny, row-major j*nx+i) and the land flags. */
+static landmask *native_create(size_t nx, size_t ny, const double *lon, const double *lat,
+                               const unsigned char *land, const char *path, sph_error *err)
+{
+    size_t n = nx * ny;
+    if (n == 0 || n > 200000000u) {
+        sph_err_set(err, SPH_ERR_PARAM, "land mask %s: bad native grid %zu x %zu", path, nx, ny);
+        return NULL;
+    }
+    landmask *m = calloc(1, sizeof *m);
+    if (!m) {
+        sph_err_set(err, SPH_ERR_NOMEM, "land mask %s: out of memory", path);
+        return NULL;
+    }
+    m->native = 1;
+    m->nlon = (int)nx;
+    m->nlat = (int)ny;
+    m->lon0 = m->lat0 = m->dlon = m->dlat = NAN;
+    m->land = malloc(n);
+    m->xyz = malloc(sizeof *m->xyz * 3 * n);
+    m->reach2 = malloc(sizeof *m->reach2 * n);
+    m->bidx = malloc(sizeof *m->bidx * n);
+    if (!m->land || !m->xyz || !m->reach2 || !m->bidx)
+        goto nomem;
+    double lo[3] = {2, 2, 2}, hi[3] = {-2, -2, -2}, sum = 0;
+    size_t nsum = 0;
+    for (size_t k = 0; k < n; k++) {
+        double v[3];
+        m->land[k] = land[k] ? 1 : 0;
+        if (!isfinite(lon[k]) || !isfinite(lat[k]) || fabs(lat[k]) > 90) {
+            m->xyz[3 * k] = m->xyz[3 * k + 1] = m->xyz[3 * k + 2] = NAN;
+            continue;
+        }
+        unit_vec(lon[k], lat[k], v);
+        for (int d = 0; d < 3; d++) {
+            m->xyz[3 * k + d] = (float)v[d];
+            lo[d] = fmin(lo[d], v[d]);
+            hi[d] = fmax(hi[d], v[d]);
+        }
+    }
+    for (size_t j = 0; j < ny; j++)
+        for (size_t i = 0; i < nx; i++) {
+            size_t k = j * nx + i;
+            double r2 = 0, c[3] = {m->xyz[3 * k], m->xyz[3 * k + 1], m->xyz[3 * k + 2]};
+            const long di[8] = {-1, 1, 0, 0, -1, -1, 1, 1}, dj[8] = {0, 0, -1, 1, -1, 1, -1, 1};
+            for (int q = 0; q < 8; q++) {
+                long ii = (long)i + di[q], jj = (long)j + dj[q];
+                if (ii < 0 || jj < 0 || ii >= (long)nx || jj >= (long)ny)
+                    continue;
+                double d2 = chord2(&m->xyz[3 * ((size_t)jj * nx + (size_t)ii)], c);
+                if (isfinite(d2) && d2 > r2)
+                    r2 = d2;
+                if (q < 4 && isfinite(d2) && d2 > 0) {
+                    sum += sqrt(d2);
+                    nsum++;
+                }
+            }
+            /* a single row or column: reach from its one direction */
+            m->reach2[k] = (float)(r2 * 1.0001);
+        }
+    if (nsum == 0 || !(hi[0] >= lo[0])) {
+        sph_err_set(err, SPH_ERR_BAD_DATA, "land mask %s: native grid has no valid neighbouring "
+                    "cell centres", path);
+        landmask_free(m);
+        return NULL;
+    }
+    double spacing = sum / (double)nsum;
+    m->spacing = spacing;
+    m->bsize = 2 * spacing;
+    for (;;) {
+        double nb = 1;
+        for (int d = 0; d < 3; d++)
+            nb *= floor((hi[d] - lo[d]) / m->bsize) + 1;
+        if (nb <= 4.0 * (double)n + 64 && nb <= 3e7)
+            break;
+        m->bsize *= 1.26;
+    }
+    size_t nbt = 1;
+    for (int d = 0; d < 3; d++) {
+        m->bmin[d] = lo[d];
+        m->nb[d] = (int)floor((hi[d] - lo[d]) / m->bsize) + 1;
+        nbt *= (size_t)m->nb[d];
+    }
+    m->bstart = calloc(nbt + 1, sizeof *m->bstart);
+    if (!m->bstart)
+        goto nomem;
+    for (int pass = 0; pass < 2; pass++) {
+        for (size_t k = 0; k < n; k++) {
+            if (isnan(m->xyz[3 * k]))
+                continue;
+            size_t b = ((size_t)bucket_coord(m, m->xyz[3 * k + 2], 2) * (size_t)m->nb[1] +
+                        (size_t)bucket_coord(m, m->xyz[3 * k + 1], 1)) * (size_t)m->nb[0] +
+                       (size_t)bucket_coord(m, m->xyz[3 * k], 0);
+            if (pass == 0)
+                m->bstart[b + 1]++;
+            else
+                m->bidx[m->bstart[b]++] = (uint32_t)k;
+        }
+        if (pass == 0)
+            for (size_t q = 0; q < nbt; q++)
+                m->bstart[q + 1] += m->bstart[q];
+    }
+    /* the second pass advanced each start to the next bucket's: shift back */
+    for (size_t q = nbt; q > 0; q--)
+        m->bstart[q] = m->bstart[q - 1];
+    m->bstart[0] = 0;
+    return m;
+nomem:
+    sph_err_set(err, SPH_ERR_NOMEM, "land mask %s: out of memory for %zu x %zu cells", path, nx, ny);
+    landmask_free(m);
+    return NULL;
+}
+
+/* Index of the nearest native centre, or -1 if none lies within its reach. */
+static long native_nearest(const landmask *m, double lon, double lat)
+{
+    double q[3];
+    unit_vec(lon, lat, q);
+    int c[3];
+    for (int d = 0; d < 3; d++) {
+        if (q[d] < m->bmin[d] - m->bsize || q[d] > m->bmin[d] + (m->nb[d] + 1) * m->bsize)
+            return -1;
+        c[d] = bucket_coord(m, q[d], d);
+    }
+    double best = INFINITY;
+    long bk = -1;
+    int rmax = m->nb[0] + m->nb[1] + m->nb[2];
+    for (int r = 0; r <= rmax; r++) {
+        for (int z = c[2] - r; z <= c[2] + r; z++) {
+            if (z < 0 || z >= m->nb[2])
+                continue;
+            for (int y = c[1] - r; y <= c[1] + r; y++) {
+                if (y < 0 || y >= m->nb[1])
+                    continue;
+                for (int x = c[0] - r; x <= c[0] + r; x++) {
+                    if (x < 0 || x >= m->nb[0])
+                        continue;
+                    if (abs(x - c[0]) != r && abs(y - c[1]) != r && abs(z - c[2]) != r)
+                        continue; /* inside: seen in an earlier shell */
+                    size_t b = ((size_t)z * (size_t)m->nb[1] + (size_t)y) * (size_t)m->nb[0] + (size_t)x;
+                    for (uint32_t t = m->bstart[b]; t < m->bstart[b + 1]; t++) {
+                        uint32_t k = m->bidx[t];
+                        double d2 = chord2(&m->xyz[3 * (size_t)k], q);
+                        if (d2 < best || (d2 == best && (long)k < bk)) {
+                            best = d2;
+                            bk = (long)k;
+                        }
+                    }
+                }
+            }
+        }
+        /* every centre not yet seen is farther than r bucket widths */
+        double reach = (double)r * m->bsize;
+        if (bk >= 0 && best <= reach * reach)
+            break;
+        if (bk < 0 && reach > 4 * m->bsize)
+            return -1;
+    }
+    if (bk < 0 || !(best <= m->reach2[bk]))
+        return -1;
+    return bk;
+}
+
+/* ------------------------------------------------------ NetCDF masks */
+
+/* Text attribute into buf ("" when absent or too long). */
+static const char *att_text(int ncid, int varid, const char *att, char *buf, size_t cap)
 {
     size_t len;
-    char buf[256];
-    if (nc_inq_attlen(ncid, varid, att, &len) != NC_NOERR || len >= sizeof buf)
-        return 0;
+    buf[0] = '\0';
+    if (nc_inq_attlen(ncid, varid, att, &len) != NC_NOERR || len >= cap)
+        return buf;
+    nc_type t;
+    if (nc_inq_atttype(ncid, varid, att, &t) != NC_NOERR || t != NC_CHAR)
+        return buf;
     if (nc_get_att_text(ncid, varid, att, buf) != NC_NOERR)
-        return 0;
+        len = 0;
     buf[len] = '\0';
-    while (len > 0 && buf[len - 1] == '\0')
-        len--;
-    buf[len] = '\0';
-    return strcmp(buf, want) == 0;
+    return buf;
 }
 
-enum { KIND_LAND_GT_HALF, KIND_LAND_LT_HALF, KIND_FILL };
+static int att_is(int ncid, int varid, const char *att, const char *want)
+{
+    char buf[256];
+    return strcmp(att_text(ncid, varid, att, buf, sizeof buf), want) == 0;
+}
 
-landmask *landmask_read_netcdf(const char *path, const char *variable, landmask_nc_mode mode,
-                               sph_error *err)
+static const char *var_name(int ncid, int varid, char *buf)
+{
+    if (nc_inq_varname(ncid, varid, buf) != NC_NOERR)
+        strcpy(buf, "?");
+    return buf;
+}
+
+/* 1 longitude, 2 latitude, 0 neither (standard_name, then units). */
+static int lonlat_kind(int ncid, int varid)
+{
+    char sn[64], u[64];
+    att_text(ncid, varid, "standard_name", sn, sizeof sn);
+    if (!strcmp(sn, "longitude") || !strcmp(sn, "grid_longitude"))
+        return strcmp(sn, "longitude") ? 0 : 1;
+    if (!strcmp(sn, "latitude"))
+        return 2;
+    if (sn[0])
+        return 0;
+    att_text(ncid, varid, "units", u, sizeof u);
+    if (!strcmp(u, "degrees_east") || !strcmp(u, "degree_east") || !strcmp(u, "degrees_E") ||
+        !strcmp(u, "degree_E") || !strcmp(u, "degreesE") || !strcmp(u, "degreeE"))
+        return 1;
+    if (!strcmp(u, "degrees_north") || !strcmp(u, "degree_north") || !strcmp(u, "degrees_N") ||
+        !strcmp(u, "degree_N") || !strcmp(u, "degreesN") || !strcmp(u, "degreeN"))
+        return 2;
+    return 0;
+}
+
+static int word_in(const char *list, const char *const *words)
+{
+    for (size_t k = 0; words[k]; k++)
+        if (strstr(list, words[k]))
+            return 1;
+    return 0;
+}
+
+/* A flag meaning: 1 land, 0 sea, -1 no information. */
+static int meaning_class(const char *w)
+{
+    static const char *const land[] = {"land", "coast", "lake", "pond", "shore", NULL};
+    static const char *const sea[] = {"sea", "ocean", "water", "wet", NULL};
+    char low[128];
+    size_t k;
+    for (k = 0; w[k] && k + 1 < sizeof low; k++)
+        low[k] = (char)((w[k] >= 'A' && w[k] <= 'Z') ? w[k] + 32 : w[k]);
+    low[k] = '\0';
+    if (word_in(low, land))
+        return 1;
+    if (word_in(low, sea))
+        return 0;
+    return -1;
+}
+
+enum { CLS_EQ, CLS_GT_HALF, CLS_LT_HALF, CLS_FLAGS, CLS_FILL };
+#define MAX_FLAGS 32
+
+typedef struct {
+    int kind;
+    double land_value;
+    size_t nflags;
+    double flag[MAX_FLAGS];
+    int flag_land[MAX_FLAGS]; /* 1 land, 0 sea, -1 no information (sea) */
+    char why[512];
+} classifier;
+
+static int is_mask_standard_name(int ncid, int v)
+{
+    return att_is(ncid, v, "standard_name", "land_binary_mask") ||
+           att_is(ncid, v, "standard_name", "sea_binary_mask") ||
+           att_is(ncid, v, "standard_name", "land_area_fraction") ||
+           att_is(ncid, v, "standard_name", "sea_area_fraction");
+}
+
+static int has_flag_land(int ncid, int v)
+{
+    char fm[1024];
+    att_text(ncid, v, "flag_meanings", fm, sizeof fm);
+    char *save = NULL;
+    for (char *w = strtok_r(fm, " ", &save); w; w = strtok_r(NULL, " ", &save))
+        if (meaning_class(w) == 1)
+            return 1;
+    return 0;
+}
+
+/* How a mask variable says land; refuses what it does not say. */
+static int classify_mask(nc_ctx *c, int v, const landmask_read_opts *o, classifier *cl)
+{
+    char name[NC_MAX_NAME + 1], sn[128];
+    var_name(c->ncid, v, name);
+    att_text(c->ncid, v, "standard_name", sn, sizeof sn);
+    memset(cl, 0, sizeof *cl);
+    if (isfinite(o->land_value)) {
+        cl->kind = CLS_EQ;
+        cl->land_value = o->land_value;
+        snprintf(cl->why, sizeof cl->why, "land where %s = %g (landmask.land_value)", name,
+                 o->land_value);
+        return SPH_OK;
+    }
+    if (o->polarity == LANDMASK_POL_LAND_IS_1 || o->polarity == LANDMASK_POL_WATER_IS_1) {
+        cl->kind = o->polarity == LANDMASK_POL_LAND_IS_1 ? CLS_GT_HALF : CLS_LT_HALF;
+        snprintf(cl->why, sizeof cl->why, "land where %s is %s (landmask.polarity)", name,
+                 o->polarity == LANDMASK_POL_LAND_IS_1 ? "1" : "0");
+        return SPH_OK;
+    }
+    size_t nfv = 0;
+    nc_type ft;
+    if (nc_inq_att(c->ncid, v, "flag_values", &ft, &nfv) == NC_NOERR && nfv > 0) {
+        char fm[1024];
+        att_text(c->ncid, v, "flag_meanings", fm, sizeof fm);
+        if (!fm[0])
+            return sph_err_set(c->err, SPH_ERR_BAD_DATA,
+                               "land mask %s: variable %s has flag_values but no flag_meanings: "
+                               "set landmask.land_value", c->path, name);
+        if (nfv > MAX_FLAGS)
+            return sph_err_set(c->err, SPH_ERR_BAD_DATA,
+                               "land mask %s: variable %s has %zu flag_values (at most %d): set "
+                               "landmask.land_value", c->path, name, nfv, MAX_FLAGS);
+        nc_get_att_double(c->ncid, v, "flag_values", cl->flag);
+        char *save = NULL, *w = strtok_r(fm, " ", &save);
+        size_t k = 0, nland = 0;
+        for (; w && k < nfv; k++, w = strtok_r(NULL, " ", &save)) {
+            cl->flag_land[k] = meaning_class(w);
+            nland += cl->flag_land[k] == 1;
+        }
+        if (k != nfv || w)
+            return sph_err_set(c->err, SPH_ERR_BAD_DATA,
+                               "land mask %s: variable %s has %zu flag_values but a different "
+                               "number of flag_meanings: set landmask.land_value", c->path, name, nfv);
+        if (nland == 0)
+            return sph_err_set(c->err, SPH_ERR_BAD_DATA,
+                               "land mask %s: variable %s: no flag_meanings name land: set "
+                               "landmask.land_value", c->path, name);
+        cl->nflags = nfv;
+        cl->kind = CLS_FLAGS;
+        snprintf(cl->why, sizeof cl->why, "land from the flag_meanings of %s", name);
+        return SPH_OK;
+    }
+    /* older ROMS files: option_0 = "land", option_1 = "water" */
+    for (int k = 0; k < 10 && cl->nflags < MAX_FLAGS; k++) {
+        char att[32], text[128];
+        snprintf(att, sizeof att, "option_%d", k);
+        if (!att_text(c->ncid, v, att, text, sizeof text)[0])
+            continue;
+        cl->flag[cl->nflags] = k;
+        cl->flag_land[cl->nflags++] = meaning_class(text);
+    }
+    if (cl->nflags) {
+        size_t nland = 0;
+        for (size_t k = 0; k < cl->nflags; k++)
+            nland += cl->flag_land[k] == 1;
+        if (nland == 0)
+            return sph_err_set(c->err, SPH_ERR_BAD_DATA,
+                               "land mask %s: variable %s: no option_N attribute names land: set "
+                               "landmask.land_value", c->path, name);
+        cl->kind = CLS_FLAGS;
+        snprintf(cl->why, sizeof cl->why, "land from the option_N attributes of %s", name);
+        return SPH_OK;
+    }
+    if (!strcmp(sn, "land_binary_mask") || !strcmp(sn, "land_area_fraction") ||
+        !strcmp(name, "lsm") || !strcmp(name, "LSM")) {
+        cl->kind = CLS_GT_HALF;
+        snprintf(cl->why, sizeof cl->why, "land where %s > 0.5 (%s)", name, sn[0] ? sn : "ERA5 lsm");
+        return SPH_OK;
+    }
+    if (!strcmp(sn, "sea_binary_mask") || !strcmp(sn, "sea_area_fraction")) {
+        cl->kind = CLS_LT_HALF;
+        snprintf(cl->why, sizeof cl->why, "land where %s < 0.5 (%s)", name, sn);
+        return SPH_OK;
+    }
+    if (!strcmp(name, "mask_rho") || !strcmp(name, "mask_u") || !strcmp(name, "mask_v") ||
+        !strcmp(name, "mask_psi")) {
+        cl->kind = CLS_LT_HALF; /* ROMS: 1 water, 0 land */
+        snprintf(cl->why, sizeof cl->why, "land where %s = 0 (ROMS)", name);
+        return SPH_OK;
+    }
+    return sph_err_set(c->err, SPH_ERR_BAD_DATA,
+                       "land mask %s: variable %s does not say which value is land (no flag_meanings, "
+                       "no land/sea standard_name): set landmask.land_value or landmask.polarity",
+                       c->path, name);
+}
+
+static int looks_like_mask(int ncid, int v)
+{
+    char name[NC_MAX_NAME + 1];
+    var_name(ncid, v, name);
+    return is_mask_standard_name(ncid, v) || has_flag_land(ncid, v) || strstr(name, "mask") ||
+           !strcmp(name, "lsm") || !strcmp(name, "LSM");
+}
+
+/* The mask variable of a file, -1 if none. */
+static int find_mask_var(int ncid)
+{
+    int nvars = 0;
+    nc_inq_nvars(ncid, &nvars);
+    for (int pass = 0; pass < 4; pass++)
+        for (int v = 0; v < nvars; v++) {
+            int nd = 0;
+            nc_inq_varndims(ncid, v, &nd);
+            if (nd < 2)
+                continue;
+            char name[NC_MAX_NAME + 1];
+            var_name(ncid, v, name);
+            if ((pass == 0 && is_mask_standard_name(ncid, v)) ||
+                (pass == 1 && has_flag_land(ncid, v)) || (pass == 2 && !strcmp(name, "mask_rho")) ||
+                (pass == 3 && looks_like_mask(ncid, v)))
+                return v;
+        }
+    return -1;
+}
+
+/* A current (or sea-surface height) whose fill marks land, -1 if none. */
+static int find_fill_var(int ncid)
+{
+    static const char *const sns[] = {"eastward_sea_water_velocity", "sea_water_x_velocity",
+                                      "x_sea_water_velocity", "surface_eastward_sea_water_velocity",
+                                      "northward_sea_water_velocity", "sea_water_y_velocity",
+                                      "y_sea_water_velocity", "sea_surface_height_above_geoid",
+                                      "sea_surface_elevation", "sea_surface_height", NULL};
+    static const char *const names[] = {"uo", "u", "vozocrtx", "u_eastward", "water_u", "uos",
+                                        "zeta", "zos", "ssh", "sossheig", NULL};
+    int nvars = 0;
+    nc_inq_nvars(ncid, &nvars);
+    for (size_t k = 0; sns[k]; k++)
+        for (int v = 0; v < nvars; v++)
+            if (att_is(ncid, v, "standard_name", sns[k]))
+                return v;
+    for (size_t k = 0; names[k]; k++) {
+        int v;
+        if (nc_inq_varid(ncid, names[k], &v) == NC_NOERR)
+            return v;
+    }
+    return -1;
+}
+
+/* The index to read along a leading dimension: time-like or of size 1: 0;
+ * vertical: the level nearest the surface; anything else is refused. */
+static int leading_index(nc_ctx *c, int v, int dimid, size_t *index)
+{
+    char dname[NC_MAX_NAME + 1], vname[NC_MAX_NAME + 1];
+    size_t len = 0;
+    nc_inq_dim(c->ncid, dimid, dname, &len);
+    var_name(c->ncid, v, vname);
+    *index = 0;
+    int unlim[NC_MAX_DIMS], nunlim = 0;
+    nc_inq_unlimdims(c->ncid, &nunlim, unlim);
+    for (int k = 0; k < nunlim; k++)
+        if (unlim[k] == dimid)
+            return SPH_OK;
+    if (len <= 1)
+        return SPH_OK;
+    int cv;
+    if (nc_inq_varid(c->ncid, dname, &cv) != NC_NOERR)
+        return sph_err_set(c->err, SPH_ERR_BAD_DATA,
+                           "land mask %s: variable %s: dimension %s (%zu) has no coordinate variable "
+                           "to tell time or depth: set landmask.variable to a 2-D variable",
+                           c->path, vname, dname, len);
+    char units[128], pos[32], sn[128], axis[8];
+    att_text(c->ncid, cv, "units", units, sizeof units);
+    att_text(c->ncid, cv, "positive", pos, sizeof pos);
+    att_text(c->ncid, cv, "standard_name", sn, sizeof sn);
+    att_text(c->ncid, cv, "axis", axis, sizeof axis);
+    if (strstr(units, " since ") || !strcmp(axis, "T") || !strcmp(sn, "time"))
+        return SPH_OK;
+    int down = !strcmp(pos, "down") || !strcmp(pos, "DOWN");
+    int up = !strcmp(pos, "up") || !strcmp(pos, "UP");
+    if (!down && !up && !strcmp(sn, "depth"))
+        down = 1; /* CF: depth is positive down */
+    if (!down && !up)
+        return sph_err_set(c->err, SPH_ERR_BAD_DATA,
+                           "land mask %s: variable %s: cannot tell which level of dimension %s is "
+                           "nearest the surface (no positive attribute): set landmask.variable to a "
+                           "2-D variable", c->path, vname, dname);
+    double *z = malloc(sizeof *z * len);
+    if (!z)
+        return sph_err_set(c->err, SPH_ERR_NOMEM, "land mask %s: out of memory", c->path);
+    int status = nc_get_var_double(c->ncid, cv, z);
+    if (status != NC_NOERR) {
+        free(z);
+        return nc_fail(c, status, dname);
+    }
+    for (size_t k = 1; k < len; k++)
+        if (down ? fabs(z[k]) < fabs(z[*index]) : z[k] > z[*index])
+            *index = k;
+    free(z);
+    return SPH_OK;
+}
+
+/* 1-D coordinate of a dimension with the given lon/lat kind, -1 if none. */
+static int axis_var(int ncid, int dimid, int kind)
+{
+    char dname[NC_MAX_NAME + 1];
+    int cv, nd = 0;
+    if (nc_inq_dimname(ncid, dimid, dname) != NC_NOERR || nc_inq_varid(ncid, dname, &cv) != NC_NOERR)
+        return -1;
+    nc_inq_varndims(ncid, cv, &nd);
+    if (nd != 1)
+        return -1;
+    int k = lonlat_kind(ncid, cv);
+    if (k == kind)
+        return cv;
+    /* no units or standard name: the old convention, names lon/lat */
+    if (k == 0 && ((kind == 1 && (!strcmp(dname, "lon") || !strcmp(dname, "longitude"))) ||
+                   (kind == 2 && (!strcmp(dname, "lat") || !strcmp(dname, "latitude")))))
+        return cv;
+    return -1;
+}
+
+/* 2-D lon or lat on dims (ydim, xdim): from `coordinates`, else any. */
+static int coord2d_var(int ncid, int v, int ydim, int xdim, int kind)
+{
+    char coords[1024];
+    att_text(ncid, v, "coordinates", coords, sizeof coords);
+    int nvars = 0;
+    nc_inq_nvars(ncid, &nvars);
+    for (int pass = 0; pass < 2; pass++)
+        for (int w = 0; w < nvars; w++) {
+            char wn[NC_MAX_NAME + 1];
+            var_name(ncid, w, wn);
+            int nd = 0, d[NC_MAX_VAR_DIMS];
+            nc_inq_varndims(ncid, w, &nd);
+            if (nd != 2 || lonlat_kind(ncid, w) != kind)
+                continue;
+            nc_inq_vardimid(ncid, w, d);
+            if (d[0] != ydim || d[1] != xdim)
+                continue;
+            if (pass == 1)
+                return w;
+            char tmp[1024], *save = NULL;
+            snprintf(tmp, sizeof tmp, "%s", coords);
+            for (char *t = strtok_r(tmp, " ", &save); t; t = strtok_r(NULL, " ", &save))
+                if (!strcmp(t, wn))
+                    return w;
+        }
+    return -1;
+}
+
+static double *read_all(nc_ctx *c, int v, size_t n)
+{
+    double *a = malloc(sizeof *a * (n ? n : 1));
+    if (!a) {
+        sph_err_set(c->err, SPH_ERR_NOMEM, "land mask %s: out of memory", c->path);
+        return NULL;
+    }
+    int status = nc_get_var_double(c->ncid, v, a);
+    if (status != NC_NOERR) {
+        nc_fail(c, status, "read coordinates");
+        free(a);
+        return NULL;
+    }
+    return a;
+}
+
+/* Regular within 1e-3 of a step: the step, else 0. */
+static double regular_step(const double *v, size_t n)
+{
+    if (n < 2)
+        return 0;
+    double step = (v[n - 1] - v[0]) / (double)(n - 1);
+    if (step == 0)
+        return 0;
+    for (size_t k = 1; k < n; k++)
+        if (!(fabs(v[k] - v[k - 1] - step) <= 1e-3 * fabs(step)))
+            return 0;
+    return step;
+}
+
+static int classify_value(const classifier *cl, double raw, int is_missing, double v)
+{
+    if (cl->kind == CLS_FILL)
+        return is_missing;
+    if (is_missing)
+        return 0; /* no information: sea, so no ice is lost */
+    switch (cl->kind) {
+    case CLS_EQ: return fabs(v - cl->land_value) <= 1e-6 * fmax(1, fabs(cl->land_value));
+    case CLS_GT_HALF: return v > 0.5;
+    case CLS_LT_HALF: return v < 0.5;
+    default:
+        for (size_t k = 0; k < cl->nflags; k++)
+            if (raw == cl->flag[k] || v == cl->flag[k])
+                return cl->flag_land[k] == 1;
+        return 0; /* a value no flag names: no information */
+    }
+}
+
+landmask *landmask_read_model(const char *path, const landmask_read_opts *opts, sph_error *err)
 {
     sph_error local;
     if (!err) {
         sph_error_clear(&local);
         err = &local;
     }
+    landmask_read_opts o;
+    if (opts)
+        o = *opts;
+    else
+        o = (landmask_read_opts){NULL, LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, 0};
     nc_ctx c = {-1, path, err};
     int status = nc_open(path, NC_NOWRITE, &c.ncid);
     if (status != NC_NOERR) {
         nc_fail(&c, status, "open");
         return NULL;
     }
-    int varid = -1, kind = mode == LANDMASK_NC_FILL ? KIND_FILL : KIND_LAND_GT_HALF;
-    if (variable && *variable) {
-        if (nc_inq_varid(c.ncid, variable, &varid) != NC_NOERR)
-            sph_err_set(err, SPH_ERR_MISSING_VAR, "land mask %s: no variable \"%s\"", path, variable);
-        else if (mode == LANDMASK_NC_AUTO && att_text_equals(c.ncid, varid, "standard_name",
-                                                             "sea_binary_mask"))
-            kind = KIND_LAND_LT_HALF;
-    } else if (mode == LANDMASK_NC_FILL) {
-        sph_err_set(err, SPH_ERR_CONFIG, "land mask %s: fill-pattern mask needs a variable name", path);
-    } else {
-        int nvars = 0;
-        nc_inq_nvars(c.ncid, &nvars);
-        for (int v = 0; v < nvars && varid < 0; v++) {
-            if (att_text_equals(c.ncid, v, "standard_name", "land_binary_mask") ||
-                att_text_equals(c.ncid, v, "standard_name", "land_area_fraction"))
-                varid = v;
-            else if (att_text_equals(c.ncid, v, "standard_name", "sea_binary_mask"))
-                varid = v, kind = KIND_LAND_LT_HALF;
+    int v = -1, fill = o.from == LANDMASK_FROM_FILL;
+    char vname[NC_MAX_NAME + 1] = "";
+    if (o.variable && o.variable[0]) {
+        if (nc_inq_varid(c.ncid, o.variable, &v) != NC_NOERR) {
+            sph_err_set(err, SPH_ERR_MISSING_VAR, "land mask %s: no variable \"%s\" "
+                        "(landmask.variable)", path, o.variable);
+            v = -1;
+        } else if (o.from == LANDMASK_FROM_AUTO) {
+            fill = !(looks_like_mask(c.ncid, v) || isfinite(o.land_value) ||
+                     o.polarity != LANDMASK_POL_AUTO);
         }
-        static const char *const names[] = {"lsm", "LSM", "land_binary_mask", "mask", "landmask"};
-        for (size_t k = 0; k < sizeof names / sizeof names[0] && varid < 0; k++)
-            if (nc_inq_varid(c.ncid, names[k], &varid) != NC_NOERR)
-                varid = -1;
-        if (varid < 0)
+    } else {
+        if (!fill)
+            v = find_mask_var(c.ncid);
+        if (v < 0 && (fill || (o.from == LANDMASK_FROM_AUTO && o.fill_fallback))) {
+            fill = 1;
+            v = find_fill_var(c.ncid);
+            if (v < 0)
+                sph_err_set(err, SPH_ERR_MISSING_VAR,
+                            "land mask %s: no mask variable and no current or sea-surface height "
+                            "whose fill marks land: set landmask.variable", path);
+        } else if (v < 0) {
             sph_err_set(err, SPH_ERR_MISSING_VAR,
                         "land mask %s: no land_binary_mask, sea_binary_mask, land_area_fraction, "
-                        "lsm or mask variable", path);
+                        "flag_meanings land, mask_rho, lsm or mask variable: set landmask.variable",
+                        path);
+        }
+    }
+    classifier cl;
+    memset(&cl, 0, sizeof cl);
+    if (v >= 0) {
+        var_name(c.ncid, v, vname);
+        if (fill) {
+            cl.kind = CLS_FILL;
+            snprintf(cl.why, sizeof cl.why, "land where %s is fill", vname);
+        } else if (classify_mask(&c, v, &o, &cl) != SPH_OK) {
+            v = -1;
+        }
+    }
+    int nd = 0, dims[NC_MAX_VAR_DIMS];
+    size_t start[NC_MAX_VAR_DIMS] = {0}, count[NC_MAX_VAR_DIMS];
+    if (v >= 0) {
+        nc_inq_varndims(c.ncid, v, &nd);
+        nc_inq_vardimid(c.ncid, v, dims);
+        if (nd < 2) {
+            sph_err_set(err, SPH_ERR_BAD_DATA, "land mask %s: variable %s has %d dimension(s), "
+                        "need (y, x)", path, vname, nd);
+            v = -1;
+        }
+        for (int d = 0; v >= 0 && d < nd - 2; d++) {
+            count[d] = 1;
+            if (leading_index(&c, v, dims[d], &start[d]) != SPH_OK)
+                v = -1;
+        }
+    }
+    size_t nx = 0, ny = 0;
+    double *lon = NULL, *lat = NULL, *vals = NULL;
+    int regular = 0;
+    double lon_first = 0, dlon = 0, lat_first = 0, dlat = 0;
+    if (v >= 0) {
+        int xd = dims[nd - 1], yd = dims[nd - 2];
+        nc_inq_dimlen(c.ncid, xd, &nx);
+        nc_inq_dimlen(c.ncid, yd, &ny);
+        count[nd - 1] = nx;
+        count[nd - 2] = ny;
+        int ax = axis_var(c.ncid, xd, 1), ay = axis_var(c.ncid, yd, 2);
+        int cx = coord2d_var(c.ncid, v, yd, xd, 1), cy = coord2d_var(c.ncid, v, yd, xd, 2);
+        lon = malloc(sizeof *lon * nx * ny);
+        lat = malloc(sizeof *lat * nx * ny);
+        if (!lon || !lat) {
+            sph_err_set(err, SPH_ERR_NOMEM, "land mask %s: out of memory", path);
+            v = -1;
+        } else if (ax >= 0 && ay >= 0) {
+            double *x1 = read_all(&c, ax, nx), *y1 = x1 ? read_all(&c, ay, ny) : NULL;
+            if (!x1 || !y1) {
+                v = -1;
+            } else {
+                dlon = regular_step(x1, nx);
+                dlat = regular_step(y1, ny);
+                lon_first = x1[0];
+                lat_first = y1[0];
+                regular = dlon > 0 && dlat != 0;
+                for (size_t j = 0; j < ny; j++)
+                    for (size_t i = 0; i < nx; i++) {
+                        lon[j * nx + i] = x1[i];
+                        lat[j * nx + i] = y1[j];
+                    }
+            }
+            free(x1);
+            free(y1);
+        } else if (cx >= 0 && cy >= 0) {
+            if ((status = nc_get_var_double(c.ncid, cx, lon)) != NC_NOERR ||
+                (status = nc_get_var_double(c.ncid, cy, lat)) != NC_NOERR) {
+                nc_fail(&c, status, "read 2-D longitude/latitude");
+                v = -1;
+            }
+        } else {
+            sph_err_set(err, SPH_ERR_BAD_DATA, "land mask %s: variable %s: no longitude/latitude "
+                        "for its grid (1-D axes or 2-D coordinates): set landmask.variable to a "
+                        "variable on a longitude/latitude grid", path, vname);
+            v = -1;
+        }
     }
     landmask *m = NULL;
-    double *vals = NULL;
-    int ndims = 0, dimids[NC_MAX_VAR_DIMS];
-    if (varid >= 0) {
-        nc_inq_varndims(c.ncid, varid, &ndims);
-        nc_inq_vardimid(c.ncid, varid, dimids);
-        if (ndims < 2)
-            sph_err_set(err, SPH_ERR_BAD_DATA, "land mask %s: variable has %d dimension(s), need lat, lon",
-                        path, ndims);
-    }
-    size_t nlon = 0, nlat = 0;
-    double lon_first = 0, dlon = 0, lat_first = 0, dlat = 0;
-    if (varid >= 0 && ndims >= 2 && err->code == SPH_OK &&
-        read_regular_axis(&c, dimids[ndims - 1], "longitude", &nlon, &lon_first, &dlon) == SPH_OK &&
-        read_regular_axis(&c, dimids[ndims - 2], "latitude", &nlat, &lat_first, &dlat) == SPH_OK) {
-        size_t start[NC_MAX_VAR_DIMS] = {0}, count[NC_MAX_VAR_DIMS];
-        for (int d = 0; d < ndims; d++)
-            count[d] = 1;
-        count[ndims - 1] = nlon;
-        count[ndims - 2] = nlat;
-        vals = malloc(sizeof *vals * nlon * nlat);
-        if (!vals)
+    unsigned char *land = NULL;
+    if (v >= 0) {
+        vals = malloc(sizeof *vals * nx * ny);
+        land = malloc(nx * ny);
+        if (!vals || !land)
             sph_err_set(err, SPH_ERR_NOMEM, "land mask %s: out of memory", path);
-        else if ((status = nc_get_vara_double(c.ncid, varid, start, count, vals)) != NC_NOERR)
+        else if ((status = nc_get_vara_double(c.ncid, v, start, count, vals)) != NC_NOERR)
             nc_fail(&c, status, "read mask variable");
-        else if (dlon < 0)
-            sph_err_set(err, SPH_ERR_BAD_DATA, "land mask %s: longitude decreases", path);
-        else
-            m = mask_alloc((int)nlon, (int)nlat, lon_first - dlon / 2,
-                           (dlat > 0 ? lat_first : lat_first + dlat * (double)(nlat - 1)) - fabs(dlat) / 2,
-                           dlon, fabs(dlat), err);
-    }
-    if (m) {
-        double fill = NAN, missing = NAN, scale = 1, offset = 0;
-        int has_fill = nc_get_att_double(c.ncid, varid, "_FillValue", &fill) == NC_NOERR;
-        int has_missing = nc_get_att_double(c.ncid, varid, "missing_value", &missing) == NC_NOERR;
-        if (!has_fill) {
-            /* the library's default fill marks unwritten values */
-            nc_type t;
-            nc_inq_vartype(c.ncid, varid, &t);
-            fill = t == NC_FLOAT ? NC_FILL_FLOAT : t == NC_DOUBLE ? NC_FILL_DOUBLE
-                 : t == NC_SHORT ? NC_FILL_SHORT : t == NC_INT ? NC_FILL_INT
-                 : t == NC_BYTE ? NC_FILL_BYTE : NAN;
-            has_fill = kind == KIND_FILL && isfinite(fill);
-        }
-        nc_get_att_double(c.ncid, varid, "scale_factor", &scale);
-        nc_get_att_double(c.ncid, varid, "add_offset", &offset);
-        for (size_t j = 0; j < nlat; j++) {
-            size_t row = dlat > 0 ? j : nlat - 1 - j;
-            for (size_t i = 0; i < nlon; i++) {
-                double raw = vals[j * nlon + i];
-                int is_missing = isnan(raw) || (has_fill && raw == fill) ||
-                                 (has_missing && raw == missing);
-                double v = raw * scale + offset;
-                int land;
-                if (kind == KIND_FILL)
-                    land = is_missing;
-                else if (is_missing)
-                    land = 0; /* no information: sea, so no ice is lost */
-                else
-                    land = kind == KIND_LAND_GT_HALF ? v > 0.5 : v < 0.5;
-                m->land[row * nlon + i] = (unsigned char)land;
+        else {
+            double fv = NAN, missing = NAN, scale = 1, offset = 0;
+            int has_fill = nc_get_att_double(c.ncid, v, "_FillValue", &fv) == NC_NOERR;
+            int has_missing = nc_get_att_double(c.ncid, v, "missing_value", &missing) == NC_NOERR;
+            if (!has_fill && cl.kind == CLS_FILL) {
+                /* the library's default fill marks unwritten values */
+                nc_type t;
+                nc_inq_vartype(c.ncid, v, &t);
+                fv = t == NC_FLOAT ? NC_FILL_FLOAT : t == NC_DOUBLE ? NC_FILL_DOUBLE
+                   : t == NC_SHORT ? NC_FILL_SHORT : t == NC_INT ? NC_FILL_INT
+                   : t == NC_BYTE ? NC_FILL_BYTE : NAN;
+                has_fill = isfinite(fv);
             }
+            nc_get_att_double(c.ncid, v, "scale_factor", &scale);
+            nc_get_att_double(c.ncid, v, "add_offset", &offset);
+            size_t nland = 0;
+            for (size_t k = 0; k < nx * ny; k++) {
+                double raw = vals[k];
+                int is_missing = isnan(raw) || (has_fill && raw == fv) ||
+                                 (has_missing && raw == missing);
+                land[k] = (unsigned char)classify_value(&cl, raw, is_missing, raw * scale + offset);
+                nland += land[k];
+            }
+            if (cl.kind == CLS_FILL && nland == nx * ny)
+                sph_err_set(err, SPH_ERR_BAD_DATA, "land mask %s: variable %s is fill everywhere "
+                            "(no water): set landmask.variable", path, vname);
+            else if (regular) {
+                m = mask_alloc((int)nx, (int)ny, lon_first - dlon / 2,
+                               (dlat > 0 ? lat_first : lat_first + dlat * (double)(ny - 1)) -
+                                   fabs(dlat) / 2, dlon, fabs(dlat), err);
+                for (size_t j = 0; m && j < ny; j++) {
+                    size_t row = dlat > 0 ? j : ny - 1 - j;
+                    memcpy(&m->land[row * nx], &land[j * nx], nx);
+                }
+            } else {
+                m = native_create(nx, ny, lon, lat, land, path, err);
+            }
+            if (m && cl.kind == CLS_FILL && nland == 0)
+                log_warn("land mask %s: variable %s has no fill anywhere: no land (if the model "
+                         "writes land as a value, set landmask.variable to its mask)", path, vname);
+            if (m)
+                log_info("land mask %s: %s, %zu of %zu cells land (%s grid %zu x %zu)", path, cl.why,
+                         nland, nx * ny, regular ? "regular lon/lat" : "native", nx, ny);
         }
     }
     free(vals);
+    free(land);
+    free(lon);
+    free(lat);
     nc_close(c.ncid);
     return m;
 }
 
+landmask *landmask_read_netcdf(const char *path, const char *variable, landmask_nc_mode mode,
+                               sph_error *err)
+{
+    landmask_read_opts o = {variable, mode == LANDMASK_NC_FILL ? LANDMASK_FROM_FILL
+                                                                : LANDMASK_FROM_MASK,
+                            LANDMASK_POL_AUTO, NAN, 0};
+    if (mode == LANDMASK_NC_FILL && !(variable && *variable)) {
+        sph_err_set(err, SPH_ERR_CONFIG, "land mask %s: fill-pattern mask needs a variable name "
+                    "(landmask.variable)", path);
+        return NULL;
+    }
+    return landmask_read_model(path, &o, err);
+}
+
 int landmask_write_netcdf(const landmask *m, const char *path, const char *source, sph_error *err)
 {
+    if (m->native)
+        return sph_err_set(err, SPH_ERR_PARAM, "land mask %s: a mask on a native model grid is "
+                           "not written as a lon/lat mask", path);
     char tmp[4096];
     atomic_tmp_name(path, tmp, sizeof tmp);
     int ncid, status, dims[2], vlon, vlat, vmask;
@@ -638,5 +1295,21 @@ int landmask_to_plane(const landmask *m, const geo_proj *p, double x0, double y0
             out[(size_t)j * nx + i] = landmask_is_land(m, lon[i], lat[i]) == 1;
     }
     free(x);
+    /* a native land cell is never lost between plane centres: the plane
+     * cell that contains its centre is land as well */
+    for (size_t k = 0; m->native && k < (size_t)m->nlon * (size_t)m->nlat; k++) {
+        if (!m->land[k] || isnan(m->xyz[3 * k]))
+            continue;
+        double vx = m->xyz[3 * k], vy = m->xyz[3 * k + 1], vz = m->xyz[3 * k + 2];
+        double clon = atan2(vy, vx) * 180.0 / M_PI, clat = asin(fmax(-1, fmin(1, vz))) * 180.0 / M_PI;
+        double px, py;
+        sph_error local;
+        sph_error_clear(&local);
+        if (geo_forward(p, 1, &clon, &clat, &px, &py, &local) != SPH_OK || !isfinite(px) || !isfinite(py))
+            continue;
+        double fi = floor((px - x0) / dx), fj = floor((py - y0) / dy);
+        if (fi >= 0 && fj >= 0 && fi < nx && fj < ny)
+            out[(size_t)fj * nx + (size_t)fi] = 1;
+    }
     return rc;
 }
