@@ -1,10 +1,22 @@
-/* Initial ice field: concentration and thickness on a regular lon/lat grid.
+/* Initial ice field: concentration and thickness on a regular lon/lat
+ * grid, a projected grid (CF grid_mapping) or a curvilinear grid.
  *
  * Formats (chosen by content, not by name):
  *  - NetCDF: concentration by standard_name sea_ice_area_fraction (or
  *    variable siconc, ice_conc, sic, aice), thickness by sea_ice_thickness
- *    (or sithick, hi, sit); 1-D regular lon/lat coordinates (either
- *    direction); further leading dimensions (time) take index 0;
+ *    (or sithick, hi, sit). Grids: 1-D regular lon/lat coordinates (either
+ *    direction); 1-D regular projected x/y (units any length udunits2
+ *    knows: m, km) with the variable's grid_mapping, built by PROJ from,
+ *    in this order, its crs_wkt / spatial_ref (WKT), proj4 / proj4text /
+ *    proj4_params, an EPSG code (epsg_code, EPSG, srid), or the CF
+ *    attributes of polar_stereographic, stereographic,
+ *    lambert_conformal_conic, lambert_azimuthal_equal_area,
+ *    transverse_mercator (ellipsoid from semi_major_axis with
+ *    semi_minor_axis or inverse_flattening, or earth_radius: required);
+ *    2-D latitude/longitude (the variable's coordinates attribute, or
+ *    lat/lon, latitude/longitude, nav_lat/nav_lon, TLAT/TLON) when there
+ *    is no projection. A grid not understood, or a projection PROJ cannot
+ *    build, is one error line naming file, variable and problem. Further leading dimensions (time) take index 0;
  *    scale_factor/add_offset/_FillValue/missing_value honoured. If a
  *    `time` coordinate with CF units "<unit> since <date>" exists, its
  *    first value is the valid time.
@@ -30,10 +42,27 @@
 #include <stddef.h>
 #include "util/err.h"
 
+/* The raster's grid kind. */
+enum {
+    ICE_RASTER_LONLAT = 0,    /* regular 1-D lon/lat (lon, lat, dlon, dlat) */
+    ICE_RASTER_PROJECTED,     /* regular 1-D x/y of a CF grid_mapping (x, y, dx, dy) */
+    ICE_RASTER_CURVILINEAR    /* 2-D lat/lon per cell, no map projection */
+};
+
+struct raster_crs; /* PROJ objects of a projected raster (private) */
+
 typedef struct ice_raster {
-    int nlon, nlat;
-    double *lon, *lat;     /* cell centres, degrees, both ascending */
-    double dlon, dlat;     /* spacing, degrees (> 0) */
+    int nlon, nlat;        /* columns (x or lon), rows (y or lat) */
+    int kind;              /* ICE_RASTER_* */
+    double *lon, *lat;     /* LONLAT: cell centres, degrees, both ascending; else NULL */
+    double dlon, dlat;     /* LONLAT: spacing, degrees (> 0) */
+    double *x, *y;         /* PROJECTED: cell centres in the raster's CRS, m, ascending */
+    double dx, dy;         /* PROJECTED: spacing, m (> 0) */
+    /* PROJECTED, CURVILINEAR: per cell [j * nlon + i] centre (degrees, on
+     * the raster's own geodetic datum) and true area (m^2); NULL for LONLAT */
+    double *cell_lon, *cell_lat, *area;
+    struct raster_crs *crs; /* PROJECTED only */
+    char grid[600];        /* how the grid was understood, one phrase (for logs, check) */
     double *conc;          /* [j * nlon + i], fraction 0..1; NaN = missing */
     double *thick;         /* [j * nlon + i], ice thickness, m (>= 0) */
     double valid_time;     /* seconds since 1970Z; NaN if the file has none */
@@ -60,7 +89,22 @@ void ice_raster_free(ice_raster *r); /* NULL does nothing */
 #define ICE_RASTER_EARTH_RADIUS 6371000.0
 double ice_raster_cell_area(const ice_raster *r, int j);
 
-/* Bilinear sample at (lon, lat) over the cell centres; missing corners
+/* Any grid kind: centre (degrees) and true area (m^2) of cell (i, j).
+ * LONLAT: lon[i], lat[j] and ice_raster_cell_area (bit-identical to
+ * before). PROJECTED: the centre unprojected with PROJ, the area
+ * dx dy / areal_scale (PROJ's proj_factors at the centre: for a conformal
+ * projection k^2, for an equal-area one 1) or the file's cell-area
+ * variable (cell_measures "area: NAME"). CURVILINEAR: the 2-D lat/lon and
+ * the cell-area variable, else the geodesic area (WGS84) of the
+ * quadrilateral whose corners are the means of the four surrounding
+ * centres. */
+void ice_raster_cell_lonlat(const ice_raster *r, int i, int j, double *lon, double *lat);
+double ice_raster_area(const ice_raster *r, int i, int j);
+/* 1 when ice_raster_sample works on this grid (LONLAT, PROJECTED). */
+int ice_raster_can_sample(const ice_raster *r);
+
+/* Bilinear sample at (lon, lat) over the cell centres, in the raster's
+ * native coordinates (lon/lat, or x/y of its projection); missing corners
  * are left out and the weights renormalised; returns 0 and NaNs when all
  * four are missing or the point is outside the centres' hull. */
 int ice_raster_sample(const ice_raster *r, double lon, double lat, double *conc, double *thick);

@@ -212,7 +212,7 @@ double fc_spacing_m(const engine *e)
         return e->cfg->initial.spacing_deg * METRES_PER_DEGREE;
     if (e->raster) {
         int j = e->raster->nlat / 2;
-        return sqrt(ice_raster_cell_area(e->raster, j));
+        return sqrt(ice_raster_area(e->raster, e->raster->nlon / 2, j));
     }
     return 2000.0;
 }
