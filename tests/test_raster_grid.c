@@ -229,6 +229,12 @@ static void gm_ease2(int ncid, int gm)
     put_num(ncid, gm, "semi_major_axis", WA);
     put_num(ncid, gm, "inverse_flattening", WRF);
 }
+/* the same as a proj4 string whose CRS unit is km */
+static void gm_ease2_km(int ncid, int gm)
+{
+    put_text(ncid, gm, "proj4_string", "+proj=laea +lat_0=90 +lon_0=0 +x_0=0 +y_0=0 +a=6378137 "
+                                       "+rf=298.257223563 +units=km +no_defs");
+}
 static const double GR = 6371229.0;
 static void gm_lcc(int ncid, int gm)
 {
@@ -436,6 +442,10 @@ int main(void)
     snprintf(path, sizeof path, "%s/osisaf_ease2.nc", dir);
     write_projected(path, &ease, gm_ease2);
     check_projected("OSI SAF EASE2 (lambert_azimuthal_equal_area)", path, &ease, f_ease2);
+
+    snprintf(path, sizeof path, "%s/osisaf_ease2_km.nc", dir);
+    write_projected(path, &ease, gm_ease2_km);
+    check_projected("EASE2 from a proj4 string in km", path, &ease, f_ease2);
 
     /* Lambert conformal conic, spherical, x/y in km */
     grid_spec lcc = {"x", "y", "km", 1e-3, 30, 30, 0, -300e3, -200e3, 10e3, "aice", "1", 1.0, 1,

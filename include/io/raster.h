@@ -64,6 +64,13 @@ typedef struct ice_raster {
     struct raster_crs *crs; /* PROJECTED only */
     char grid[600];        /* how the grid was understood, one phrase (for logs, check) */
     double *conc;          /* [j * nlon + i], fraction 0..1; NaN = missing */
+    /* [j * nlon + i] from the file's flags (flag_values / flag_meanings of
+     * the concentration, flag_masks or flag_values of its ancillary
+     * status_flag): 0 data, 1 land (land, coast, lake), 2 no information
+     * (pole hole, missing, ...); conc is NaN at 1 and 2. NULL: no flags. */
+    unsigned char *land;
+    size_t nland, nnoinfo;  /* cells flagged 1 and 2 */
+    double conc_halfstep;  /* half the packing step of a packed concentration (its units), else 0 */
     double *thick;         /* [j * nlon + i], ice thickness, m (>= 0) */
     double valid_time;     /* seconds since 1970Z; NaN if the file has none */
     char path[4096];

@@ -30,6 +30,7 @@ void ice_raster_free(ice_raster *r)
     free(r->cell_lon);
     free(r->cell_lat);
     free(r->area);
+    free(r->land);
     raster_crs_free(r->crs);
     free(r->conc);
     free(r->thick);
@@ -110,7 +111,10 @@ int raster_finish(ice_raster *r, int percent, const ice_raster_options *o, sph_e
             r->thick[k] = NAN;
             continue;
         }
-        if (c < -1e-6 || c > (percent ? 100.0 + 1e-4 : 1.0 + 1e-6)) {
+        /* a packed value within half a packing step of a bound is that
+         * bound (a packed short with an offset stores 0 as -6.4e-6) */
+        double tol = fmax(percent ? 1e-4 : 1e-6, r->conc_halfstep);
+        if (c < -tol || c > (percent ? 100.0 : 1.0) + tol) {
             ice_raster_cell_lonlat(r, i, j, &lon, &lat);
             return sph_err_set(err, SPH_ERR_BAD_DATA,
                                "ice raster %s: concentration %g %s at (%g E, %g N) outside 0..%s",

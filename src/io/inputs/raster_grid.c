@@ -16,6 +16,9 @@ struct raster_crs {
     PJ_CONTEXT *ctx;
     PJ *crs;      /* the projected CRS */
     PJ *fwd;      /* its geodetic CRS (lon, lat degrees) -> x/y in the CRS's unit */
+    PJ *fac;      /* its projection alone, for proj_factors (fast; on the CRS
+                   * itself it re-derives the operation at every call and is
+                   * wrong for units other than metres) */
     double unit;  /* metres per CRS unit along x/y */
 };
 
@@ -24,6 +27,7 @@ void raster_crs_free(struct raster_crs *c)
     if (!c)
         return;
     proj_destroy(c->fwd);
+    proj_destroy(c->fac);
     proj_destroy(c->crs);
     proj_context_destroy(c->ctx);
     free(c);
@@ -93,6 +97,19 @@ static struct raster_crs *crs_build(ice_raster *r, const char *var, const char *
         c->fwd = proj_normalize_for_visualization(c->ctx, raw);
         proj_destroy(raw);
     }
+    const char *ps = proj_as_proj_string(c->ctx, c->crs, PJ_PROJ_5, NULL);
+    if (ps) {
+        char pbuf[2048];
+        snprintf(pbuf, sizeof pbuf, "%s", ps);
+        char *t = strstr(pbuf, "+type=crs");
+        if (t)
+            *t = '\0';
+        c->fac = proj_create(c->ctx, pbuf);
+    }
+    if (!c->fac) {
+        crs_fail(c, r, var, def, "not expressible as a PROJ projection (cell areas)", err);
+        return NULL;
+    }
     if (!c->fwd) {
         crs_fail(c, r, var, def, "no conversion from its geodetic CRS", err);
         return NULL;
@@ -138,9 +155,7 @@ int raster_set_projected(ice_raster *r, const char *def, const char *var,
                 if (cell_area) {
                     a = cell_area[k];
                 } else {
-                    /* on the CRS itself (PROJ >= 8.2): on its bare
-                     * conversion the input unit is not radians */
-                    PJ_FACTORS fa = proj_factors(c->crs, proj_coord(proj_torad(lon),
+                    PJ_FACTORS fa = proj_factors(c->fac, proj_coord(proj_torad(lon),
                                                                     proj_torad(lat), 0, 0));
                     a = r->dx * r->dy / fa.areal_scale;
                 }
@@ -149,7 +164,7 @@ int raster_set_projected(ice_raster *r, const char *def, const char *var,
                 if (!bad++)
                     first = k;
                 proj_errno_reset(c->fwd);
-                proj_errno_reset(c->crs);
+                proj_errno_reset(c->fac);
             }
             r->cell_lon[k] = remainder(lon, 360.0);
             r->cell_lat[k] = lat;

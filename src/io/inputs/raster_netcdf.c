@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <ctype.h>
 
 #include "io/cf.h"
 #include "io/fetch.h"
@@ -52,8 +53,40 @@ static int find_var(int ncid, const char *override, const char *standard_name,
 /* Reads one 2-D slab (leading dimensions at index 0) as double, with
  * scale/offset applied and declared missing values turned into NaN.
  * Undeclared NaN is an error. */
+static int att_num(int ncid, int varid, const char *att, double *v, size_t *n, size_t max);
+
+/* flag_values / flag_meanings of varid: kind[i] 1 for land (a meaning
+ * naming land, coast or lake), 2 for "no information" (pole hole,
+ * missing, anything else). Returns the count, or -1 (err set) for flag
+ * values without meanings. */
+#define RASTER_MAX_FLAGS 64
+static int read_flags(int ncid, int varid, const char *path, const char *label, const char *att,
+                      double *values, int *kind, sph_error *err)
+{
+    size_t n = 0;
+    if (!att_num(ncid, varid, att, values, &n, RASTER_MAX_FLAGS))
+        return 0;
+    char meanings[4096];
+    if (!att_text(ncid, varid, "flag_meanings", meanings, sizeof meanings))
+        return sph_err_set(err, SPH_ERR_BAD_DATA, "ice raster %s: %s has %s but no flag_meanings",
+                           path, label, att), -1;
+    size_t k = 0;
+    for (char *tok = strtok(meanings, " \t"); tok; tok = strtok(NULL, " \t"), k++) {
+        for (char *c = tok; *c; c++)
+            *c = (char)tolower((unsigned char)*c);
+        if (k < n)
+            kind[k] = strstr(tok, "land") || strstr(tok, "coast") || strstr(tok, "lake") ? 1 : 2;
+    }
+    if (k != n)
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "ice raster %s: %s has %zu %s but %zu flag_meanings", path, label, n,
+                           att, k), -1;
+    return (int)n;
+}
+
 static int read_field(int ncid, int varid, const char *path, const char *label, size_t nlat,
-                      size_t nlon, double *out, sph_error *err)
+                      size_t nlon, double *out, unsigned char *land, double *halfstep,
+                      sph_error *err)
 {
     int ndims;
     nc_inq_varndims(ncid, varid, &ndims);
@@ -79,8 +112,28 @@ static int read_field(int ncid, int varid, const char *path, const char *label, 
     int nan_declared = (has_fill && isnan(fill)) || (has_missing && isnan(missing));
     nc_get_att_double(ncid, varid, "scale_factor", &scale);
     nc_get_att_double(ncid, varid, "add_offset", &offset);
+    if (halfstep) {
+        nc_type t;
+        nc_inq_vartype(ncid, varid, &t);
+        /* packed integers: half a packing step, in the field's units */
+        *halfstep = t != NC_FLOAT && t != NC_DOUBLE ? 0.5 * fabs(scale) : 0;
+    }
+    double fv[RASTER_MAX_FLAGS];
+    int fk[RASTER_MAX_FLAGS];
+    int nflags = read_flags(ncid, varid, path, label, "flag_values", fv, fk, err);
+    if (nflags < 0)
+        return err->code;
     for (size_t k = 0; k < nlat * nlon; k++) {
         double v = out[k];
+        int f = 0;
+        while (f < nflags && v != fv[f])
+            f++;
+        if (f < nflags) { /* flags are raw values, not scaled */
+            out[k] = NAN;
+            if (land)
+                land[k] = fk[f] == 1 ? 1 : 2;
+            continue;
+        }
         if (isnan(v) && !nan_declared)
             return sph_err_set(err, SPH_ERR_BAD_DATA,
                                "ice raster %s: %s is NaN at index %zu (row %zu, column %zu) "
@@ -93,17 +146,21 @@ static int read_field(int ncid, int varid, const char *path, const char *label, 
     return SPH_OK;
 }
 
-static int read_axis(int ncid, int dimid, const char *path, const char *what, size_t *n,
-                     double **values, sph_error *err)
+/* varid: the axis's coordinate variable, or -1 for the one named as the
+ * dimension */
+static int read_axis(int ncid, int dimid, int varid, const char *path, const char *what,
+                     size_t *n, double **values, sph_error *err)
 {
     char name[NC_MAX_NAME + 1];
-    int varid, status = nc_inq_dim(ncid, dimid, name, n);
+    int status = nc_inq_dim(ncid, dimid, name, n);
     if (status != NC_NOERR)
         return nc_fail(path, status, what, err);
     if (*n < 2)
         return sph_err_set(err, SPH_ERR_BAD_DATA, "ice raster %s: %s axis \"%s\" has %zu value(s)",
                            path, what, name, *n);
-    if (nc_inq_varid(ncid, name, &varid) != NC_NOERR)
+    if (varid >= 0)
+        nc_inq_varname(ncid, varid, name);
+    else if (nc_inq_varid(ncid, name, &varid) != NC_NOERR)
         return sph_err_set(err, SPH_ERR_MISSING_VAR,
                            "ice raster %s: no coordinate variable for %s dimension \"%s\"", path,
                            what, name);
@@ -357,9 +414,27 @@ static int find_2d(int ncid, int vc, int ydim, int xdim, int want)
 }
 
 /* Which grid the concentration `vc` (named vname) is on. */
+/* A 1-D variable on dimension dim with standard_name sname (NSIDC's
+ * xgrid(x), ygrid(y)); -1 when none. */
+static int find_axis_var(int ncid, int dim, const char *sname)
+{
+    int nvars = 0;
+    nc_inq_nvars(ncid, &nvars);
+    char buf[64];
+    for (int v = 0; v < nvars; v++) {
+        int nd, d;
+        if (nc_inq_varndims(ncid, v, &nd) || nd != 1 || nc_inq_vardimid(ncid, v, &d) || d != dim)
+            continue;
+        if (att_text(ncid, v, "standard_name", buf, sizeof buf) && strcmp(buf, sname) == 0)
+            return v;
+    }
+    return -1;
+}
+
 static int classify_grid(int ncid, int vc, const char *vname, int xdim, int ydim,
                          const char *path, int *kind, char *def, size_t dlen, double *xto_m,
-                         double *yto_m, int *vlat2, int *vlon2, sph_error *err)
+                         double *yto_m, int *vlat2, int *vlon2, int *xvar, int *yvar,
+                         sph_error *err)
 {
     char xname[NC_MAX_NAME + 1], yname[NC_MAX_NAME + 1], gmname[NC_MAX_NAME + 1] = "";
     nc_inq_dimname(ncid, xdim, xname);
@@ -369,6 +444,12 @@ static int classify_grid(int ncid, int vc, const char *vname, int xdim, int ydim
         xv = -1;
     if (nc_inq_varid(ncid, yname, &yv) != NC_NOERR || nc_inq_varndims(ncid, yv, &nd) || nd != 1)
         yv = -1;
+    if (xv < 0)
+        xv = find_axis_var(ncid, xdim, "projection_x_coordinate");
+    if (yv < 0)
+        yv = find_axis_var(ncid, ydim, "projection_y_coordinate");
+    *xvar = xv;
+    *yvar = yv;
     char buf[NC_MAX_NAME + 64];
     if (att_text(ncid, vc, "grid_mapping", buf, sizeof buf)) {
         /* "crs" or the CF 1.7 form "crs: x y" */
@@ -466,7 +547,7 @@ static int read_cell_area(int ncid, int vc, const char *path, const char *vname,
     double *a = malloc(sizeof(double) * nx * ny);
     if (!a)
         return sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
-    int rc = read_field(ncid, va, path, p, ny, nx, a, err);
+    int rc = read_field(ncid, va, path, p, ny, nx, a, NULL, NULL, err);
     if (rc != SPH_OK) {
         free(a);
         return rc;
@@ -479,7 +560,8 @@ static int read_cell_area(int ncid, int vc, const char *path, const char *vname,
 
 static const char *const conc_names[] = {"siconc", "ice_conc", "sic", "aice", "SIC", "conc",
                                          "cdr_seaice_conc", "fice", NULL};
-static const char *const thick_names[] = {"sithick", "hi", "sit", "ice_thickness", "thick", NULL};
+static const char *const thick_names[] = {"sithick", "hi", "sit", "ice_thickness", "thick", "hice",
+                                          NULL};
 
 /* A projected or curvilinear raster's coordinates, cell centres and areas
  * (xs/ys: the 1-D x/y in m as in the file; tmp: nlon * nlat scratch). */
@@ -527,9 +609,9 @@ static int set_grid(int ncid, int vc, const char *vname, const char *path, int k
         nc_inq_varname(ncid, vlon2, ln);
         nc_inq_varname(ncid, vlat2, lt);
         if (rc == SPH_OK)
-            rc = read_field(ncid, vlon2, path, ln, ny, nx, r->cell_lon, err);
+            rc = read_field(ncid, vlon2, path, ln, ny, nx, r->cell_lon, NULL, NULL, err);
         if (rc == SPH_OK)
-            rc = read_field(ncid, vlat2, path, lt, ny, nx, r->cell_lat, err);
+            rc = read_field(ncid, vlat2, path, lt, ny, nx, r->cell_lat, NULL, NULL, err);
         if (rc == SPH_OK)
             rc = raster_set_curvilinear(r, vname, area, err);
         snprintf(r->grid, sizeof r->grid, "curvilinear, 2-D %s/%s, cell areas %s", lt, ln,
@@ -537,6 +619,57 @@ static int set_grid(int ncid, int vc, const char *vname, const char *path, int k
     }
     free(area);
     return rc;
+}
+
+/* Land from the concentration's ancillary status flag (ancillary_variables
+ * naming a variable on its grid with flag_masks or flag_values whose
+ * meanings name land, coast or lake): flags[k] = 1 there. */
+static int read_status_land(int ncid, int vc, const char *path, size_t ny, size_t nx,
+                            unsigned char *flags, double *tmp, sph_error *err)
+{
+    char anc[1024];
+    if (!att_text(ncid, vc, "ancillary_variables", anc, sizeof anc))
+        return SPH_OK;
+    for (char *save = NULL, *tok = strtok_r(anc, " ", &save); tok; tok = strtok_r(NULL, " ", &save)) {
+        int v, nd, d[NC_MAX_VAR_DIMS], cd[NC_MAX_VAR_DIMS], cnd;
+        if (nc_inq_varid(ncid, tok, &v) != NC_NOERR)
+            continue;
+        nc_inq_varndims(ncid, v, &nd);
+        nc_inq_vardimid(ncid, v, d);
+        nc_inq_varndims(ncid, vc, &cnd);
+        nc_inq_vardimid(ncid, vc, cd);
+        if (nd < 2 || d[nd - 1] != cd[cnd - 1] || d[nd - 2] != cd[cnd - 2])
+            continue;
+        double masks[RASTER_MAX_FLAGS], values[RASTER_MAX_FLAGS];
+        int mk[RASTER_MAX_FLAGS], vk[RASTER_MAX_FLAGS];
+        int nm = read_flags(ncid, v, path, tok, "flag_masks", masks, mk, err);
+        int nv = nm < 0 ? -1 : read_flags(ncid, v, path, tok, "flag_values", values, vk, err);
+        if (nm < 0 || nv < 0)
+            return err->code;
+        if (nm == 0 && nv == 0)
+            continue;
+        size_t start[NC_MAX_VAR_DIMS] = {0}, count[NC_MAX_VAR_DIMS];
+        for (int q = 0; q < nd; q++)
+            count[q] = 1;
+        count[nd - 2] = ny;
+        count[nd - 1] = nx;
+        int status = nc_get_vara_double(ncid, v, start, count, tmp);
+        if (status != NC_NOERR)
+            return sph_err_set(err, SPH_ERR_NETCDF, "ice raster %s: reading %s: %s", path, tok,
+                               nc_strerror(status));
+        for (size_t k = 0; k < nx * ny; k++) {
+            if (!isfinite(tmp[k]) || fabs(tmp[k]) > 9e15)
+                continue;
+            long long raw = (long long)tmp[k];
+            for (int q = 0; q < nm; q++)
+                if (mk[q] == 1 && (raw & (long long)masks[q]))
+                    flags[k] = 1;
+            for (int q = 0; q < nv; q++)
+                if (vk[q] == 1 && tmp[k] == values[q])
+                    flags[k] = 1;
+        }
+    }
+    return SPH_OK;
 }
 
 static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster **out,
@@ -579,12 +712,12 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
     }
     char vname[NC_MAX_NAME + 1] = "";
     char gmdef[4096] = "";
-    int kind = ICE_RASTER_LONLAT, vlat2 = -1, vlon2 = -1;
+    int kind = ICE_RASTER_LONLAT, vlat2 = -1, vlon2 = -1, xvar = -1, yvar = -1;
     double xto_m = 1, yto_m = 1;
     if (rc == SPH_OK) {
         nc_inq_varname(ncid, vc, vname);
         rc = classify_grid(ncid, vc, vname, dims[ndims - 1], dims[ndims - 2], path, &kind, gmdef,
-                           sizeof gmdef, &xto_m, &yto_m, &vlat2, &vlon2, err);
+                           sizeof gmdef, &xto_m, &yto_m, &vlat2, &vlon2, &xvar, &yvar, err);
     }
     if (rc == SPH_OK && kind == ICE_RASTER_CURVILINEAR) {
         nc_inq_dimlen(ncid, dims[ndims - 1], &nlon);
@@ -592,9 +725,11 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
     } else {
         int proj = kind == ICE_RASTER_PROJECTED;
         if (rc == SPH_OK)
-            rc = read_axis(ncid, dims[ndims - 1], path, proj ? "x" : "longitude", &nlon, &lon, err);
+            rc = read_axis(ncid, dims[ndims - 1], proj ? xvar : -1, path, proj ? "x" : "longitude",
+                           &nlon, &lon, err);
         if (rc == SPH_OK)
-            rc = read_axis(ncid, dims[ndims - 2], path, proj ? "y" : "latitude", &nlat, &lat, err);
+            rc = read_axis(ncid, dims[ndims - 2], proj ? yvar : -1, path, proj ? "y" : "latitude",
+                           &nlat, &lat, err);
         for (size_t i = 0; rc == SPH_OK && proj && i < nlon; i++)
             lon[i] *= xto_m;
         for (size_t j = 0; rc == SPH_OK && proj && j < nlat; j++)
@@ -615,11 +750,18 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
             rc = sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
     }
     int percent = -1;
+    unsigned char *flags = NULL;
+    if (rc == SPH_OK && !(flags = calloc(nlat * nlon, 1)))
+        rc = sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
     if (rc == SPH_OK) {
-        rc = read_field(ncid, vc, path, "concentration", nlat, nlon, tmp, err);
+        char clabel[NC_MAX_NAME + 32];
+        snprintf(clabel, sizeof clabel, "concentration %s", vname);
+        rc = read_field(ncid, vc, path, clabel, nlat, nlon, tmp, flags, &r->conc_halfstep, err);
         char units[64];
         if (att_text(ncid, vc, "units", units, sizeof units))
             percent = (strcmp(units, "%") == 0 || strcasecmp(units, "percent") == 0) ? 1 : -1;
+        if (rc == SPH_OK)
+            rc = read_status_land(ncid, vc, path, nlat, nlon, flags, r->thick, err);
     }
     int flip = rc == SPH_OK && lat && lat[1] < lat[0];
     int flip_lon = rc == SPH_OK && lon && lon[1] < lon[0];
@@ -628,8 +770,25 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
             for (size_t i = 0; i < nlon; i++)
                 r->conc[j * nlon + i] =
                     tmp[(flip ? nlat - 1 - j : j) * nlon + (flip_lon ? nlon - 1 - i : i)];
+        for (size_t k = 0; k < nlat * nlon; k++) {
+            r->nland += flags[k] == 1;
+            r->nnoinfo += flags[k] == 2;
+        }
+        if (r->nland || r->nnoinfo) {
+            if (!(r->land = malloc(nlat * nlon)))
+                rc = sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
+            for (size_t j = 0; rc == SPH_OK && j < nlat; j++)
+                for (size_t i = 0; i < nlon; i++) {
+                    size_t k = j * nlon + i;
+                    r->land[k] = flags[(flip ? nlat - 1 - j : j) * nlon + (flip_lon ? nlon - 1 - i : i)];
+                    if (r->land[k])
+                        r->conc[k] = NAN;
+                }
+            log_info("ice raster %s: %s flags: %zu land/coast/lake cells, %zu cells without "
+                     "information (not open water)", path, vname, r->nland, r->nnoinfo);
+        }
         if (vt >= 0) {
-            rc = read_field(ncid, vt, path, "thickness", nlat, nlon, tmp, err);
+            rc = read_field(ncid, vt, path, "thickness", nlat, nlon, tmp, NULL, NULL, err);
             double to_m = 1;
             char units[64];
             /* any length unit (udunits2: cm, mm, inch, ...); none means m */
@@ -689,6 +848,7 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
     free(lon);
     free(lat);
     free(tmp);
+    free(flags);
     if (rc != SPH_OK) {
         ice_raster_free(r);
         return rc;
