@@ -25,6 +25,15 @@
  *    then nrows rows from north to south. One file holds concentration;
  *    thickness comes from a second grid of the same geometry
  *    (ice_raster_options.thickness_path) or from the default.
+ * Thickness kind (options.thickness_kind AUTO): from the variable's
+ * cell_methods ("area: mean where sea_ice": per ice area; "area: mean" or
+ * "area: mean where sea": cell mean), else its long_name ("in cell",
+ * "cell mean", "per unit area", "volume per": cell mean; "ice-covered",
+ * "floe", "actual": per ice area), else its name (sivol, vice: cell mean;
+ * sithick: per ice area), else standard_name sea_ice_thickness (per ice
+ * area). Undecided (and any ESRI thickness grid): an error naming
+ * initial.thickness_kind. A cell mean is divided by the concentration
+ * where it is > 0, so thick is always per ice area.
  * Concentration is percent when the units are "%"/"percent" or any value
  * exceeds 1.5, else a fraction; stored as a fraction 0..1. Thickness in
  * any length unit udunits2 knows (cm, mm, inch; none means m); a unit
@@ -47,6 +56,13 @@ enum {
     ICE_RASTER_LONLAT = 0,    /* regular 1-D lon/lat (lon, lat, dlon, dlat) */
     ICE_RASTER_PROJECTED,     /* regular 1-D x/y of a CF grid_mapping (x, y, dx, dy) */
     ICE_RASTER_CURVILINEAR    /* 2-D lat/lon per cell, no map projection */
+};
+
+/* What a thickness field means (initial.thickness_kind). */
+enum {
+    ICE_THICK_AUTO = 0,   /* from the file's metadata; an error where it does not say */
+    ICE_THICK_ICE,        /* per ice-covered area (the ice itself) */
+    ICE_THICK_CELL_MEAN   /* volume per cell area: divided by the concentration where > 0 */
 };
 
 struct raster_crs; /* PROJ objects of a projected raster (private) */
@@ -73,6 +89,8 @@ typedef struct ice_raster {
     double conc_halfstep;  /* half the packing step of a packed concentration (its units), else 0 */
     double *thick;         /* [j * nlon + i], ice thickness, m (>= 0) */
     double valid_time;     /* seconds since 1970Z; NaN if the file has none */
+    int thickness_kind;    /* ICE_THICK_ICE or _CELL_MEAN as read (thick is per ice area either way) */
+    char thickness_why[160]; /* what decided it */
     char path[4096];
 } ice_raster;
 
@@ -82,6 +100,7 @@ typedef struct ice_raster_options {
     const char *thick_variable;
     double default_thickness;     /* m, where thickness is missing (default 0.1) */
     double valid_time;            /* for ESRI grids (NaN: unknown) */
+    int thickness_kind;           /* ICE_THICK_* (default AUTO) */
 } ice_raster_options;
 
 void ice_raster_options_default(ice_raster_options *o);

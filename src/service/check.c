@@ -35,6 +35,7 @@ static int check_raster(const struct sph_config *cfg, double t, int json, FILE *
     ice_raster_options o;
     ice_raster_options_default(&o);
     o.default_thickness = cfg->initial.default_thickness;
+    o.thickness_kind = cfg->initial.thickness_kind;
     if (cfg->initial.format == CFG_INIT_ESRI) {
         o.valid_time = t;
         if (cfg->initial.thick_var && cfg->initial.thick_var[0] &&
@@ -72,10 +73,18 @@ static int check_raster(const struct sph_config *cfg, double t, int json, FILE *
             vol += c * r->thick[(size_t)jj * r->nlon + i] * a;
         }
     cJSON_AddStringToObject(j, "grid", r->grid);
+    const char *tk = !r->thickness_why[0] ? "none (initial.default_thickness)"
+                     : r->thickness_kind == ICE_THICK_CELL_MEAN ? "cell_mean" : "ice";
+    cJSON_AddStringToObject(j, "thickness_kind", tk);
+    cJSON_AddStringToObject(j, "thickness_kind_from", r->thickness_why);
+    cJSON_AddNumberToObject(j, "land_cells", (double)r->nland);
+    cJSON_AddNumberToObject(j, "no_information_cells", (double)r->nnoinfo);
     cJSON_AddNumberToObject(j, "ice_area_km2", area / 1e6);
     cJSON_AddNumberToObject(j, "ice_volume_km3", vol / 1e9);
     if (!json) {
         fprintf(out, "raster       initial        %s: %d x %d cells, %s\n", p, r->nlon, r->nlat, r->grid);
+        fprintf(out, "raster       initial        thickness %s%s%s; flagged land %zu, no information %zu cells\n",
+                tk, r->thickness_why[0] ? " from " : "", r->thickness_why, r->nland, r->nnoinfo);
         if (area > 0)
             fprintf(out, "raster       initial        ice in the domain: area %.6g km2, volume %.6g km3\n",
                     area / 1e6, vol / 1e9);

@@ -172,6 +172,7 @@ int fc_read_raster(engine *e, const char *tmpl, int format, const char *conc_var
     ice_raster_options o;
     ice_raster_options_default(&o);
     o.default_thickness = cfg->initial.default_thickness;
+    o.thickness_kind = cfg->initial.thickness_kind;
     char thick_path[4096] = "";
     if (format == CFG_INIT_ESRI) {
         /* ESRI: initial.thick_var names the thickness grid file (a template) */

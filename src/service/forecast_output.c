@@ -136,6 +136,7 @@ int fc_set_observation(engine *e, sph_error *err)
     ice_raster_options o;
     ice_raster_options_default(&o);
     o.valid_time = e->t_end;
+    o.thickness_kind = ICE_THICK_ICE; /* unused: verification compares concentration only */
     if (cfg->observations.format != CFG_INIT_ESRI)
         o.conc_variable = cfg->observations.conc_var;
     sph_error local;

@@ -124,6 +124,8 @@ int raster_finish(ice_raster *r, int percent, const ice_raster_options *o, sph_e
         c = percent ? c / 100.0 : c;
         r->conc[k] = c < 0 ? 0 : c > 1 ? 1 : c;
         double h = r->thick[k];
+        if (r->thickness_kind == ICE_THICK_CELL_MEAN && r->conc[k] > 0 && !isnan(h))
+            r->thick[k] = h = h / r->conc[k]; /* volume per cell area -> per ice area */
         if (h < 0) {
             ice_raster_cell_lonlat(r, i, j, &lon, &lat);
             return sph_err_set(err, SPH_ERR_BAD_DATA,

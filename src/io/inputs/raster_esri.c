@@ -134,7 +134,15 @@ static int read_esri(const char *path, const char *text, const ice_raster_option
     size_t n = (size_t)r->nlon * r->nlat;
     for (size_t k = 0; k < n; k++)
         r->thick[k] = NAN;
+    if (rc == SPH_OK && o->thickness_path && *o->thickness_path &&
+        o->thickness_kind == ICE_THICK_AUTO)
+        rc = sph_err_set(err, SPH_ERR_CONFIG,
+                         "ice raster %s: an ESRI grid cannot say whether thickness is per ice "
+                         "area or a cell mean: set initial.thickness_kind to \"ice\" or "
+                         "\"cell_mean\"", o->thickness_path);
     if (rc == SPH_OK && o->thickness_path && *o->thickness_path) {
+        r->thickness_kind = o->thickness_kind;
+        snprintf(r->thickness_why, sizeof r->thickness_why, "initial.thickness_kind");
         char *ttext = NULL;
         esri_header th;
         rc = read_file(o->thickness_path, &ttext, NULL, err);

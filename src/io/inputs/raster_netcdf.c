@@ -672,6 +672,79 @@ static int read_status_land(int ncid, int vc, const char *path, size_t ny, size_
     return SPH_OK;
 }
 
+/* The thickness kind of variable vt (see io/raster.h). */
+static int thickness_kind(int ncid, int vt, int want, const char *path, int *kind, char *why,
+                          size_t wlen, sph_error *err)
+{
+    char name[NC_MAX_NAME + 1], buf[512];
+    nc_inq_varname(ncid, vt, name);
+    if (want != ICE_THICK_AUTO) {
+        *kind = want;
+        snprintf(why, wlen, "initial.thickness_kind");
+        return SPH_OK;
+    }
+    if (att_text(ncid, vt, "cell_methods", buf, sizeof buf)) {
+        char *a = strstr(buf, "area:");
+        if (a) {
+            a += 5;
+            a += strspn(a, " ");
+            if (strncmp(a, "mean where sea_ice", 18) == 0) {
+                *kind = ICE_THICK_ICE;
+                snprintf(why, wlen, "%.64s cell_methods \"area: mean where sea_ice\"", name);
+                return SPH_OK;
+            }
+            /* "area: mean" over the cell, or over its sea part */
+            int plain = strncmp(a, "mean", 4) == 0 && strncmp(a + 4, " where", 6) != 0;
+            int sea = strncmp(a, "mean where sea", 14) == 0 && a[14] != '_';
+            if (plain || sea) {
+                *kind = ICE_THICK_CELL_MEAN;
+                snprintf(why, wlen, "%.64s cell_methods \"area: mean\" (over the cell)", name);
+                return SPH_OK;
+            }
+        }
+    }
+    if (att_text(ncid, vt, "long_name", buf, sizeof buf)) {
+        for (char *c = buf; *c; c++)
+            *c = (char)tolower((unsigned char)*c);
+        static const char *const mean_words[] = {"in cell", "cell mean", "grid cell mean",
+                                                 "grid-cell mean", "per unit area", "volume per",
+                                                 "per grid cell area", NULL};
+        static const char *const ice_words[] = {"ice-covered", "ice covered", "floe", "actual",
+                                                "over the ice", NULL};
+        for (const char *const *w = mean_words; *w; w++)
+            if (strstr(buf, *w)) {
+                *kind = ICE_THICK_CELL_MEAN;
+                snprintf(why, wlen, "%.64s long_name (\"%.32s\")", name, *w);
+                return SPH_OK;
+            }
+        for (const char *const *w = ice_words; *w; w++)
+            if (strstr(buf, *w)) {
+                *kind = ICE_THICK_ICE;
+                snprintf(why, wlen, "%.64s long_name (\"%.32s\")", name, *w);
+                return SPH_OK;
+            }
+    }
+    if (strcmp(name, "sivol") == 0 || strcmp(name, "vice") == 0) {
+        *kind = ICE_THICK_CELL_MEAN;
+        snprintf(why, wlen, "variable name %.64s (volume per cell area)", name);
+        return SPH_OK;
+    }
+    if (strcmp(name, "sithick") == 0) {
+        *kind = ICE_THICK_ICE;
+        snprintf(why, wlen, "variable name sithick (per ice area)");
+        return SPH_OK;
+    }
+    if (att_text(ncid, vt, "standard_name", buf, sizeof buf) && strcmp(buf, "sea_ice_thickness") == 0) {
+        *kind = ICE_THICK_ICE;
+        snprintf(why, wlen, "%.64s standard_name sea_ice_thickness", name);
+        return SPH_OK;
+    }
+    return sph_err_set(err, SPH_ERR_CONFIG,
+                       "ice raster %s: thickness variable %s: no cell_methods, long_name or "
+                       "standard_name says whether it is per ice area or a cell mean: set "
+                       "initial.thickness_kind to \"ice\" or \"cell_mean\"", path, name);
+}
+
 static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster **out,
                        sph_error *err)
 {
@@ -788,7 +861,10 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
                      "information (not open water)", path, vname, r->nland, r->nnoinfo);
         }
         if (vt >= 0) {
-            rc = read_field(ncid, vt, path, "thickness", nlat, nlon, tmp, NULL, NULL, err);
+            rc = thickness_kind(ncid, vt, o->thickness_kind, path, &r->thickness_kind,
+                                r->thickness_why, sizeof r->thickness_why, err);
+            if (rc == SPH_OK)
+                rc = read_field(ncid, vt, path, "thickness", nlat, nlon, tmp, NULL, NULL, err);
             double to_m = 1;
             char units[64];
             /* any length unit (udunits2: cm, mm, inch, ...); none means m */
