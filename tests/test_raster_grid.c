@@ -21,48 +21,14 @@
  * (1 for the equal-area EASE2 grid); per-cell seeding must carry the
  * raster's ice area and volume within 1 %; bad grids fail with one line
  * naming file and variable. */
-#include "io/raster.h"
-#include "io/seed.h"
-
-#include <netcdf.h>
 #include <unistd.h>
 
-#include "check.h"
+#include "raster_provider.h"
 
 static const double DEG = M_PI / 180;
 
 /* ---------------------------------------------------- Snyder formulas */
-
-/* polar stereographic north, ellipsoid (a, e), true scale at lat_c (eq. 21-33, 21-34, 21-35) */
-static double ps_t(double phi, double e)
-{
-    double s = sin(phi);
-    return tan(M_PI / 4 - phi / 2) / pow((1 - e * s) / (1 + e * s), e / 2);
-}
-static double ps_m(double phi, double e) { return cos(phi) / sqrt(1 - e * e * sin(phi) * sin(phi)); }
-static void ps_forward(double a, double e, double latc, double lon0, double lon, double lat,
-                       double *x, double *y, double *k)
-{
-    double phi = lat * DEG, pc = latc * DEG;
-    double rho = a * ps_m(pc, e) * ps_t(phi, e) / ps_t(pc, e);
-    *x = rho * sin((lon - lon0) * DEG);
-    *y = -rho * cos((lon - lon0) * DEG);
-    *k = rho / (a * ps_m(phi, e));
-}
-
-/* polar Lambert azimuthal equal-area north, ellipsoid (eq. 3-12, 24-...) */
-static double laea_q(double phi, double e)
-{
-    double s = sin(phi);
-    return (1 - e * e) * (s / (1 - e * e * s * s) - 1 / (2 * e) * log((1 - e * s) / (1 + e * s)));
-}
-static void laea_forward(double a, double e, double lon0, double lon, double lat, double *x,
-                         double *y)
-{
-    double rho = a * sqrt(laea_q(M_PI / 2, e) - laea_q(lat * DEG, e));
-    *x = rho * sin((lon - lon0) * DEG);
-    *y = -rho * cos((lon - lon0) * DEG);
-}
+/* polar stereographic and polar LAEA: raster_provider.h */
 
 /* Lambert conformal conic, sphere R, two standard parallels (eq. 15-1..15-5, 15-4 for k) */
 static void lcc_forward(double R, double p1, double p2, double lat0, double lon0, double lon,
@@ -92,7 +58,7 @@ static void tm_forward(double R, double k0, double lat0, double lon0, double lon
 /* area of a lon/lat cell on the ellipsoid (a, e): authalic q (eq. 3-12) */
 static double ll_area(double a, double e, double dlon, double s, double n)
 {
-    return a * a * dlon * DEG * (laea_q(n * DEG, e) - laea_q(s * DEG, e)) / 2;
+    return a * a * dlon * DEG * (rp_q(n * DEG, e) - rp_q(s * DEG, e)) / 2;
 }
 
 /* ---------------------------------------------------------- writers */
@@ -119,10 +85,7 @@ static double thick_of(int i, int j) { return 0.5 + 0.01 * i + 0.02 * j; }
 
 typedef void (*gm_writer)(int ncid, int gm);
 
-static void put_text(int ncid, int v, const char *att, const char *text)
-{
-    nc_put_att_text(ncid, v, att, strlen(text), text);
-}
+
 
 /* Writes the raster; conc[j][i] with j counted from y0 upward. */
 static void write_projected(const char *path, const grid_spec *g, gm_writer gmw)
@@ -149,7 +112,7 @@ static void write_projected(const char *path, const grid_spec *g, gm_writer gmw)
     nc_def_var(ncid, g->conc_name, NC_FLOAT, 3, d, &vc);
     nc_def_var(ncid, "sea_ice_thickness", NC_FLOAT, 3, d, &vh);
     nc_put_att_text(ncid, vc, "units", strlen(g->conc_units), g->conc_units);
-    put_text(ncid, vc, "standard_name", "sea_ice_area_fraction");
+    rp_text(ncid, vc, "standard_name", "sea_ice_area_fraction");
     nc_put_att_text(ncid, vh, "standard_name", 17, "sea_ice_thickness");
     nc_put_att_text(ncid, vh, "units", 1, "m");
     if (g->with_gm) {
@@ -186,97 +149,84 @@ static void write_projected(const char *path, const grid_spec *g, gm_writer gmw)
     nc_close(ncid);
 }
 
-static void put_num(int ncid, int v, const char *att, double x)
-{
-    nc_put_att_double(ncid, v, att, NC_DOUBLE, 1, &x);
-}
 
-/* NSIDC CDR `crs` (G02202 user guide, EPSG:3411) */
+
+/* NSIDC CDR `crs` (G02202 user guide, EPSG:3411): the CF attributes */
 static const double HA = 6378273.0, HB = 6356889.449;
-static void gm_cdr(int ncid, int gm)
-{
-    put_text(ncid, gm, "grid_mapping_name", "polar_stereographic");
-    put_num(ncid, gm, "straight_vertical_longitude_from_pole", -45);
-    put_num(ncid, gm, "latitude_of_projection_origin", 90);
-    put_num(ncid, gm, "standard_parallel", 70);
-    put_num(ncid, gm, "false_easting", 0);
-    put_num(ncid, gm, "false_northing", 0);
-    put_num(ncid, gm, "semi_major_axis", HA);
-    put_num(ncid, gm, "semi_minor_axis", HB);
-    put_text(ncid, gm, "srid", "urn:ogc:def:crs:EPSG::3411");
-}
-/* the same with only the CF attributes */
 static void gm_cdr_cf(int ncid, int gm)
 {
-    put_text(ncid, gm, "grid_mapping_name", "polar_stereographic");
-    put_num(ncid, gm, "straight_vertical_longitude_from_pole", -45);
-    put_num(ncid, gm, "latitude_of_projection_origin", 90);
-    put_num(ncid, gm, "standard_parallel", 70);
-    put_num(ncid, gm, "false_easting", 0);
-    put_num(ncid, gm, "false_northing", 0);
-    put_num(ncid, gm, "semi_major_axis", HA);
-    put_num(ncid, gm, "semi_minor_axis", HB);
+    rp_text(ncid, gm, "grid_mapping_name", "polar_stereographic");
+    rp_num(ncid, gm, "straight_vertical_longitude_from_pole", -45);
+    rp_num(ncid, gm, "latitude_of_projection_origin", 90);
+    rp_num(ncid, gm, "standard_parallel", 70);
+    rp_num(ncid, gm, "false_easting", 0);
+    rp_num(ncid, gm, "false_northing", 0);
+    rp_num(ncid, gm, "semi_major_axis", HA);
+    rp_num(ncid, gm, "semi_minor_axis", HB);
+}
+/* the same with its EPSG code, which the reader takes first */
+static void gm_cdr(int ncid, int gm)
+{
+    gm_cdr_cf(ncid, gm);
+    rp_text(ncid, gm, "srid", "urn:ogc:def:crs:EPSG::3411");
 }
 /* OSI SAF EASE2 north */
 static const double WA = 6378137.0, WRF = 298.257223563;
 static void gm_ease2(int ncid, int gm)
 {
-    put_text(ncid, gm, "grid_mapping_name", "lambert_azimuthal_equal_area");
-    put_num(ncid, gm, "longitude_of_projection_origin", 0);
-    put_num(ncid, gm, "latitude_of_projection_origin", 90);
-    put_num(ncid, gm, "false_easting", 0);
-    put_num(ncid, gm, "false_northing", 0);
-    put_num(ncid, gm, "semi_major_axis", WA);
-    put_num(ncid, gm, "inverse_flattening", WRF);
+    rp_text(ncid, gm, "grid_mapping_name", "lambert_azimuthal_equal_area");
+    rp_num(ncid, gm, "longitude_of_projection_origin", 0);
+    rp_num(ncid, gm, "latitude_of_projection_origin", 90);
+    rp_num(ncid, gm, "false_easting", 0);
+    rp_num(ncid, gm, "false_northing", 0);
+    rp_num(ncid, gm, "semi_major_axis", WA);
+    rp_num(ncid, gm, "inverse_flattening", WRF);
 }
 /* the same as a proj4 string whose CRS unit is km */
 static void gm_ease2_km(int ncid, int gm)
 {
-    put_text(ncid, gm, "proj4_string", "+proj=laea +lat_0=90 +lon_0=0 +x_0=0 +y_0=0 +a=6378137 "
+    rp_text(ncid, gm, "proj4_string", "+proj=laea +lat_0=90 +lon_0=0 +x_0=0 +y_0=0 +a=6378137 "
                                        "+rf=298.257223563 +units=km +no_defs");
 }
 static const double GR = 6371229.0;
 static void gm_lcc(int ncid, int gm)
 {
-    put_text(ncid, gm, "grid_mapping_name", "lambert_conformal_conic");
+    rp_text(ncid, gm, "grid_mapping_name", "lambert_conformal_conic");
     double sp[2] = {60, 75};
     nc_put_att_double(ncid, gm, "standard_parallel", NC_DOUBLE, 2, sp);
-    put_num(ncid, gm, "longitude_of_central_meridian", 20);
-    put_num(ncid, gm, "latitude_of_projection_origin", 70);
-    put_num(ncid, gm, "earth_radius", GR);
+    rp_num(ncid, gm, "longitude_of_central_meridian", 20);
+    rp_num(ncid, gm, "latitude_of_projection_origin", 70);
+    rp_num(ncid, gm, "earth_radius", GR);
 }
 static void gm_tm(int ncid, int gm)
 {
-    put_text(ncid, gm, "proj4", "+proj=tmerc +lat_0=60 +lon_0=25 +k_0=0.9996 +x_0=0 +y_0=0 "
+    rp_text(ncid, gm, "proj4", "+proj=tmerc +lat_0=60 +lon_0=25 +k_0=0.9996 +x_0=0 +y_0=0 "
                                 "+R=6371000 +units=m +no_defs");
 }
 static void gm_noellps(int ncid, int gm)
 {
-    put_text(ncid, gm, "grid_mapping_name", "polar_stereographic");
-    put_num(ncid, gm, "straight_vertical_longitude_from_pole", -45);
-    put_num(ncid, gm, "latitude_of_projection_origin", 90);
-    put_num(ncid, gm, "standard_parallel", 70);
+    gm_cdr_cf(ncid, gm);
+    nc_del_att(ncid, gm, "semi_major_axis");
+    nc_del_att(ncid, gm, "semi_minor_axis");
 }
 static void gm_rotated(int ncid, int gm)
 {
-    put_text(ncid, gm, "grid_mapping_name", "rotated_latitude_longitude");
-    put_num(ncid, gm, "grid_north_pole_latitude", 30);
-    put_num(ncid, gm, "grid_north_pole_longitude", -160);
+    rp_text(ncid, gm, "grid_mapping_name", "rotated_latitude_longitude");
+    rp_num(ncid, gm, "grid_north_pole_latitude", 30);
+    rp_num(ncid, gm, "grid_north_pole_longitude", -160);
 }
-static void gm_badproj(int ncid, int gm) { put_text(ncid, gm, "proj4text", "+proj=nosuchprojection +R=6371000"); }
+static void gm_badproj(int ncid, int gm) { rp_text(ncid, gm, "proj4text", "+proj=nosuchprojection +R=6371000"); }
 
 /* ----------------------------------------------------------- checks */
 
 typedef void (*fwd_fn)(double lon, double lat, double *x, double *y, double *k);
 static void f_cdr(double lon, double lat, double *x, double *y, double *k)
 {
-    double e = sqrt(1 - HB * HB / (HA * HA));
-    ps_forward(HA, e, 70, -45, lon, lat, x, y, k);
+    rp_ps_forward(HA, HB, 70, -45, lon, lat, x, y, k);
 }
 static void f_ease2(double lon, double lat, double *x, double *y, double *k)
 {
-    double f = 1 / WRF, e = sqrt(2 * f - f * f);
-    laea_forward(WA, e, 0, lon, lat, x, y);
+    rp_laea_forward(WA, WRF, 0, lon, lat, x, y);
     *k = 1; /* equal area: areal scale 1 */
 }
 static void f_lcc(double lon, double lat, double *x, double *y, double *k)
@@ -288,7 +238,6 @@ static void f_tm(double lon, double lat, double *x, double *y, double *k)
     tm_forward(6371000, 0.9996, 60, 25, lon, lat, x, y, k);
 }
 
-static const double RHO = 900;
 
 /* Reads `path`, checks positions and areas against fwd, seeds per cell
  * and checks the seeded ice area and volume. */
@@ -323,26 +272,7 @@ static void check_projected(const char *what, const char *path, const grid_spec 
     CHECK(worst_xy < 0.01, "%s: cell centre off the projection formula by %g m", what, worst_xy);
     CHECK(worst_area < 1e-6, "%s: cell area off dx dy / k^2 by %g (relative)", what, worst_area);
     /* per-cell seeding carries the raster's ice */
-    double lon0, lat0;
-    ice_raster_cell_lonlat(r, g->nx / 2, g->ny / 2, &lon0, &lat0);
-    geo_proj *p = geo_proj_create("auto", lon0, lat0, &err);
-    seed_options so;
-    seed_options_default(&so);
-    so.rho_ice = RHO;
-    size_t n = 0;
-    CHECK(seed_count(r, p, NULL, &so, &n, &err) == SPH_OK && n > 0, "%s: count %zu: %s", what, n,
-          err.msg);
-    sph_particles *P = sph_particles_create(n + 1, 1);
-    CHECK(seed_from_raster(r, p, NULL, &so, P, &err) == SPH_OK, "%s: seed: %s", what, err.msg);
-    double got_area = 0, got_vol = 0;
-    for (size_t q = 0; q < P->n; q++) {
-        got_vol += P->mass[q] / RHO;
-        got_area += P->mass[q] / (RHO * P->thick[q]);
-    }
-    CHECK(fabs(got_area / want_area - 1) < 0.01, "%s: seeded ice area %g km2, raster %g km2",
-          what, got_area / 1e6, want_area / 1e6);
-    CHECK(fabs(got_vol / want_vol - 1) < 0.01, "%s: seeded ice volume %g km3, raster %g km3", what,
-          got_vol / 1e9, want_vol / 1e9);
+    rp_check_seeded(what, r, want_area, want_vol, 0.05);
     /* sampling in the native coordinates: at a cell centre, that cell */
     int ci = g->nx / 2 + 1, cj = g->ny / 2 - 1;
     double lon, lat, c, h;
@@ -350,8 +280,6 @@ static void check_projected(const char *what, const char *path, const grid_spec 
     CHECK(ice_raster_sample(r, lon, lat, &c, &h) && fabs(c - conc_of(ci, cj, g->nx, g->ny)) < 1e-6 &&
               fabs(h - thick_of(ci, cj)) < 1e-6,
           "%s: sample at cell (%d, %d): %g, %g m", what, ci, cj, c, h);
-    sph_particles_free(P);
-    geo_proj_free(p);
     ice_raster_free(r);
 }
 
@@ -378,17 +306,17 @@ static void write_curvilinear(const char *path, int with_area)
     nc_def_dim(ncid, "x", NX, &d[1]);
     nc_def_var(ncid, "nav_lat", NC_DOUBLE, 2, d, &vlat);
     nc_def_var(ncid, "nav_lon", NC_DOUBLE, 2, d, &vlon);
-    put_text(ncid, vlat, "units", "degrees_north");
-    put_text(ncid, vlon, "units", "degrees_east");
-    put_text(ncid, vlat, "standard_name", "latitude");
-    put_text(ncid, vlon, "standard_name", "longitude");
+    rp_text(ncid, vlat, "units", "degrees_north");
+    rp_text(ncid, vlon, "units", "degrees_east");
+    rp_text(ncid, vlat, "standard_name", "latitude");
+    rp_text(ncid, vlon, "standard_name", "longitude");
     nc_def_var(ncid, "siconc", NC_DOUBLE, 2, d, &vc);
-    put_text(ncid, vc, "coordinates", "nav_lat nav_lon");
-    put_text(ncid, vc, "units", "1");
+    rp_text(ncid, vc, "coordinates", "nav_lat nav_lon");
+    rp_text(ncid, vc, "units", "1");
     if (with_area) {
         nc_def_var(ncid, "areacello", NC_DOUBLE, 2, d, &va);
-        put_text(ncid, va, "units", "km2");
-        put_text(ncid, vc, "cell_measures", "area: areacello");
+        rp_text(ncid, va, "units", "km2");
+        rp_text(ncid, vc, "cell_measures", "area: areacello");
     }
     nc_enddef(ncid);
     static double la[NY * NX], lo[NY * NX], c[NY * NX], a[NY * NX];

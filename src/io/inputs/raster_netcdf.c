@@ -84,9 +84,9 @@ static int read_flags(int ncid, int varid, const char *path, const char *label, 
     return (int)n;
 }
 
-static int read_field(int ncid, int varid, const char *path, const char *label, size_t nlat,
-                      size_t nlon, double *out, unsigned char *land, double *halfstep,
-                      sph_error *err)
+/* The 2-D slab (leading dimensions at index 0) of varid as raw doubles;
+ * a NetCDF status. */
+static int read_slab(int ncid, int varid, size_t nlat, size_t nlon, double *out)
 {
     int ndims;
     nc_inq_varndims(ncid, varid, &ndims);
@@ -95,7 +95,25 @@ static int read_field(int ncid, int varid, const char *path, const char *label, 
         count[d] = 1;
     count[ndims - 2] = nlat;
     count[ndims - 1] = nlon;
-    int status = nc_get_vara_double(ncid, varid, start, count, out);
+    return nc_get_vara_double(ncid, varid, start, count, out);
+}
+
+/* 1 when variable v has (at least) the last two dimensions of vc. */
+static int same_grid(int ncid, int v, int vc)
+{
+    int nd, cnd, d[NC_MAX_VAR_DIMS], cd[NC_MAX_VAR_DIMS];
+    nc_inq_varndims(ncid, v, &nd);
+    nc_inq_vardimid(ncid, v, d);
+    nc_inq_varndims(ncid, vc, &cnd);
+    nc_inq_vardimid(ncid, vc, cd);
+    return nd >= 2 && cnd >= 2 && d[nd - 1] == cd[cnd - 1] && d[nd - 2] == cd[cnd - 2];
+}
+
+static int read_field(int ncid, int varid, const char *path, const char *label, size_t nlat,
+                      size_t nlon, double *out, unsigned char *land, double *halfstep,
+                      sph_error *err)
+{
+    int status = read_slab(ncid, varid, nlat, nlon, out);
     if (status != NC_NOERR)
         return sph_err_set(err, SPH_ERR_NETCDF, "ice raster %s: reading %s: %s (truncated file?)",
                            path, label, nc_strerror(status));
@@ -521,13 +539,7 @@ static int read_cell_area(int ncid, int vc, const char *path, const char *vname,
     int va;
     if (nc_inq_varid(ncid, p, &va) != NC_NOERR)
         return SPH_OK; /* CF allows it in an external file: compute instead */
-    int nd, d[NC_MAX_VAR_DIMS], vd[NC_MAX_VAR_DIMS];
-    nc_inq_varndims(ncid, va, &nd);
-    nc_inq_vardimid(ncid, va, d);
-    int nvd;
-    nc_inq_varndims(ncid, vc, &nvd);
-    nc_inq_vardimid(ncid, vc, vd);
-    if (nd < 2 || d[nd - 1] != vd[nvd - 1] || d[nd - 2] != vd[nvd - 2])
+    if (!same_grid(ncid, va, vc))
         return sph_err_set(err, SPH_ERR_BAD_DATA,
                            "ice raster %s: variable %s: its cell area %s is not on its grid", path,
                            vname, p);
@@ -631,14 +643,8 @@ static int read_status_land(int ncid, int vc, const char *path, size_t ny, size_
     if (!att_text(ncid, vc, "ancillary_variables", anc, sizeof anc))
         return SPH_OK;
     for (char *save = NULL, *tok = strtok_r(anc, " ", &save); tok; tok = strtok_r(NULL, " ", &save)) {
-        int v, nd, d[NC_MAX_VAR_DIMS], cd[NC_MAX_VAR_DIMS], cnd;
-        if (nc_inq_varid(ncid, tok, &v) != NC_NOERR)
-            continue;
-        nc_inq_varndims(ncid, v, &nd);
-        nc_inq_vardimid(ncid, v, d);
-        nc_inq_varndims(ncid, vc, &cnd);
-        nc_inq_vardimid(ncid, vc, cd);
-        if (nd < 2 || d[nd - 1] != cd[cnd - 1] || d[nd - 2] != cd[cnd - 2])
+        int v;
+        if (nc_inq_varid(ncid, tok, &v) != NC_NOERR || !same_grid(ncid, v, vc))
             continue;
         double masks[RASTER_MAX_FLAGS], values[RASTER_MAX_FLAGS];
         int mk[RASTER_MAX_FLAGS], vk[RASTER_MAX_FLAGS];
@@ -648,12 +654,7 @@ static int read_status_land(int ncid, int vc, const char *path, size_t ny, size_
             return err->code;
         if (nm == 0 && nv == 0)
             continue;
-        size_t start[NC_MAX_VAR_DIMS] = {0}, count[NC_MAX_VAR_DIMS];
-        for (int q = 0; q < nd; q++)
-            count[q] = 1;
-        count[nd - 2] = ny;
-        count[nd - 1] = nx;
-        int status = nc_get_vara_double(ncid, v, start, count, tmp);
+        int status = read_slab(ncid, v, ny, nx, tmp);
         if (status != NC_NOERR)
             return sph_err_set(err, SPH_ERR_NETCDF, "ice raster %s: reading %s: %s", path, tok,
                                nc_strerror(status));
