@@ -217,6 +217,7 @@ int main(void)
     sph_particles *A = seed_file(nc_frac, &ro, p, mask, &so, &r);
     sph_particles *B = seed_file(nc_pct, &ro, p, mask, &so, NULL);
     ro.thickness_path = esri_h;
+    ro.thickness_kind = ICE_THICK_ICE; /* an ESRI grid cannot say (issue 19 item 3) */
     sph_particles *C = seed_file(esri_c, &ro, p, mask, &so, NULL);
     ro.thickness_path = NULL;
 
@@ -422,6 +423,7 @@ int main(void)
         ice_raster_options o2;
         ice_raster_options_default(&o2);
         o2.thickness_path = th;
+        o2.thickness_kind = ICE_THICK_ICE;
         expect_error(bad, &o2, "negative thickness", "-0.2");
         CHECK(strstr(last_error, th) != NULL, "names the thickness file: %s", last_error);
     }

@@ -11,12 +11,90 @@
 
 #include "io/forcing.h"
 #include "io/landmask.h"
+#include "io/raster.h"
 #include "service/config.h"
 #include "service/cycle_name.h"
 #include "service/forecast.h"
 #include "util/fileio.h"
 #include "util/limits.h"
 #include "util/timeutil.h"
+
+/* The initial raster: read as the cycle would, its grid and the ice in
+ * the domain (area sum A x cell area, volume sum A h x cell area, cells
+ * above initial.threshold). Returns 1 when it cannot be read. */
+static int check_raster(const struct sph_config *cfg, double t, int json, FILE *out, cJSON *root)
+{
+    char path[4096], thick[4096] = "";
+    sph_error e;
+    sph_error_clear(&e);
+    if (!cfg->initial.path[0] || cycle_expand_template(cfg->initial.path, t, path, sizeof path, &e))
+        return 0;
+    const char *p = !strncmp(path, "file://", 7) ? path + 7 : path;
+    struct stat st;
+    if (strstr(p, "://") || stat(p, &st) != 0)
+        return 0;
+    ice_raster_options o;
+    ice_raster_options_default(&o);
+    o.default_thickness = cfg->initial.default_thickness;
+    o.thickness_kind = cfg->initial.thickness_kind;
+    if (cfg->initial.format == CFG_INIT_ESRI) {
+        o.valid_time = t;
+        if (cfg->initial.thick_var && cfg->initial.thick_var[0] &&
+            cycle_expand_template(cfg->initial.thick_var, t, thick, sizeof thick, &e) == 0)
+            o.thickness_path = thick;
+    } else {
+        o.conc_variable = cfg->initial.conc_var && cfg->initial.conc_var[0] ? cfg->initial.conc_var : NULL;
+        o.thick_variable = cfg->initial.thick_var && cfg->initial.thick_var[0] ? cfg->initial.thick_var : NULL;
+    }
+    ice_raster *r = NULL;
+    int rc = ice_raster_read(p, &o, &r, &e);
+    if (rc == SPH_ERR_MISSING_VAR && o.conc_variable && !strcmp(o.conc_variable, "sea_ice_concentration")) {
+        o.conc_variable = NULL;
+        sph_error_clear(&e);
+        rc = ice_raster_read(p, &o, &r, &e);
+    }
+    cJSON *j = cJSON_AddObjectToObject(root, "initial_raster");
+    cJSON_AddStringToObject(j, "path", p);
+    if (rc) {
+        cJSON_AddStringToObject(j, "problem", e.msg);
+        if (!json)
+            fprintf(out, "PROBLEM      %s\n", e.msg);
+        return 1;
+    }
+    double area = 0, vol = 0;
+    for (int jj = 0; jj < r->nlat; jj++)
+        for (int i = 0; i < r->nlon; i++) {
+            double lon, lat, c = r->conc[(size_t)jj * r->nlon + i];
+            ice_raster_cell_lonlat(r, i, jj, &lon, &lat);
+            if (!(c > cfg->initial.threshold) || lat < cfg->domain.lat_min ||
+                lat > cfg->domain.lat_max || lon < cfg->domain.lon_min || lon > cfg->domain.lon_max)
+                continue;
+            double a = ice_raster_area(r, i, jj);
+            area += c * a;
+            vol += c * r->thick[(size_t)jj * r->nlon + i] * a;
+        }
+    cJSON_AddStringToObject(j, "grid", r->grid);
+    const char *tk = !r->thickness_why[0] ? "none (initial.default_thickness)"
+                     : r->thickness_kind == ICE_THICK_CELL_MEAN ? "cell_mean" : "ice";
+    cJSON_AddStringToObject(j, "thickness_kind", tk);
+    cJSON_AddStringToObject(j, "thickness_kind_from", r->thickness_why);
+    cJSON_AddNumberToObject(j, "land_cells", (double)r->nland);
+    cJSON_AddNumberToObject(j, "no_information_cells", (double)r->nnoinfo);
+    cJSON_AddNumberToObject(j, "ice_area_km2", area / 1e6);
+    cJSON_AddNumberToObject(j, "ice_volume_km3", vol / 1e9);
+    if (!json) {
+        fprintf(out, "raster       initial        %s: %d x %d cells, %s\n", p, r->nlon, r->nlat, r->grid);
+        fprintf(out, "raster       initial        thickness %s%s%s; flagged land %zu, no information %zu cells\n",
+                tk, r->thickness_why[0] ? " from " : "", r->thickness_why, r->nland, r->nnoinfo);
+        if (area > 0)
+            fprintf(out, "raster       initial        ice in the domain: area %.6g km2, volume %.6g km3\n",
+                    area / 1e6, vol / 1e9);
+        else
+            fprintf(out, "raster       initial        no ice in the domain: an open-water start\n");
+    }
+    ice_raster_free(r);
+    return 0;
+}
 
 int service_check(const struct sph_config *cfg, double t, int json, FILE *out)
 {
@@ -193,6 +271,7 @@ int service_check(const struct sph_config *cfg, double t, int json, FILE *out)
                 fprintf(out, rc ? "PROBLEM      %s\n" : "landmask     %s\n", rc ? e.msg : why);
         }
     }
+    problems += check_raster(cfg, t, json, out, root);
     if (problems)
         missing_required++;
     cJSON_AddBoolToObject(root, "ok", missing_required == 0);

@@ -58,6 +58,7 @@ typedef struct cfg_table {
 static const char *const fkind_names[] = {"atmosphere", "ocean", "tide", NULL};
 static const char *const init_format_names[] = {"netcdf", "esri", NULL};
 static const char *const reinit_names[] = {"warm", "cold", "newer_raster", NULL};
+static const char *const thick_kind_names[] = {"auto", "ice", "cell_mean", NULL};
 static const char *const land_names[] = {"none", "gshhg", "netcdf", "forcing", NULL};
 static const char *const landres_names[] = {"crude", "low", "intermediate", "high", "full", NULL};
 static const char *const landfrom_names[] = {"auto", "mask", "fill", NULL};
@@ -140,10 +141,12 @@ static const cfg_key tail_keys[] = {
        "Ice thickness where the raster has none, m."),
     C_("initial.threshold", CT_DOUBLE, initial.threshold, "0.15", 0, 1, R, NULL,
        "Concentration below which no particle is placed."),
-    C_("initial.spacing", CT_DOUBLE, initial.spacing_deg, "0.02", 1e-4, 5, R, NULL,
-       "Initial particle spacing, degrees."),
+    C_("initial.spacing", CT_DOUBLE, initial.spacing_deg, "0.02", 0, 5, R, NULL,
+       "Initial particle spacing, degrees (a lattice on the model plane); 0: one particle per raster cell, at its centre with the cell's true area."),
     C_("initial.reinit", CT_ENUM, initial.reinit, "\"newer_raster\"", 0, 0, R, reinit_names,
        "warm: warm start from the previous cycle's particles when they exist; cold: always from the raster; newer_raster: warm unless the raster is newer than the previous cycle."),
+    C_("initial.thickness_kind", CT_ENUM, initial.thickness_kind, "\"auto\"", 0, 0, R, thick_kind_names,
+       "What the raster's thickness is: ice (per ice-covered area), cell_mean (volume per cell area, divided by the concentration), auto (from the variable's cell_methods, long_name, name or standard_name; an error where they do not say)."),
 
     C_("landmask.source", CT_ENUM, landmask.source, "\"none\"", 0, 0, R, land_names,
        "none, gshhg (shoreline polygons), netcdf (mask variable), forcing (ocean model's land)."),

@@ -207,6 +207,7 @@ int fc_read_raster(engine *e, const char *tmpl, int format, const char *conc_var
     ice_raster_options o;
     ice_raster_options_default(&o);
     o.default_thickness = cfg->initial.default_thickness;
+    o.thickness_kind = cfg->initial.thickness_kind;
     char thick_path[4096] = "";
     if (format == CFG_INIT_ESRI) {
         /* ESRI: initial.thick_var names the thickness grid file (a template) */
@@ -247,7 +248,7 @@ double fc_spacing_m(const engine *e)
         return e->cfg->initial.spacing_deg * METRES_PER_DEGREE;
     if (e->raster) {
         int j = e->raster->nlat / 2;
-        return sqrt(ice_raster_cell_area(e->raster, j));
+        return sqrt(ice_raster_area(e->raster, e->raster->nlon / 2, j));
     }
     return 2000.0;
 }

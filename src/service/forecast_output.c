@@ -21,6 +21,11 @@ int fc_setup_grid(engine *e, sph_error *err)
             (rc = fc_read_raster(e, cfg->initial.path, cfg->initial.format, cfg->initial.conc_var, e->t0,
                               &e->raster, e->raster_path, sizeof e->raster_path, "initial field", err)))
             return rc;
+        if (e->raster->kind != ICE_RASTER_LONLAT)
+            return sph_err_set(err, SPH_ERR_CONFIG,
+                               "output.grid.mode: \"raster\" needs a regular lon/lat initial raster; "
+                               "%s is %s: set output.grid.mode to \"regular\" with its lon/lat keys",
+                               e->raster->path, e->raster->grid);
         e->grid.nlon = e->raster->nlon;
         e->grid.nlat = e->raster->nlat;
         e->grid.lon0 = e->raster->lon[0];
@@ -131,6 +136,7 @@ int fc_set_observation(engine *e, sph_error *err)
     ice_raster_options o;
     ice_raster_options_default(&o);
     o.valid_time = e->t_end;
+    o.thickness_kind = ICE_THICK_ICE; /* unused: verification compares concentration only */
     if (cfg->observations.format != CFG_INIT_ESRI)
         o.conc_variable = cfg->observations.conc_var;
     sph_error local;
@@ -143,6 +149,12 @@ int fc_set_observation(engine *e, sph_error *err)
     }
     if (rc)
         return sph_err_set(err, rc, "observation: %s", local.msg);
+    if (!ice_raster_can_sample(obs)) {
+        rc = sph_err_set(err, SPH_ERR_CONFIG, "observation %s: cannot be regridded for "
+                         "verification: its grid (%s) cannot be sampled", obs->path, obs->grid);
+        ice_raster_free(obs);
+        return rc;
+    }
     double *c = malloc(e->npts * sizeof *c);
     if (!c) {
         ice_raster_free(obs);

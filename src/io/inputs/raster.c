@@ -25,6 +25,13 @@ void ice_raster_free(ice_raster *r)
         return;
     free(r->lon);
     free(r->lat);
+    free(r->x);
+    free(r->y);
+    free(r->cell_lon);
+    free(r->cell_lat);
+    free(r->area);
+    free(r->land);
+    raster_crs_free(r->crs);
     free(r->conc);
     free(r->thick);
     free(r);
@@ -62,6 +69,29 @@ double ice_raster_cell_area(const ice_raster *r, int j)
     return R * R * r->dlon * deg * (sin(n * deg) - sin(s * deg));
 }
 
+void ice_raster_cell_lonlat(const ice_raster *r, int i, int j, double *lon, double *lat)
+{
+    if (r->kind == ICE_RASTER_LONLAT) {
+        *lon = r->lon[i];
+        *lat = r->lat[j];
+    } else {
+        *lon = r->cell_lon[(size_t)j * r->nlon + i];
+        *lat = r->cell_lat[(size_t)j * r->nlon + i];
+    }
+}
+
+double ice_raster_area(const ice_raster *r, int i, int j)
+{
+    if (r->kind == ICE_RASTER_LONLAT)
+        return ice_raster_cell_area(r, j);
+    return r->area[(size_t)j * r->nlon + i];
+}
+
+int ice_raster_can_sample(const ice_raster *r)
+{
+    return r && (r->kind == ICE_RASTER_LONLAT || r->kind == ICE_RASTER_PROJECTED);
+}
+
 /* Concentration to fraction and the checks every format shares. `percent`
  * < 0 means decide from the values. Thickness NaN where ice = default. */
 int raster_finish(ice_raster *r, int percent, const ice_raster_options *o, sph_error *err)
@@ -76,22 +106,32 @@ int raster_finish(ice_raster *r, int percent, const ice_raster_options *o, sph_e
     for (size_t k = 0; k < n; k++) {
         double c = r->conc[k];
         int i = (int)(k % r->nlon), j = (int)(k / r->nlon);
+        double lon, lat;
         if (isnan(c)) {
             r->thick[k] = NAN;
             continue;
         }
-        if (c < -1e-6 || c > (percent ? 100.0 + 1e-4 : 1.0 + 1e-6))
+        /* a packed value within half a packing step of a bound is that
+         * bound (a packed short with an offset stores 0 as -6.4e-6) */
+        double tol = fmax(percent ? 1e-4 : 1e-6, r->conc_halfstep);
+        if (c < -tol || c > (percent ? 100.0 : 1.0) + tol) {
+            ice_raster_cell_lonlat(r, i, j, &lon, &lat);
             return sph_err_set(err, SPH_ERR_BAD_DATA,
                                "ice raster %s: concentration %g %s at (%g E, %g N) outside 0..%s",
-                               r->path, c, percent ? "%" : "(fraction)", r->lon[i], r->lat[j],
+                               r->path, c, percent ? "%" : "(fraction)", lon, lat,
                                percent ? "100 %" : "1");
+        }
         c = percent ? c / 100.0 : c;
         r->conc[k] = c < 0 ? 0 : c > 1 ? 1 : c;
         double h = r->thick[k];
-        if (h < 0)
+        if (r->thickness_kind == ICE_THICK_CELL_MEAN && r->conc[k] > 0 && !isnan(h))
+            r->thick[k] = h = h / r->conc[k]; /* volume per cell area -> per ice area */
+        if (h < 0) {
+            ice_raster_cell_lonlat(r, i, j, &lon, &lat);
             return sph_err_set(err, SPH_ERR_BAD_DATA,
                                "ice raster %s: negative thickness %g m at (%g E, %g N)", r->path, h,
-                               r->lon[i], r->lat[j]);
+                               lon, lat);
+        }
         if (isnan(h) || (h == 0 && r->conc[k] > 0))
             r->thick[k] = o->default_thickness;
     }
@@ -127,7 +167,19 @@ int ice_raster_read(const char *path, const ice_raster_options *opt, ice_raster 
 int ice_raster_sample(const ice_raster *r, double lon, double lat, double *conc, double *thick)
 {
     *conc = *thick = NAN;
-    double fi = (lon - r->lon[0]) / r->dlon, fj = (lat - r->lat[0]) / r->dlat;
+    double fi, fj;
+    if (r->kind == ICE_RASTER_LONLAT) {
+        fi = (lon - r->lon[0]) / r->dlon;
+        fj = (lat - r->lat[0]) / r->dlat;
+    } else if (r->kind == ICE_RASTER_PROJECTED) {
+        double x, y;
+        if (!raster_crs_forward(r->crs, lon, lat, &x, &y))
+            return 0;
+        fi = (x - r->x[0]) / r->dx;
+        fj = (y - r->y[0]) / r->dy;
+    } else {
+        return 0;
+    }
     if (!(fi >= 0 && fj >= 0 && fi <= r->nlon - 1 && fj <= r->nlat - 1))
         return 0;
     int i = (int)fi, j = (int)fj;

@@ -15,6 +15,7 @@
 
 typedef struct {
     long ncols, nrows;
+    double ncols_v, nrows_v; /* as written in the header */
     double x, y, cellsize, nodata;
     int x_is_centre, y_is_centre, has_nodata;
     const char *data; /* first value */
@@ -45,8 +46,11 @@ static int parse_esri_header(const char *path, const char *text, esri_header *h,
             return sph_err_set(err, SPH_ERR_BAD_DATA, "ice raster %s: header key %s has no number",
                                path, key);
         p = end;
-        if (strcmp(key, "ncols") == 0) h->ncols = (long)v, seen |= 1;
-        else if (strcmp(key, "nrows") == 0) h->nrows = (long)v, seen |= 2;
+        /* counts outside 0..1e6 (and NaN) become -1, refused below: a cast
+         * of a value beyond long's range is undefined behaviour */
+        long count = v >= 0 && v <= 1e6 ? (long)v : -1;
+        if (strcmp(key, "ncols") == 0) h->ncols = count, h->ncols_v = v, seen |= 1;
+        else if (strcmp(key, "nrows") == 0) h->nrows = count, h->nrows_v = v, seen |= 2;
         else if (strcmp(key, "xllcorner") == 0) h->x = v, seen |= 4;
         else if (strcmp(key, "xllcenter") == 0) h->x = v, h->x_is_centre = 1, seen |= 4;
         else if (strcmp(key, "yllcorner") == 0) h->y = v, seen |= 8;
@@ -65,8 +69,9 @@ static int parse_esri_header(const char *path, const char *text, esri_header *h,
     if (h->ncols < 2 || h->nrows < 2 || h->ncols > 100000 || h->nrows > 100000 ||
         !(h->cellsize > 0))
         return sph_err_set(err, SPH_ERR_BAD_DATA,
-                           "ice raster %s: bad ESRI geometry %ld x %ld cells of %g", path,
-                           h->ncols, h->nrows, h->cellsize);
+                           "ice raster %s: bad ESRI geometry: ncols %g, nrows %g, cellsize %g "
+                           "(need 2..100000 cells each way, cellsize > 0)", path, h->ncols_v,
+                           h->nrows_v, h->cellsize);
     h->data = p;
     return SPH_OK;
 }
@@ -129,7 +134,15 @@ static int read_esri(const char *path, const char *text, const ice_raster_option
     size_t n = (size_t)r->nlon * r->nlat;
     for (size_t k = 0; k < n; k++)
         r->thick[k] = NAN;
+    if (rc == SPH_OK && o->thickness_path && *o->thickness_path &&
+        o->thickness_kind == ICE_THICK_AUTO)
+        rc = sph_err_set(err, SPH_ERR_CONFIG,
+                         "ice raster %s: an ESRI grid cannot say whether thickness is per ice "
+                         "area or a cell mean: set initial.thickness_kind to \"ice\" or "
+                         "\"cell_mean\"", o->thickness_path);
     if (rc == SPH_OK && o->thickness_path && *o->thickness_path) {
+        r->thickness_kind = o->thickness_kind;
+        snprintf(r->thickness_why, sizeof r->thickness_why, "initial.thickness_kind");
         char *ttext = NULL;
         esri_header th;
         rc = read_file(o->thickness_path, &ttext, NULL, err);

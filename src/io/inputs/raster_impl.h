@@ -38,4 +38,18 @@ ice_raster *raster_alloc(const char *path, int nlon, int nlat, sph_error *err);
  * < 0 means decide from the values. Thickness NaN where ice = default. */
 int raster_finish(ice_raster *r, int percent, const ice_raster_options *o, sph_error *err);
 
+/* Grids beyond regular lon/lat (raster_grid.c). The raster's kind and
+ * its x/y (PROJECTED, metres, ascending, dx/dy set) or cell_lon/cell_lat
+ * (CURVILINEAR) are set by the driver first; cell_area is the file's own
+ * cell-area variable (m^2, [j * nlon + i]) or NULL. `def` is a PROJ
+ * string, WKT or "EPSG:n"; `var` names the variable for messages. */
+int raster_set_projected(ice_raster *r, const char *def, const char *var,
+                         const double *cell_area, sph_error *err);
+int raster_set_curvilinear(ice_raster *r, const char *var, const double *cell_area,
+                           sph_error *err);
+/* lon/lat (degrees, the CRS's geodetic datum) -> x/y (m); 0 when it does
+ * not project. */
+int raster_crs_forward(const struct raster_crs *c, double lon, double lat, double *x, double *y);
+void raster_crs_free(struct raster_crs *c);
+
 #endif

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <ctype.h>
 
 #include "io/cf.h"
 #include "io/fetch.h"
@@ -52,8 +53,40 @@ static int find_var(int ncid, const char *override, const char *standard_name,
 /* Reads one 2-D slab (leading dimensions at index 0) as double, with
  * scale/offset applied and declared missing values turned into NaN.
  * Undeclared NaN is an error. */
-static int read_field(int ncid, int varid, const char *path, const char *label, size_t nlat,
-                      size_t nlon, double *out, sph_error *err)
+static int att_num(int ncid, int varid, const char *att, double *v, size_t *n, size_t max);
+
+/* flag_values / flag_meanings of varid: kind[i] 1 for land (a meaning
+ * naming land, coast or lake), 2 for "no information" (pole hole,
+ * missing, anything else). Returns the count, or -1 (err set) for flag
+ * values without meanings. */
+#define RASTER_MAX_FLAGS 64
+static int read_flags(int ncid, int varid, const char *path, const char *label, const char *att,
+                      double *values, int *kind, sph_error *err)
+{
+    size_t n = 0;
+    if (!att_num(ncid, varid, att, values, &n, RASTER_MAX_FLAGS))
+        return 0;
+    char meanings[4096];
+    if (!att_text(ncid, varid, "flag_meanings", meanings, sizeof meanings))
+        return sph_err_set(err, SPH_ERR_BAD_DATA, "ice raster %s: %s has %s but no flag_meanings",
+                           path, label, att), -1;
+    size_t k = 0;
+    for (char *tok = strtok(meanings, " \t"); tok; tok = strtok(NULL, " \t"), k++) {
+        for (char *c = tok; *c; c++)
+            *c = (char)tolower((unsigned char)*c);
+        if (k < n)
+            kind[k] = strstr(tok, "land") || strstr(tok, "coast") || strstr(tok, "lake") ? 1 : 2;
+    }
+    if (k != n)
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "ice raster %s: %s has %zu %s but %zu flag_meanings", path, label, n,
+                           att, k), -1;
+    return (int)n;
+}
+
+/* The 2-D slab (leading dimensions at index 0) of varid as raw doubles;
+ * a NetCDF status. */
+static int read_slab(int ncid, int varid, size_t nlat, size_t nlon, double *out)
 {
     int ndims;
     nc_inq_varndims(ncid, varid, &ndims);
@@ -62,7 +95,25 @@ static int read_field(int ncid, int varid, const char *path, const char *label, 
         count[d] = 1;
     count[ndims - 2] = nlat;
     count[ndims - 1] = nlon;
-    int status = nc_get_vara_double(ncid, varid, start, count, out);
+    return nc_get_vara_double(ncid, varid, start, count, out);
+}
+
+/* 1 when variable v has (at least) the last two dimensions of vc. */
+static int same_grid(int ncid, int v, int vc)
+{
+    int nd, cnd, d[NC_MAX_VAR_DIMS], cd[NC_MAX_VAR_DIMS];
+    nc_inq_varndims(ncid, v, &nd);
+    nc_inq_vardimid(ncid, v, d);
+    nc_inq_varndims(ncid, vc, &cnd);
+    nc_inq_vardimid(ncid, vc, cd);
+    return nd >= 2 && cnd >= 2 && d[nd - 1] == cd[cnd - 1] && d[nd - 2] == cd[cnd - 2];
+}
+
+static int read_field(int ncid, int varid, const char *path, const char *label, size_t nlat,
+                      size_t nlon, double *out, unsigned char *land, double *halfstep,
+                      sph_error *err)
+{
+    int status = read_slab(ncid, varid, nlat, nlon, out);
     if (status != NC_NOERR)
         return sph_err_set(err, SPH_ERR_NETCDF, "ice raster %s: reading %s: %s (truncated file?)",
                            path, label, nc_strerror(status));
@@ -79,8 +130,28 @@ static int read_field(int ncid, int varid, const char *path, const char *label, 
     int nan_declared = (has_fill && isnan(fill)) || (has_missing && isnan(missing));
     nc_get_att_double(ncid, varid, "scale_factor", &scale);
     nc_get_att_double(ncid, varid, "add_offset", &offset);
+    if (halfstep) {
+        nc_type t;
+        nc_inq_vartype(ncid, varid, &t);
+        /* packed integers: half a packing step, in the field's units */
+        *halfstep = t != NC_FLOAT && t != NC_DOUBLE ? 0.5 * fabs(scale) : 0;
+    }
+    double fv[RASTER_MAX_FLAGS];
+    int fk[RASTER_MAX_FLAGS];
+    int nflags = read_flags(ncid, varid, path, label, "flag_values", fv, fk, err);
+    if (nflags < 0)
+        return err->code;
     for (size_t k = 0; k < nlat * nlon; k++) {
         double v = out[k];
+        int f = 0;
+        while (f < nflags && v != fv[f])
+            f++;
+        if (f < nflags) { /* flags are raw values, not scaled */
+            out[k] = NAN;
+            if (land)
+                land[k] = fk[f] == 1 ? 1 : 2;
+            continue;
+        }
         if (isnan(v) && !nan_declared)
             return sph_err_set(err, SPH_ERR_BAD_DATA,
                                "ice raster %s: %s is NaN at index %zu (row %zu, column %zu) "
@@ -93,17 +164,21 @@ static int read_field(int ncid, int varid, const char *path, const char *label, 
     return SPH_OK;
 }
 
-static int read_axis(int ncid, int dimid, const char *path, const char *what, size_t *n,
-                     double **values, sph_error *err)
+/* varid: the axis's coordinate variable, or -1 for the one named as the
+ * dimension */
+static int read_axis(int ncid, int dimid, int varid, const char *path, const char *what,
+                     size_t *n, double **values, sph_error *err)
 {
     char name[NC_MAX_NAME + 1];
-    int varid, status = nc_inq_dim(ncid, dimid, name, n);
+    int status = nc_inq_dim(ncid, dimid, name, n);
     if (status != NC_NOERR)
         return nc_fail(path, status, what, err);
     if (*n < 2)
         return sph_err_set(err, SPH_ERR_BAD_DATA, "ice raster %s: %s axis \"%s\" has %zu value(s)",
                            path, what, name, *n);
-    if (nc_inq_varid(ncid, name, &varid) != NC_NOERR)
+    if (varid >= 0)
+        nc_inq_varname(ncid, varid, name);
+    else if (nc_inq_varid(ncid, name, &varid) != NC_NOERR)
         return sph_err_set(err, SPH_ERR_MISSING_VAR,
                            "ice raster %s: no coordinate variable for %s dimension \"%s\"", path,
                            what, name);
@@ -152,8 +227,524 @@ static int parse_time_units(const char *units, double *per_unit, double *epoch)
     return time_parse_iso(date, epoch);
 }
 
-static const char *const conc_names[] = {"siconc", "ice_conc", "sic", "aice", "SIC", "conc", NULL};
-static const char *const thick_names[] = {"sithick", "hi", "sit", "ice_thickness", "thick", NULL};
+/* ------------------------------------------------------------------ grids */
+
+static int att_num(int ncid, int varid, const char *att, double *v, size_t *n, size_t max)
+{
+    size_t len;
+    if (nc_inq_attlen(ncid, varid, att, &len) != NC_NOERR || len < 1 || len > max)
+        return 0;
+    nc_type t;
+    nc_inq_atttype(ncid, varid, att, &t);
+    if (t == NC_CHAR || t == NC_STRING)
+        return 0;
+    if (nc_get_att_double(ncid, varid, att, v) != NC_NOERR)
+        return 0;
+    if (n)
+        *n = len;
+    return 1;
+}
+
+/* The PROJ definition of grid-mapping variable gm (see io/raster.h for
+ * the order of the attributes tried). */
+static int gm_definition(int ncid, int gm, const char *path, const char *var, const char *gmname,
+                         char *def, size_t len, sph_error *err)
+{
+    static const char *const text_atts[] = {"crs_wkt", "spatial_ref", "proj4", "proj4text",
+                                            "proj4_params", "proj4string", "proj4_string", NULL};
+    for (const char *const *a = text_atts; *a; a++)
+        if (att_text(ncid, gm, *a, def, len) && def[0])
+            return SPH_OK;
+    char code[256];
+    static const char *const epsg_atts[] = {"epsg_code", "EPSG", "epsg", "srid", NULL};
+    for (const char *const *a = epsg_atts; *a; a++) {
+        double v;
+        const char *digits = NULL;
+        if (att_text(ncid, gm, *a, code, sizeof code)) {
+            digits = strrchr(code, ':');
+            digits = digits ? digits + 1 : code;
+        } else if (att_num(ncid, gm, *a, &v, NULL, 1) && v > 0 && v < 1e6) {
+            snprintf(code, sizeof code, "%.0f", v);
+            digits = code;
+        }
+        if (digits && *digits && strspn(digits, "0123456789") == strlen(digits)) {
+            snprintf(def, len, "EPSG:%s", digits);
+            return SPH_OK;
+        }
+    }
+    char name[128];
+    if (!att_text(ncid, gm, "grid_mapping_name", name, sizeof name))
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "ice raster %s: variable %s: grid mapping %s has no grid_mapping_name, "
+                           "crs_wkt, proj4 or EPSG code", path, var, gmname);
+    char ell[160];
+    double a = NAN, b = NAN, rf = NAN, R = NAN;
+    att_num(ncid, gm, "semi_major_axis", &a, NULL, 1);
+    att_num(ncid, gm, "semi_minor_axis", &b, NULL, 1);
+    att_num(ncid, gm, "inverse_flattening", &rf, NULL, 1);
+    att_num(ncid, gm, "earth_radius", &R, NULL, 1);
+    if (a > 0 && b > 0)
+        snprintf(ell, sizeof ell, "+a=%.17g +b=%.17g", a, b);
+    else if (a > 0 && rf > 0)
+        snprintf(ell, sizeof ell, "+a=%.17g +rf=%.17g", a, rf);
+    else if (a > 0 && rf == 0)
+        snprintf(ell, sizeof ell, "+R=%.17g", a);
+    else if (R > 0)
+        snprintf(ell, sizeof ell, "+R=%.17g", R);
+    else
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "ice raster %s: variable %s: grid mapping %s (%s) gives no ellipsoid "
+                           "(semi_major_axis with semi_minor_axis or inverse_flattening, or "
+                           "earth_radius)", path, var, gmname, name);
+    double fe = 0, fn = 0, lat0 = NAN, lon0 = NAN, k0 = NAN, sp[2] = {NAN, NAN};
+    size_t nsp = 0;
+    att_num(ncid, gm, "false_easting", &fe, NULL, 1);
+    att_num(ncid, gm, "false_northing", &fn, NULL, 1);
+    att_num(ncid, gm, "latitude_of_projection_origin", &lat0, NULL, 1);
+    att_num(ncid, gm, "standard_parallel", sp, &nsp, 2);
+    const char *missing = NULL;
+    char body[512];
+    if (strcmp(name, "polar_stereographic") == 0) {
+        att_num(ncid, gm, "straight_vertical_longitude_from_pole", &lon0, NULL, 1);
+        att_num(ncid, gm, "scale_factor_at_projection_origin", &k0, NULL, 1);
+        if (!isfinite(lon0))
+            missing = "straight_vertical_longitude_from_pole";
+        else if (!(fabs(lat0) == 90))
+            missing = "latitude_of_projection_origin (+90 or -90)";
+        else if (nsp == 1 && isfinite(sp[0]))
+            snprintf(body, sizeof body, "+proj=stere +lat_0=%.17g +lat_ts=%.17g +lon_0=%.17g",
+                     lat0, sp[0], lon0);
+        else if (k0 > 0)
+            snprintf(body, sizeof body, "+proj=stere +lat_0=%.17g +k_0=%.17g +lon_0=%.17g",
+                     lat0, k0, lon0);
+        else
+            missing = "standard_parallel or scale_factor_at_projection_origin";
+    } else if (strcmp(name, "stereographic") == 0 ||
+               strcmp(name, "lambert_azimuthal_equal_area") == 0) {
+        int stere = name[0] == 's';
+        att_num(ncid, gm, "longitude_of_projection_origin", &lon0, NULL, 1);
+        att_num(ncid, gm, "scale_factor_at_projection_origin", &k0, NULL, 1);
+        if (!isfinite(lon0))
+            missing = "longitude_of_projection_origin";
+        else if (!isfinite(lat0))
+            missing = "latitude_of_projection_origin";
+        else if (stere && !(k0 > 0))
+            missing = "scale_factor_at_projection_origin";
+        else if (stere)
+            snprintf(body, sizeof body, "+proj=stere +lat_0=%.17g +lon_0=%.17g +k_0=%.17g", lat0,
+                     lon0, k0);
+        else
+            snprintf(body, sizeof body, "+proj=laea +lat_0=%.17g +lon_0=%.17g", lat0, lon0);
+    } else if (strcmp(name, "lambert_conformal_conic") == 0) {
+        att_num(ncid, gm, "longitude_of_central_meridian", &lon0, NULL, 1);
+        if (!isfinite(lon0))
+            missing = "longitude_of_central_meridian";
+        else if (!isfinite(lat0))
+            missing = "latitude_of_projection_origin";
+        else if (nsp < 1 || !isfinite(sp[0]))
+            missing = "standard_parallel";
+        else
+            snprintf(body, sizeof body, "+proj=lcc +lat_1=%.17g +lat_2=%.17g +lat_0=%.17g "
+                     "+lon_0=%.17g", sp[0], nsp == 2 ? sp[1] : sp[0], lat0, lon0);
+    } else if (strcmp(name, "transverse_mercator") == 0) {
+        att_num(ncid, gm, "longitude_of_central_meridian", &lon0, NULL, 1);
+        att_num(ncid, gm, "scale_factor_at_central_meridian", &k0, NULL, 1);
+        if (!isfinite(lon0))
+            missing = "longitude_of_central_meridian";
+        else if (!isfinite(lat0))
+            missing = "latitude_of_projection_origin";
+        else if (!(k0 > 0))
+            missing = "scale_factor_at_central_meridian";
+        else
+            snprintf(body, sizeof body, "+proj=tmerc +lat_0=%.17g +lon_0=%.17g +k_0=%.17g", lat0,
+                     lon0, k0);
+    } else {
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "ice raster %s: variable %s: grid mapping %s: grid_mapping_name \"%s\" "
+                           "not supported (polar_stereographic, stereographic, "
+                           "lambert_conformal_conic, lambert_azimuthal_equal_area, "
+                           "transverse_mercator, or a crs_wkt / proj4 / EPSG attribute)", path,
+                           var, gmname, name);
+    }
+    if (missing)
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "ice raster %s: variable %s: grid mapping %s (%s) lacks %s", path, var,
+                           gmname, name, missing);
+    snprintf(def, len, "%s +x_0=%.17g +y_0=%.17g %s +units=m +no_defs", body, fe, fn, ell);
+    return SPH_OK;
+}
+
+/* Metres per unit of coordinate variable v (0 when its units are no
+ * length, -1 when it has none). */
+static double length_unit(int ncid, int v, char *units, size_t len)
+{
+    if (!att_text(ncid, v, "units", units, len) || !units[0])
+        return -1;
+    cf_units *cu = NULL;
+    double a = 0, b = 0;
+    if (cf_units_create(&cu, NULL) != SPH_OK)
+        return 0;
+    if (cf_units_linear(cu, units, "m", &a, &b) != 0 || b != 0 || !(a > 0))
+        a = 0;
+    cf_units_free(cu);
+    return a;
+}
+
+/* A 2-D variable on (ydim, xdim) that is a latitude (want 'y') or a
+ * longitude (want 'x'): named in `coordinates`, else a usual name. */
+static int find_2d(int ncid, int vc, int ydim, int xdim, int want)
+{
+    static const char *const lat_names[] = {"lat", "latitude", "nav_lat", "TLAT", "lat_rho",
+                                            "ULAT", NULL};
+    static const char *const lon_names[] = {"lon", "longitude", "nav_lon", "TLON", "lon_rho",
+                                            "ULON", NULL};
+    char coords[1024], units[64], sname[64];
+    int cand[32], nc = 0;
+    if (att_text(ncid, vc, "coordinates", coords, sizeof coords))
+        for (char *tok = strtok(coords, " "); tok && nc < 16; tok = strtok(NULL, " ")) {
+            int v;
+            if (nc_inq_varid(ncid, tok, &v) == NC_NOERR)
+                cand[nc++] = v;
+        }
+    for (const char *const *n = want == 'y' ? lat_names : lon_names; *n; n++) {
+        int v;
+        if (nc_inq_varid(ncid, *n, &v) == NC_NOERR && nc < 32)
+            cand[nc++] = v;
+    }
+    for (int k = 0; k < nc; k++) {
+        int nd, d[NC_MAX_VAR_DIMS];
+        nc_inq_varndims(ncid, cand[k], &nd);
+        if (nd != 2)
+            continue;
+        nc_inq_vardimid(ncid, cand[k], d);
+        if (d[0] != ydim || d[1] != xdim)
+            continue;
+        int is = 0;
+        if (att_text(ncid, cand[k], "standard_name", sname, sizeof sname))
+            is = strcmp(sname, want == 'y' ? "latitude" : "longitude") == 0;
+        if (!is && att_text(ncid, cand[k], "units", units, sizeof units))
+            is = strncasecmp(units, want == 'y' ? "degrees_n" : "degrees_e", 9) == 0 ||
+                 strncasecmp(units, want == 'y' ? "degree_n" : "degree_e", 8) == 0;
+        if (is)
+            return cand[k];
+    }
+    return -1;
+}
+
+/* Which grid the concentration `vc` (named vname) is on. */
+/* A 1-D variable on dimension dim with standard_name sname (NSIDC's
+ * xgrid(x), ygrid(y)); -1 when none. */
+static int find_axis_var(int ncid, int dim, const char *sname)
+{
+    int nvars = 0;
+    nc_inq_nvars(ncid, &nvars);
+    char buf[64];
+    for (int v = 0; v < nvars; v++) {
+        int nd, d;
+        if (nc_inq_varndims(ncid, v, &nd) || nd != 1 || nc_inq_vardimid(ncid, v, &d) || d != dim)
+            continue;
+        if (att_text(ncid, v, "standard_name", buf, sizeof buf) && strcmp(buf, sname) == 0)
+            return v;
+    }
+    return -1;
+}
+
+static int classify_grid(int ncid, int vc, const char *vname, int xdim, int ydim,
+                         const char *path, int *kind, char *def, size_t dlen, double *xto_m,
+                         double *yto_m, int *vlat2, int *vlon2, int *xvar, int *yvar,
+                         sph_error *err)
+{
+    char xname[NC_MAX_NAME + 1], yname[NC_MAX_NAME + 1], gmname[NC_MAX_NAME + 1] = "";
+    nc_inq_dimname(ncid, xdim, xname);
+    nc_inq_dimname(ncid, ydim, yname);
+    int xv = -1, yv = -1, gm = -1, gm_latlon = 0, nd;
+    if (nc_inq_varid(ncid, xname, &xv) != NC_NOERR || nc_inq_varndims(ncid, xv, &nd) || nd != 1)
+        xv = -1;
+    if (nc_inq_varid(ncid, yname, &yv) != NC_NOERR || nc_inq_varndims(ncid, yv, &nd) || nd != 1)
+        yv = -1;
+    if (xv < 0)
+        xv = find_axis_var(ncid, xdim, "projection_x_coordinate");
+    if (yv < 0)
+        yv = find_axis_var(ncid, ydim, "projection_y_coordinate");
+    *xvar = xv;
+    *yvar = yv;
+    char buf[NC_MAX_NAME + 64];
+    if (att_text(ncid, vc, "grid_mapping", buf, sizeof buf)) {
+        /* "crs" or the CF 1.7 form "crs: x y" */
+        size_t n = strcspn(buf, " :");
+        if (n > NC_MAX_NAME)
+            n = NC_MAX_NAME;
+        memcpy(gmname, buf, n);
+        gmname[n] = '\0';
+        if (nc_inq_varid(ncid, gmname, &gm) != NC_NOERR)
+            return sph_err_set(err, SPH_ERR_BAD_DATA,
+                               "ice raster %s: variable %s: its grid_mapping \"%s\" is not a "
+                               "variable of the file", path, vname, gmname);
+        char gmn[64];
+        gm_latlon = att_text(ncid, gm, "grid_mapping_name", gmn, sizeof gmn) &&
+                    strcmp(gmn, "latitude_longitude") == 0;
+    }
+    char xu[64] = "", yu[64] = "";
+    double xm = xv >= 0 ? length_unit(ncid, xv, xu, sizeof xu) : -1;
+    double ym = yv >= 0 ? length_unit(ncid, yv, yu, sizeof yu) : -1;
+    *kind = ICE_RASTER_LONLAT;
+    if (xv >= 0 && yv >= 0 && (xm > 0 || ym > 0 || (gm >= 0 && !gm_latlon))) {
+        if (!(xm > 0 && ym > 0))
+            return sph_err_set(err, SPH_ERR_BAD_DATA,
+                               "ice raster %s: variable %s: grid not understood: coordinates %s "
+                               "(units \"%s\") and %s (units \"%s\") are not both lengths (m, km)",
+                               path, vname, xname, xu, yname, yu);
+        if (gm < 0 || gm_latlon)
+            return sph_err_set(err, SPH_ERR_BAD_DATA,
+                               "ice raster %s: variable %s: grid not understood: x/y in %s but no "
+                               "grid_mapping attribute naming the projection", path, vname, xu);
+        int rc = gm_definition(ncid, gm, path, vname, gmname, def, dlen, err);
+        if (rc != SPH_OK)
+            return rc;
+        *kind = ICE_RASTER_PROJECTED;
+        *xto_m = xm;
+        *yto_m = ym;
+        return SPH_OK;
+    }
+    if (xv < 0 || yv < 0) {
+        *vlat2 = find_2d(ncid, vc, ydim, xdim, 'y');
+        *vlon2 = find_2d(ncid, vc, ydim, xdim, 'x');
+        if (*vlat2 >= 0 && *vlon2 >= 0)
+            *kind = ICE_RASTER_CURVILINEAR;
+        else if (*vlat2 >= 0 || *vlon2 >= 0)
+            return sph_err_set(err, SPH_ERR_BAD_DATA,
+                               "ice raster %s: variable %s: grid not understood: a 2-D %s but no "
+                               "2-D %s on (%s, %s)", path, vname,
+                               *vlat2 >= 0 ? "latitude" : "longitude",
+                               *vlat2 >= 0 ? "longitude" : "latitude", yname, xname);
+    }
+    return SPH_OK;
+}
+
+/* The file's cell-area variable (cell_measures "area: NAME") in m^2 as
+ * [j * nlon + i] in the file's order, or NULL (none; err untouched) */
+static int read_cell_area(int ncid, int vc, const char *path, const char *vname, size_t ny,
+                          size_t nx, double **out, sph_error *err)
+{
+    char cm[256], units[64];
+    *out = NULL;
+    if (!att_text(ncid, vc, "cell_measures", cm, sizeof cm))
+        return SPH_OK;
+    char *p = strstr(cm, "area:");
+    if (!p)
+        return SPH_OK;
+    p += 5;
+    p += strspn(p, " ");
+    p[strcspn(p, " ")] = '\0';
+    int va;
+    if (nc_inq_varid(ncid, p, &va) != NC_NOERR)
+        return SPH_OK; /* CF allows it in an external file: compute instead */
+    if (!same_grid(ncid, va, vc))
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "ice raster %s: variable %s: its cell area %s is not on its grid", path,
+                           vname, p);
+    double to = 1, b = 0;
+    if (att_text(ncid, va, "units", units, sizeof units)) {
+        cf_units *cu = NULL;
+        int rc = cf_units_create(&cu, err);
+        if (rc != SPH_OK)
+            return rc;
+        int bad = cf_units_linear(cu, units, "m2", &to, &b) != 0 || b != 0 || !(to > 0);
+        cf_units_free(cu);
+        if (bad)
+            return sph_err_set(err, SPH_ERR_UNITS,
+                               "ice raster %s: variable %s: cell area %s units \"%s\" are not an "
+                               "area", path, vname, p, units);
+    }
+    double *a = malloc(sizeof(double) * nx * ny);
+    if (!a)
+        return sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
+    int rc = read_field(ncid, va, path, p, ny, nx, a, NULL, NULL, err);
+    if (rc != SPH_OK) {
+        free(a);
+        return rc;
+    }
+    for (size_t k = 0; k < nx * ny; k++)
+        a[k] *= to;
+    *out = a;
+    return SPH_OK;
+}
+
+static const char *const conc_names[] = {"siconc", "ice_conc", "sic", "aice", "SIC", "conc",
+                                         "cdr_seaice_conc", "fice", NULL};
+static const char *const thick_names[] = {"sithick", "hi", "sit", "ice_thickness", "thick", "hice",
+                                          NULL};
+
+/* A projected or curvilinear raster's coordinates, cell centres and areas
+ * (xs/ys: the 1-D x/y in m as in the file; tmp: nlon * nlat scratch). */
+static int set_grid(int ncid, int vc, const char *vname, const char *path, int kind,
+                    const char *def, int vlat2, int vlon2, const double *xs, const double *ys,
+                    int flip, int flip_lon, ice_raster *r, double *tmp, sph_error *err)
+{
+    size_t nx = (size_t)r->nlon, ny = (size_t)r->nlat, n = nx * ny;
+    free(r->lon);
+    free(r->lat);
+    r->lon = r->lat = NULL;
+    r->kind = kind;
+    double *area = NULL;
+    int rc = read_cell_area(ncid, vc, path, vname, ny, nx, &area, err);
+    if (rc != SPH_OK)
+        return rc;
+    if (area) {
+        memcpy(tmp, area, sizeof(double) * n);
+        for (size_t j = 0; j < ny; j++)
+            for (size_t i = 0; i < nx; i++)
+                area[j * nx + i] = tmp[(flip ? ny - 1 - j : j) * nx + (flip_lon ? nx - 1 - i : i)];
+    }
+    if (kind == ICE_RASTER_PROJECTED) {
+        r->x = malloc(sizeof(double) * nx);
+        r->y = malloc(sizeof(double) * ny);
+        if (!r->x || !r->y) {
+            free(area);
+            return sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
+        }
+        for (size_t j = 0; j < ny; j++)
+            r->y[j] = ys[flip ? ny - 1 - j : j];
+        for (size_t i = 0; i < nx; i++)
+            r->x[i] = xs[flip_lon ? nx - 1 - i : i];
+        r->dx = (r->x[nx - 1] - r->x[0]) / (double)(nx - 1);
+        r->dy = (r->y[ny - 1] - r->y[0]) / (double)(ny - 1);
+        rc = raster_set_projected(r, def, vname, area, err);
+        snprintf(r->grid, sizeof r->grid, "projected, %g x %g km cells, %.400s", r->dx / 1000,
+                 r->dy / 1000, def);
+    } else {
+        r->cell_lon = malloc(sizeof(double) * n);
+        r->cell_lat = malloc(sizeof(double) * n);
+        if (!r->cell_lon || !r->cell_lat)
+            rc = sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
+        char ln[NC_MAX_NAME + 1], lt[NC_MAX_NAME + 1];
+        nc_inq_varname(ncid, vlon2, ln);
+        nc_inq_varname(ncid, vlat2, lt);
+        if (rc == SPH_OK)
+            rc = read_field(ncid, vlon2, path, ln, ny, nx, r->cell_lon, NULL, NULL, err);
+        if (rc == SPH_OK)
+            rc = read_field(ncid, vlat2, path, lt, ny, nx, r->cell_lat, NULL, NULL, err);
+        if (rc == SPH_OK)
+            rc = raster_set_curvilinear(r, vname, area, err);
+        snprintf(r->grid, sizeof r->grid, "curvilinear, 2-D %s/%s, cell areas %s", lt, ln,
+                 area ? "from the file" : "geodesic");
+    }
+    free(area);
+    return rc;
+}
+
+/* Land from the concentration's ancillary status flag (ancillary_variables
+ * naming a variable on its grid with flag_masks or flag_values whose
+ * meanings name land, coast or lake): flags[k] = 1 there. */
+static int read_status_land(int ncid, int vc, const char *path, size_t ny, size_t nx,
+                            unsigned char *flags, double *tmp, sph_error *err)
+{
+    char anc[1024];
+    if (!att_text(ncid, vc, "ancillary_variables", anc, sizeof anc))
+        return SPH_OK;
+    for (char *save = NULL, *tok = strtok_r(anc, " ", &save); tok; tok = strtok_r(NULL, " ", &save)) {
+        int v;
+        if (nc_inq_varid(ncid, tok, &v) != NC_NOERR || !same_grid(ncid, v, vc))
+            continue;
+        double masks[RASTER_MAX_FLAGS], values[RASTER_MAX_FLAGS];
+        int mk[RASTER_MAX_FLAGS], vk[RASTER_MAX_FLAGS];
+        int nm = read_flags(ncid, v, path, tok, "flag_masks", masks, mk, err);
+        int nv = nm < 0 ? -1 : read_flags(ncid, v, path, tok, "flag_values", values, vk, err);
+        if (nm < 0 || nv < 0)
+            return err->code;
+        if (nm == 0 && nv == 0)
+            continue;
+        int status = read_slab(ncid, v, ny, nx, tmp);
+        if (status != NC_NOERR)
+            return sph_err_set(err, SPH_ERR_NETCDF, "ice raster %s: reading %s: %s", path, tok,
+                               nc_strerror(status));
+        for (size_t k = 0; k < nx * ny; k++) {
+            if (!isfinite(tmp[k]) || fabs(tmp[k]) > 9e15)
+                continue;
+            long long raw = (long long)tmp[k];
+            for (int q = 0; q < nm; q++)
+                if (mk[q] == 1 && (raw & (long long)masks[q]))
+                    flags[k] = 1;
+            for (int q = 0; q < nv; q++)
+                if (vk[q] == 1 && tmp[k] == values[q])
+                    flags[k] = 1;
+        }
+    }
+    return SPH_OK;
+}
+
+/* The thickness kind of variable vt (see io/raster.h). */
+static int thickness_kind(int ncid, int vt, int want, const char *path, int *kind, char *why,
+                          size_t wlen, sph_error *err)
+{
+    char name[NC_MAX_NAME + 1], buf[512];
+    nc_inq_varname(ncid, vt, name);
+    if (want != ICE_THICK_AUTO) {
+        *kind = want;
+        snprintf(why, wlen, "initial.thickness_kind");
+        return SPH_OK;
+    }
+    if (att_text(ncid, vt, "cell_methods", buf, sizeof buf)) {
+        char *a = strstr(buf, "area:");
+        if (a) {
+            a += 5;
+            a += strspn(a, " ");
+            if (strncmp(a, "mean where sea_ice", 18) == 0) {
+                *kind = ICE_THICK_ICE;
+                snprintf(why, wlen, "%.64s cell_methods \"area: mean where sea_ice\"", name);
+                return SPH_OK;
+            }
+            /* "area: mean" over the cell, or over its sea part */
+            int plain = strncmp(a, "mean", 4) == 0 && strncmp(a + 4, " where", 6) != 0;
+            int sea = strncmp(a, "mean where sea", 14) == 0 && a[14] != '_';
+            if (plain || sea) {
+                *kind = ICE_THICK_CELL_MEAN;
+                snprintf(why, wlen, "%.64s cell_methods \"area: mean\" (over the cell)", name);
+                return SPH_OK;
+            }
+        }
+    }
+    if (att_text(ncid, vt, "long_name", buf, sizeof buf)) {
+        for (char *c = buf; *c; c++)
+            *c = (char)tolower((unsigned char)*c);
+        static const char *const mean_words[] = {"in cell", "cell mean", "grid cell mean",
+                                                 "grid-cell mean", "per unit area", "volume per",
+                                                 "per grid cell area", NULL};
+        static const char *const ice_words[] = {"ice-covered", "ice covered", "floe", "actual",
+                                                "over the ice", NULL};
+        for (const char *const *w = mean_words; *w; w++)
+            if (strstr(buf, *w)) {
+                *kind = ICE_THICK_CELL_MEAN;
+                snprintf(why, wlen, "%.64s long_name (\"%.32s\")", name, *w);
+                return SPH_OK;
+            }
+        for (const char *const *w = ice_words; *w; w++)
+            if (strstr(buf, *w)) {
+                *kind = ICE_THICK_ICE;
+                snprintf(why, wlen, "%.64s long_name (\"%.32s\")", name, *w);
+                return SPH_OK;
+            }
+    }
+    if (strcmp(name, "sivol") == 0 || strcmp(name, "vice") == 0) {
+        *kind = ICE_THICK_CELL_MEAN;
+        snprintf(why, wlen, "variable name %.64s (volume per cell area)", name);
+        return SPH_OK;
+    }
+    if (strcmp(name, "sithick") == 0) {
+        *kind = ICE_THICK_ICE;
+        snprintf(why, wlen, "variable name sithick (per ice area)");
+        return SPH_OK;
+    }
+    if (att_text(ncid, vt, "standard_name", buf, sizeof buf) && strcmp(buf, "sea_ice_thickness") == 0) {
+        *kind = ICE_THICK_ICE;
+        snprintf(why, wlen, "%.64s standard_name sea_ice_thickness", name);
+        return SPH_OK;
+    }
+    return sph_err_set(err, SPH_ERR_CONFIG,
+                       "ice raster %s: thickness variable %s: no cell_methods, long_name or "
+                       "standard_name says whether it is per ice area or a cell mean: set "
+                       "initial.thickness_kind to \"ice\" or \"cell_mean\"", path, name);
+}
 
 static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster **out,
                        sph_error *err)
@@ -193,10 +784,31 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
                              "ice raster %s: concentration has %d dimension(s), need (lat, lon)",
                              path, ndims);
     }
-    if (rc == SPH_OK)
-        rc = read_axis(ncid, dims[ndims - 1], path, "longitude", &nlon, &lon, err);
-    if (rc == SPH_OK)
-        rc = read_axis(ncid, dims[ndims - 2], path, "latitude", &nlat, &lat, err);
+    char vname[NC_MAX_NAME + 1] = "";
+    char gmdef[4096] = "";
+    int kind = ICE_RASTER_LONLAT, vlat2 = -1, vlon2 = -1, xvar = -1, yvar = -1;
+    double xto_m = 1, yto_m = 1;
+    if (rc == SPH_OK) {
+        nc_inq_varname(ncid, vc, vname);
+        rc = classify_grid(ncid, vc, vname, dims[ndims - 1], dims[ndims - 2], path, &kind, gmdef,
+                           sizeof gmdef, &xto_m, &yto_m, &vlat2, &vlon2, &xvar, &yvar, err);
+    }
+    if (rc == SPH_OK && kind == ICE_RASTER_CURVILINEAR) {
+        nc_inq_dimlen(ncid, dims[ndims - 1], &nlon);
+        nc_inq_dimlen(ncid, dims[ndims - 2], &nlat);
+    } else {
+        int proj = kind == ICE_RASTER_PROJECTED;
+        if (rc == SPH_OK)
+            rc = read_axis(ncid, dims[ndims - 1], proj ? xvar : -1, path, proj ? "x" : "longitude",
+                           &nlon, &lon, err);
+        if (rc == SPH_OK)
+            rc = read_axis(ncid, dims[ndims - 2], proj ? yvar : -1, path, proj ? "y" : "latitude",
+                           &nlat, &lat, err);
+        for (size_t i = 0; rc == SPH_OK && proj && i < nlon; i++)
+            lon[i] *= xto_m;
+        for (size_t j = 0; rc == SPH_OK && proj && j < nlat; j++)
+            lat[j] *= yto_m;
+    }
     if (rc == SPH_OK && vt >= 0) {
         int tnd, tdims[NC_MAX_VAR_DIMS];
         nc_inq_varndims(ncid, vt, &tnd);
@@ -212,21 +824,48 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
             rc = sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
     }
     int percent = -1;
+    unsigned char *flags = NULL;
+    if (rc == SPH_OK && !(flags = calloc(nlat * nlon, 1)))
+        rc = sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
     if (rc == SPH_OK) {
-        rc = read_field(ncid, vc, path, "concentration", nlat, nlon, tmp, err);
+        char clabel[NC_MAX_NAME + 32];
+        snprintf(clabel, sizeof clabel, "concentration %s", vname);
+        rc = read_field(ncid, vc, path, clabel, nlat, nlon, tmp, flags, &r->conc_halfstep, err);
         char units[64];
         if (att_text(ncid, vc, "units", units, sizeof units))
             percent = (strcmp(units, "%") == 0 || strcasecmp(units, "percent") == 0) ? 1 : -1;
+        if (rc == SPH_OK)
+            rc = read_status_land(ncid, vc, path, nlat, nlon, flags, r->thick, err);
     }
-    int flip = rc == SPH_OK && lat[1] < lat[0];
-    int flip_lon = rc == SPH_OK && lon[1] < lon[0];
+    int flip = rc == SPH_OK && lat && lat[1] < lat[0];
+    int flip_lon = rc == SPH_OK && lon && lon[1] < lon[0];
     if (rc == SPH_OK) {
         for (size_t j = 0; j < nlat; j++)
             for (size_t i = 0; i < nlon; i++)
                 r->conc[j * nlon + i] =
                     tmp[(flip ? nlat - 1 - j : j) * nlon + (flip_lon ? nlon - 1 - i : i)];
+        for (size_t k = 0; k < nlat * nlon; k++) {
+            r->nland += flags[k] == 1;
+            r->nnoinfo += flags[k] == 2;
+        }
+        if (r->nland || r->nnoinfo) {
+            if (!(r->land = malloc(nlat * nlon)))
+                rc = sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
+            for (size_t j = 0; rc == SPH_OK && j < nlat; j++)
+                for (size_t i = 0; i < nlon; i++) {
+                    size_t k = j * nlon + i;
+                    r->land[k] = flags[(flip ? nlat - 1 - j : j) * nlon + (flip_lon ? nlon - 1 - i : i)];
+                    if (r->land[k])
+                        r->conc[k] = NAN;
+                }
+            log_info("ice raster %s: %s flags: %zu land/coast/lake cells, %zu cells without "
+                     "information (not open water)", path, vname, r->nland, r->nnoinfo);
+        }
         if (vt >= 0) {
-            rc = read_field(ncid, vt, path, "thickness", nlat, nlon, tmp, err);
+            rc = thickness_kind(ncid, vt, o->thickness_kind, path, &r->thickness_kind,
+                                r->thickness_why, sizeof r->thickness_why, err);
+            if (rc == SPH_OK)
+                rc = read_field(ncid, vt, path, "thickness", nlat, nlon, tmp, NULL, NULL, err);
             double to_m = 1;
             char units[64];
             /* any length unit (udunits2: cm, mm, inch, ...); none means m */
@@ -253,13 +892,19 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
                 r->thick[k] = NAN;
         }
     }
+    if (rc == SPH_OK && kind != ICE_RASTER_LONLAT)
+        rc = set_grid(ncid, vc, vname, path, kind, gmdef, vlat2, vlon2, lon, lat, flip, flip_lon,
+                      r, tmp, err);
     if (rc == SPH_OK) {
-        for (size_t j = 0; j < nlat; j++)
-            r->lat[j] = lat[flip ? nlat - 1 - j : j];
-        for (size_t i = 0; i < nlon; i++)
-            r->lon[i] = lon[flip_lon ? nlon - 1 - i : i];
-        r->dlon = (r->lon[nlon - 1] - r->lon[0]) / (double)(nlon - 1);
-        r->dlat = (r->lat[nlat - 1] - r->lat[0]) / (double)(nlat - 1);
+        if (kind == ICE_RASTER_LONLAT) {
+            for (size_t j = 0; j < nlat; j++)
+                r->lat[j] = lat[flip ? nlat - 1 - j : j];
+            for (size_t i = 0; i < nlon; i++)
+                r->lon[i] = lon[flip_lon ? nlon - 1 - i : i];
+            r->dlon = (r->lon[nlon - 1] - r->lon[0]) / (double)(nlon - 1);
+            r->dlat = (r->lat[nlat - 1] - r->lat[0]) / (double)(nlat - 1);
+            snprintf(r->grid, sizeof r->grid, "regular lon/lat, %g x %g degrees", r->dlon, r->dlat);
+        }
         int vtime;
         char units[128];
         double t0, per_unit, epoch;
@@ -280,6 +925,7 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
     free(lon);
     free(lat);
     free(tmp);
+    free(flags);
     if (rc != SPH_OK) {
         ice_raster_free(r);
         return rc;

@@ -44,13 +44,13 @@ static int walk_cells(const ice_raster *r, const landmask *mask, const seed_opti
 {
     *count = 0;
     for (int j = 0; j < r->nlat; j++) {
-        double area = ice_raster_cell_area(r, j);
         for (int i = 0; i < r->nlon; i++) {
             size_t k = (size_t)j * r->nlon + i;
-            double c = r->conc[k];
-            if (!(c > o->threshold) || !(r->thick[k] > 0) || !is_sea(mask, r->lon[i], r->lat[j]))
+            double c = r->conc[k], lon, lat;
+            ice_raster_cell_lonlat(r, i, j, &lon, &lat);
+            if (!(c > o->threshold) || !(r->thick[k] > 0) || !is_sea(mask, lon, lat))
                 continue;
-            seed_point s = {r->lon[i], r->lat[j], c, r->thick[k], area};
+            seed_point s = {lon, lat, c, r->thick[k], ice_raster_area(r, i, j)};
             if (emit) {
                 int rc = emit(ctx, &s);
                 if (rc != SPH_OK)
@@ -70,6 +70,24 @@ static int lattice_bounds(const ice_raster *r, const geo_proj *p, const seed_opt
     if (o->xmin != 0 || o->xmax != 0 || o->ymin != 0 || o->ymax != 0) {
         b[0] = o->xmin, b[1] = o->xmax, b[2] = o->ymin, b[3] = o->ymax;
         return SPH_OK;
+    }
+    if (r->kind != ICE_RASTER_LONLAT) {
+        /* every cell centre, widened by the largest half cell */
+        size_t n = (size_t)r->nlon * r->nlat;
+        double *xy = malloc(sizeof(double) * 2 * n), half = 0;
+        if (!xy)
+            return sph_err_set(err, SPH_ERR_NOMEM, "seeding: out of memory");
+        int rc = geo_forward(p, n, r->cell_lon, r->cell_lat, xy, xy + n, err);
+        b[0] = b[2] = INFINITY;
+        b[1] = b[3] = -INFINITY;
+        for (size_t k = 0; rc == SPH_OK && k < n; k++) {
+            b[0] = fmin(b[0], xy[k]), b[1] = fmax(b[1], xy[k]);
+            b[2] = fmin(b[2], xy[n + k]), b[3] = fmax(b[3], xy[n + k]);
+            half = fmax(half, sqrt(r->area[k]) / 2);
+        }
+        free(xy);
+        b[0] -= half, b[1] += half, b[2] -= half, b[3] += half;
+        return rc;
     }
     enum { NS = 9 };
     double lon[4 * NS], lat[4 * NS], x[4 * NS], y[4 * NS];
@@ -99,6 +117,11 @@ static int walk_lattice(const ice_raster *r, const geo_proj *p, const landmask *
                         sph_error *err)
 {
     *count = 0;
+    if (!ice_raster_can_sample(r))
+        return sph_err_set(err, SPH_ERR_CONFIG,
+                           "seeding %s: initial.spacing: a lattice cannot be sampled on this "
+                           "raster's grid (%s); set initial.spacing to 0 (a particle per cell)",
+                           r->path, r->grid);
     double b[4];
     int rc = lattice_bounds(r, p, o, b, err);
     if (rc != SPH_OK)
