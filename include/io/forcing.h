@@ -127,4 +127,8 @@ size_t forcing_debug_slice_reads(const forcing *f);
  * quantity; *n receives the number of entries. */
 const forcing_name_map *forcing_default_names(size_t *n);
 
+/* The quantity (FQ_* flag) a CF standard name gives the reader, earth- or
+ * grid-relative; 0 for a name it does not use. */
+int forcing_quantity_of(const char *standard_name);
+
 #endif

@@ -335,28 +335,6 @@ static void fetched_free(fetched *f)
     memset(f, 0, sizeof *f);
 }
 
-/* The forcing quantity (FQ_* flag) a CF standard name gives, 0 if none
- * (the names io/inputs/forcing.c looks for). */
-static int quantity_of(const char *std)
-{
-    static const struct { const char *name; int flag; } q[] = {
-        {"eastward_wind", FQ_WIND}, {"northward_wind", FQ_WIND}, {"x_wind", FQ_WIND}, {"y_wind", FQ_WIND},
-        {"air_temperature", FQ_TAIR}, {"specific_humidity", FQ_HUMIDITY},
-        {"dew_point_temperature", FQ_HUMIDITY}, {"relative_humidity", FQ_HUMIDITY},
-        {"surface_downwelling_shortwave_flux_in_air", FQ_SWDN},
-        {"surface_downwelling_longwave_flux_in_air", FQ_LWDN},
-        {"eastward_sea_water_velocity", FQ_CURRENT}, {"northward_sea_water_velocity", FQ_CURRENT},
-        {"surface_eastward_sea_water_velocity", FQ_CURRENT},
-        {"surface_northward_sea_water_velocity", FQ_CURRENT}, {"sea_water_x_velocity", FQ_CURRENT},
-        {"sea_water_y_velocity", FQ_CURRENT}, {"sea_surface_height_above_geoid", FQ_SSH},
-        {"sea_surface_height", FQ_SSH}, {"sea_surface_height_above_sea_level", FQ_SSH},
-        {"sea_surface_temperature", FQ_SST}, {"upward_sea_ice_basal_heat_flux", FQ_OCEAN_FLUX}};
-    for (size_t i = 0; i < sizeof q / sizeof q[0]; i++)
-        if (!strcmp(q[i].name, std))
-            return q[i].flag;
-    return 0;
-}
-
 /* The variables a download of source src must hold: the mapped variables
  * (`variables`) of its `required` quantities; with no `required` list,
  * every mapped variable whose quantity is not listed as `optional`. */
@@ -369,7 +347,7 @@ static size_t required_vars(const cfg_forcing_source *src, const char **vars, si
         opt |= config_quantity_flag(src->optional_q.v[i]);
     size_t n = 0;
     for (size_t i = 0; i < src->variables.n && n < max; i++) {
-        int q = quantity_of(src->variables.key[i]);
+        int q = forcing_quantity_of(src->variables.key[i]);
         if (src->required.n ? (q & req) != 0 : !(q & opt))
             vars[n++] = src->variables.val[i];
     }

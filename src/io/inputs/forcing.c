@@ -357,6 +357,19 @@ static unsigned slot_flag(fv_slot w)
     }
 }
 
+int forcing_quantity_of(const char *standard_name)
+{
+    for (int w = 0; w < FV_COUNT; w++) {
+        for (int k = 0; k < 4 && slot_defs[w].std[k]; k++)
+            if (!strcmp(slot_defs[w].std[k], standard_name))
+                return (int)slot_flag((fv_slot)w);
+        for (int k = 0; k < 3 && slot_defs[w].grid_std[k]; k++)
+            if (!strcmp(slot_defs[w].grid_std[k], standard_name))
+                return (int)slot_flag((fv_slot)w);
+    }
+    return 0;
+}
+
 static int scan_file(fsource *s, const forcing_source_spec *spec, int fi, unsigned want,
                      cf_units *units, sph_error *err)
 {
