@@ -58,6 +58,19 @@ int prod_put_text(int ncid, int varid, const char *name, const char *text)
     return nc_put_att_text(ncid, varid, name, strlen(text), text);
 }
 
+int prod_def_lonlat(int ncid, const char *name, int ndims, const int *dims, char axis,
+                    const char *long_name, int *varid)
+{
+    int x = axis == 'X', rc;
+    const char ax[2] = {axis, 0};
+    if ((rc = nc_def_var(ncid, name, NC_DOUBLE, ndims, dims, varid)) ||
+        (rc = prod_put_text(ncid, *varid, "standard_name", x ? "longitude" : "latitude")) ||
+        (rc = prod_put_text(ncid, *varid, "long_name", long_name)) ||
+        (rc = prod_put_text(ncid, *varid, "units", x ? "degrees_east" : "degrees_north")))
+        return rc;
+    return prod_put_text(ncid, *varid, "axis", ax);
+}
+
 static int put_double(int ncid, int varid, const char *name, double v)
 {
     return nc_put_att_double(ncid, varid, name, NC_DOUBLE, 1, &v);
@@ -227,16 +240,8 @@ static int fields_define(prod_writer *p, sph_error *err)
     NCT(prod_put_text(nc, v_ref, "calendar", "standard"), "write attribute in");
 
     int v_lat, v_lon;
-    NCT(nc_def_var(nc, "lat", NC_DOUBLE, 1, &d_lat, &v_lat), "define variable in");
-    NCT(prod_put_text(nc, v_lat, "standard_name", "latitude"), "write attribute in");
-    NCT(prod_put_text(nc, v_lat, "long_name", "latitude of the cell centre"), "write attribute in");
-    NCT(prod_put_text(nc, v_lat, "units", "degrees_north"), "write attribute in");
-    NCT(prod_put_text(nc, v_lat, "axis", "Y"), "write attribute in");
-    NCT(nc_def_var(nc, "lon", NC_DOUBLE, 1, &d_lon, &v_lon), "define variable in");
-    NCT(prod_put_text(nc, v_lon, "standard_name", "longitude"), "write attribute in");
-    NCT(prod_put_text(nc, v_lon, "long_name", "longitude of the cell centre"), "write attribute in");
-    NCT(prod_put_text(nc, v_lon, "units", "degrees_east"), "write attribute in");
-    NCT(prod_put_text(nc, v_lon, "axis", "X"), "write attribute in");
+    NCT(prod_def_lonlat(nc, "lat", 1, &d_lat, 'Y', "latitude of the cell centre", &v_lat), "define variable in");
+    NCT(prod_def_lonlat(nc, "lon", 1, &d_lon, 'X', "longitude of the cell centre", &v_lon), "define variable in");
 
     int dims2[2] = { d_lat, d_lon }, v_area, v_land;
     NCT(nc_def_var(nc, "cell_area", NC_DOUBLE, 2, dims2, &v_area), "define variable in");
@@ -319,18 +324,10 @@ static int fields_define(prod_writer *p, sph_error *err)
         "write attribute in");
     NCT(prod_put_text(nc, p->v_part_count, "units", "1"), "write attribute in");
     size_t ch1 = 4096;
-    NCT(nc_def_var(nc, "edge_x", NC_DOUBLE, 1, &d_node, &p->v_ex), "define variable in");
+    NCT(prod_def_lonlat(nc, "edge_x", 1, &d_node, 'X', "ice edge node longitude", &p->v_ex), "define variable in");
     NCT(nc_def_var_chunking(nc, p->v_ex, NC_CHUNKED, &ch1), "set chunking in");
-    NCT(prod_put_text(nc, p->v_ex, "standard_name", "longitude"), "write attribute in");
-    NCT(prod_put_text(nc, p->v_ex, "long_name", "ice edge node longitude"), "write attribute in");
-    NCT(prod_put_text(nc, p->v_ex, "units", "degrees_east"), "write attribute in");
-    NCT(prod_put_text(nc, p->v_ex, "axis", "X"), "write attribute in");
-    NCT(nc_def_var(nc, "edge_y", NC_DOUBLE, 1, &d_node, &p->v_ey), "define variable in");
+    NCT(prod_def_lonlat(nc, "edge_y", 1, &d_node, 'Y', "ice edge node latitude", &p->v_ey), "define variable in");
     NCT(nc_def_var_chunking(nc, p->v_ey, NC_CHUNKED, &ch1), "set chunking in");
-    NCT(prod_put_text(nc, p->v_ey, "standard_name", "latitude"), "write attribute in");
-    NCT(prod_put_text(nc, p->v_ey, "long_name", "ice edge node latitude"), "write attribute in");
-    NCT(prod_put_text(nc, p->v_ey, "units", "degrees_north"), "write attribute in");
-    NCT(prod_put_text(nc, p->v_ey, "axis", "Y"), "write attribute in");
 
     if ((rc = put_global_provenance(p, nc, p->fields.tmp, err)) != SPH_OK)
         return rc;

@@ -89,6 +89,10 @@ int prod_file_commit(prod_writer *p, prod_file *f, sph_error *err);
 void prod_file_discard(prod_file *f);
 int prod_nc_check(int status, const char *what, const char *path, sph_error *err);
 int prod_put_text(int ncid, int varid, const char *name, const char *text);
+/* Defines a CF longitude (axis 'X') or latitude (axis 'Y') coordinate,
+ * doubles over dims: standard_name, long_name, units, axis. */
+int prod_def_lonlat(int ncid, const char *name, int ndims, const int *dims, char axis,
+                    const char *long_name, int *varid);
 
 /* products_stations.c */
 int prod_stations_open(prod_writer *p, sph_error *err);

@@ -96,16 +96,8 @@ int prod_stations_open(prod_writer *p, sph_error *err)
     NCS(nc_def_var(nc, "station_name", NC_CHAR, 2, dn, &v_name), "define variable in");
     NCS(prod_put_text(nc, v_name, "cf_role", "timeseries_id"), "write attribute in");
     NCS(prod_put_text(nc, v_name, "long_name", "station name"), "write attribute in");
-    NCS(nc_def_var(nc, "lon", NC_DOUBLE, 1, &d_st, &v_lon), "define variable in");
-    NCS(prod_put_text(nc, v_lon, "standard_name", "longitude"), "write attribute in");
-    NCS(prod_put_text(nc, v_lon, "long_name", "station longitude"), "write attribute in");
-    NCS(prod_put_text(nc, v_lon, "units", "degrees_east"), "write attribute in");
-    NCS(prod_put_text(nc, v_lon, "axis", "X"), "write attribute in");
-    NCS(nc_def_var(nc, "lat", NC_DOUBLE, 1, &d_st, &v_lat), "define variable in");
-    NCS(prod_put_text(nc, v_lat, "standard_name", "latitude"), "write attribute in");
-    NCS(prod_put_text(nc, v_lat, "long_name", "station latitude"), "write attribute in");
-    NCS(prod_put_text(nc, v_lat, "units", "degrees_north"), "write attribute in");
-    NCS(prod_put_text(nc, v_lat, "axis", "Y"), "write attribute in");
+    NCS(prod_def_lonlat(nc, "lon", 1, &d_st, 'X', "station longitude", &v_lon), "define variable in");
+    NCS(prod_def_lonlat(nc, "lat", 1, &d_st, 'Y', "station latitude", &v_lat), "define variable in");
     NCS(nc_def_var(nc, "time", NC_DOUBLE, 1, &d_t, &p->st_v_time), "define variable in");
     NCS(prod_put_text(nc, p->st_v_time, "standard_name", "time"), "write attribute in");
     NCS(prod_put_text(nc, p->st_v_time, "long_name", "valid time"), "write attribute in");
