@@ -425,6 +425,19 @@ int main(void)
         expect_error(bad, &o2, "negative thickness", "-0.2");
         CHECK(strstr(last_error, th) != NULL, "names the thickness file: %s", last_error);
     }
+    /* found by tests/fuzz/fuzz_raster: a header count beyond long (undefined
+     * behaviour of the cast) or not whole (silently truncated) is refused
+     * naming the key and the value */
+    snprintf(bad, sizeof bad, "%s/hugecols.asc", dir);
+    f = fopen(bad, "w");
+    fprintf(f, "ncols 4.4e20\nnrows 2\nxllcenter 121\nyllcenter 40\ncellsize 0.1\n50 60\n20 30\n");
+    fclose(f);
+    expect_error(bad, NULL, "ncols", "4.4e+20");
+    snprintf(bad, sizeof bad, "%s/halfrows.asc", dir);
+    f = fopen(bad, "w");
+    fprintf(f, "ncols 2\nnrows 2.5\nxllcenter 121\nyllcenter 40\ncellsize 0.1\n50 60\n20 30\n");
+    fclose(f);
+    expect_error(bad, NULL, "nrows", "2.5");
     snprintf(bad, sizeof bad, "%s/junk.txt", dir);
     f = fopen(bad, "w");
     fprintf(f, "hello\n");

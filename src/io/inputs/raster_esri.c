@@ -45,6 +45,11 @@ static int parse_esri_header(const char *path, const char *text, esri_header *h,
             return sph_err_set(err, SPH_ERR_BAD_DATA, "ice raster %s: header key %s has no number",
                                path, key);
         p = end;
+        if ((strcmp(key, "ncols") == 0 || strcmp(key, "nrows") == 0) &&
+            !(v >= 2 && v <= 100000 && v == floor(v)))
+            return sph_err_set(err, SPH_ERR_BAD_DATA,
+                               "ice raster %s: header key %s is %g, not a whole number of "
+                               "cells from 2 to 100000", path, key, v);
         if (strcmp(key, "ncols") == 0) h->ncols = (long)v, seen |= 1;
         else if (strcmp(key, "nrows") == 0) h->nrows = (long)v, seen |= 2;
         else if (strcmp(key, "xllcorner") == 0) h->x = v, seen |= 4;
