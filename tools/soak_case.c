@@ -34,25 +34,9 @@ int main(int argc, char **argv)
     ec_write_mask(p);
 
     double now = (double)time(NULL);
-    tgrid g;
-    memset(&g, 0, sizeof g);
-    g.nx = 9;
-    g.ny = 7;
-    g.lon0 = 120.5;
-    g.dlon = 0.25;
-    g.lat0 = 39.5;
-    g.dlat = 0.25;
-    g.time_units = "hours since 1970-01-01 00:00:00";
-    g.calendar = "standard";
-    g.tv0 = (double)((long)(now / 3600.0)) - 6.0;
-    g.dtv = 1.0;
-    tvar v[3];
-    memset(v, 0, sizeof v);
-    v[0] = (tvar){"u10", "eastward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, ec_atm_fn, 0};
-    v[1] = (tvar){"v10", "northward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, ec_atm_fn, 1};
-    v[2] = (tvar){"t2m", "air_temperature", "K", NC_FLOAT, 0, 0, 0, 0, 0, ec_atm_fn, 2};
     snprintf(p, sizeof p, "%s/atm.nc", dir);
-    tnc_write(p, &g, v, 3, 0, (size_t)(hours + 8), NC_NETCDF4);
+    ec_write_atm_axis(p, "hours since 1970-01-01 00:00:00", (double)((long)(now / 3600.0)) - 6.0,
+                      (size_t)(hours + 8), NC_NETCDF4);
 
     char text[8192], extra[256];
     snprintf(extra, sizeof extra, "\"log_level\": \"info\",");

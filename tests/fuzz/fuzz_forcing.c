@@ -8,8 +8,9 @@
 
 #include "fuzz.h"
 
-/* 1999-02-08T00:00Z and the box of the seed files (tests/fuzz/gen_corpus.c) */
-#define T0 918432000.0
+/* the cycle and box of the seed files (tests/fuzz/gen_corpus.c, the engine
+ * case: tests/engine_case.h), 1999-02-08T06:00Z */
+#define T0 918453600.0
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -25,7 +26,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     forcing *f = NULL;
     sph_error err;
     sph_error_clear(&err);
-    if (forcing_open(&f, &s, 1, T0 + 3600, T0 + 7200, 121.0, 121.5, 40.0, 40.5, &err) != SPH_OK)
+    if (forcing_open(&f, &s, 1, T0, T0 + 3600, 121.0, 121.5, 40.0, 40.5, &err) != SPH_OK)
         return 0;
     enum { N = 4 };
     double lon[N] = {121.0, 121.2, 121.5, 121.37}, lat[N] = {40.0, 40.3, 40.5, 40.11};
@@ -34,7 +35,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                           a[11], a[12], 0};
     for (int k = 0; k < 3; k++) {
         sph_error_clear(&err);
-        if (forcing_sample_at(f, T0 + 3600 + 1800.0 * k, N, lon, lat, &out, &err) != SPH_OK)
+        if (forcing_sample_at(f, T0 + 1800.0 * k, N, lon, lat, &out, &err) != SPH_OK)
             break;
     }
     forcing_var_info info[16];

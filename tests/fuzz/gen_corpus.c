@@ -1,7 +1,8 @@
 /* Writes the binary seed inputs of the fuzz harnesses into DIR/NAME/
  * (the text seeds are committed in tests/fuzz/corpus/NAME/):
  *   raster   small ice rasters as NetCDF classic and netCDF-4 (CF names)
- *   forcing  an atmosphere and an ocean source (tests/test_forcing_nc.h)
+ *   forcing  the engine case's atmosphere and ocean (tests/engine_case.h),
+ *            NetCDF classic and netCDF-4
  *   restart  a restart file written by restart_write
  * The first byte of a raster or forcing seed is the harness's selector
  * (see fuzz_raster.c, fuzz_forcing.c). Usage: gen_corpus DIR */
@@ -14,7 +15,7 @@
 
 #include "io/restart.h"
 
-#include "../test_forcing_nc.h"
+#include "../engine_case.h"
 
 static void prefix(const char *src, const char *dst, unsigned char first)
 {
@@ -73,47 +74,6 @@ static void raster_nc(const char *path, int fmt)
     NCW(nc_close(nc));
 }
 
-static double atm_fn(int which, double lon, double lat, size_t k)
-{
-    return which == 0 ? 5.0 + lon - 121 : which == 1 ? -3.0 + lat - 40 : 263.15 + (double)k;
-}
-
-static double ocean_fn(int which, double lon, double lat, size_t k)
-{
-    (void)lat; (void)k;
-    if (lon > 121.6)
-        return NAN;
-    return which == 0 ? 0.1 : which == 1 ? -0.05 : 0.3;
-}
-
-static void forcing_nc(const char *path, int ocean, int fmt)
-{
-    tgrid g;
-    memset(&g, 0, sizeof g);
-    g.nx = 5;
-    g.ny = 5;
-    g.lon0 = 120.75;
-    g.dlon = 0.25;
-    g.lat0 = 39.75;
-    g.dlat = 0.25;
-    g.time_units = "hours since 1999-02-08 00:00:00";
-    g.calendar = "standard";
-    g.tv0 = 0;
-    g.dtv = 1;
-    tvar v[3];
-    memset(v, 0, sizeof v);
-    if (!ocean) {
-        v[0] = (tvar){"u10", "eastward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, atm_fn, 0};
-        v[1] = (tvar){"v10", "northward_wind", "m s-1", NC_SHORT, 0.01, 0, 1, -32767, 0, atm_fn, 1};
-        v[2] = (tvar){"t2m", "air_temperature", "K", NC_FLOAT, 0, 0, 0, 0, 0, atm_fn, 2};
-    } else {
-        v[0] = (tvar){"uo", "eastward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, 1e20, 0, ocean_fn, 0};
-        v[1] = (tvar){"vo", "northward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, 1e20, 0, ocean_fn, 1};
-        v[2] = (tvar){"zos", "sea_surface_height_above_geoid", "m", NC_FLOAT, 0, 0, 1, 1e20, 0, ocean_fn, 2};
-    }
-    tnc_write(path, &g, v, 3, 0, 4, fmt);
-}
-
 static void restart_file(const char *path)
 {
     enum { N = 5, NL = 2 };
@@ -134,13 +94,8 @@ static void restart_file(const char *path)
         for (int l = 0; l < NL; l++)
             P->enth[k * NL + (size_t)l] = -3e8;
     }
-    restart_header h;
-    memset(&h, 0, sizeof h);
-    h.time = 918453600.0;
-    h.cycle_time = 918432000.0;
-    snprintf(h.projection, sizeof h.projection, "+proj=test");
-    sph_error err;
-    sph_error_clear(&err);
+    restart_header h = {.time = EC_CYCLE, .cycle_time = EC_CYCLE - 21600.0, .projection = "+proj=test"};
+    sph_error err = {0};
     if (restart_write(path, P, &h, &err) != SPH_OK) {
         fprintf(stderr, "gen_corpus: %s\n", err.msg);
         exit(1);
@@ -168,15 +123,17 @@ int main(int argc, char **argv)
     raster_nc(p, NC_NETCDF4);
     snprintf(q, sizeof q, "%s/raster/nc4", argv[1]);
     prefix(p, q, 0);
-    forcing_nc(p, 0, 0);
+    /* hourly from cycle - 3 h: covers the harness's cycle .. cycle + 1 h */
+    ec_write_atm_axis(p, "hours since 1999-02-08 00:00:00", 3.0, 8, 0);
     snprintf(q, sizeof q, "%s/forcing/atmosphere-classic", argv[1]);
     prefix(p, q, 0);
-    forcing_nc(p, 1, 0);
-    snprintf(q, sizeof q, "%s/forcing/ocean-classic", argv[1]);
-    prefix(p, q, 1);
-    forcing_nc(p, 0, NC_NETCDF4);
+    ec_write_atm(p, 2.0);
     snprintf(q, sizeof q, "%s/forcing/atmosphere-nc4", argv[1]);
     prefix(p, q, 0);
+    ec_ocean_format = 0;
+    ec_write_ocean(p);
+    snprintf(q, sizeof q, "%s/forcing/ocean-classic", argv[1]);
+    prefix(p, q, 1);
     snprintf(q, sizeof q, "%s/restart/restart.nc", argv[1]);
     restart_file(q);
     return 0;
