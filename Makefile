@@ -195,7 +195,6 @@ $(BUILD)/fuzz/gen_corpus: $(BUILD)/tests/fuzz/gen_corpus.o $(BUILD)/libsphice.a
 fuzz-bins: $(FUZZ_BIN) $(BUILD)/fuzz/gen_corpus
 	@rm -rf $(BUILD)/fuzz/seeds && mkdir -p $(BUILD)/fuzz/seeds && cp -r tests/fuzz/corpus/* $(BUILD)/fuzz/seeds/
 	@ASAN_OPTIONS=detect_leaks=0 $(BUILD)/fuzz/gen_corpus $(BUILD)/fuzz/seeds
-	@if command -v nccopy >/dev/null 2>&1; then nccopy -k cdf5 $(BUILD)/fuzz/seeds/restart/restart.nc $(BUILD)/fuzz/seeds/restart/restart-cdf5.nc; fi
 
 fuzz-build:
 	@$(MAKE) --no-print-directory BUILD=$(FUZZ_BUILD) CC=clang OPT=-O1 CFLAGS="$(FUZZ_CFLAGS)" fuzz-bins

@@ -1,8 +1,10 @@
 /* Shared by the libFuzzer harnesses in tests/fuzz/ (built by `make fuzz`).
  *
- * The readers take a path, so the input goes into an anonymous in-memory
- * file (memfd) and its /proc/self/fd/N name is given to the reader: no
- * disk traffic, one file per process, rewritten for each input. */
+ * The readers take a path, so the input goes into a file of this process
+ * in /dev/shm (tmpfs: no disk traffic; $TMPDIR or /tmp where there is
+ * none), rewritten for each input and removed at exit. Not a memfd's
+ * /proc/self/fd/N: HDF5 cannot open that, so netCDF-4 inputs would all
+ * fail at the door. */
 #ifndef SPHICE_TESTS_FUZZ_H
 #define SPHICE_TESTS_FUZZ_H
 
@@ -10,7 +12,7 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <sys/mman.h>
+#include <fcntl.h>
 #include <udunits2.h>
 #include <unistd.h>
 
@@ -41,25 +43,32 @@ void __wrap_ut_free_system(ut_system *system)
         __real_ut_free_system(system);
 }
 
+static char fuzz_path_[2][512];
+
+static void fuzz_files_remove(void)
+{
+    for (int k = 0; k < 2; k++)
+        if (fuzz_path_[k][0])
+            unlink(fuzz_path_[k]);
+}
+
 /* The path of a file holding exactly data[0..size). slot: one file per
  * slot (a harness that needs two files at once uses slots 0 and 1). */
 static inline const char *fuzz_file(int slot, const uint8_t *data, size_t size)
 {
-    static int fd[2] = {-1, -1};
-    static char path[2][64];
-    if (fd[slot] < 0) {
-        fd[slot] = memfd_create("sphice-fuzz", 0);
-        if (fd[slot] < 0) {
-            perror("memfd_create");
-            abort();
-        }
-        snprintf(path[slot], sizeof path[slot], "/proc/self/fd/%d", fd[slot]);
+    if (!fuzz_path_[slot][0]) {
+        const char *dir = access("/dev/shm", W_OK) == 0 ? "/dev/shm"
+                          : getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp";
+        snprintf(fuzz_path_[slot], sizeof fuzz_path_[slot], "%s/sphice-fuzz-%ld-%d", dir,
+                 (long)getpid(), slot);
+        atexit(fuzz_files_remove);
     }
-    if (ftruncate(fd[slot], 0) != 0 || pwrite(fd[slot], data, size, 0) != (ssize_t)size) {
-        perror("fuzz input");
+    int fd = open(fuzz_path_[slot], O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    if (fd < 0 || (size && write(fd, data, size) != (ssize_t)size) || close(fd) != 0) {
+        perror(fuzz_path_[slot]);
         abort();
     }
-    return path[slot];
+    return fuzz_path_[slot];
 }
 
 #endif

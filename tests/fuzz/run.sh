@@ -14,6 +14,7 @@
 # header declares before checking it (netcdf-c PR 3377). FUZZ_ONLY="config http" runs only those; FUZZ_JOBS>1 runs that many
 # processes per harness (-fork). Exit 1 if any harness found something.
 set -u
+SUPP=$(cd "$(dirname "$0")" && pwd)/lsan.supp
 B=${FUZZ_BUILD:-build-fuzz}/fuzz
 S=${FUZZ_SECONDS:-60}
 fail=0
@@ -27,7 +28,7 @@ for n in $names; do
     [ -z "${FUZZ_KEEP_GOING:-}" ] && [ "${FUZZ_JOBS:-1}" -gt 1 ] && fork="$fork -fork=${FUZZ_JOBS}"
     # shellcheck disable=SC2086
     ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=1:max_allocation_size_mb=${FUZZ_MAX_ALLOC_MB:-256}} \
-        UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1} OMP_NUM_THREADS=1 OMP_WAIT_POLICY=passive \
+        UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1} LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$SUPP} OMP_NUM_THREADS=1 OMP_WAIT_POLICY=passive \
         nice -n 10 "$B/fuzz_$n" -max_total_time="$S" -timeout=20 -rss_limit_mb=4096 -malloc_limit_mb=100000 \
         -print_final_stats=1 -artifact_prefix="$B/crash-$n-" $fork \
         "$B/corpus/$n" "$B/seeds/$n" >"$log" 2>&1
