@@ -6,7 +6,10 @@
 # resident memory (VmRSS in /proc/PID/status) and open descriptors
 # (/proc/PID/fd) after each published cycle and checks at the end:
 #   - RSS growth between cycle SOAK_FROM (default 20) and the last < 10 %,
-#   - the descriptor count at the last cycle equals the one at SOAK_FROM,
+#   - the open descriptors do not grow: neither the fewest nor the most
+#     seen over the last 20 samples exceeds those over the 20 from SOAK_FROM
+#     (a sample may fall while a cycle still has its files open, so single
+#     samples differ by a few),
 #   - output.dir holds exactly SOAK_KEEP cycle folders (retention pruning),
 #   - the daemon exits 0 on SIGTERM.
 # Prints the samples to SOAK_DIR/samples.txt and one line per check;
@@ -47,6 +50,9 @@ while [ "$done_cycles" -lt "$N" ]; do
         rss=$(awk '/^VmRSS:/ { print $2 }' "/proc/$pid/status")
         fds=$(ls "/proc/$pid/fd" | wc -l)
         echo "$done_cycles $rss $fds" >>"$D/samples.txt"
+        # what is open, for a failure's diagnosis: at SOAK_FROM and the latest
+        [ "$done_cycles" -eq "$FROM" ] && ls -l "/proc/$pid/fd" >"$D/fds-from.txt" 2>/dev/null
+        ls -l "/proc/$pid/fd" >"$D/fds-last.txt" 2>/dev/null
         case "$done_cycles" in *0) echo "soak: cycle $done_cycles: RSS $rss kB, $fds fds" ;; esac
     fi
     sleep 0.5
@@ -70,7 +76,12 @@ growth=$(awk -v a="$r0" -v b="$r1" 'BEGIN { printf "%.2f", 100 * (b - a) / a }')
 echo "soak: RSS $r0 kB at cycle $c0, $r1 kB at cycle $c1 ($growth %); min $(awk '{ print $2 }' "$D/samples.txt" | sort -n | head -n 1) kB, max $(awk '{ print $2 }' "$D/samples.txt" | sort -n | tail -n 1) kB"
 echo "soak: open descriptors $f0 at cycle $c0, $f1 at cycle $c1 (range $(awk '{ print $3 }' "$D/samples.txt" | sort -n | head -n 1)..$(awk '{ print $3 }' "$D/samples.txt" | sort -n | tail -n 1))"
 awk -v g="$growth" 'BEGIN { exit !(g < 10) }' || { echo "soak: FAIL: RSS grew $growth % (limit 10 %)"; fail=1; }
-[ "$f0" = "$f1" ] || { echo "soak: FAIL: descriptors $f0 -> $f1"; fail=1; }
+early=$(awk -v c="$c0" '$1 >= c' "$D/samples.txt" | head -n 20 | awk '{ print $3 }' | sort -n)
+late=$(tail -n 20 "$D/samples.txt" | awk '{ print $3 }' | sort -n)
+e0=$(echo "$early" | head -n 1); e1=$(echo "$early" | tail -n 1)
+l0=$(echo "$late" | head -n 1); l1=$(echo "$late" | tail -n 1)
+echo "soak: open descriptors from cycle $c0: $e0..$e1, over the last 20 cycles: $l0..$l1"
+[ "$l0" -le "$e0" ] && [ "$l1" -le "$e1" ] || { echo "soak: FAIL: descriptors grew ($e0..$e1 -> $l0..$l1)"; fail=1; }
 out=$D/out
 kept=$(find "$out" -mindepth 1 -maxdepth 1 -type d -name '[0-9]*T*Z' | wc -l)
 echo "soak: $kept cycle folders in $out (output.retention_cycles = $KEEP) after $done_cycles cycles"
