@@ -119,7 +119,7 @@ layers: $(LIB_OBJ) $(MAIN_OBJ)
 
 # The test suite: every test program, then the summary line.
 check: all tests layers fuzz-smoke-build
-	@BUILD=$(BUILD) sh tests/run.sh $(TEST_BIN) tests/fuzz/smoke
+	@BUILD=$(BUILD) sh tests/run.sh $(TEST_BIN) tests/fuzz/fuzz_smoke
 
 # Long validations (year-long columns, steady states at full resolution).
 check-long: all tests
@@ -173,7 +173,7 @@ install: all
 # libFuzzer harnesses (tests/fuzz/fuzz_*.c) under ASan and UBSan, built with
 # clang into build-fuzz/ (library included); `make fuzz` runs each for
 # FUZZ_SECONDS on its seed corpus, `make check` a short smoke of each
-# (tests/fuzz/smoke) when clang is installed (sh tools/install-deps.sh --fuzz).
+# (tests/fuzz/fuzz_smoke) when clang is installed (sh tools/install-deps.sh --fuzz).
 FUZZ_BUILD   := build-fuzz
 FUZZ_SECONDS ?= 60
 FUZZ_CFLAGS  := -O1 -g -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer \
