@@ -45,17 +45,8 @@ static void huge_longitude(void)
     if (fd < 0)
         return;
     close(fd);
-    tgrid g;
-    memset(&g, 0, sizeof g);
-    g.nx = 4;
-    g.ny = 3;
-    g.lon0 = -1e300;
-    g.dlon = 0.25;
-    g.lat0 = 40.0;
-    g.dlat = 0.25;
-    g.time_units = "hours since 1999-02-08 00:00:00";
-    g.calendar = "standard";
-    g.dtv = 1.0;
+    tgrid g = {.nx = 4, .ny = 3, .lon0 = -1e300, .dlon = 0.25, .lat0 = 40.0, .dlat = 0.25,
+               .time_units = "hours since 1999-02-08 00:00:00", .calendar = "standard", .dtv = 1.0};
     tvar v[2];
     memset(v, 0, sizeof v);
     v[0] = (tvar){"u10", "eastward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, wind_fn, 0};
