@@ -40,6 +40,7 @@ TOOL_BIN := $(TOOL_SRC:tools/%.c=$(BUILD)/tools/%)
 
 .SECONDARY:
 .PHONY: all deps check check-long sanitize valgrind layers demo demo-forcing bench clean install tests tools
+.PHONY: fuzz fuzz-build fuzz-bins fuzz-smoke-build soak
 all: $(BUILD)/sphice tools
 
 deps:
@@ -117,8 +118,8 @@ layers: $(LIB_OBJ) $(MAIN_OBJ)
 	echo "layers: ok"
 
 # The test suite: every test program, then the summary line.
-check: all tests layers
-	@BUILD=$(BUILD) sh tests/run.sh $(TEST_BIN)
+check: all tests layers fuzz-smoke-build
+	@BUILD=$(BUILD) sh tests/run.sh $(TEST_BIN) tests/fuzz/fuzz_smoke
 
 # Long validations (year-long columns, steady states at full resolution).
 check-long: all tests
@@ -169,7 +170,49 @@ install: all
 	@echo "installed under $(DESTDIR)$(PREFIX) (configuration: $(DESTDIR)$(SYSCONFDIR)/sphice);" \
 	  "create the service user with: systemd-sysusers"
 
+# libFuzzer harnesses (tests/fuzz/fuzz_*.c) under ASan and UBSan, built with
+# clang into build-fuzz/ (library included); `make fuzz` runs each for
+# FUZZ_SECONDS on its seed corpus, `make check` a short smoke of each
+# (tests/fuzz/fuzz_smoke) when clang is installed (sh tools/install-deps.sh --fuzz).
+FUZZ_BUILD   := build-fuzz
+FUZZ_SECONDS ?= 60
+FUZZ_CFLAGS  := -O1 -g -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer \
+                -fno-sanitize-recover=all
+FUZZ_SRC     := $(wildcard tests/fuzz/fuzz_*.c)
+FUZZ_BIN     := $(FUZZ_SRC:tests/fuzz/%.c=$(BUILD)/fuzz/%)
+
+$(BUILD)/fuzz/fuzz_%: $(BUILD)/tests/fuzz/fuzz_%.o $(BUILD)/libsphice.a
+	@mkdir -p $(dir $@)
+	@echo "LD $@"
+	@$(CC) $(ALL_CFLAGS) -fsanitize=fuzzer -Wl,--wrap=ut_read_xml,--wrap=ut_free_system -o $@ $^ $(LDLIBS)
+
+$(BUILD)/fuzz/gen_corpus: $(BUILD)/tests/fuzz/gen_corpus.o $(BUILD)/libsphice.a
+	@mkdir -p $(dir $@)
+	@echo "LD $@"
+	@$(CC) $(ALL_CFLAGS) -o $@ $^ $(LDLIBS)
+
+# (inside the clang build) the harnesses and the seed corpora
+fuzz-bins: $(FUZZ_BIN) $(BUILD)/fuzz/gen_corpus
+	@rm -rf $(BUILD)/fuzz/seeds && mkdir -p $(BUILD)/fuzz/seeds && cp -r tests/fuzz/corpus/* $(BUILD)/fuzz/seeds/
+	@ASAN_OPTIONS=detect_leaks=0 $(BUILD)/fuzz/gen_corpus $(BUILD)/fuzz/seeds
+
+fuzz-build:
+	@$(MAKE) --no-print-directory BUILD=$(FUZZ_BUILD) CC=clang OPT=-O1 CFLAGS="$(FUZZ_CFLAGS)" fuzz-bins
+
+fuzz-smoke-build:
+	@if command -v clang >/dev/null 2>&1; then $(MAKE) --no-print-directory fuzz-build; \
+	else echo "note: clang not found: fuzz smoke skipped (sh tools/install-deps.sh --fuzz)"; fi
+
+fuzz: fuzz-build
+	@FUZZ_BUILD=$(FUZZ_BUILD) FUZZ_SECONDS=$(FUZZ_SECONDS) sh tests/fuzz/run.sh
+
+# 200 accelerated cycles of a small real forecast under `sphice serve`:
+# RSS and open descriptors of the daemon flat, retention kept.
+SOAK_CYCLES ?= 200
+soak: all
+	@SOAK_CYCLES=$(SOAK_CYCLES) BUILD=$(BUILD) sh tools/soak.sh
+
 clean:
-	rm -rf build build-asan
+	rm -rf build build-asan build-fuzz
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

@@ -37,11 +37,12 @@ static double ec_atm_fn(int which, double lon, double lat, size_t k)
     return which == 0 ? EC_WIND_U : which == 1 ? EC_WIND_V : EC_TAIR_K;
 }
 
-/* An hourly atmosphere from cycle - 3 h to cycle + hours on nx x ny
- * nodes every 0.25 deg from (lon0, lat0): u10, v10, t2m from fn. */
-static inline void ec_write_atm_at(const char *path, double hours, double lon0, double lat0,
-                                   size_t nx, size_t ny,
-                                   double (*fn)(int, double, double, size_t))
+/* An hourly atmosphere of nt slices from tv0 (time_units) on nx x ny
+ * nodes every 0.25 deg from (lon0, lat0): u10, v10, t2m from fn, in the
+ * NetCDF format fmt. */
+static inline void ec_write_atm_grid(const char *path, const char *time_units, double tv0, size_t nt,
+                                     int fmt, double lon0, double lat0, size_t nx, size_t ny,
+                                     double (*fn)(int, double, double, size_t))
 {
     tgrid g;
     memset(&g, 0, sizeof g);
@@ -51,17 +52,34 @@ static inline void ec_write_atm_at(const char *path, double hours, double lon0, 
     g.dlon = 0.25;
     g.lat0 = lat0;
     g.dlat = 0.25;
-    g.time_units = "hours since 1999-02-08 00:00:00";
+    g.time_units = time_units;
     g.calendar = "standard";
-    g.tv0 = 3.0; /* cycle 06 - 3 h */
+    g.tv0 = tv0;
     g.dtv = 1.0;
     tvar v[3];
     memset(v, 0, sizeof v);
     v[0] = (tvar){"u10", "eastward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, fn, 0};
     v[1] = (tvar){"v10", "northward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, fn, 1};
     v[2] = (tvar){"t2m", "air_temperature", "K", NC_FLOAT, 0, 0, 0, 0, 0, fn, 2};
-    size_t nt = (size_t)(hours + 3) + 1;
-    tnc_write(path, &g, v, 3, 0, nt, NC_NETCDF4);
+    tnc_write(path, &g, v, 3, 0, nt, fmt);
+}
+
+/* From cycle - 3 h to cycle + hours on another grid and field. */
+static inline void ec_write_atm_at(const char *path, double hours, double lon0, double lat0,
+                                   size_t nx, size_t ny,
+                                   double (*fn)(int, double, double, size_t))
+{
+    ec_write_atm_grid(path, "hours since 1999-02-08 00:00:00", 3.0 /* cycle 06 - 3 h */,
+                      (size_t)(hours + 3) + 1, NC_NETCDF4, lon0, lat0, nx, ny, fn);
+}
+
+/* The case's atmosphere with another time axis or file format: nt hourly
+ * slices from tv0 in time_units (the fuzz seeds and the soak's wall-clock
+ * axis, tests/fuzz/gen_corpus.c and tools/soak_case.c). */
+static inline void ec_write_atm_axis(const char *path, const char *time_units, double tv0, size_t nt,
+                                     int fmt)
+{
+    ec_write_atm_grid(path, time_units, tv0, nt, fmt, 120.5, 39.5, 9, 7, ec_atm_fn);
 }
 
 /* hours: forcing from cycle - 3 h to cycle + hours (hourly). */
@@ -70,6 +88,8 @@ static inline void ec_write_atm(const char *path, double hours)
     ec_write_atm_at(path, hours, 120.5, 39.5, 9, 7, ec_atm_fn);
 }
 
+/* format of ec_write_ocean's file (the fuzz seeds also write it classic) */
+static int ec_ocean_format = NC_NETCDF4;
 #define EC_CURRENT_E 0.1   /* ocean.nc: eastward current, m/s */
 #define EC_OCEAN_LAND 121.7 /* ocean.nc: no water from this longitude east */
 
@@ -102,7 +122,7 @@ static inline void ec_write_ocean(const char *path)
     memset(v, 0, sizeof v);
     v[0] = (tvar){"uo", "eastward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ec_ocean_fn, 0};
     v[1] = (tvar){"vo", "northward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ec_ocean_fn, 1};
-    tnc_write(path, &g, v, 2, 0, 13, NC_NETCDF4);
+    tnc_write(path, &g, v, 2, 0, 13, ec_ocean_format);
 }
 
 /* Ice raster of nlon x nlat nodes from (lon0, lat0) every (dlon, dlat),

@@ -427,6 +427,23 @@ int main(void)
         expect_error(bad, &o2, "negative thickness", "-0.2");
         CHECK(strstr(last_error, th) != NULL, "names the thickness file: %s", last_error);
     }
+    /* found by tests/fuzz/fuzz_raster: a header count beyond long (undefined
+     * behaviour of the cast) or not whole (silently truncated) is refused
+     * naming the key and the value */
+    static const struct { const char *file, *text, *key, *value; } counts[] = {
+        {"hugecols.asc", "ncols 4.4e20\nnrows 2\n", "ncols", "4.4e+20"},
+        {"halfrows.asc", "ncols 2\nnrows 2.5\n", "nrows", "2.5"},
+    };
+    for (size_t k = 0; k < sizeof counts / sizeof counts[0]; k++) {
+        char text[256];
+        int len = snprintf(text, sizeof text, "%sxllcenter 121\nyllcenter 40\ncellsize 0.1\n50 60\n20 30\n",
+                           counts[k].text);
+        sph_error werr;
+        sph_error_clear(&werr);
+        snprintf(bad, sizeof bad, "%s/%s", dir, counts[k].file);
+        CHECK(atomic_write_file(bad, text, (size_t)len, &werr) == SPH_OK, "%s", werr.msg);
+        expect_error(bad, NULL, counts[k].key, counts[k].value);
+    }
     snprintf(bad, sizeof bad, "%s/junk.txt", dir);
     f = fopen(bad, "w");
     fprintf(f, "hello\n");

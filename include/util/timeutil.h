@@ -10,7 +10,8 @@
  * success, -1 on malformed text or an impossible date. */
 int time_parse_iso(const char *text, double *seconds);
 
-/* Formats as "YYYY-MM-DDTHH:MM:SSZ" (seconds rounded). */
+/* Formats as "YYYY-MM-DDTHH:MM:SSZ" (seconds rounded); a time beyond
+ * +-1e15 s or not finite as "<%g> s since 1970-01-01Z". */
 void time_format_iso(double seconds, char *buf, size_t len);
 
 /* Days since 1970-01-01 of a proleptic Gregorian civil date. */

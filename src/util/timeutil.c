@@ -108,6 +108,12 @@ int time_parse_iso(const char *text, double *seconds)
 
 void time_format_iso(double seconds, char *buf, size_t len)
 {
+    /* a time from a bad file in an error message: beyond +-1e15 s (about
+     * 30 million years) the day count would not fit a long */
+    if (!(fabs(seconds) <= 1e15)) {
+        snprintf(buf, len, "%g s since 1970-01-01Z", seconds);
+        return;
+    }
     double r = floor(seconds + 0.5);
     long days = (long)floor(r / 86400.0);
     long sod = (long)(r - (double)days * 86400.0);

@@ -65,15 +65,21 @@ void fgrid_angles(fgrid *g, const double *angle)
 int fgrid_setup_regular(fgrid *g, const fsource *s, const char *path, sph_error *err)
 {
     size_t nx = g->nx, ny = g->ny;
+    /* bounded first: the unwrapping below adds 360 until a value passes its
+     * neighbour, which never ends for -1e300 (found by tests/fuzz/fuzz_forcing) */
+    for (size_t i = 0; i < nx; i++)
+        if (!(fabs(g->lon1[i]) <= 720.0))
+            return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
+                                "longitude %g at index %zu is outside -720..720 degrees", g->lon1[i], i);
     for (size_t i = 1; i < nx; i++) {
         while (g->lon1[i] <= g->lon1[i - 1] - 180.0)
             g->lon1[i] += 360.0; /* longitudes that jump from 180 to -180 */
         if (!(g->lon1[i] > g->lon1[i - 1]))
             return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
                                 "longitudes are not increasing at index %zu", i);
+        if (g->lon1[i] - g->lon1[0] >= 360.0 + 1e-9) /* here, so that the loop above stays short */
+            return forcing_fail(err, s, path, SPH_ERR_BAD_DATA, "longitudes span more than 360 degrees");
     }
-    if (nx > 1 && g->lon1[nx - 1] - g->lon1[0] >= 360.0 + 1e-9)
-        return forcing_fail(err, s, path, SPH_ERR_BAD_DATA, "longitudes span more than 360 degrees");
     int asc = ny < 2 || g->lat1[1] > g->lat1[0];
     for (size_t j = 1; j < ny; j++)
         if (asc ? !(g->lat1[j] > g->lat1[j - 1]) : !(g->lat1[j] < g->lat1[j - 1]))

@@ -46,9 +46,14 @@ static int parse_esri_header(const char *path, const char *text, esri_header *h,
             return sph_err_set(err, SPH_ERR_BAD_DATA, "ice raster %s: header key %s has no number",
                                path, key);
         p = end;
-        /* counts outside 0..1e6 (and NaN) become -1, refused below: a cast
-         * of a value beyond long's range is undefined behaviour */
-        long count = v >= 0 && v <= 1e6 ? (long)v : -1;
+        /* found by tests/fuzz/fuzz_raster: a count beyond long's range (the
+         * cast would be undefined behaviour), NaN, or not whole is refused */
+        if ((strcmp(key, "ncols") == 0 || strcmp(key, "nrows") == 0) &&
+            !(v >= 2 && v <= 100000 && v == floor(v)))
+            return sph_err_set(err, SPH_ERR_BAD_DATA,
+                               "ice raster %s: header key %s %g: not a whole number of "
+                               "cells from 2 to 100000", path, key, v);
+        long count = (long)v;
         if (strcmp(key, "ncols") == 0) h->ncols = count, h->ncols_v = v, seen |= 1;
         else if (strcmp(key, "nrows") == 0) h->nrows = count, h->nrows_v = v, seen |= 2;
         else if (strcmp(key, "xllcorner") == 0) h->x = v, seen |= 4;
