@@ -426,6 +426,12 @@ int main(void)
         o2.thickness_kind = ICE_THICK_ICE;
         expect_error(bad, &o2, "negative thickness", "-0.2");
         CHECK(strstr(last_error, th) != NULL, "names the thickness file: %s", last_error);
+        /* issue 21 item 8: a 1e6 m thickness is bad input, refused at reading */
+        f = fopen(th, "w");
+        fprintf(f, "ncols 2\nnrows 2\nxllcenter 121\nyllcenter 40\ncellsize 0.1\n0.1 1e6\n0.3 0.3\n");
+        fclose(f);
+        expect_error(bad, &o2, "not sea ice", "1e+06 m");
+        CHECK(strstr(last_error, th) != NULL, "names the thickness file: %s", last_error);
     }
     /* found by tests/fuzz/fuzz_raster: a header count beyond long (undefined
      * behaviour of the cast) or not whole (silently truncated) is refused

@@ -113,6 +113,9 @@ void ice_raster_free(ice_raster *r); /* NULL does nothing */
 /* Area of cell (i, j) on the sphere of radius ICE_RASTER_EARTH_RADIUS:
  * R^2 dlon (sin(lat_n) - sin(lat_s)), m^2. */
 #define ICE_RASTER_EARTH_RADIUS 6371000.0
+/* Thickest value accepted, m: ridge keels reach some 50 m, so more is bad
+ * input (a unit or an undeclared fill), refused naming the cell. */
+#define ICE_RASTER_MAX_THICKNESS 100.0
 double ice_raster_cell_area(const ice_raster *r, int j);
 
 /* Any grid kind: centre (degrees) and true area (m^2) of cell (i, j).

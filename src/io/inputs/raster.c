@@ -124,6 +124,14 @@ int raster_finish(ice_raster *r, int percent, const ice_raster_options *o, sph_e
         c = percent ? c / 100.0 : c;
         r->conc[k] = c < 0 ? 0 : c > 1 ? 1 : c;
         double h = r->thick[k];
+        if (h > ICE_RASTER_MAX_THICKNESS) {
+            ice_raster_cell_lonlat(r, i, j, &lon, &lat);
+            return sph_err_set(err, SPH_ERR_BAD_DATA,
+                               "ice raster %s: thickness %g m at (%g E, %g N) above %g m: not sea ice "
+                               "(check the variable's units or fill value)",
+                               o->thickness_path ? o->thickness_path : r->path, h, lon, lat,
+                               ICE_RASTER_MAX_THICKNESS);
+        }
         if (r->thickness_kind == ICE_THICK_CELL_MEAN && r->conc[k] > 0 && !isnan(h))
             r->thick[k] = h = h / r->conc[k]; /* volume per cell area -> per ice area */
         if (h < 0) {
