@@ -53,9 +53,8 @@ static int parse_esri_header(const char *path, const char *text, esri_header *h,
             return sph_err_set(err, SPH_ERR_BAD_DATA,
                                "ice raster %s: header key %s %g: not a whole number of "
                                "cells from 2 to 100000", path, key, v);
-        long count = (long)v;
-        if (strcmp(key, "ncols") == 0) h->ncols = count, h->ncols_v = v, seen |= 1;
-        else if (strcmp(key, "nrows") == 0) h->nrows = count, h->nrows_v = v, seen |= 2;
+        if (strcmp(key, "ncols") == 0) h->ncols = (long)v, h->ncols_v = v, seen |= 1;
+        else if (strcmp(key, "nrows") == 0) h->nrows = (long)v, h->nrows_v = v, seen |= 2;
         else if (strcmp(key, "xllcorner") == 0) h->x = v, seen |= 4;
         else if (strcmp(key, "xllcenter") == 0) h->x = v, h->x_is_centre = 1, seen |= 4;
         else if (strcmp(key, "yllcorner") == 0) h->y = v, seen |= 8;
