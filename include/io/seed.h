@@ -15,7 +15,8 @@
  *    particles up to its edge). mass = rho_i * conc * thick * spacing^2
  *    (plane area); then the lattice's ice area (sum conc * footprint) and
  *    volume (sum mass / rho_i) are scaled to the raster's over the same
- *    region (seed_raster_totals over the lattice's plane box): mass by
+ *    region (seed_raster_totals over the lattice's plane box, within the
+ *    bounds): mass by
  *    V_raster / V_lattice, thick by that over A_raster / A_lattice. The
  *    sampled totals before the scaling are in seed_totals.raw_*: how far
  *    the lattice alone was off (projection scale, the edge, the

@@ -1,5 +1,6 @@
 /* Particle seeding: see io/seed.h. */
 #include "io/seed.h"
+#include "raster_impl.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -11,6 +12,14 @@ void seed_options_default(seed_options *o)
     o->threshold = 0.05;
     o->sml_factor = 1.0;
     o->rho_ice = 900.0;
+}
+
+static const seed_options *options_or_default(const seed_options *o, seed_options *def)
+{
+    if (o)
+        return o;
+    seed_options_default(def);
+    return def;
 }
 
 static int check_options(const ice_raster *r, const seed_options *o, sph_error *err)
@@ -112,20 +121,62 @@ static int lattice_bounds(const ice_raster *r, const geo_proj *p, const seed_opt
     return SPH_OK;
 }
 
-/* The raster's ice volume per cell area (conc * thick) in a shallow copy
- * of r, so that ice_raster_sample gives sum w A h / sum w beside
- * sum w A / sum w and their ratio is a thickness that open-water corners
- * (A = 0) do not dilute. vol->thick is the caller's to free. */
-static int volume_raster(const ice_raster *r, ice_raster *vol, sph_error *err)
+/* A shallow copy of r for the lattice's sampling: one more row and
+ * column of centres on every side repeating the edge cells, so that a
+ * point in the outer half of an edge cell (beyond the centres' hull, still
+ * inside the raster) takes that cell's values; thick holds the ice volume
+ * per cell area (conc * thick), so that ice_raster_sample gives
+ * sum w A h / sum w beside sum w A / sum w, and their ratio is a thickness
+ * that open-water corners (A = 0) do not dilute. Free with free(q->conc). */
+static int sample_raster(const ice_raster *r, ice_raster *q, sph_error *err)
 {
-    size_t n = (size_t)r->nlon * r->nlat;
-    *vol = *r;
-    vol->thick = malloc(sizeof(double) * n);
-    if (!vol->thick)
+    const int nx = r->nlon + 2, ny = r->nlat + 2;
+    size_t n = (size_t)nx * ny;
+    *q = *r;
+    q->nlon = nx, q->nlat = ny;
+    q->cell_lon = q->cell_lat = q->area = NULL;
+    q->land = NULL;
+    double *buf = malloc(sizeof(double) * (2 * n + (size_t)nx + (size_t)ny));
+    if (!buf)
         return sph_err_set(err, SPH_ERR_NOMEM, "seeding: out of memory");
-    for (size_t k = 0; k < n; k++)
-        vol->thick[k] = r->conc[k] > 0 && r->thick[k] > 0 ? r->conc[k] * r->thick[k] : 0.0;
+    q->conc = buf, q->thick = buf + n;
+    double *cx = buf + 2 * n, *cy = cx + nx;
+    const double *rx = r->kind == ICE_RASTER_LONLAT ? r->lon : r->x;
+    const double *ry = r->kind == ICE_RASTER_LONLAT ? r->lat : r->y;
+    double ddx = r->kind == ICE_RASTER_LONLAT ? r->dlon : r->dx;
+    double ddy = r->kind == ICE_RASTER_LONLAT ? r->dlat : r->dy;
+    for (int i = 0; i < nx; i++)
+        cx[i] = rx[0] + (i - 1) * ddx;
+    for (int j = 0; j < ny; j++)
+        cy[j] = ry[0] + (j - 1) * ddy;
+    if (r->kind == ICE_RASTER_LONLAT)
+        q->lon = cx, q->lat = cy;
+    else
+        q->x = cx, q->y = cy;
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++) {
+            int si = i < 1 ? 0 : i > r->nlon ? r->nlon - 1 : i - 1;
+            int sj = j < 1 ? 0 : j > r->nlat ? r->nlat - 1 : j - 1;
+            size_t k = (size_t)sj * r->nlon + si, kq = (size_t)j * nx + i;
+            q->conc[kq] = r->conc[k];
+            q->thick[kq] = r->conc[k] > 0 && r->thick[k] > 0 ? r->conc[k] * r->thick[k] : 0.0;
+        }
     return SPH_OK;
+}
+
+/* 1 when (lon, lat) lies inside r's cells (its centres' hull widened by
+ * half a cell), in r's own coordinates. */
+static int inside_raster(const ice_raster *r, double lon, double lat)
+{
+    double x = lon, y = lat;
+    const double *rx = r->lon, *ry = r->lat;
+    double hx = r->dlon / 2, hy = r->dlat / 2;
+    if (r->kind == ICE_RASTER_PROJECTED) {
+        if (!raster_crs_forward(r->crs, lon, lat, &x, &y))
+            return 0;
+        rx = r->x, ry = r->y, hx = r->dx / 2, hy = r->dy / 2;
+    }
+    return x >= rx[0] - hx && x <= rx[r->nlon - 1] + hx && y >= ry[0] - hy && y <= ry[r->nlat - 1] + hy;
 }
 
 static int walk_lattice(const ice_raster *r, const geo_proj *p, const landmask *mask,
@@ -145,21 +196,21 @@ static int walk_lattice(const ice_raster *r, const geo_proj *p, const landmask *
     const double d = o->spacing_m;
     long i0 = (long)ceil(b[0] / d - 0.5), i1 = (long)floor(b[1] / d - 0.5);
     long j0 = (long)ceil(b[2] / d - 0.5), j1 = (long)floor(b[3] / d - 0.5);
-    if (box) { /* the plane area the lattice's footprints tile */
-        box[0] = (double)i0 * d, box[1] = (double)(i1 + 1) * d;
-        box[2] = (double)j0 * d, box[3] = (double)(j1 + 1) * d;
+    if (box) { /* the plane area the lattice's footprints tile, within the bounds */
+        box[0] = fmax(b[0], (double)i0 * d), box[1] = fmin(b[1], (double)(i1 + 1) * d);
+        box[2] = fmax(b[2], (double)j0 * d), box[3] = fmin(b[3], (double)(j1 + 1) * d);
     }
     if (i1 < i0 || j1 < j0)
         return SPH_OK;
     if ((double)(i1 - i0 + 1) * (double)(j1 - j0 + 1) > 1e9)
         return sph_err_set(err, SPH_ERR_CONFIG, "seeding: spacing %g m gives over 1e9 lattice points", d);
     ice_raster vol;
-    if ((rc = volume_raster(r, &vol, err)) != SPH_OK)
+    if ((rc = sample_raster(r, &vol, err)) != SPH_OK)
         return rc;
     size_t nx = (size_t)(i1 - i0 + 1);
     double *x = malloc(sizeof(double) * nx * 4);
     if (!x) {
-        free(vol.thick);
+        free(vol.conc);
         return sph_err_set(err, SPH_ERR_NOMEM, "seeding: out of memory");
     }
     double *y = x + nx, *lon = y + nx, *lat = lon + nx;
@@ -172,7 +223,8 @@ static int walk_lattice(const ice_raster *r, const geo_proj *p, const landmask *
         for (size_t i = 0; i < nx && rc == SPH_OK; i++) {
             seed_point s = {lon[i], lat[i], 0, 0, d * d};
             double ah;
-            if (!isfinite(lon[i]) || !ice_raster_sample(&vol, lon[i], lat[i], &s.conc, &ah))
+            if (!isfinite(lon[i]) || !inside_raster(r, lon[i], lat[i]) ||
+                !ice_raster_sample(&vol, lon[i], lat[i], &s.conc, &ah))
                 continue;
             if (!(s.conc > o->threshold) || !(ah > 0) || !is_sea(mask, lon[i], lat[i]))
                 continue;
@@ -183,7 +235,7 @@ static int walk_lattice(const ice_raster *r, const geo_proj *p, const landmask *
         }
     }
     free(x);
-    free(vol.thick);
+    free(vol.conc);
     return rc;
 }
 
@@ -193,10 +245,7 @@ int seed_raster_totals(const ice_raster *r, const geo_proj *p, const landmask *m
 {
     *area = *volume = 0;
     seed_options def;
-    if (!o) {
-        seed_options_default(&def);
-        o = &def;
-    }
+    o = options_or_default(o, &def);
     int rc = check_options(r, o, err);
     if (rc != SPH_OK)
         return rc;
@@ -226,10 +275,7 @@ int seed_count(const ice_raster *r, const geo_proj *p, const landmask *mask,
                const seed_options *o, size_t *count, sph_error *err)
 {
     seed_options def;
-    if (!o) {
-        seed_options_default(&def);
-        o = &def;
-    }
+    o = options_or_default(o, &def);
     int rc = check_options(r, o, err);
     if (rc != SPH_OK)
         return rc;
@@ -272,10 +318,7 @@ int seed_from_raster_totals(const ice_raster *r, const geo_proj *p, const landma
                             sph_error *err)
 {
     seed_options def;
-    if (!o) {
-        seed_options_default(&def);
-        o = &def;
-    }
+    o = options_or_default(o, &def);
     seed_totals t;
     memset(&t, 0, sizeof t);
     size_t need;
