@@ -16,6 +16,7 @@
 
 #include "check.h"
 #include "engine_case.h"
+#include "io/restart.h"
 #include "service/config.h"
 #include "service/forecast.h"
 #include "util/log.h"
@@ -44,8 +45,8 @@ static struct sph_config *load(const char *ice, const char *from, const char *to
     return cfg;
 }
 
-static int run(const struct sph_config *cfg, const char *stage_name, forecast_result *res, sph_error *err,
-               char *stage, size_t len)
+static int run_warm(const struct sph_config *cfg, const char *stage_name, const char *warm,
+                    forecast_result *res, sph_error *err, char *stage, size_t len)
 {
     snprintf(stage, len, "%s/%s", dir, stage_name);
     forecast_request req;
@@ -53,11 +54,39 @@ static int run(const struct sph_config *cfg, const char *stage_name, forecast_re
     req.cycle_time = EC_CYCLE;
     req.hours = 2;
     req.stage_dir = stage;
+    req.warm_start = warm;
     req.forcing_files[0] = atm_files;
     forecast_progress prog;
     memset((void *)&prog, 0, sizeof prog);
     sph_error_clear(err);
     return forecast_run(cfg, &req, &prog, NULL, res, err);
+}
+
+static int run(const struct sph_config *cfg, const char *stage_name, forecast_result *res, sph_error *err,
+               char *stage, size_t len)
+{
+    return run_warm(cfg, stage_name, NULL, res, err, stage, len);
+}
+
+/* The lattice run's restart file with every 20th particle (5 %) moved to
+ * 37-38.4 km east of the domain's centre (121.5 E): about 121.94-121.96 E,
+ * east of the case's coast at EC_LAND_LON and inside the domain. */
+static int write_on_land(const char *from, const char *to)
+{
+    restart_header h;
+    sph_error err;
+    sph_error_clear(&err);
+    if (restart_read_header(from, &h, &err) != SPH_OK)
+        return -1;
+    sph_particles *P = sph_particles_create(h.n, h.nlayers);
+    int rc = P ? restart_read(from, NULL, &h, P, &err) : -1;
+    for (size_t k = 0; rc == SPH_OK && k < P->n; k += 20)
+        P->x[k] = 37000.0 + 150.0 * (double)(k / 20 % 10);
+    if (rc == SPH_OK)
+        rc = restart_write(to, P, &h, &err);
+    CHECK(rc == SPH_OK, "restart %s: %s", from, err.msg);
+    sph_particles_free(P);
+    return rc;
 }
 
 static double global_num(const char *stage, const char *name)
@@ -114,6 +143,7 @@ int main(int argc, char **argv)
         want_a += 31 * EC_CONC * R * R * d * deg * (sin((lat + d / 2) * deg) - sin((lat - d / 2) * deg));
     }
     double want_v = want_a * EC_THICK;
+    char onland[1100] = "";
     const char *spacing[2] = {"\"spacing\": 0.02", "\"spacing\": 0"};
     for (int s = 0; s < 2; s++) {
         struct sph_config *cfg = load("ice.nc", "\"spacing\": 0.02", spacing[s], NULL, NULL);
@@ -139,6 +169,12 @@ int main(int argc, char **argv)
             char flag[300];
             global_text(stage, "sphice_quality_flag", flag, sizeof flag);
             CHECK(!strcmp(flag, "none"), "attribute sphice_quality_flag \"%s\"", flag);
+            if (s == 0) {
+                char from[1300];
+                snprintf(from, sizeof from, "%s/restart-19990208T12Z.nc", stage);
+                snprintf(onland, sizeof onland, "%s/onland.nc", dir);
+                write_on_land(from, onland);
+            }
         }
         sph_config_free(cfg);
     }
@@ -180,6 +216,33 @@ int main(int argc, char **argv)
         char flag[300];
         global_text(stage, "sphice_quality_flag", flag, sizeof flag);
         CHECK(strstr(flag, "speck.nc") != NULL, "speck: attribute sphice_quality_flag \"%s\"", flag);
+        sph_config_free(cfg);
+    }
+
+    /* more than 1 % of the particles on land at the end: fails, or flagged */
+    for (int flagged = 0; onland[0] && flagged < 2; flagged++) {
+        struct sph_config *cfg = flagged ? load("ice.nc", "\"threshold\": 0.15",
+                                                "\"threshold\": 0.15, \"gate\": \"flag\"", NULL, NULL)
+                                         : load("ice.nc", NULL, NULL, NULL, NULL);
+        forecast_result res;
+        sph_error err;
+        int rc = cfg ? run_warm(cfg, flagged ? "land_flag" : "land", onland, &res, &err, stage, sizeof stage)
+                     : -1;
+        if (!flagged) {
+            CHECK(rc == SPH_ERR_BAD_DATA && strstr(err.msg, "on land") && strstr(err.msg, "initial.gate") &&
+                  !strchr(err.msg, '\n'), "on land: rc %d, one line: %s", rc, err.msg);
+            int n = ec_count_entries(stage);
+            CHECK(n <= 0, "on land: nothing written (%d entries)", n);
+            printf("  on land -> %s\n", err.msg);
+        } else {
+            CHECK(rc == SPH_OK && strstr(res.quality_flag, "on land") && res.land_fraction > 0.01,
+                  "on land, gate flag: rc %d %s, flag \"%s\", %g on land", rc, err.msg, res.quality_flag,
+                  res.land_fraction);
+            char flag[300];
+            global_text(stage, "sphice_quality_flag", flag, sizeof flag);
+            CHECK(strstr(flag, "on land") != NULL, "on land: attribute sphice_quality_flag \"%s\"", flag);
+            CHECK(global_num(stage, "sphice_particles_on_land_fraction") > 0.01, "on land: attribute");
+        }
         sph_config_free(cfg);
     }
     return check_summary("test_seed_gate");
