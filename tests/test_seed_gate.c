@@ -17,6 +17,7 @@
 #include "check.h"
 #include "engine_case.h"
 #include "io/restart.h"
+#include "service/check.h"
 #include "service/config.h"
 #include "service/forecast.h"
 #include "util/log.h"
@@ -216,6 +217,44 @@ int main(int argc, char **argv)
         char flag[300];
         global_text(stage, "sphice_quality_flag", flag, sizeof flag);
         CHECK(strstr(flag, "speck.nc") != NULL, "speck: attribute sphice_quality_flag \"%s\"", flag);
+        sph_config_free(cfg);
+    }
+
+    /* sphice check: the seeded totals beside the raster's, and the gate */
+    {
+        struct sph_config *cfg = load("ice.nc", NULL, NULL, NULL, NULL);
+        char *buf = NULL;
+        size_t len = 0;
+        FILE *f = open_memstream(&buf, &len);
+        if (cfg && f) {
+            service_check(cfg, EC_CYCLE, 1, f);
+            fclose(f);
+            f = NULL;
+            char *at = strstr(buf, "\"seeded_ice_volume_km3\":");
+            double v = at ? strtod(at + strlen("\"seeded_ice_volume_km3\":"), NULL) : NAN;
+            CHECK_CLOSE(v, want_v / 1e9, 0.01, 0, "check: seeded ice volume within 1 % of the raster's");
+            char *g = strstr(buf, "\"seeding_gate_ok\":");
+            g = g ? g + strlen("\"seeding_gate_ok\":") : NULL;
+            while (g && (*g == ' ' || *g == '\t'))
+                g++;
+            CHECK(g && !strncmp(g, "true", 4), "check: the gate holds");
+        }
+        if (f)
+            fclose(f);
+        free(buf);
+        sph_config_free(cfg);
+        cfg = load("speck.nc", NULL, NULL, NULL, NULL);
+        buf = NULL;
+        f = open_memstream(&buf, &len);
+        if (cfg && f) {
+            service_check(cfg, EC_CYCLE, 0, f);
+            fclose(f);
+            f = NULL;
+            CHECK(strstr(buf, "PROBLEM      seeding:") != NULL, "check names the seeding problem:\n%s", buf);
+        }
+        if (f)
+            fclose(f);
+        free(buf);
         sph_config_free(cfg);
     }
 
