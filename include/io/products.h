@@ -138,6 +138,19 @@ int products_add_time(prod_writer *p, double t, const prod_fields *fields,
 
 void products_set_run_info(prod_writer *p, const prod_run_info *info);
 
+/* The initial state's conservation and the quality flag (issue 19 items
+ * 4, 7), written at close as the global attributes
+ * sphice_raster_ice_area_km2, sphice_raster_ice_volume_km3,
+ * sphice_seeded_ice_area_km2, sphice_seeded_ice_volume_km3 (each only when
+ * finite: a cold start), sphice_particles_on_land_fraction and
+ * sphice_quality_flag ("none" or why the forecast is published flagged). */
+typedef struct prod_init_info {
+    double raster_area_km2, raster_volume_km3, seeded_area_km2, seeded_volume_km3;
+    double land_fraction;
+    const char *flag; /* copied; NULL or "": none */
+} prod_init_info;
+void products_set_init_info(prod_writer *p, const prod_init_info *info);
+
 /* Finalises and commits every file, writes manifest.json last, fills
  * *summary (may be NULL) and frees p. On failure removes the temporary
  * files, frees p and returns the error. */

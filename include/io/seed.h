@@ -9,9 +9,18 @@
  *    length) = sqrt(cell_area).
  *  - spacing_m > 0: particles on a square lattice of that spacing on the
  *    projected plane (aligned to the plane origin), with conc/thick sampled
- *    bilinearly from the raster; mass = rho_i * conc * thick * spacing^2
- *    (plane area). The total then matches the raster's mass only to the
- *    sampling and projection-scale error (about 1 % for smooth fields).
+ *    bilinearly from the raster: conc = bilinear A, thick = bilinear (A h)
+ *    / bilinear A, so an open-water corner (A = 0) dilutes the
+ *    concentration but never the thickness (a 0.7 m patch seeds 0.7 m
+ *    particles up to its edge). mass = rho_i * conc * thick * spacing^2
+ *    (plane area); then the lattice's ice area (sum conc * footprint) and
+ *    volume (sum mass / rho_i) are scaled to the raster's over the same
+ *    region (seed_raster_totals over the lattice's plane box, within the
+ *    bounds): mass by
+ *    V_raster / V_lattice, thick by that over A_raster / A_lattice. The
+ *    sampled totals before the scaling are in seed_totals.raw_*: how far
+ *    the lattice alone was off (projection scale, the edge, the
+ *    threshold).
  * Both: sml = sml_factor * footprint side, u = v = 0, lat set, id =
  * first_id + running index. Seeding fills x, y, lat, mass, thick, conc,
  * sml, u, v, id only; snow, surface temperature and enthalpy are the
@@ -46,6 +55,24 @@ typedef struct seed_options {
 
 void seed_options_default(seed_options *o);
 
+/* Ice area (sum conc * cell area, m^2) and volume (sum conc * thick *
+ * cell area, m^3) of the raster over the cells seeding takes: conc >
+ * threshold, thick > 0, centre sea by mask, and (box not NULL) centre
+ * projected with p inside [box[0], box[1]) x [box[2], box[3]). */
+int seed_raster_totals(const ice_raster *r, const geo_proj *p, const landmask *mask,
+                       const seed_options *o, const double box[4], double *area,
+                       double *volume, sph_error *err);
+
+/* Totals of one seed_from_raster_totals call. A particle's ice area is
+ * mass / (rho_i thick), its volume mass / rho_i. */
+typedef struct seed_totals {
+    double raster_area_m2, raster_volume_m3; /* the raster over the seeded region */
+    double raw_area_m2, raw_volume_m3;       /* as seeded, before the lattice's scaling */
+    double seeded_area_m2, seeded_volume_m3; /* as seeded, after it */
+    int rescaled;                            /* 1 where the lattice was scaled */
+    size_t n;                                /* particles appended */
+} seed_totals;
+
 /* Number of particles seed_from_raster would append. */
 int seed_count(const ice_raster *r, const geo_proj *p, const landmask *mask,
                const seed_options *o, size_t *count, sph_error *err);
@@ -54,5 +81,9 @@ int seed_count(const ice_raster *r, const geo_proj *p, const landmask *mask,
  * P->cap - P->n is too small. mask may be NULL (all sea). */
 int seed_from_raster(const ice_raster *r, const geo_proj *p, const landmask *mask,
                      const seed_options *o, sph_particles *P, sph_error *err);
+/* The same, with the totals in *tot (may be NULL). */
+int seed_from_raster_totals(const ice_raster *r, const geo_proj *p, const landmask *mask,
+                            const seed_options *o, sph_particles *P, seed_totals *tot,
+                            sph_error *err);
 
 #endif

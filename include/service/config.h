@@ -55,6 +55,7 @@ typedef struct cfg_station { char *name; double lon, lat; } cfg_station;
 enum { CFG_INIT_NETCDF = 0, CFG_INIT_ESRI };
 enum { CFG_REINIT_WARM = 0, CFG_REINIT_COLD, CFG_REINIT_NEWER_RASTER };
 enum { CFG_THICK_AUTO = 0, CFG_THICK_ICE, CFG_THICK_CELL_MEAN }; /* = ICE_THICK_* */
+enum { CFG_GATE_FAIL = 0, CFG_GATE_FLAG };
 enum { CFG_LAND_NONE = 0, CFG_LAND_GSHHG, CFG_LAND_NETCDF, CFG_LAND_FORCING };
 enum { CFG_LAND_RES_CRUDE = 0, CFG_LAND_RES_LOW, CFG_LAND_RES_INTERMEDIATE, CFG_LAND_RES_HIGH,
        CFG_LAND_RES_FULL };
@@ -88,6 +89,7 @@ struct sph_config {
         double default_thickness, threshold, spacing_deg;
         int reinit;             /* CFG_REINIT_* */
         int thickness_kind;     /* CFG_THICK_* */
+        int gate;               /* CFG_GATE_* */
     } initial;
 
     struct {

@@ -57,6 +57,14 @@ typedef struct forecast_result {
     int has_scores;
     double iiee_km2, aee_km2, me_km2, edge_displacement_km, conc_bias, conc_rmse, skill_persistence;
     char start_mode[16];         /* "cold", "warm", "reinit" */
+    /* cold start: the raster's ice over the domain's sea cells and the
+     * seeded particles' (NaN on a warm start); the particles on land at
+     * the end (0..1); why the forecast is flagged ("" none: issue 19 item
+     * 7, initial.gate flag, or "open_water" for an ice-free raster) */
+    double raster_ice_area_km2, raster_ice_volume_km3, seeded_ice_area_km2, seeded_ice_volume_km3;
+    double land_fraction;
+    int open_water;              /* cold start from a raster without ice in the domain */
+    char quality_flag[256];
     int nproducts;
     char products[FC_MAX_PRODUCTS][512]; /* file names relative to stage_dir */
 } forecast_result;

@@ -15,9 +15,72 @@
 #include "service/config.h"
 #include "service/cycle_name.h"
 #include "service/forecast.h"
+#include "forecast_impl.h"
+#include "io/seed.h"
 #include "util/fileio.h"
 #include "util/limits.h"
 #include "util/timeutil.h"
+
+/* The raster seeded as a cold start would (before the land mask): the
+ * particles' ice area and volume against the raster's over the model's
+ * plane box, and whether initial.gate's 5 % would hold. */
+static void check_seeding(const struct sph_config *cfg, const ice_raster *r, int json, FILE *out, cJSON *j)
+{
+    sph_error e;
+    sph_error_clear(&e);
+    engine eng;
+    memset(&eng, 0, sizeof eng);
+    eng.cfg = cfg;
+    eng.proj = geo_proj_create(cfg->domain.projection, 0.5 * (cfg->domain.lon_min + cfg->domain.lon_max),
+                               0.5 * (cfg->domain.lat_min + cfg->domain.lat_max), &e);
+    double b[4] = {0, 0, 0, 0}, ra = 0, rv = 0;
+    seed_options so;
+    seed_options_default(&so);
+    so.threshold = cfg->initial.threshold;
+    so.spacing_m = cfg->initial.spacing_deg > 0 ? cfg->initial.spacing_deg * METRES_PER_DEGREE : 0.0;
+    so.rho_ice = cfg->model.rho_i;
+    size_t n = 0;
+    sph_particles *P = NULL;
+    seed_totals t;
+    memset(&t, 0, sizeof t);
+    int rc = eng.proj ? fc_plane_box(&eng, &b[0], &b[1], &b[2], &b[3], &e) : SPH_ERR_CONFIG;
+    so.xmin = b[0], so.xmax = b[1], so.ymin = b[2], so.ymax = b[3];
+    if (rc == SPH_OK)
+        rc = seed_count(r, eng.proj, NULL, &so, &n, &e);
+    if (rc == SPH_OK && !(P = sph_particles_create(n ? n : 1, 1)))
+        rc = sph_err_set(&e, SPH_ERR_NOMEM, "check: out of memory");
+    if (rc == SPH_OK)
+        rc = seed_from_raster_totals(r, eng.proj, NULL, &so, P, &t, &e);
+    if (rc == SPH_OK)
+        rc = seed_raster_totals(r, eng.proj, NULL, &so, b, &ra, &rv, &e);
+    sph_particles_free(P);
+    geo_proj_free(eng.proj);
+    if (rc != SPH_OK) {
+        cJSON_AddStringToObject(j, "seeding_problem", e.msg);
+        if (!json)
+            fprintf(out, "PROBLEM      seeding: %s\n", e.msg);
+        return;
+    }
+    /* the lattice's totals before its scaling, as the cycle's gate */
+    double sa = t.rescaled ? t.raw_area_m2 : t.seeded_area_m2, sv = t.rescaled ? t.raw_volume_m3 : t.seeded_volume_m3;
+    double da = ra > 0 ? sa / ra - 1 : 0, dv = rv > 0 ? sv / rv - 1 : 0;
+    int ok = ra > 0 ? n > 0 && fabs(da) <= 0.05 && fabs(dv) <= 0.05 : 1;
+    cJSON_AddNumberToObject(j, "seeded_particles", (double)n);
+    cJSON_AddNumberToObject(j, "domain_raster_ice_area_km2", ra / 1e6);
+    cJSON_AddNumberToObject(j, "domain_raster_ice_volume_km3", rv / 1e9);
+    cJSON_AddNumberToObject(j, "seeded_ice_area_km2", t.seeded_area_m2 / 1e6);
+    cJSON_AddNumberToObject(j, "seeded_ice_volume_km3", t.seeded_volume_m3 / 1e9);
+    cJSON_AddBoolToObject(j, "seeding_gate_ok", ok);
+    if (!json) {
+        fprintf(out, "raster       initial        seeded (before the land mask) %zu particles: area %.6g km2, "
+                "volume %.6g km3; the raster over the model's box %.6g km2, %.6g km3\n", n,
+                t.seeded_area_m2 / 1e6, t.seeded_volume_m3 / 1e9, ra / 1e6, rv / 1e9);
+        if (!ok)
+            fprintf(out, "PROBLEM      seeding: the %s seeds %+.1f %% of the raster's ice area and %+.1f %% "
+                    "of its volume (more than 5 %%: initial.gate)\n", t.rescaled ? "lattice" : "raster's cells",
+                    100 * da, 100 * dv);
+    }
+}
 
 /* The initial raster: read as the cycle would, its grid and the ice in
  * the domain (area sum A x cell area, volume sum A h x cell area, cells
@@ -92,6 +155,7 @@ static int check_raster(const struct sph_config *cfg, double t, int json, FILE *
         else
             fprintf(out, "raster       initial        no ice in the domain: an open-water start\n");
     }
+    check_seeding(cfg, r, json, out, j);
     ice_raster_free(r);
     return 0;
 }

@@ -59,6 +59,7 @@ static const char *const fkind_names[] = {"atmosphere", "ocean", "tide", NULL};
 static const char *const init_format_names[] = {"netcdf", "esri", NULL};
 static const char *const reinit_names[] = {"warm", "cold", "newer_raster", NULL};
 static const char *const thick_kind_names[] = {"auto", "ice", "cell_mean", NULL};
+static const char *const gate_names[] = {"fail", "flag", NULL};
 static const char *const land_names[] = {"none", "gshhg", "netcdf", "forcing", NULL};
 static const char *const landres_names[] = {"crude", "low", "intermediate", "high", "full", NULL};
 static const char *const landfrom_names[] = {"auto", "mask", "fill", NULL};
@@ -147,6 +148,8 @@ static const cfg_key tail_keys[] = {
        "warm: warm start from the previous cycle's particles when they exist; cold: always from the raster; newer_raster: warm unless the raster is newer than the previous cycle."),
     C_("initial.thickness_kind", CT_ENUM, initial.thickness_kind, "\"auto\"", 0, 0, R, thick_kind_names,
        "What the raster's thickness is: ice (per ice-covered area), cell_mean (volume per cell area, divided by the concentration), auto (from the variable's cell_methods, long_name, name or standard_name; an error where they do not say)."),
+    C_("initial.gate", CT_ENUM, initial.gate, "\"fail\"", 0, 0, R, gate_names,
+       "Sanity gates: a cold start whose raster has ice in the domain but seeds none, or whose seeded ice area or volume differs from the raster's (domain's sea cells) by more than 5 %, or a run ending with more than 1 % of its particles on land: fail (the cycle fails with one line, nothing published) or flag (published with sphice_quality_flag and cycle.json quality_flag)."),
 
     C_("landmask.source", CT_ENUM, landmask.source, "\"none\"", 0, 0, R, land_names,
        "none, gshhg (shoreline polygons), netcdf (mask variable), forcing (ocean model's land)."),

@@ -482,6 +482,15 @@ static cJSON *result_json(const forecast_result *r)
     NUM("edge_distance_nm", r->edge_distance_nm);
     NUM("budget_residual", r->run.budget_residual);
     NUM("wall_seconds", r->wall_seconds);
+    NUM("raster_ice_area_km2", r->raster_ice_area_km2);
+    NUM("raster_ice_volume_km3", r->raster_ice_volume_km3);
+    NUM("seeded_ice_area_km2", r->seeded_ice_area_km2);
+    NUM("seeded_ice_volume_km3", r->seeded_ice_volume_km3);
+    NUM("particles_on_land_fraction", r->land_fraction);
+    if (r->quality_flag[0])
+        cJSON_AddStringToObject(o, "quality_flag", r->quality_flag);
+    else
+        cJSON_AddNullToObject(o, "quality_flag");
     if (r->run.dt > 0) {
         NUM("dt", r->run.dt);
         cJSON_AddStringToObject(o, "dt_policy", r->run.dt_auto ? "auto" : "configured");

@@ -191,9 +191,12 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         res = &local_res;
     memset(res, 0, sizeof *res);
     res->edge_distance_nm = NAN;
+    res->raster_ice_area_km2 = res->raster_ice_volume_km3 = NAN;
+    res->seeded_ice_area_km2 = res->seeded_ice_volume_km3 = NAN;
     engine eng;
     memset(&eng, 0, sizeof eng);
     engine *e = &eng;
+    e->res = res;
     e->cfg = cfg;
     e->req = req;
     e->t0 = req->cycle_time;
@@ -345,6 +348,13 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     const sph_budget *b = sph_model_budget(e->m);
     sph_run_stats_end(&res->run, e->m);
     products_set_run_info(e->pw, &res->run);
+    if ((rc = fc_land_gate(e, er)))
+        goto fail;
+    if (res->open_water && !res->quality_flag[0])
+        snprintf(res->quality_flag, sizeof res->quality_flag, "open_water");
+    prod_init_info ii = {res->raster_ice_area_km2, res->raster_ice_volume_km3, res->seeded_ice_area_km2,
+                         res->seeded_ice_volume_km3, res->land_fraction, res->quality_flag};
+    products_set_init_info(e->pw, &ii);
     prod_summary sum;
     rc = products_close(e->pw, &sum, er);
     e->pw = NULL;

@@ -53,6 +53,7 @@ typedef struct engine {
     char restart_path[4200];
     int restart_written;
     char start_mode[16];
+    forecast_result *res;    /* the cold start's conservation numbers and flag go here */
 } engine;
 
 static inline void *xcalloc(size_t n, size_t size, int *ok)
@@ -74,6 +75,9 @@ static inline int fc_fill_forcing(engine *e, double t, sph_error *err)
 
 /* forecast.c */
 int fc_resolve_dt(engine *e, sph_error *err);
+/* More than 1 % of the particles on the plane's land: fails or flags by
+ * initial.gate (forecast_init.c); sets res->land_fraction. */
+int fc_land_gate(engine *e, sph_error *err);
 void fc_fmt_status(const sph_status *st, char *buf, size_t len);
 int fc_settings_fault(const sph_status *st);
 

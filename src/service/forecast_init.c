@@ -267,6 +267,94 @@ static int alloc_work(engine *e, sph_error *err)
     return ok ? SPH_OK : sph_err_set(err, SPH_ERR_NOMEM, "forecast: out of memory (%zu particles)", c);
 }
 
+/* Sets *flag (or fails, by initial.gate) with the one line in msg. */
+static int gate(engine *e, const char *msg, sph_error *err)
+{
+    if (e->cfg->initial.gate == CFG_GATE_FLAG) {
+        log_warn("forecast %s: %s: published flagged (initial.gate flag)", e->cname, msg);
+        if (e->res && !e->res->quality_flag[0])
+            snprintf(e->res->quality_flag, sizeof e->res->quality_flag, "%s", msg);
+        return SPH_OK;
+    }
+    return sph_err_set(err, SPH_ERR_BAD_DATA, "%s (initial.gate flag publishes it flagged)", msg);
+}
+
+/* The cold start's sanity gates (issue 19 item 7): the raster's ice over
+ * the model's plane box (its sea cells above the threshold) against the
+ * seeded particles' (the lattice's before its scaling to the raster). */
+static int seed_gate(engine *e, const seed_options *so, const seed_totals *st, const sph_particles *P,
+                     sph_error *err)
+{
+    double box[4] = {e->plane.x0, e->plane.x0 + e->plane.nx * e->plane.dx, e->plane.y0,
+                     e->plane.y0 + e->plane.ny * e->plane.dy};
+    double ra = 0, rv = 0, sa = 0, sv = 0;
+    int rc = seed_raster_totals(e->raster, e->proj, e->lm, so, box, &ra, &rv, err);
+    if (rc)
+        return rc;
+    for (size_t k = 0; k < P->n; k++) {
+        sv += P->mass[k] / so->rho_ice;
+        sa += P->mass[k] / (so->rho_ice * P->thick[k]);
+    }
+    /* what the seeding itself gave: the lattice before its scaling */
+    double ga = st->rescaled ? st->raw_area_m2 : sa, gv = st->rescaled ? st->raw_volume_m3 : sv;
+    if (e->res) {
+        e->res->raster_ice_area_km2 = ra / 1e6;
+        e->res->raster_ice_volume_km3 = rv / 1e9;
+        e->res->seeded_ice_area_km2 = sa / 1e6;
+        e->res->seeded_ice_volume_km3 = sv / 1e9;
+    }
+    char msg[sizeof e->raster_path + 400];
+    if (!(ra > 0)) {
+        if (e->res)
+            e->res->open_water = 1;
+        log_info("forecast %s: initial field %s has no ice in the domain (threshold %g): an open-water "
+                 "start", e->cname, e->raster_path, so->threshold);
+        return SPH_OK;
+    }
+    log_info("forecast %s: initial field %s: ice area %.6g km2, volume %.6g km3 over the domain's sea; "
+             "seeded %zu particles, %.6g km2, %.6g km3%s", e->cname, e->raster_path, ra / 1e6, rv / 1e9,
+             P->n, sa / 1e6, sv / 1e9, st->rescaled ? "" : " (per cell)");
+    if (st->rescaled)
+        log_info("forecast %s: the lattice sampled %+.3f %% of the raster's area and %+.3f %% of its volume "
+                 "before its scaling", e->cname, 100 * (ga / ra - 1), 100 * (gv / rv - 1));
+    if (P->n == 0) {
+        snprintf(msg, sizeof msg, "initial field %s: ice area %.6g km2 and volume %.6g km3 in the domain "
+                 "but no particle seeded", e->raster_path, ra / 1e6, rv / 1e9);
+        return gate(e, msg, err);
+    }
+    double da = ga / ra - 1, dv = gv / rv - 1;
+    if (!(fabs(da) <= 0.05) || !(fabs(dv) <= 0.05)) {
+        snprintf(msg, sizeof msg, "initial field %s: seeded ice area %.6g km2 and volume %.6g km3 differ "
+                 "from the raster's %.6g km2 and %.6g km3 over the domain's sea by %+.1f %% and %+.1f %% "
+                 "(more than 5 %%)", e->raster_path, ga / 1e6, gv / 1e9, ra / 1e6, rv / 1e9, 100 * da,
+                 100 * dv);
+        return gate(e, msg, err);
+    }
+    return SPH_OK;
+}
+
+int fc_land_gate(engine *e, sph_error *err)
+{
+    const sph_particles *P = sph_model_particles(e->m);
+    const sph_landmask *L = &e->plane;
+    size_t on = 0;
+    for (size_t k = 0; L->land && k < P->n; k++) {
+        long i = (long)floor((P->x[k] - L->x0) / L->dx), j = (long)floor((P->y[k] - L->y0) / L->dy);
+        if (i >= 0 && j >= 0 && i < L->nx && j < L->ny && L->land[(size_t)j * L->nx + i])
+            on++;
+    }
+    double f = P->n ? (double)on / (double)P->n : 0.0;
+    if (e->res)
+        e->res->land_fraction = f;
+    if (f > 0.01) {
+        char msg[200];
+        snprintf(msg, sizeof msg, "forecast %s: %zu of %zu particles (%.2f %%) on land at the end (more "
+                 "than 1 %%)", e->cname, on, P->n, 100 * f);
+        return gate(e, msg, err);
+    }
+    return SPH_OK;
+}
+
 int fc_cold_start(engine *e, sph_error *err)
 {
     const struct sph_config *cfg = e->cfg;
@@ -300,7 +388,8 @@ int fc_cold_start(engine *e, sph_error *err)
     if (!e->m)
         return sph_err_set(err, SPH_ERR_NOMEM, "model: cannot create a model for %zu particles", e->cap);
     sph_particles *P = sph_model_particles(e->m);
-    if ((rc = seed_from_raster(e->raster, e->proj, e->lm, &so, P, err)))
+    seed_totals st0;
+    if ((rc = seed_from_raster_totals(e->raster, e->proj, e->lm, &so, P, &st0, err)))
         return rc;
     /* particles outside the model's plane box would leave at once: drop them */
     size_t dropped = 0;
@@ -312,6 +401,8 @@ int fc_cold_start(engine *e, sph_error *err)
         }
     if (dropped)
         log_info("forecast %s: %zu seeded particles outside the domain box left out", e->cname, dropped);
+    if ((rc = seed_gate(e, &so, &st0, P, err)))
+        return rc;
     for (size_t k = 0; k < P->n; k++) {
         P->snow[k] = 0.0;
         P->sml0[k] = 0.0; /* sph_model_init takes sml */

@@ -1,5 +1,6 @@
 /* Particle seeding: see io/seed.h. */
 #include "io/seed.h"
+#include "raster_impl.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -11,6 +12,14 @@ void seed_options_default(seed_options *o)
     o->threshold = 0.05;
     o->sml_factor = 1.0;
     o->rho_ice = 900.0;
+}
+
+static const seed_options *options_or_default(const seed_options *o, seed_options *def)
+{
+    if (o)
+        return o;
+    seed_options_default(def);
+    return def;
 }
 
 static int check_options(const ice_raster *r, const seed_options *o, sph_error *err)
@@ -112,9 +121,67 @@ static int lattice_bounds(const ice_raster *r, const geo_proj *p, const seed_opt
     return SPH_OK;
 }
 
+/* A shallow copy of r for the lattice's sampling: one more row and
+ * column of centres on every side repeating the edge cells, so that a
+ * point in the outer half of an edge cell (beyond the centres' hull, still
+ * inside the raster) takes that cell's values; thick holds the ice volume
+ * per cell area (conc * thick), so that ice_raster_sample gives
+ * sum w A h / sum w beside sum w A / sum w, and their ratio is a thickness
+ * that open-water corners (A = 0) do not dilute. Free with free(q->conc). */
+static int sample_raster(const ice_raster *r, ice_raster *q, sph_error *err)
+{
+    const int nx = r->nlon + 2, ny = r->nlat + 2;
+    size_t n = (size_t)nx * ny;
+    *q = *r;
+    q->nlon = nx, q->nlat = ny;
+    q->cell_lon = q->cell_lat = q->area = NULL;
+    q->land = NULL;
+    double *buf = malloc(sizeof(double) * (2 * n + (size_t)nx + (size_t)ny));
+    if (!buf)
+        return sph_err_set(err, SPH_ERR_NOMEM, "seeding: out of memory");
+    q->conc = buf, q->thick = buf + n;
+    double *cx = buf + 2 * n, *cy = cx + nx;
+    const double *rx = r->kind == ICE_RASTER_LONLAT ? r->lon : r->x;
+    const double *ry = r->kind == ICE_RASTER_LONLAT ? r->lat : r->y;
+    double ddx = r->kind == ICE_RASTER_LONLAT ? r->dlon : r->dx;
+    double ddy = r->kind == ICE_RASTER_LONLAT ? r->dlat : r->dy;
+    for (int i = 0; i < nx; i++)
+        cx[i] = rx[0] + (i - 1) * ddx;
+    for (int j = 0; j < ny; j++)
+        cy[j] = ry[0] + (j - 1) * ddy;
+    if (r->kind == ICE_RASTER_LONLAT)
+        q->lon = cx, q->lat = cy;
+    else
+        q->x = cx, q->y = cy;
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++) {
+            int si = i < 1 ? 0 : i > r->nlon ? r->nlon - 1 : i - 1;
+            int sj = j < 1 ? 0 : j > r->nlat ? r->nlat - 1 : j - 1;
+            size_t k = (size_t)sj * r->nlon + si, kq = (size_t)j * nx + i;
+            q->conc[kq] = r->conc[k];
+            q->thick[kq] = r->conc[k] > 0 && r->thick[k] > 0 ? r->conc[k] * r->thick[k] : 0.0;
+        }
+    return SPH_OK;
+}
+
+/* 1 when (lon, lat) lies inside r's cells (its centres' hull widened by
+ * half a cell), in r's own coordinates. */
+static int inside_raster(const ice_raster *r, double lon, double lat)
+{
+    double x = lon, y = lat;
+    const double *rx = r->lon, *ry = r->lat;
+    double hx = r->dlon / 2, hy = r->dlat / 2;
+    if (r->kind == ICE_RASTER_PROJECTED) {
+        if (!raster_crs_forward(r->crs, lon, lat, &x, &y))
+            return 0;
+        rx = r->x, ry = r->y, hx = r->dx / 2, hy = r->dy / 2;
+    }
+    return x >= rx[0] - hx && x <= rx[r->nlon - 1] + hx && y >= ry[0] - hy && y <= ry[r->nlat - 1] + hy;
+}
+
 static int walk_lattice(const ice_raster *r, const geo_proj *p, const landmask *mask,
                         const seed_options *o, emit_fn emit, void *ctx, size_t *count,
-                        sph_error *err)
+                        double box[4], sph_error *err)
 {
     *count = 0;
     if (!ice_raster_can_sample(r))
@@ -122,21 +189,30 @@ static int walk_lattice(const ice_raster *r, const geo_proj *p, const landmask *
                            "seeding %s: initial.spacing: a lattice cannot be sampled on this "
                            "raster's grid (%s); set initial.spacing to 0 (a particle per cell)",
                            r->path, r->grid);
-    double b[4];
+    double b[4] = {0, 0, 0, 0};
     int rc = lattice_bounds(r, p, o, b, err);
     if (rc != SPH_OK)
         return rc;
     const double d = o->spacing_m;
     long i0 = (long)ceil(b[0] / d - 0.5), i1 = (long)floor(b[1] / d - 0.5);
     long j0 = (long)ceil(b[2] / d - 0.5), j1 = (long)floor(b[3] / d - 0.5);
+    if (box) { /* the plane area the lattice's footprints tile, within the bounds */
+        box[0] = fmax(b[0], (double)i0 * d), box[1] = fmin(b[1], (double)(i1 + 1) * d);
+        box[2] = fmax(b[2], (double)j0 * d), box[3] = fmin(b[3], (double)(j1 + 1) * d);
+    }
     if (i1 < i0 || j1 < j0)
         return SPH_OK;
     if ((double)(i1 - i0 + 1) * (double)(j1 - j0 + 1) > 1e9)
         return sph_err_set(err, SPH_ERR_CONFIG, "seeding: spacing %g m gives over 1e9 lattice points", d);
+    ice_raster vol;
+    if ((rc = sample_raster(r, &vol, err)) != SPH_OK)
+        return rc;
     size_t nx = (size_t)(i1 - i0 + 1);
     double *x = malloc(sizeof(double) * nx * 4);
-    if (!x)
+    if (!x) {
+        free(vol.conc);
         return sph_err_set(err, SPH_ERR_NOMEM, "seeding: out of memory");
+    }
     double *y = x + nx, *lon = y + nx, *lat = lon + nx;
     for (long j = j0; j <= j1 && rc == SPH_OK; j++) {
         for (size_t i = 0; i < nx; i++) {
@@ -146,32 +222,65 @@ static int walk_lattice(const ice_raster *r, const geo_proj *p, const landmask *
         geo_inverse(p, nx, x, y, lon, lat, NULL); /* NaN where it fails: skipped */
         for (size_t i = 0; i < nx && rc == SPH_OK; i++) {
             seed_point s = {lon[i], lat[i], 0, 0, d * d};
-            if (!isfinite(lon[i]) || !ice_raster_sample(r, lon[i], lat[i], &s.conc, &s.thick))
+            double ah;
+            if (!isfinite(lon[i]) || !inside_raster(r, lon[i], lat[i]) ||
+                !ice_raster_sample(&vol, lon[i], lat[i], &s.conc, &ah))
                 continue;
-            if (!(s.conc > o->threshold) || !(s.thick > 0) || !is_sea(mask, lon[i], lat[i]))
+            if (!(s.conc > o->threshold) || !(ah > 0) || !is_sea(mask, lon[i], lat[i]))
                 continue;
+            s.thick = ah / s.conc; /* thickness of the ice, not of ice and water */
             if (emit)
                 rc = emit(ctx, &s);
             (*count)++;
         }
     }
     free(x);
+    free(vol.conc);
     return rc;
+}
+
+int seed_raster_totals(const ice_raster *r, const geo_proj *p, const landmask *mask,
+                       const seed_options *o, const double box[4], double *area,
+                       double *volume, sph_error *err)
+{
+    *area = *volume = 0;
+    seed_options def;
+    o = options_or_default(o, &def);
+    int rc = check_options(r, o, err);
+    if (rc != SPH_OK)
+        return rc;
+    for (int j = 0; j < r->nlat; j++)
+        for (int i = 0; i < r->nlon; i++) {
+            size_t k = (size_t)j * r->nlon + i;
+            double c = r->conc[k], lon, lat;
+            if (!(c > o->threshold) || !(r->thick[k] > 0))
+                continue;
+            ice_raster_cell_lonlat(r, i, j, &lon, &lat);
+            if (!is_sea(mask, lon, lat))
+                continue;
+            if (box) {
+                double x, y;
+                if (!p || geo_forward(p, 1, &lon, &lat, &x, &y, NULL) != SPH_OK ||
+                    !(x >= box[0] && x < box[1] && y >= box[2] && y < box[3]))
+                    continue;
+            }
+            double a = ice_raster_area(r, i, j);
+            *area += c * a;
+            *volume += c * r->thick[k] * a;
+        }
+    return SPH_OK;
 }
 
 int seed_count(const ice_raster *r, const geo_proj *p, const landmask *mask,
                const seed_options *o, size_t *count, sph_error *err)
 {
     seed_options def;
-    if (!o) {
-        seed_options_default(&def);
-        o = &def;
-    }
+    o = options_or_default(o, &def);
     int rc = check_options(r, o, err);
     if (rc != SPH_OK)
         return rc;
     if (o->spacing_m > 0)
-        return walk_lattice(r, p, mask, o, NULL, NULL, count, err);
+        return walk_lattice(r, p, mask, o, NULL, NULL, count, NULL, err);
     return walk_cells(r, mask, o, NULL, NULL, count);
 }
 
@@ -204,14 +313,14 @@ static int emit_particle(void *vctx, const seed_point *s)
     return SPH_OK;
 }
 
-int seed_from_raster(const ice_raster *r, const geo_proj *p, const landmask *mask,
-                     const seed_options *o, sph_particles *P, sph_error *err)
+int seed_from_raster_totals(const ice_raster *r, const geo_proj *p, const landmask *mask,
+                            const seed_options *o, sph_particles *P, seed_totals *tot,
+                            sph_error *err)
 {
     seed_options def;
-    if (!o) {
-        seed_options_default(&def);
-        o = &def;
-    }
+    o = options_or_default(o, &def);
+    seed_totals t;
+    memset(&t, 0, sizeof t);
     size_t need;
     int rc = seed_count(r, p, mask, o, &need, err);
     if (rc != SPH_OK)
@@ -227,11 +336,44 @@ int seed_from_raster(const ice_raster *r, const geo_proj *p, const landmask *mas
     seed_options local = *o;
     local.first_id = o->first_id - (long)n0;
     emit_ctx c = {P, p, &local, err};
+    double box[4] = {0, 0, 0, 0};
     if (o->spacing_m > 0)
-        rc = walk_lattice(r, p, mask, o, emit_particle, &c, &got, err);
+        rc = walk_lattice(r, p, mask, o, emit_particle, &c, &got, box, err);
     else
         rc = walk_cells(r, mask, o, emit_particle, &c, &got);
-    if (rc != SPH_OK)
+    if (rc == SPH_OK)
+        rc = seed_raster_totals(r, p, mask, o, o->spacing_m > 0 ? box : NULL, &t.raster_area_m2,
+                                &t.raster_volume_m3, err);
+    if (rc != SPH_OK) {
         P->n = n0;
-    return rc;
+        return rc;
+    }
+    for (size_t k = n0; k < P->n; k++) {
+        t.raw_volume_m3 += P->mass[k] / o->rho_ice;
+        t.raw_area_m2 += P->mass[k] / (o->rho_ice * P->thick[k]);
+    }
+    /* the lattice's footprints are plane areas and its edge is sampled:
+     * scale its area and volume to the raster's over the same region */
+    double fa = t.raster_area_m2 / t.raw_area_m2, fv = t.raster_volume_m3 / t.raw_volume_m3;
+    if (o->spacing_m > 0 && isfinite(fa) && isfinite(fv) && fa > 0 && fv > 0) {
+        t.rescaled = 1;
+        for (size_t k = n0; k < P->n; k++) {
+            P->mass[k] *= fv;
+            P->thick[k] *= fv / fa;
+        }
+    }
+    for (size_t k = n0; k < P->n; k++) {
+        t.seeded_volume_m3 += P->mass[k] / o->rho_ice;
+        t.seeded_area_m2 += P->mass[k] / (o->rho_ice * P->thick[k]);
+    }
+    t.n = P->n - n0;
+    if (tot)
+        *tot = t;
+    return SPH_OK;
+}
+
+int seed_from_raster(const ice_raster *r, const geo_proj *p, const landmask *mask,
+                     const seed_options *o, sph_particles *P, sph_error *err)
+{
+    return seed_from_raster_totals(r, p, mask, o, P, NULL, err);
 }

@@ -509,6 +509,16 @@ void products_set_run_info(prod_writer *p, const prod_run_info *info)
     }
 }
 
+void products_set_init_info(prod_writer *p, const prod_init_info *info)
+{
+    if (p && info) {
+        p->init = *info;
+        snprintf(p->init_flag, sizeof p->init_flag, "%s", info->flag && info->flag[0] ? info->flag : "none");
+        p->init.flag = p->init_flag;
+        p->has_init = 1;
+    }
+}
+
 /* Masking rules of prod_fields (see io/products.h); NaN marks fill. */
 static void mask_fields(prod_writer *p, const prod_fields *f)
 {
@@ -768,6 +778,19 @@ static int fields_finish(prod_writer *p, sph_error *err)
     if (p->ntimes > 0) {
         NCT(prod_put_text(nc, NC_GLOBAL, "time_coverage_start", a), "write attribute to");
         NCT(prod_put_text(nc, NC_GLOBAL, "time_coverage_end", b), "write attribute to");
+    }
+    if (p->has_init) {
+        const struct { const char *name; double v; } ia[] = {
+            { "sphice_raster_ice_area_km2", p->init.raster_area_km2 },
+            { "sphice_raster_ice_volume_km3", p->init.raster_volume_km3 },
+            { "sphice_seeded_ice_area_km2", p->init.seeded_area_km2 },
+            { "sphice_seeded_ice_volume_km3", p->init.seeded_volume_km3 },
+            { "sphice_particles_on_land_fraction", p->init.land_fraction },
+        };
+        for (size_t k = 0; k < sizeof ia / sizeof ia[0]; k++)
+            if (isfinite(ia[k].v))
+                NCT(put_double(nc, NC_GLOBAL, ia[k].name, ia[k].v), "write attribute to");
+        NCT(prod_put_text(nc, NC_GLOBAL, "sphice_quality_flag", p->init.flag), "write attribute to");
     }
     if (p->has_run) {
         NCT(put_double(nc, NC_GLOBAL, "sphice_regime_fraction_free_drift", p->run.frac_free_drift),

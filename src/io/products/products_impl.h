@@ -35,6 +35,9 @@ struct prod_writer {
     int stale;
     prod_run_info run;
     int has_run;
+    prod_init_info init;       /* init.flag points at init_flag */
+    char init_flag[256];
+    int has_init;
 
     /* gridded fields file */
     prod_file fields;
