@@ -318,6 +318,172 @@ done:
     sph_particles_free(F);
 }
 
+/* ------------------------------------------------ malformed restart files */
+
+/* Copies a good restart file to `out` and applies one change to it with
+ * the NetCDF API (as another writer, or a damaged file, would have it). */
+enum { MUT_TYPE, MUT_DIMS, MUT_MANY, MUT_NAN_CLOCK, MUT_NO_ATT, MUT_INF_BUDGET, MUT_NEG_COUNT,
+       MUT_NLAYERS_2, MUT_TEXT_TIME, MUT_FLOAT_OK };
+
+/* Rewrites the variables of src into dst (netCDF-4), with `what` changed. */
+static int mutate(const char *src, const char *dst, int what)
+{
+    int in, out, st;
+    if (nc_open(src, NC_NOWRITE, &in) != NC_NOERR)
+        return -1;
+    if (nc_create(dst, NC_NETCDF4 | NC_CLOBBER, &out) != NC_NOERR) {
+        nc_close(in);
+        return -1;
+    }
+    size_t np, nl;
+    int dp, dl, dp_in, dl_in, dextra = -1;
+    st = nc_inq_dimid(in, "particle", &dp_in) | nc_inq_dimlen(in, dp_in, &np) |
+         nc_inq_dimid(in, "layer", &dl_in) | nc_inq_dimlen(in, dl_in, &nl);
+    size_t np_out = what == MUT_MANY ? np + 5 : np;
+    st |= nc_def_dim(out, "particle", np_out, &dp) | nc_def_dim(out, "layer", nl, &dl);
+    if (what == MUT_DIMS)
+        st |= nc_def_dim(out, "other", np, &dextra);
+    int natts, nvars;
+    st |= nc_inq_natts(in, &natts) | nc_inq_nvars(in, &nvars);
+    for (int a = 0; a < natts; a++) {
+        char name[NC_MAX_NAME + 1];
+        st |= nc_inq_attname(in, NC_GLOBAL, a, name);
+        if (what == MUT_NO_ATT && !strcmp(name, "budget_mass"))
+            continue;
+        if (what == MUT_NAN_CLOCK && !strcmp(name, "model_time_since_init")) {
+            double nan = NAN;
+            st |= nc_put_att_double(out, NC_GLOBAL, name, NC_DOUBLE, 1, &nan);
+        } else if (what == MUT_INF_BUDGET && !strcmp(name, "budget_growth")) {
+            double inf = INFINITY;
+            st |= nc_put_att_double(out, NC_GLOBAL, name, NC_DOUBLE, 1, &inf);
+        } else if (what == MUT_NEG_COUNT && !strcmp(name, "budget_removed_particles")) {
+            long long m = -3;
+            st |= nc_put_att_longlong(out, NC_GLOBAL, name, NC_INT64, 1, &m);
+        } else if (what == MUT_NLAYERS_2 && !strcmp(name, "nlayers")) {
+            int two[2] = {3, 3}; /* two values: the reader must not write two ints */
+            st |= nc_put_att_int(out, NC_GLOBAL, name, NC_INT, 2, two);
+        } else if (what == MUT_TEXT_TIME && !strcmp(name, "time")) {
+            st |= nc_put_att_text(out, NC_GLOBAL, name, 4, "5000");
+        } else if (what == MUT_MANY && !strcmp(name, "particles")) {
+            long long m = (long long)np_out;
+            st |= nc_put_att_longlong(out, NC_GLOBAL, name, NC_INT64, 1, &m);
+        } else {
+            st |= nc_copy_att(in, NC_GLOBAL, name, out, NC_GLOBAL);
+        }
+    }
+    int vout[64];
+    for (int v = 0; v < nvars && v < 64; v++) {
+        char name[NC_MAX_NAME + 1];
+        nc_type t;
+        int nd, dims[2];
+        st |= nc_inq_var(in, v, name, &t, &nd, NULL, NULL);
+        int od[2] = {dp, dl};
+        if (what == MUT_TYPE && !strcmp(name, "thick"))
+            t = NC_INT; /* a thickness in whole metres: would truncate */
+        if (what == MUT_FLOAT_OK && !strcmp(name, "thick"))
+            t = NC_FLOAT;
+        if (what == MUT_DIMS && !strcmp(name, "snow"))
+            od[0] = dextra;
+        (void)dims;
+        st |= nc_def_var(out, name, t, nd, od, &vout[v]);
+    }
+    st |= nc_enddef(out);
+    double *buf = calloc(np_out * nl + 1, sizeof(double));
+    long long *ibuf = calloc(np_out * nl + 1, sizeof(long long));
+    for (int v = 0; v < nvars && v < 64 && buf && ibuf; v++) {
+        nc_type t;
+        int nd;
+        st |= nc_inq_vartype(in, v, &t) | nc_inq_varndims(in, v, &nd);
+        size_t start[2] = {0, 0}, count[2] = {np, nl};
+        if (t == NC_DOUBLE) {
+            st |= nc_get_vara_double(in, v, start, count, buf);
+            st |= nc_put_vara_double(out, vout[v], start, count, buf);
+        } else {
+            st |= nc_get_vara_longlong(in, v, start, count, ibuf);
+            st |= nc_put_vara_longlong(out, vout[v], start, count, ibuf);
+        }
+    }
+    free(buf);
+    free(ibuf);
+    st |= nc_close(out);
+    nc_close(in);
+    return st == NC_NOERR && buf && ibuf ? 0 : -1;
+}
+
+static void malformed(void)
+{
+    enum { N = 9, NL = 3 };
+    sph_particles *W = sph_particles_create(N, NL), *R = sph_particles_create(N, NL),
+                  *K = sph_particles_create(N, NL);
+    CHECK(W && R && K, "particle sets");
+    if (!W || !R || !K)
+        goto done;
+    W->n = N;
+    fill_all(W, N, 1);
+    for (size_t k = 0; k < N; k++)
+        W->thick[k] = 0.25 + 0.5 * (double)k; /* exact in float: the float copy reads back equal */
+    char good[1024], bad[1100];
+    snprintf(good, sizeof good, "%s/good.nc", dir);
+    snprintf(bad, sizeof bad, "%s/bad.nc", dir);
+    restart_header h;
+    memset(&h, 0, sizeof h);
+    h.time = 5000.0;
+    h.cycle_time = 1000.0;
+    h.clock.time = 360.0;
+    h.clock.budget.mass = 1.0e9;
+    snprintf(h.projection, sizeof h.projection, "+proj=test");
+    sph_error err;
+    sph_error_clear(&err);
+    CHECK(restart_write(good, W, &h, &err) == SPH_OK, "write: %s", err.msg);
+
+    /* the copy itself is sound: it reads back (a float thickness converts) */
+    restart_header r;
+    CHECK(mutate(good, bad, MUT_FLOAT_OK) == 0, "float copy");
+    sph_error_clear(&err);
+    CHECK(restart_read(bad, "+proj=test", &r, R, &err) == SPH_OK && R->n == N &&
+              !memcmp(R->thick, W->thick, N * sizeof *R->thick) && !memcmp(R->id, W->id, N * sizeof *R->id),
+          "a restart copy with a float thickness reads: %s", err.msg);
+
+    static const struct {
+        int what;
+        const char *name, *want1, *want2;
+    } cases[] = {
+        {MUT_TYPE, "a thickness of an integer type", "variable thick", "type"},
+        {MUT_DIMS, "snow on another dimension", "variable snow", "dimensions"},
+        {MUT_MANY, "more particles than the model's room", "particles", "room for 9"},
+        {MUT_NAN_CLOCK, "a NaN clock", "attribute model_time_since_init", "not finite"},
+        {MUT_NO_ATT, "a missing budget attribute", "attribute budget_mass", "missing"},
+        {MUT_INF_BUDGET, "an infinite budget", "attribute budget_growth", "not finite"},
+        {MUT_NEG_COUNT, "a negative count", "attribute budget_removed_particles", "0.."},
+        {MUT_NLAYERS_2, "two nlayers values", "attribute nlayers", "one integer value"},
+        {MUT_TEXT_TIME, "a time in text", "attribute time", "numeric"},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        CHECK(mutate(good, bad, cases[c].what) == 0, "copy for %s", cases[c].name);
+        fill_all(K, N, 7);
+        fill_all(R, N, 7);
+        R->n = K->n = 5;
+        sph_error_clear(&err);
+        /* the engine reads the header, sizes the model, then the particles */
+        int rc = restart_read_header(bad, &r, &err);
+        if (rc == SPH_OK)
+            rc = restart_read(bad, "+proj=test", &r, R, &err);
+        int unchanged = R->n == K->n;
+        for (int f = 0; f < SPH_PARTICLE_NFIELDS; f++)
+            unchanged = unchanged && !memcmp(sph_particles_field(R, f), sph_particles_field(K, f),
+                                             N * sph_particles_field_count(R, f) *
+                                                 sph_particle_fields[f].size);
+        CHECK(rc != SPH_OK && strstr(err.msg, "bad.nc") && strstr(err.msg, cases[c].want1) &&
+                  strstr(err.msg, cases[c].want2) && !strchr(err.msg, '\n'),
+              "%s refused in one line: %s", cases[c].name, err.msg);
+        CHECK(unchanged, "%s: the particle set is left as it was", cases[c].name);
+    }
+done:
+    sph_particles_free(W);
+    sph_particles_free(R);
+    sph_particles_free(K);
+}
+
 /* ------------------------------------------------------ through the engine */
 
 static const char *atm_files[2];
@@ -396,6 +562,7 @@ int main(int argc, char **argv)
     ec_write_inputs(dir);
     module_level();
     every_field();
+    malformed();
     engine_level();
     if (check_failed_ == 0)
         cycle_remove_tree(dir);

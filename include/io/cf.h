@@ -49,8 +49,10 @@ int cf_time_to_model(const cf_time_units *u, double value, double *model_seconds
  * calendar's day number (not the real date). Used by the conversions. */
 double cf_calendar_day_number(cf_calendar cal, long year, int month, int day);
 
-/* Unit conversion through udunits2. One system per object: create it,
- * ask for conversions, free it. Not thread-safe per object. */
+/* Unit conversion through udunits2: create an object, ask for
+ * conversions, free it. The udunits2 database behind the objects is read
+ * once per process and kept (udunits2 does not free all of it). Not
+ * thread-safe per object. */
 typedef struct cf_units cf_units;
 
 int cf_units_create(cf_units **out, sph_error *err);

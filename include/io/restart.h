@@ -19,7 +19,17 @@
  *
  * Reading checks the format, the sizes, the layer count and (when asked)
  * that the projection is the one of the running model: positions in
- * metres mean nothing on another plane.
+ * metres mean nothing on another plane. Every attribute read is present,
+ * of a numeric type (text for the format and projection) with one value,
+ * finite (cycle_time may be NaN: unknown) and in range (nlayers
+ * 1..SPH_MAX_LAYERS, particles 0..RESTART_MAX_PARTICLES and equal to the
+ * particle dimension, steps and removed particles >= 0); every variable
+ * is checked before any is read: present (coastc may be absent), of a
+ * NetCDF type that converts without loss (double: double or float; id:
+ * an integer type up to int64; regime: ubyte) and on the dimensions
+ * (particle) or (particle, layer). Any other file is refused with one
+ * line naming the file, the variable or attribute and the problem, and
+ * the particle set is left as it was.
  */
 #ifndef SPHICE_IO_RESTART_H
 #define SPHICE_IO_RESTART_H
@@ -30,6 +40,9 @@
 #include "util/err.h"
 
 #define RESTART_FORMAT "sphice-restart-1"
+/* The most particles a restart header may declare (the engine sizes the
+ * model from it before reading): 1e8, about 25 GB of particle arrays. */
+#define RESTART_MAX_PARTICLES 100000000LL
 
 typedef struct restart_header {
     double time;             /* valid time of the state, seconds since 1970 */

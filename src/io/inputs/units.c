@@ -8,6 +8,7 @@
 
 #include <ctype.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
@@ -17,30 +18,41 @@ struct cf_units {
     ut_system *sys;
 };
 
+/* One unit system per process, read on first use and never freed:
+ * ut_free_system leaves the prefix tables ut_read_xml builds (global
+ * tsearch trees of udunits2's prefix.c) allocated, so a daemon that read
+ * and freed the database every cycle grew by some kilobytes a cycle
+ * (issue 21's soak). The system is only read after loading. */
+static pthread_once_t units_once = PTHREAD_ONCE_INIT;
+static ut_system *units_sys;
+static int units_status;
+
+static void units_load(void)
+{
+    ut_set_error_message_handler(ut_ignore);
+    units_sys = ut_read_xml(NULL);
+    units_status = (int)ut_get_status();
+}
+
 int cf_units_create(cf_units **out, sph_error *err)
 {
     *out = NULL;
+    pthread_once(&units_once, units_load);
+    if (!units_sys)
+        return sph_err_set(err, SPH_ERR_UNITS,
+                           "units: cannot read the udunits2 database (ut_read_xml status %d)",
+                           units_status);
     cf_units *u = calloc(1, sizeof *u);
     if (!u)
         return sph_err_set(err, SPH_ERR_NOMEM, "units: out of memory");
-    ut_set_error_message_handler(ut_ignore);
-    u->sys = ut_read_xml(NULL);
-    if (!u->sys) {
-        free(u);
-        return sph_err_set(err, SPH_ERR_UNITS,
-                           "units: cannot read the udunits2 database (ut_read_xml status %d)",
-                           (int)ut_get_status());
-    }
+    u->sys = units_sys;
     *out = u;
     return 0;
 }
 
 void cf_units_free(cf_units *u)
 {
-    if (!u)
-        return;
-    ut_free_system(u->sys);
-    free(u);
+    free(u); /* the shared system stays (see units_sys) */
 }
 
 /* Spellings found in real forcing files that udunits does not read as

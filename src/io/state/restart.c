@@ -2,6 +2,7 @@
 #include "io/restart.h"
 #include "io/ncfile.h"
 
+#include <limits.h>
 #include <math.h>
 #include <netcdf.h>
 #include <stddef.h>
@@ -166,20 +167,67 @@ static int get_text_att(int nc, const char *name, char *buf, size_t len)
     return 0;
 }
 
-static int get_double_att(int nc, const char *name, double *v)
+/* Integer and floating NetCDF types; a numeric attribute must be one. */
+static int nc_type_integer(nc_type t)
 {
-    size_t alen;
-    if (nc_inq_attlen(nc, NC_GLOBAL, name, &alen) != NC_NOERR || alen != 1)
-        return -1;
-    return nc_get_att_double(nc, NC_GLOBAL, name, v) == NC_NOERR ? 0 : -1;
+    return t == NC_BYTE || t == NC_UBYTE || t == NC_SHORT || t == NC_USHORT || t == NC_INT ||
+           t == NC_UINT || t == NC_INT64 || t == NC_UINT64;
 }
 
-static int get_ll_att(int nc, const char *name, long long *v)
+static int nc_type_numeric(nc_type t)
+{
+    return nc_type_integer(t) || t == NC_FLOAT || t == NC_DOUBLE;
+}
+
+/* One numeric global attribute of one value. Returns SPH_OK, or the error
+ * code with the problem in err (file and attribute named). */
+static int numeric_att(int nc, const char *path, const char *name, int integer, sph_error *err)
 {
     size_t alen;
-    if (nc_inq_attlen(nc, NC_GLOBAL, name, &alen) != NC_NOERR || alen != 1)
-        return -1;
-    return nc_get_att_longlong(nc, NC_GLOBAL, name, v) == NC_NOERR ? 0 : -1;
+    nc_type t;
+    if (nc_inq_att(nc, NC_GLOBAL, name, &t, &alen) != NC_NOERR)
+        return sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: attribute %s: missing", path, name);
+    if (!(integer ? nc_type_integer(t) : nc_type_numeric(t)) || alen != 1)
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "restart %s: attribute %s: want one %s value, found %zu of NetCDF "
+                           "type %d", path, name, integer ? "integer" : "numeric", alen, (int)t);
+    return SPH_OK;
+}
+
+static int get_double_att(int nc, const char *path, const char *name, double *v, sph_error *err)
+{
+    int rc = numeric_att(nc, path, name, 0, err);
+    if (rc)
+        return rc;
+    if (nc_get_att_double(nc, NC_GLOBAL, name, v) != NC_NOERR)
+        return sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: attribute %s: cannot be read",
+                           path, name);
+    return SPH_OK;
+}
+
+/* An integer attribute in lo..hi. */
+static int get_ll_att(int nc, const char *path, const char *name, long long lo, long long hi,
+                      long long *v, sph_error *err)
+{
+    int rc = numeric_att(nc, path, name, 1, err);
+    if (rc)
+        return rc;
+    if (nc_get_att_longlong(nc, NC_GLOBAL, name, v) != NC_NOERR || *v < lo || *v > hi)
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "restart %s: attribute %s: not an integer in %lld..%lld", path, name,
+                           lo, hi);
+    return SPH_OK;
+}
+
+/* The particle and layer dimensions. */
+static int get_dims(int nc, const char *path, int *d_p, size_t *len_p, int *d_l, size_t *len_l,
+                    sph_error *err)
+{
+    if (nc_inq_dimid(nc, "particle", d_p) || nc_inq_dimlen(nc, *d_p, len_p))
+        return sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: dimension particle: missing", path);
+    if (nc_inq_dimid(nc, "layer", d_l) || nc_inq_dimlen(nc, *d_l, len_l))
+        return sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: dimension layer: missing", path);
+    return SPH_OK;
 }
 
 static int read_header_open(int nc, const char *path, restart_header *h, sph_error *err)
@@ -190,27 +238,49 @@ static int read_header_open(int nc, const char *path, restart_header *h, sph_err
         return sph_err_set(err, SPH_ERR_BAD_DATA,
                            "restart %s: not an sphice restart file (attribute "
                            "sphice_restart_format is not \"%s\")", path, RESTART_FORMAT);
-    long long cnt, steps, removed;
-    int nl;
-    if (get_text_att(nc, "projection", h->projection, sizeof h->projection) ||
-        get_double_att(nc, "time", &h->time) || get_double_att(nc, "cycle_time", &h->cycle_time) ||
-        nc_get_att_int(nc, NC_GLOBAL, "nlayers", &nl) != NC_NOERR ||
-        get_ll_att(nc, "particles", &cnt) || get_ll_att(nc, "model_steps", &steps) ||
-        get_ll_att(nc, "budget_removed_particles", &removed))
+    if (get_text_att(nc, "projection", h->projection, sizeof h->projection))
         return sph_err_set(err, SPH_ERR_BAD_DATA,
-                           "restart %s: header incomplete (projection, time, nlayers, particles)",
-                           path);
+                           "restart %s: attribute projection: missing, not text or longer than "
+                           "%zu characters", path, sizeof h->projection - 1);
+    long long cnt, steps, removed, nl;
+    int rc;
+    if ((rc = get_double_att(nc, path, "time", &h->time, err)) ||
+        (rc = get_double_att(nc, path, "cycle_time", &h->cycle_time, err)) ||
+        (rc = get_ll_att(nc, path, "nlayers", 1, SPH_MAX_LAYERS, &nl, err)) ||
+        (rc = get_ll_att(nc, path, "particles", 0, RESTART_MAX_PARTICLES, &cnt, err)) ||
+        (rc = get_ll_att(nc, path, "model_steps", 0, LONG_MAX, &steps, err)) ||
+        (rc = get_ll_att(nc, path, "budget_removed_particles", 0, LONG_MAX, &removed, err)))
+        return rc;
+    if (!isfinite(h->time))
+        return sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: attribute time: %g is not finite",
+                           path, h->time);
+    if (isinf(h->cycle_time)) /* NaN: unknown */
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "restart %s: attribute cycle_time: %g is not finite", path,
+                           h->cycle_time);
     for (size_t a = 0; a < NCLOCK; a++) {
         double *val = (double *)((char *)&h->clock + clock_atts[a].offset);
-        if (get_double_att(nc, clock_atts[a].name, val))
-            return sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: missing attribute %s", path,
-                               clock_atts[a].name);
+        if ((rc = get_double_att(nc, path, clock_atts[a].name, val, err)))
+            return rc;
+        if (!isfinite(*val))
+            return sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: attribute %s: %g is not finite",
+                               path, clock_atts[a].name, *val);
     }
-    if (nl < 1 || nl > SPH_MAX_LAYERS || cnt < 0 || !isfinite(h->time))
+    /* the sizes the header declares are the file's dimensions (a fixed
+     * dimension is >= 1: 0 particles are written on a dimension of 1) */
+    int d_p, d_l;
+    size_t len_p, len_l;
+    if ((rc = get_dims(nc, path, &d_p, &len_p, &d_l, &len_l, err)))
+        return rc;
+    if (len_p != (cnt > 0 ? (size_t)cnt : 1))
         return sph_err_set(err, SPH_ERR_BAD_DATA,
-                           "restart %s: nlayers %d, particles %lld or time not valid", path, nl,
-                           cnt);
-    h->nlayers = nl;
+                           "restart %s: attribute particles: %lld, the dimension particle is %zu",
+                           path, cnt, len_p);
+    if (len_l != (size_t)nl)
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "restart %s: attribute nlayers: %lld, the dimension layer is %zu", path,
+                           nl, len_l);
+    h->nlayers = (int)nl;
     h->n = (size_t)cnt;
     h->clock.steps = (long)steps;
     h->clock.budget.removed_particles = (long)removed;
@@ -238,6 +308,54 @@ int restart_read_header(const char *path, restart_header *h, sph_error *err)
     return rc;
 }
 
+/* NetCDF types a field's C type reads without loss: the type it is
+ * written in, and narrower ones of the same kind. */
+static int type_converts(int ctype, nc_type t)
+{
+    switch (ctype) {
+    case SPH_FIELD_DOUBLE: return t == NC_DOUBLE || t == NC_FLOAT;
+    case SPH_FIELD_LONG:
+        return t == NC_INT64 || t == NC_INT || t == NC_UINT || t == NC_SHORT || t == NC_USHORT ||
+               t == NC_BYTE || t == NC_UBYTE;
+    default: return t == NC_UBYTE;
+    }
+}
+
+/* Checks that field f's variable is there (optional ones may be absent:
+ * *var = -1) with a type that converts and the dimensions (particle) or
+ * (particle, layer). */
+static int check_var(int nc, const char *path, const sph_particle_field *f, int d_p, int d_l,
+                     int *var, sph_error *err)
+{
+    *var = -1;
+    if (nc_inq_varid(nc, f->name, var) != NC_NOERR) {
+        *var = -1;
+        if (f->restart == SPH_RESTART_OPT)
+            return SPH_OK;
+        return sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable %s: missing", path,
+                           f->name);
+    }
+    nc_type t;
+    int ndims, dims[NC_MAX_VAR_DIMS];
+    if (nc_inq_vartype(nc, *var, &t) || nc_inq_varndims(nc, *var, &ndims) ||
+        ndims > NC_MAX_VAR_DIMS || nc_inq_vardimid(nc, *var, dims))
+        return sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: variable %s: cannot be inquired",
+                           path, f->name);
+    static const char *const want_type[] = {
+        [SPH_FIELD_DOUBLE] = "double or float", [SPH_FIELD_LONG] = "an integer type up to int64",
+        [SPH_FIELD_UCHAR] = "ubyte"};
+    if (!type_converts(f->type, t))
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "restart %s: variable %s: NetCDF type %d, want %s", path, f->name,
+                           (int)t, want_type[f->type]);
+    int want = f->layered ? 2 : 1;
+    if (ndims != want || dims[0] != d_p || (want == 2 && dims[1] != d_l))
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "restart %s: variable %s: %d dimensions, want (particle%s)", path,
+                           f->name, ndims, f->layered ? ", layer" : "");
+    return SPH_OK;
+}
+
 static int read_body(int nc, const char *path, const restart_header *h, sph_particles *P,
                      sph_error *err)
 {
@@ -252,16 +370,26 @@ static int read_body(int nc, const char *path, const restart_header *h, sph_part
                            P->nlayers);
     int d_p, d_l;
     size_t len_p, len_l;
-    if (nc_inq_dimid(nc, "particle", &d_p) || nc_inq_dimlen(nc, d_p, &len_p) ||
-        nc_inq_dimid(nc, "layer", &d_l) || nc_inq_dimlen(nc, d_l, &len_l) ||
-        len_p < n || len_l != (size_t)h->nlayers)
+    int rc = get_dims(nc, path, &d_p, &len_p, &d_l, &len_l, err);
+    if (rc)
+        return rc;
+    if (len_p != (n > 0 ? n : 1) || len_l != (size_t)h->nlayers)
         return sph_err_set(err, SPH_ERR_BAD_DATA,
-                           "restart %s: dimensions particle/layer do not match the header", path);
+                           "restart %s: dimensions particle %zu, layer %zu; the header says %zu "
+                           "particles, %d layers", path, len_p, len_l, n, h->nlayers);
+    /* every variable checked before anything is read: a refusal changes nothing */
+    int v[SPH_PARTICLE_NFIELDS];
+    for (int k = 0; k < SPH_PARTICLE_NFIELDS; k++) {
+        v[k] = -1;
+        if (sph_particle_fields[k].restart != SPH_RESTART_NO &&
+            (rc = check_var(nc, path, &sph_particle_fields[k], d_p, d_l, &v[k], err)))
+            return rc;
+    }
     P->n = 0;
     if (n == 0)
         return SPH_OK;
     size_t start[2] = {0, 0}, count[2] = {n, (size_t)h->nlayers};
-    int v, st;
+    int st;
     for (int k = 0; k < SPH_PARTICLE_NFIELDS; k++) {
         const sph_particle_field *f = &sph_particle_fields[k];
         void *a = sph_particles_field(P, k);
@@ -272,13 +400,12 @@ static int read_body(int nc, const char *path, const restart_header *h, sph_part
                 memset(a, 0, bytes);
             continue;
         }
-        if (f->restart == SPH_RESTART_OPT && nc_inq_varid(nc, f->name, &v) != NC_NOERR) {
-            memset(a, 0, bytes); /* restarts written before it */
+        if (v[k] < 0) {
+            memset(a, 0, bytes); /* optional, restarts written before it */
             continue;
         }
-        if ((st = nc_inq_varid(nc, f->name, &v)) != NC_NOERR ||
-            (st = rv_get(nc, v, f->type, start, count, a)) != NC_NOERR)
-            return sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable %s: %s", path,
+        if ((st = rv_get(nc, v[k], f->type, start, count, a)) != NC_NOERR)
+            return sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: variable %s: %s", path,
                                f->name, nc_strerror(st));
     }
     P->n = n;
