@@ -168,6 +168,12 @@ void products_abort(prod_writer *p);
 int products_publish(const char *stage_dir, const char *final_dir, const char *latest_link,
                      sph_error *err);
 
+/* Adds files (names relative to stage_dir, already complete) to the
+ * stage's manifest.json with their sizes and sha256, rewriting it
+ * atomically; a name already listed is refreshed. For products made
+ * after products_close (the ensemble's). */
+int products_manifest_append(const char *stage_dir, const char *const *names, int n, sph_error *err);
+
 /* Reads the particles of output time t (NaN: the last time) from a
  * trajectory file written by products_*. For drift analysis and replay; a
  * warm start needs the full state and uses the engine's restart format. */

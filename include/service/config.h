@@ -114,6 +114,15 @@ struct sph_config {
 
     struct { char *path, *conc_var; int format; } observations;
 
+    struct {
+        int members, seed, modes;
+        struct { double sigma, length_km, time_hours; } wind, current;
+        struct { double conc_sigma, thick_sigma, length_km; } initial;
+        double strength_sigma, drag_sigma;
+        cfg_dbllist levels;
+        int member_products;
+    } ensemble;
+
     cfg_station *stations;
     size_t nstations;
 

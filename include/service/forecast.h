@@ -45,6 +45,8 @@ typedef struct forecast_request {
     const char *forcing_sha256[SPHICE_MAX_PROVENANCE + 1];
     int stale;                /* forcing older than wanted: flag products */
     const char *observation;  /* observed concentration raster for verification, or NULL */
+    const struct fc_member *member; /* an ensemble member's perturbations (service/ensemble.h),
+                                       or NULL: the unperturbed run */
 } forecast_request;
 
 #define FC_MAX_PRODUCTS 32
@@ -67,6 +69,12 @@ typedef struct forecast_result {
     char quality_flag[256];
     int nproducts;
     char products[FC_MAX_PRODUCTS][512]; /* file names relative to stage_dir */
+    struct {                     /* service/ensemble.h; members 0: a single run */
+        int members;
+        unsigned long long seed;
+        int has_scores;
+        double sps_km2, iiee_median_km2, mean_spread_conc;
+    } ensemble;
 } forecast_result;
 
 #include "io/forcing.h"

@@ -7,6 +7,7 @@
 
 /* Forcing sources in one configuration (key "forcing", an array). */
 #define SPHICE_MAX_SOURCES 8
+#define SPHICE_MAX_MEMBERS 256 /* ensemble.members */
 
 /* Files (URL templates, key "urls") of one forcing source. */
 #define SPHICE_MAX_FILES 64

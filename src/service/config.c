@@ -11,6 +11,7 @@
 #include "service/config.h"
 #include "service/cycle_name.h"
 #include "service/http.h"
+#include "io/ensemble.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -205,6 +206,39 @@ static const cfg_key tail_keys[] = {
        "Observation raster format."),
     C_("observations.conc_var", CT_STRING, observations.conc_var, "\"sea_ice_concentration\"", 1, 63, R, NULL,
        "Observation concentration variable."),
+
+    C_("ensemble.members", CT_INT, ensemble.members, "1", 1, SPHICE_MAX_MEMBERS, R, NULL,
+       "Ensemble members; 1: a single deterministic run. Member 0 is the unperturbed control (docs/ensemble.md)."),
+    C_("ensemble.seed", CT_INT, ensemble.seed, "1", 0, 2147483647, R, NULL,
+       "Seed of the perturbations (recorded in the products): the same seed gives the same ensemble bit for bit."),
+    C_("ensemble.modes", CT_INT, ensemble.modes, "64", 1, 4096, R, NULL,
+       "Random Fourier modes per perturbation field."),
+    C_("ensemble.wind.sigma", CT_DOUBLE, ensemble.wind.sigma, "0", 0, 50, R, NULL,
+       "Standard deviation of each wind component's perturbation, m/s."),
+    C_("ensemble.wind.length_km", CT_DOUBLE, ensemble.wind.length_km, "200", 0, 1e5, R, NULL,
+       "Correlation length of the wind perturbation (Gaussian: correlation exp(-1/2) at this distance), km; 0: uniform."),
+    C_("ensemble.wind.time_hours", CT_DOUBLE, ensemble.wind.time_hours, "24", 0, 1e5, R, NULL,
+       "E-folding time of the wind perturbation, hours; 0: frozen."),
+    C_("ensemble.current.sigma", CT_DOUBLE, ensemble.current.sigma, "0", 0, 5, R, NULL,
+       "Standard deviation of each current component's perturbation, m/s."),
+    C_("ensemble.current.length_km", CT_DOUBLE, ensemble.current.length_km, "50", 0, 1e5, R, NULL,
+       "Correlation length of the current perturbation, km; 0: uniform."),
+    C_("ensemble.current.time_hours", CT_DOUBLE, ensemble.current.time_hours, "48", 0, 1e5, R, NULL,
+       "E-folding time of the current perturbation, hours; 0: frozen."),
+    C_("ensemble.initial.conc_sigma", CT_DOUBLE, ensemble.initial.conc_sigma, "0", 0, 1, R, NULL,
+       "Standard deviation of the initial concentration's additive perturbation (fraction; clipped to 0.01..1)."),
+    C_("ensemble.initial.thick_sigma", CT_DOUBLE, ensemble.initial.thick_sigma, "0", 0, 0.9, R, NULL,
+       "Standard deviation of the initial thickness's relative perturbation (h (1 + f), f clipped to +-3 sigma)."),
+    C_("ensemble.initial.length_km", CT_DOUBLE, ensemble.initial.length_km, "50", 0, 1e5, R, NULL,
+       "Correlation length of the initial perturbations, km; 0: uniform."),
+    C_("ensemble.strength_sigma", CT_DOUBLE, ensemble.strength_sigma, "0", 0, 2, R, NULL,
+       "Log-normal perturbation of the ice strength P0: P0 exp(sigma g), g standard normal per member."),
+    C_("ensemble.drag_sigma", CT_DOUBLE, ensemble.drag_sigma, "0", 0, 2, R, NULL,
+       "Log-normal perturbation of the air and water drag coefficients (independent draws)."),
+    C_("ensemble.levels", CT_DBLLIST, ensemble.levels, "[0.1, 0.5, 0.9]", 0, 1, R, NULL,
+       "Probability levels of the ensemble edge contours (each in (0, 1]; at most " SPHICE_STR(ENS_MAX_LEVELS) ")."),
+    C_("ensemble.member_products", CT_BOOL, ensemble.member_products, "false", 0, 0, R, NULL,
+       "Keep every member's products under members/mNNN of the cycle (the control's are the cycle's own)."),
 
     {"stations", CT_OBJARRAY, "[]", 0, 10000, R, NULL, offsetof(struct sph_config, stations),
      offsetof(struct sph_config, nstations), &station_table, "Time series points, each {name, lon, lat}."},
@@ -812,6 +846,19 @@ static int cross_check(const struct sph_config *c, const char *origin, sph_error
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config %s: schedule.cycles: empty and schedule.every_hours is 0: no cycle would run",
                            origin);
+    if (c->ensemble.levels.n > ENS_MAX_LEVELS)
+        return sph_err_set(err, SPH_ERR_CONFIG, "config %s: ensemble.levels: %zu levels, at most %d", origin,
+                           c->ensemble.levels.n, ENS_MAX_LEVELS);
+    for (size_t i = 0; i < c->ensemble.levels.n; i++)
+        if (!(c->ensemble.levels.v[i] > 0.0 && c->ensemble.levels.v[i] <= 1.0))
+            return sph_err_set(err, SPH_ERR_CONFIG,
+                               "config %s: ensemble.levels[%zu]: %g is not a probability in (0, 1]", origin, i,
+                               c->ensemble.levels.v[i]);
+    if (c->ensemble.members > 1 && !c->output.products.fields)
+        return sph_err_set(err, SPH_ERR_CONFIG,
+                           "config %s: ensemble.members: %d members need output.products.fields (the ensemble "
+                           "products are made from the members' fields)",
+                           origin, c->ensemble.members);
     int trc = check_templates(c, origin, err);
     if (trc)
         return trc;

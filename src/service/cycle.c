@@ -18,15 +18,17 @@
 
 #include "service/config.h"
 #include "service/cycle_phase.h"
+#include "service/ensemble.h"
 #include "service/schedule.h"
 #include "util/fileio.h"
 #include "util/log.h"
 #include "util/timeutil.h"
 #include "util/version.h"
 
-static cycle_engine_fn engine_fn = forecast_run;
+/* ensemble_run is forecast_run when ensemble.members is 1 */
+static cycle_engine_fn engine_fn = ensemble_run;
 
-void cycle_set_engine(cycle_engine_fn fn) { engine_fn = fn ? fn : forecast_run; }
+void cycle_set_engine(cycle_engine_fn fn) { engine_fn = fn ? fn : ensemble_run; }
 
 static int local_fetch(const char *tmpl, double t, const cycle_fetch_ctx *ctx, char *local, size_t len,
                        char sha256[65], sph_error *err);
@@ -471,6 +473,8 @@ static int fetch_all(const struct sph_config *cfg, const cycle_opts *o, const ch
 
 /* ------------------------------------------------------------- publish */
 
+static cJSON *ensemble_json(const forecast_result *r);
+
 static cJSON *result_json(const forecast_result *r)
 {
     cJSON *o = cJSON_CreateObject();
@@ -503,15 +507,44 @@ static cJSON *result_json(const forecast_result *r)
         cJSON_AddNumberToObject(sv, "mean_iterations", r->run.solver_iterations);
         cJSON_AddNumberToObject(sv, "stalled_fraction", r->run.solver_stalled);
     }
+    cJSON *ens = ensemble_json(r);
+    if (ens)
+        cJSON_AddItemToObject(o, "ensemble", ens);
 #undef NUM
+    return o;
+}
+
+/* The ensemble's block (members > 1), or NULL. */
+static cJSON *ensemble_json(const forecast_result *r)
+{
+    if (r->ensemble.members <= 1)
+        return NULL;
+    cJSON *o = cJSON_CreateObject();
+    char seed[32];
+    snprintf(seed, sizeof seed, "%llu", r->ensemble.seed);
+    cJSON_AddNumberToObject(o, "members", r->ensemble.members);
+    cJSON_AddStringToObject(o, "seed", seed);
+    cJSON_AddNumberToObject(o, "mean_conc_spread", r->ensemble.mean_spread_conc);
+    if (r->ensemble.has_scores) {
+        cJSON_AddNumberToObject(o, "sps_km2", r->ensemble.sps_km2);
+        cJSON_AddNumberToObject(o, "iiee_median_km2", r->ensemble.iiee_median_km2);
+    }
     return o;
 }
 
 static cJSON *cycle_scores_json(const forecast_result *r)
 {
-    if (!r->has_scores)
-        return cJSON_CreateNull();
+    cJSON *ens = ensemble_json(r);
+    if (!r->has_scores) {
+        if (!ens)
+            return cJSON_CreateNull();
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddItemToObject(o, "ensemble", ens);
+        return o;
+    }
     cJSON *o = cJSON_CreateObject();
+    if (ens)
+        cJSON_AddItemToObject(o, "ensemble", ens);
     cJSON_AddNumberToObject(o, "iiee_km2", r->iiee_km2);
     cJSON_AddNumberToObject(o, "aee_km2", r->aee_km2);
     cJSON_AddNumberToObject(o, "me_km2", r->me_km2);

@@ -220,6 +220,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     /* the model's parameters; model.dt = 0 is resolved once the particles
      * are placed (resolve_dt), checked meanwhile with a valid stand-in */
     e->prm = cfg->model;
+    if (req->member)
+        fc_member_perturb_params(req->member, &e->prm);
     e->dt_auto = cfg->model.dt == 0.0; /* negative: refused by check_params */
     e->dt_base = auto_dt_base(e, schedule_next(cfg, e->t0));
     if (e->dt_auto)

@@ -18,6 +18,7 @@
 #include "io/raster.h"
 #include "service/config.h"
 #include "service/coupling.h"
+#include "service/ensemble.h"
 #include "service/forecast.h"
 #include "util/timeutil.h"
 
@@ -69,8 +70,11 @@ static inline void iso(double t, char *buf, size_t len) { time_format_iso(t, buf
 /* The particles' forcing at time t (service/coupling.h). */
 static inline int fc_fill_forcing(engine *e, double t, sph_error *err)
 {
-    return coupling_fill(&e->cpl, e->proj, &e->cfg->model.thermo, e->thermo_on, sph_model_particles(e->m),
-                         t, err);
+    int rc = coupling_fill(&e->cpl, e->proj, &e->cfg->model.thermo, e->thermo_on, sph_model_particles(e->m),
+                           t, err);
+    if (rc == SPH_OK && e->req->member) /* an ensemble member's perturbations (service/ensemble.h) */
+        fc_member_perturb_forcing(e->req->member, sph_model_particles(e->m), t - e->t0);
+    return rc;
 }
 
 /* forecast.c */
@@ -95,6 +99,10 @@ int fc_warm_start(engine *e, sph_error *err);
 int fc_setup_grid(engine *e, sph_error *err);
 int fc_open_products(engine *e, prod_station *stations, sph_error *err);
 int fc_set_observation(engine *e, sph_error *err);
+/* The observation raster at path regridded to g (*out: nlat*nlon, caller
+ * frees; NaN where it has no data), valid at *t_obs. */
+int fc_read_observation(const struct sph_config *cfg, const char *path, const prod_grid *g, double t_valid,
+                        double **out, double *t_obs, sph_error *err);
 int fc_write_output(engine *e, double t, sph_error *err);
 int fc_write_restart(engine *e, double t, sph_error *err);
 

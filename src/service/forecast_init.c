@@ -408,6 +408,8 @@ int fc_cold_start(engine *e, sph_error *err)
         P->sml0[k] = 0.0; /* sph_model_init takes sml */
         P->s11[k] = P->s22[k] = P->s12[k] = 0.0;
     }
+    if (e->req->member)
+        fc_member_perturb_initial(e->req->member, P);
     if ((rc = alloc_work(e, err)))
         return rc;
     if ((rc = fc_fill_forcing(e, e->t0, err)))
@@ -457,6 +459,8 @@ int fc_warm_start(engine *e, sph_error *err)
     c.time = 0.0;
     c.steps = 0;
     memset(&c.budget, 0, sizeof c.budget);
+    if (e->req->member)
+        fc_member_perturb_initial(e->req->member, P);
     double mass = 0;
     for (size_t k = 0; k < P->n; k++)
         mass += P->mass[k];

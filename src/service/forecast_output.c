@@ -129,23 +129,24 @@ int fc_open_products(engine *e, prod_station *stations, sph_error *err)
 
 /* Observed concentration regridded to the output grid (bilinear; NaN
  * outside the observation's cell centres). */
-int fc_set_observation(engine *e, sph_error *err)
+int fc_read_observation(const struct sph_config *cfg, const char *path, const prod_grid *g, double t_valid,
+                        double **out, double *t_obs, sph_error *err)
 {
-    const struct sph_config *cfg = e->cfg;
+    *out = NULL;
     ice_raster *obs = NULL;
     ice_raster_options o;
     ice_raster_options_default(&o);
-    o.valid_time = e->t_end;
+    o.valid_time = t_valid;
     o.thickness_kind = ICE_THICK_ICE; /* unused: verification compares concentration only */
     if (cfg->observations.format != CFG_INIT_ESRI)
         o.conc_variable = cfg->observations.conc_var;
     sph_error local;
     sph_error_clear(&local);
-    int rc = ice_raster_read(e->req->observation, &o, &obs, &local);
+    int rc = ice_raster_read(path, &o, &obs, &local);
     if (rc == SPH_ERR_MISSING_VAR && o.conc_variable && !strcmp(o.conc_variable, "sea_ice_concentration")) {
         o.conc_variable = NULL;
         sph_error_clear(&local);
-        rc = ice_raster_read(e->req->observation, &o, &obs, &local);
+        rc = ice_raster_read(path, &o, &obs, &local);
     }
     if (rc)
         return sph_err_set(err, rc, "observation: %s", local.msg);
@@ -155,24 +156,34 @@ int fc_set_observation(engine *e, sph_error *err)
         ice_raster_free(obs);
         return rc;
     }
-    double *c = malloc(e->npts * sizeof *c);
+    size_t npts = (size_t)g->nlon * g->nlat;
+    double *c = malloc((npts ? npts : 1) * sizeof *c);
     if (!c) {
         ice_raster_free(obs);
         return sph_err_set(err, SPH_ERR_NOMEM, "observation: out of memory");
     }
-    for (int j = 0; j < e->grid.nlat; j++)
-        for (int i = 0; i < e->grid.nlon; i++) {
-            size_t k = (size_t)j * e->grid.nlon + i;
+    for (int j = 0; j < g->nlat; j++)
+        for (int i = 0; i < g->nlon; i++) {
+            size_t k = (size_t)j * g->nlon + i;
             double th;
-            if (!ice_raster_sample(obs, e->grid.lon0 + i * e->grid.dlon, e->grid.lat0 + j * e->grid.dlat,
-                                   &c[k], &th))
+            if (!ice_raster_sample(obs, g->lon0 + i * g->dlon, g->lat0 + j * g->dlat, &c[k], &th))
                 c[k] = NAN;
         }
-    /* valid at the observation's own time when it has one, else at the end */
-    double t_obs = isfinite(obs->valid_time) ? obs->valid_time : e->t_end;
+    /* valid at the observation's own time when it has one, else at t_valid */
+    *t_obs = isfinite(obs->valid_time) ? obs->valid_time : t_valid;
+    ice_raster_free(obs);
+    *out = c;
+    return SPH_OK;
+}
+
+int fc_set_observation(engine *e, sph_error *err)
+{
+    double *c, t_obs;
+    int rc = fc_read_observation(e->cfg, e->req->observation, &e->grid, e->t_end, &c, &t_obs, err);
+    if (rc)
+        return rc;
     rc = products_set_observation(e->pw, t_obs, c, err);
     free(c);
-    ice_raster_free(obs);
     return rc;
 }
 
