@@ -27,6 +27,13 @@ LDLIBS  := $(PKG_LIBS) -lgsl -lgslcblas -lm -fopenmp -lpthread
 VERSION := 0.1.0
 GITREV  := $(shell git rev-parse --short=12 HEAD 2>/dev/null || echo unknown)
 
+# MPI=1: built with OpenMPI's mpicc into build-mpi/ (ensemble members over
+# ranks, docs/ensemble.md; `sh tools/install-deps.sh --mpi` installs it)
+ifeq ($(MPI),1)
+CC      := mpicc
+BUILD   ?= build-mpi
+ALL_CFLAGS += -DSPHICE_MPI
+endif
 BUILD   ?= build
 # each layer may hold rooms one folder deep (src/core/rheology/, src/io/inputs/ ...)
 LIB_SRC := $(wildcard src/util/*.c $(foreach l,core io service,src/$(l)/*.c src/$(l)/*/*.c))
@@ -117,8 +124,15 @@ layers: $(LIB_OBJ) $(MAIN_OBJ)
 	if [ $$fail -ne 0 ]; then exit 1; fi; \
 	echo "layers: ok"
 
+# The MPI build for test_ensemble_mpi, when OpenMPI's mpicc is installed.
+.PHONY: mpi-build
+mpi-build:
+	@if command -v mpicc >/dev/null 2>&1 && [ "$(MPI)" != 1 ]; then \
+	  $(MAKE) --no-print-directory MPI=1 BUILD=build-mpi build-mpi/sphice; \
+	else echo "mpi-build: mpicc not installed: test_ensemble_mpi will skip (sh tools/install-deps.sh --mpi)"; fi
+
 # The test suite: every test program, then the summary line.
-check: all tests layers fuzz-smoke-build
+check: all tests layers fuzz-smoke-build mpi-build
 	@BUILD=$(BUILD) sh tests/run.sh $(TEST_BIN) tests/fuzz/fuzz_smoke
 
 # Long validations (year-long columns, steady states at full resolution).

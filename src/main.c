@@ -20,6 +20,7 @@
 #include "service/check.h"
 #include "service/config.h"
 #include "service/cycle.h"
+#include "service/ensemble.h"
 #include "service/daemon.h"
 #include "service/history.h"
 #include "service/schedule.h"
@@ -159,6 +160,12 @@ static int cmd_run(int argc, char **argv)
     struct sph_config *cfg = load_config("run", o.config);
     if (!cfg)
         return 1;
+    if (ens_mpi_rank() > 0) { /* under mpirun: an ensemble worker (service/ensemble.h) */
+        service_install_signals();
+        int wc = ens_mpi_worker(cfg, &service_term);
+        sph_config_free(cfg);
+        return wc;
+    }
     cycle_opts co;
     memset(&co, 0, sizeof co);
     co.cycle_time = schedule_prev(cfg, time_now());
@@ -207,6 +214,7 @@ static int cmd_run(int argc, char **argv)
         code = 0;
     }
 out:
+    ens_mpi_stop_workers(); /* every path of rank 0 ends here: the workers leave too */
     history_close(h);
     sph_config_free(cfg);
     return code;
@@ -336,7 +344,17 @@ static int leave(int code)
 
 int main(int argc, char **argv)
 {
+    if (ens_mpi_init(&argc, &argv)) {
+        fprintf(stderr, "sphice: MPI_Init failed\n");
+        return 1;
+    }
+    atexit(ens_mpi_finalize);
     atexit(quicklook_release_caches);
+    if (ens_mpi_size() > 1 && (argc < 2 || strcmp(argv[1], "run"))) {
+        if (ens_mpi_rank() == 0)
+            fprintf(stderr, "sphice: under mpirun only `sphice run` is supported (ensemble members over ranks)\n");
+        return 2;
+    }
     /* GSL's default handler aborts; every GSL call here checks its status */
     gsl_set_error_handler_off();
     if (argc < 2)

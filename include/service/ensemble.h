@@ -47,4 +47,21 @@ void fc_member_perturb_initial(const fc_member *m, sph_particles *P);
 int ensemble_run(const struct sph_config *cfg, const forecast_request *req, forecast_progress *prog,
                  const volatile sig_atomic_t *cancel, forecast_result *res, sph_error *err);
 
+/* ---- MPI (make MPI=1): members over ranks, member m on rank m % size.
+ * Without MPI: size 1, rank 0, and the rest is never reached. */
+int ens_mpi_init(int *argc, char ***argv);
+int ens_mpi_rank(void);
+int ens_mpi_size(void);
+void ens_mpi_finalize(void);
+/* Ranks > 0: run the member jobs rank 0 sends until it says stop; 0 when
+ * stopped. */
+int ens_mpi_worker(const struct sph_config *cfg, const volatile sig_atomic_t *cancel);
+void ens_mpi_stop_workers(void); /* rank 0, once at the end */
+/* Rank 0: sends member's job (req with the member's stage directory) to
+ * its rank; *handle until ens_mpi_collect. */
+int ens_mpi_dispatch(const forecast_request *req, int member, const char *stage, void **handle, sph_error *err);
+/* Rank 0: completes the n sends and waits for n answers; adds the
+ * members' wall times to *wall; the first failure in err. */
+int ens_mpi_collect(void **handles, int n, double *wall, sph_error *err);
+
 #endif

@@ -143,10 +143,11 @@ int ensemble_run(const struct sph_config *cfg, const forecast_request *req, fore
     const char **fp = calloc((size_t)n, sizeof *fp);
     forecast_result *mres = malloc(sizeof *mres);
     double *obs = NULL;
-    int rc = SPH_OK;
+    void **handles = calloc((size_t)n, sizeof *handles);
+    int nremote = 0, rc = SPH_OK;
     char members_dir[4300];
     snprintf(members_dir, sizeof members_dir, "%s/members", req->stage_dir);
-    if (!dirs || !fields || !fp || !mres) {
+    if (!dirs || !fields || !fp || !mres || !handles) {
         rc = sph_err_set(err, SPH_ERR_NOMEM, "ensemble: out of memory");
         goto done;
     }
@@ -155,6 +156,7 @@ int ensemble_run(const struct sph_config *cfg, const forecast_request *req, fore
         goto done;
     }
     double wall = 0;
+    const int size = ens_mpi_size();
     for (int m = 0; m < n; m++) {
         fc_member mem;
         if ((rc = fc_member_init(&mem, cfg, m, err)))
@@ -172,6 +174,15 @@ int ensemble_run(const struct sph_config *cfg, const forecast_request *req, fore
             }
             r.stage_dir = dirs[m];
             r.observation = NULL; /* the members' own scores are not needed: the ensemble's are */
+        }
+        if (size > 1 && m % size != 0) { /* another rank's member */
+            fc_member_free(&mem);
+            if ((rc = ens_mpi_dispatch(&r, m, dirs[m], &handles[nremote], err)))
+                goto done;
+            nremote++;
+            snprintf(fields[m], sizeof fields[m], "%s/sphice_fields.nc", dirs[m]);
+            fp[m] = fields[m];
+            continue;
         }
         forecast_progress mp = {0};
         forecast_result *out = m ? mres : res;
@@ -191,6 +202,12 @@ int ensemble_run(const struct sph_config *cfg, const forecast_request *req, fore
         snprintf(fields[m], sizeof fields[m], "%s/sphice_fields.nc", dirs[m]);
         fp[m] = fields[m];
         log_info("ensemble: member %d of %d done (%.1f s)", m, n, out->wall_seconds);
+    }
+    if (nremote) {
+        int crc = ens_mpi_collect(handles, nremote, &wall, err);
+        nremote = 0;
+        if ((rc = crc))
+            goto done;
     }
     ens_options o = {0};
     o.stage = req->stage_dir;
@@ -229,6 +246,13 @@ int ensemble_run(const struct sph_config *cfg, const forecast_request *req, fore
     log_info("ensemble: %d members, mean concentration spread %.4f%s", n, s.mean_spread_conc,
              s.has_scores ? "" : ", no observation scored");
 done:
+    if (nremote) { /* a local failure: the remote members still answer */
+        sph_error ignored;
+        sph_error_clear(&ignored);
+        double w = 0;
+        ens_mpi_collect(handles, nremote, &w, &ignored);
+    }
+    free(handles);
     if (!cfg->ensemble.member_products)
         cycle_remove_tree(members_dir);
     free(dirs);
