@@ -50,4 +50,32 @@ static double snowfall(double day)
     return 0.0;
 }
 
+/* MU71's column: 10 layers, their radiation form (all incoming longwave
+ * absorbed, emissivity 0.99); everything else the defaults. */
+static inline void mu71_params(sph_thermo_params *p)
+{
+    sph_thermo_params_default(p);
+    p->nlayers = 10;
+    p->lw_absorptivity = 1.0;
+    p->emissivity = 0.99;
+}
+
+/* One step of a column (multi: Bitz-Lipscomb, else zero-layer) under the
+ * MU71 forcing of day-of-year `day` (with_snow: their snowfall, else none). */
+static inline void mu71_step(const sph_thermo_params *p, sph_column *c, sph_column_forcing *f, int multi,
+                             int with_snow, double day, double dt, sph_column_solver *s)
+{
+    f->swdn = monthly(SW, day);
+    f->lwdn = monthly(LW, day);
+    f->fsens = monthly(SENS, day);
+    f->flat = monthly(LAT, day);
+    f->albedo = monthly(ALB, day);
+    f->snowfall = with_snow ? snowfall(day) : 0.0;
+    sph_column_result r;
+    if (multi)
+        sph_column_step_multi_layer(p, c, f, dt, s, &r);
+    else
+        sph_column_step_zero_layer(p, c, f, dt, s, &r);
+}
+
 #endif

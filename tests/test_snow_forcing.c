@@ -125,21 +125,24 @@ static void check_reader(void)
         CHECK_CLOSE(sample_snow(f, 2.0, 0), 1000.0 * ERA5_SF / 3600.0, 1e-9, 0, "ERA5 sf: 1000 sf / 3600 s");
     forcing_close(f);
 
-    snprintf(p, sizeof p, "%s/lwe.nc", dir);
-    write_one(p, "snow_lwe", "lwe_thickness_of_snowfall_amount", "mm", 2, 6);
-    rc = open_snow(p, FORCING_ACCUMULATION_INTERVAL, FQ_SNOWFALL, &f, &err);
-    CHECK(rc == 0, "lwe thickness in mm: %s", err.msg);
-    if (rc == 0)
-        CHECK_CLOSE(sample_snow(f, 3.0, 0), 2.0 / 3600.0, 1e-12, 0, "2 mm of water in an hour = 2 kg m-2");
-    forcing_close(f);
-
-    snprintf(p, sizeof p, "%s/rate.nc", dir);
-    write_one(p, "snowr", "snowfall_flux", "mm s-1", 3, 6);
-    rc = open_snow(p, FORCING_ACCUMULATION_INTERVAL, FQ_SNOWFALL, &f, &err);
-    CHECK(rc == 0, "flux in mm s-1: %s", err.msg);
-    if (rc == 0)
-        CHECK_CLOSE(sample_snow(f, 1.5, 0), 1.0e-4, 1e-12, 0, "1e-4 mm s-1 of water = 1e-4 kg m-2 s-1");
-    forcing_close(f);
+    /* liquid water equivalent: 1 mm of water is 1 kg m-2 */
+    static const struct {
+        const char *file, *name, *std, *units;
+        int which;
+        double hours, want;
+    } lwe[] = {
+        {"lwe.nc", "snow_lwe", "lwe_thickness_of_snowfall_amount", "mm", 2, 3.0, 2.0 / 3600.0},
+        {"rate.nc", "snowr", "snowfall_flux", "mm s-1", 3, 1.5, 1.0e-4},
+    };
+    for (size_t i = 0; i < sizeof lwe / sizeof lwe[0]; i++) {
+        snprintf(p, sizeof p, "%s/%s", dir, lwe[i].file);
+        write_one(p, lwe[i].name, lwe[i].std, lwe[i].units, lwe[i].which, 6);
+        rc = open_snow(p, FORCING_ACCUMULATION_INTERVAL, FQ_SNOWFALL, &f, &err);
+        CHECK(rc == 0, "%s in %s: %s", lwe[i].std, lwe[i].units, err.msg);
+        if (rc == 0)
+            CHECK_CLOSE(sample_snow(f, lwe[i].hours, 0), lwe[i].want, 1e-12, 0, lwe[i].units);
+        forcing_close(f);
+    }
 
     /* unknown and incompatible units: one line naming file, variable, key */
     const char *bad[2] = {"bananas per hour", "K"};
@@ -178,20 +181,21 @@ static void check_split(void)
                  {"tmp2m", NULL, "k", NC_FLOAT, 0, 0, 0, 0, 0, tair_fn, 2},
                  {"pratesfc", NULL, "kg/m^2/s", NC_FLOAT, 0, 0, 0, 0, 0, tair_fn, 3}};
     tnc_write(path, &g, v, 4, 0, 12, NC_NETCDF4);
-    char text[4096];
-    snprintf(text, sizeof text,
-             "{ \"domain\": {\"name\": \"wide\", \"lon_min\": 110.0, \"lon_max\": 130.0,"
-             " \"lat_min\": 35.0, \"lat_max\": 45.0},\n"
-             "  \"forcing\": [{\"name\": \"gfs\", \"kind\": \"atmosphere\", \"urls\": \"%s\","
-             " \"required\": [\"wind\", \"tair\", \"precipitation\"]}],\n"
-             "  \"initial\": {\"path\": \"%s/none.nc\"},\n"
-             "  \"paths\": {\"state_dir\": \"%s/state\", \"cache_dir\": \"%s/cache\"},\n"
-             "  \"output\": {\"dir\": \"%s/out\"},\n  \"status\": {\"enabled\": false} }\n",
-             path, dir, dir, dir, dir);
+    /* the engine case's configuration, on a wider box, with GFS's file */
+    char text[8192], fixed[8192];
+    ec_config(text, sizeof text, dir, 300, "[\"wind\", \"tair\", \"precipitation\"]", "ice.nc", "");
+    const char *box = "\"lon_min\": 121.0, \"lon_max\": 122.0, \"lat_min\": 40.0, \"lat_max\": 40.6";
+    char *at = strstr(text, box), *url = strstr(text, "/atm.nc");
+    CHECK(at && url && at < url, "configuration template");
+    if (!at || !url || at > url)
+        return;
+    snprintf(fixed, sizeof fixed, "%.*s\"lon_min\": 110.0, \"lon_max\": 130.0, \"lat_min\": 35.0, "
+             "\"lat_max\": 45.0%.*s/gfs.nc%s", (int)(at - text), text, (int)(url - at - strlen(box)),
+             at + strlen(box), url + strlen("/atm.nc"));
     struct sph_config *cfg = NULL;
     sph_error e;
     sph_error_clear(&e);
-    CHECK(sph_config_parse(text, "test_snow_forcing", &cfg, &e) == 0 && cfg, "config: %s", e.msg);
+    CHECK(sph_config_parse(fixed, "test_snow_forcing", &cfg, &e) == 0 && cfg, "config: %s", e.msg);
     if (!cfg)
         return;
     geo_proj *proj = geo_proj_create("aeqd", 120.0, 40.0, &e);
@@ -264,11 +268,7 @@ static int forecast(const char *sf_units, const char *stage_name, char *stage, s
         return -1;
     snprintf(stage, len, "%s/%s", dir, stage_name);
     const char *files[2] = {atm, NULL};
-    forecast_request req;
-    memset(&req, 0, sizeof req);
-    req.cycle_time = EC_CYCLE;
-    req.hours = 2;
-    req.stage_dir = stage;
+    forecast_request req = {.cycle_time = EC_CYCLE, .hours = 2, .stage_dir = stage};
     req.forcing_files[0] = files;
     forecast_progress prog;
     memset((void *)&prog, 0, sizeof prog);
@@ -288,8 +288,7 @@ static int var_with_std(const char *path, const char *name, const char *std, flo
     size_t l = 0;
     if (ok && nc_inq_attlen(nc, v, "standard_name", &l) == NC_NOERR && l < sizeof sn)
         nc_get_att_text(nc, v, "standard_name", sn);
-    ok = ok && !strcmp(sn, std) && nc_inq_varndims(nc, v, &nd) == NC_NOERR && nd <= 4 &&
-         nc_inq_vardimid(nc, v, dims) == NC_NOERR;
+    ok = ok && !strcmp(sn, std) && nc_inq_var(nc, v, NULL, NULL, &nd, dims, NULL) == NC_NOERR && nd <= 4;
     size_t n = 1;
     for (int d = 0; ok && d < nd; d++) {
         size_t len;
@@ -347,11 +346,12 @@ static void check_forecast(void)
 
 int main(int argc, char **argv)
 {
-    (void)argc;
     ec_passive_openmp(argv);
+    (void)argc;
     sph_log_level = LOG_LVL_WARN;
-    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
-    ec_write_inputs(dir);
+    if (!mkdtemp(dir))
+        return 2;
+    ec_write_inputs(dir); /* the engine case: ice, land mask, configuration */
     check_reader();
     check_split();
     check_forecast();

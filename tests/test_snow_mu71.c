@@ -44,17 +44,7 @@ static cycle run(const sph_thermo_params *p, int multi, int with_snow, int years
         y = (cycle){0.0, -1e30, 1e30, 0.0, 1e30};
         for (int i = 0; i < steps; i++) {
             double day = (i + 0.5) * dt / 86400.0;
-            f.swdn = monthly(SW, day);
-            f.lwdn = monthly(LW, day);
-            f.fsens = monthly(SENS, day);
-            f.flat = monthly(LAT, day);
-            f.albedo = monthly(ALB, day);
-            f.snowfall = with_snow ? snowfall(day) : 0.0;
-            sph_column_result r;
-            if (multi)
-                sph_column_step_multi_layer(p, &c, &f, dt, s, &r);
-            else
-                sph_column_step_zero_layer(p, &c, &f, dt, s, &r);
+            mu71_step(p, &c, &f, multi, with_snow, day, dt, s);
             y.mean += c.thick / steps;
             y.hmax = fmax(y.hmax, c.thick);
             y.hmin = fmin(y.hmin, c.thick);
@@ -70,10 +60,7 @@ static cycle run(const sph_thermo_params *p, int multi, int with_snow, int years
 int main(void)
 {
     sph_thermo_params p;
-    sph_thermo_params_default(&p);
-    p.nlayers = 10;
-    p.lw_absorptivity = 1.0;
-    p.emissivity = 0.99;
+    mu71_params(&p);
     const int quick = check_quick();
     const int years = quick ? 4 : 30;
     const double dt = quick ? 6 * 3600.0 : 3600.0;

@@ -30,17 +30,7 @@ static year_stats run_year(const sph_thermo_params *p, sph_column *c, int multi,
     *snow_max = 0.0;
     for (int i = 0; i < steps; i++) {
         double day = (i + 0.5) * dt / 86400.0;
-        f.swdn = monthly(SW, day);
-        f.lwdn = monthly(LW, day);
-        f.fsens = monthly(SENS, day);
-        f.flat = monthly(LAT, day);
-        f.albedo = monthly(ALB, day);
-        f.snowfall = snowfall(day);
-        sph_column_result r;
-        if (multi)
-            sph_column_step_multi_layer(p, c, &f, dt, s, &r);
-        else
-            sph_column_step_zero_layer(p, c, &f, dt, s, &r);
+        mu71_step(p, c, &f, multi, 1, day, dt, s);
         y.mean += c->thick / steps;
         if (c->thick > y.hmax)
             y.hmax = c->thick;
@@ -55,10 +45,7 @@ static year_stats run_year(const sph_thermo_params *p, sph_column *c, int multi,
 int main(void)
 {
     sph_thermo_params p;
-    sph_thermo_params_default(&p);
-    p.nlayers = 10;
-    p.lw_absorptivity = 1.0;
-    p.emissivity = 0.99;
+    mu71_params(&p);
     sph_column_solver *s = sph_column_solver_create();
     /* Full: 30 years at 1 h. Quick (valgrind): 6 years at 6 h, no range asserts. */
     int years = check_quick() ? 6 : 30;
