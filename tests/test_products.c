@@ -83,7 +83,7 @@ static void fs_fill(fieldset *f, int disc, double shift_deg)
 
 static prod_fields fs_view(const fieldset *f)
 {
-    prod_fields pf = { f->conc, f->hbar, f->thick, f->u, f->v, f->pres, f->div, f->shear, f->land };
+    prod_fields pf = { f->conc, f->hbar, f->thick, f->u, f->v, f->pres, f->div, f->shear, f->land, NULL };
     return pf;
 }
 
@@ -255,7 +255,7 @@ static int full_run(const char *stage, prod_summary *sum, int with_obs)
     for (int t = 0; t < 3 && rc == SPH_OK; t++) {
         fs_fill(&f, t > 0, 0.0);
         prod_fields pf = fs_view(&f);
-        prod_particles_view pvw = { t == 2 ? 3 : 2, plon, plat, pu, pv, pm, ph, pc, ids };
+        prod_particles_view pvw = { t == 2 ? 3 : 2, plon, plat, pu, pv, pm, ph, pc, ids, NULL };
         rc = products_add_time(p, T0 + t * 21600, &pf, &pvw, &err);
         CHECK(rc == SPH_OK, "add_time %d: %s", t, err.msg);
         plon[0] += 0.01;

@@ -100,7 +100,7 @@ int main(void)
     sph_error err;
     sph_error_clear(&err);
     CHECK(products_open(&w, &o, &g, &meta, dir, &err) == SPH_OK, "%s", err.msg);
-    prod_fields f = { conc, hbar, thick, NULL, NULL, NULL, NULL, NULL, NULL };
+    prod_fields f = { conc, hbar, thick, NULL, NULL, NULL, NULL, NULL, NULL, NULL };
     prod_summary sum;
     if (w) {
         CHECK(products_add_time(w, 0.0, &f, NULL, &err) == SPH_OK, "%s", err.msg);

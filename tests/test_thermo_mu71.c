@@ -13,47 +13,7 @@
 #include "check.h"
 #include "core/thermo.h"
 
-static const double SW[12] = {0.0, 0.0, 30.2, 158.9, 281.6, 305.5, 216.4, 143.2, 58.9, 6.4, 0.0, 0.0};
-static const double LW[12] = {165.5, 163.9, 163.9, 184.6, 240.2, 286.4, 303.9, 297.5, 262.5, 221.2, 178.2, 173.4};
-static const double SENS[12] = {18.8, 12.1, 11.5, 4.6, -7.2, -6.2, -4.8, -6.4, -2.7, 1.6, 8.9, 12.6};
-static const double LAT[12] = {0.0, -0.3, -0.5, -1.4, -7.3, -11.1, -10.2, -10.5, -6.2, -3.0, -0.2, -0.2};
-static const double ALB[12] = {.85, .85, .83, .81, .82, .78, .64, .69, .84, .85, .85, .85};
-static const int MDAYS[12] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
-
-/* Linear interpolation between mid-month values; day in [0, 365). */
-static double monthly(const double *v, double day)
-{
-    double mid[12], start = 0.0;
-    for (int m = 0; m < 12; m++) {
-        mid[m] = start + 0.5 * MDAYS[m];
-        start += MDAYS[m];
-    }
-    int m1 = 11;
-    for (int m = 0; m < 12; m++)
-        if (day >= mid[m])
-            m1 = m;
-    int m2 = (m1 + 1) % 12;
-    double d1 = mid[m1], d2 = mid[m2];
-    if (day < mid[0]) /* before mid-January: between mid-December of last year and mid-January */
-        d1 -= 365.0;
-    if (d2 < d1)
-        d2 += 365.0;
-    double w = (day - d1) / (d2 - d1);
-    return v[m1] + w * (v[m2] - v[m1]);
-}
-
-/* Snowfall rate (m/s) on day-of-year `day` (0 = 1 Jan). */
-static double snowfall(double day)
-{
-    const double aug20 = 231.0, oct31 = 304.0, nov1 = 304.0, may1 = 120.0, jun1 = 151.0;
-    if (day >= aug20 && day < oct31)
-        return 0.30 / ((oct31 - aug20) * 86400.0);
-    if (day >= nov1 || day < may1)
-        return 0.05 / (181.0 * 86400.0);
-    if (day >= may1 && day < jun1)
-        return 0.05 / (31.0 * 86400.0);
-    return 0.0;
-}
+#include "mu71_forcing.h"
 
 typedef struct {
     double mean, hmax, hmin, h_jan1;
@@ -70,17 +30,7 @@ static year_stats run_year(const sph_thermo_params *p, sph_column *c, int multi,
     *snow_max = 0.0;
     for (int i = 0; i < steps; i++) {
         double day = (i + 0.5) * dt / 86400.0;
-        f.swdn = monthly(SW, day);
-        f.lwdn = monthly(LW, day);
-        f.fsens = monthly(SENS, day);
-        f.flat = monthly(LAT, day);
-        f.albedo = monthly(ALB, day);
-        f.snowfall = snowfall(day);
-        sph_column_result r;
-        if (multi)
-            sph_column_step_multi_layer(p, c, &f, dt, s, &r);
-        else
-            sph_column_step_zero_layer(p, c, &f, dt, s, &r);
+        mu71_step(p, c, &f, multi, 1, day, dt, s);
         y.mean += c->thick / steps;
         if (c->thick > y.hmax)
             y.hmax = c->thick;
@@ -95,10 +45,7 @@ static year_stats run_year(const sph_thermo_params *p, sph_column *c, int multi,
 int main(void)
 {
     sph_thermo_params p;
-    sph_thermo_params_default(&p);
-    p.nlayers = 10;
-    p.lw_absorptivity = 1.0;
-    p.emissivity = 0.99;
+    mu71_params(&p);
     sph_column_solver *s = sph_column_solver_create();
     /* Full: 30 years at 1 h. Quick (valgrind): 6 years at 6 h, no range asserts. */
     int years = check_quick() ? 6 : 30;

@@ -88,7 +88,9 @@ int main(void)
     sph_status_clear(&st);
     int rc = run(&p, P, steps, &b, &st);
     CHECK(rc == SPH_STEP_OK, "step ok (%s %s)", st.quantity, st.what);
-    double lhs = b.mass_initial + b.growth + b.new_ice - b.melt_top - b.melt_bottom - b.lateral_melt - b.outflow;
+    /* snow_ice: the particles' snow (5 cm on thin ice) floods into ice (issue 20) */
+    double lhs = b.mass_initial + b.growth + b.new_ice + b.snow_ice - b.melt_top - b.melt_bottom - b.lateral_melt -
+                 b.outflow;
     double m = total_mass(P);
     printf("budget: initial %.6e kg, growth %.4e, new ice %.4e, melt top %.4e, bottom %.4e, lateral %.4e; "
            "final %.6e; residual %.3e (relative %.2e)\n",

@@ -91,7 +91,8 @@ enum {
     X(fsens, double, ONE, FORCING, NO, "W m-2",                                                  \
       "prescribed sensible heat flux into the surface (NaN: bulk formula)")                      \
     X(flat, double, ONE, FORCING, NO, "W m-2",                                                   \
-      "prescribed latent heat flux into the surface (NaN: bulk formula)")
+      "prescribed latent heat flux into the surface (NaN: bulk formula)")                         \
+    X(snowfall, double, ONE, FORCING, NO, "kg m-2 s-1", "snowfall rate, water equivalent")
 
 /* The particle trajectory product's data variables after its coordinates
  * time, lon, lat, in file order (io products_particles.c):
@@ -104,7 +105,8 @@ enum {
     X(v, v_north, "v", "northward_sea_ice_velocity", "northward particle velocity", "m s-1")     \
     X(thick, thick, "thickness", "sea_ice_thickness", "particle ice thickness h_i", "m")         \
     X(conc, conc, "concentration", "sea_ice_area_fraction", "particle ice concentration", "1")   \
-    X(mass, mass, "mass", NULL, "particle ice mass", "kg")
+    X(mass, mass, "mass", NULL, "particle ice mass", "kg")                                       \
+    X(snow, snow, "sisnthick", "surface_snow_thickness", "particle snow depth h_s", "m")
 
 /* Field numbers: SPH_PF_x, SPH_PF_y ... in list order. */
 #define SPH_PF_ENUM_(name, ...) SPH_PF_##name,

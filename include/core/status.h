@@ -75,8 +75,13 @@ static inline int sph_status_set(sph_status *s, int code, sph_fault kind, long p
 }
 
 /* Run budget, kg unless stated. Closes as
- *   mass_initial + growth + new_ice - melt_top - melt_bottom - lateral_melt
- *   - outflow = mass  (to round-off). */
+ *   mass_initial + growth + new_ice + snow_ice - melt_top - melt_bottom
+ *   - lateral_melt - outflow = mass  (to round-off).
+ * `mass` is ice only (particle mass = rho_i A h area); snow has its own
+ * budget (snow mass rho_s h_s A area per particle):
+ *   snow_initial + snowfall - snow_melt - snow_ice - snow_to_ocean = snow.
+ * snow_ice is the mass of snow flooded into ice: it leaves the snow
+ * budget and enters the ice budget unchanged. */
 typedef struct sph_budget {
     double mass_initial;
     double mass;
@@ -91,14 +96,34 @@ typedef struct sph_budget {
     double area;           /* ice-covered area sum m/(rho_i h_i), m^2 */
     double volume;         /* ice volume sum m/rho_i, m^3 */
     double kinetic_energy; /* sum m |V|^2 / 2, J */
+    /* snow (issue 20 item 3) */
+    double snow_ice;      /* snow flooded into ice (a source of ice mass) */
+    double snow_initial;
+    double snow;          /* snow mass now, sum rho_s h_s A area (diagnostic) */
+    double snowfall;      /* fallen on the ice part of the footprints */
+    double snow_melt;     /* surface melt of snow */
+    double snow_to_ocean; /* left with melted-out ice, lateral melt and open boundaries */
 } sph_budget;
 
 /* The mass the budget's sources and sinks explain, kg: what `mass` must
  * equal to round-off. */
 static inline double sph_budget_expected(const sph_budget *b)
 {
-    return b->mass_initial + b->growth + b->new_ice - b->melt_top - b->melt_bottom - b->lateral_melt -
-           b->outflow;
+    return b->mass_initial + b->growth + b->new_ice + b->snow_ice - b->melt_top - b->melt_bottom -
+           b->lateral_melt - b->outflow;
+}
+
+/* The snow mass the snow budget explains, kg. */
+static inline double sph_budget_snow_expected(const sph_budget *b)
+{
+    return b->snow_initial + b->snowfall - b->snow_melt - b->snow_ice - b->snow_to_ocean;
+}
+
+/* |snow - expected| / max(snow_initial + snowfall, tiny); 0 with no snow at all. */
+static inline double sph_budget_snow_residual(const sph_budget *b)
+{
+    double scale = b->snow_initial + b->snowfall;
+    return scale > 0 ? fabs(sph_budget_snow_expected(b) - b->snow) / scale : 0.0;
 }
 
 /* |mass - expected| / mass_initial (0 for an empty start). */

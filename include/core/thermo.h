@@ -52,6 +52,13 @@ typedef struct sph_thermo_params {
     /* snow: conductive, no heat capacity, enthalpy -rho_s L0 per m^3 */
     double rho_s; /* kg/m^3 (330) */
     double k_s;   /* W/m/K (0.31) */
+    double rho_w; /* sea water, kg/m^3 (1026; the model sets momentum.rho_water): freeboard */
+    int snow_ice; /* 1: snow pushed below the waterline floods and becomes ice (sph_column_snow_ice) */
+    /* Rain/snow split of precipitation by the 2 m air temperature
+     * (sph_snow_fraction): all snow at or below snow_t_snow, all rain at or
+     * above snow_t_rain, linear in between (CLM 4.0: 0 and 2 deg C). */
+    double snow_t_snow; /* deg C (0) */
+    double snow_t_rain; /* deg C (2) */
 
     /* ocean */
     double ocean_salinity; /* psu (32): freezing point Tf = -mu * ocean_salinity */
@@ -121,6 +128,10 @@ void sph_thermo_init_particle(const sph_thermo_params *p, sph_particles *P, size
 int sph_thermo_step(const sph_thermo_params *p, sph_particles *P, double dt,
                     sph_thermo_work *w, sph_budget *b, sph_status *st);
 
+/* Snow mass of particle k, kg: rho_s h_s over its ice area
+ * mass / (rho_i h). 0 for a melted or snow-free particle. */
+double sph_particle_snow_mass(const sph_thermo_params *p, const sph_particles *P, size_t k);
+
 /* ------------------------------------------------------------------ */
 /* Column-level API (tests, benchmarks, and the particle step itself).  */
 
@@ -174,10 +185,33 @@ typedef struct sph_column_result {
     double fcond_top;   /* conductive flux at the surface, downward */
     double fcond_bottom;/* conductive flux at the base, downward (negative when the ice grows) */
     double focean;      /* ocean heat flux used */
+    double snow_to_ice; /* m of snow flooded and turned into ice (sph_column_snow_ice) */
+    double snow_ice;    /* m of ice formed from it (rho_i snow_ice = rho_s snow_to_ice) */
     double energy_to_ocean; /* J/m^2 leaving the column when it melts out (snow or ice remnants, excess melt energy) */
     int melted_out;     /* 1 when no ice is left */
     int iterations;     /* Picard iterations (multi-layer) */
 } sph_column_result;
+
+/* Fraction of precipitation that falls as snow at air temperature tair
+ * (deg C): 1 at or below p->snow_t_snow, 0 at or above p->snow_t_rain,
+ * linear in between; NaN tair gives 0. */
+double sph_snow_fraction(const sph_thermo_params *p, double tair);
+
+/* Snow-ice formation (flooding). Archimedes: the ice floats with draft
+ * (rho_i h + rho_s hs) / rho_w; the freeboard h - draft is negative when
+ * rho_s hs > (rho_w - rho_i) h. Sea water then floods the snow base and
+ * the flooded snow becomes ice. Mass conserved (the snow's mass becomes
+ * ice, rho_i dh = rho_s ds; the sea water filling the pores is not added,
+ * as in CICE/Icepack with ktherm = 1) and the freeboard brought exactly to
+ * zero: rho_s (hs - ds) = (rho_w - rho_i)(h + dh) gives
+ *   dh = (rho_s hs - (rho_w - rho_i) h) / rho_w,   ds = rho_i dh / rho_s.
+ * (CICE's freeboard routine converts the excess snow
+ * hs - (rho_w - rho_i) h / rho_s, more by rho_w / rho_i, leaving a small
+ * positive freeboard.) Energy conserved: the new top ice takes the snow's
+ * enthalpy, -rho_s L0 ds = q dh, i.e. q = -rho_i L0 (multi-layer: a top
+ * segment remapped onto the layers). Adds to r->snow_to_ice and
+ * r->snow_ice; returns 1 when snow was converted. */
+int sph_column_snow_ice(const sph_thermo_params *p, sph_column *c, sph_column_result *r);
 
 /* Opaque surface-temperature solver (wraps a gsl_root_fsolver, Brent). */
 typedef struct sph_column_solver sph_column_solver;

@@ -36,9 +36,20 @@ typedef enum {
     FQ_CURRENT = 1 << 5,   /* eastward/northward_sea_water_velocity */
     FQ_SSH = 1 << 6,       /* sea_surface_height(_above_geoid) and gradient */
     FQ_SST = 1 << 7,       /* sea_surface_temperature */
-    FQ_OCEAN_FLUX = 1 << 8 /* upward_sea_ice_basal_heat_flux: upward at the ice base is
+    FQ_OCEAN_FLUX = 1 << 8, /* upward_sea_ice_basal_heat_flux: upward at the ice base is
                               from the ocean into the ice, so the sign is kept */
+    FQ_SNOWFALL = 1 << 9,  /* snowfall_flux, snowfall_amount, lwe_thickness_of_snowfall_amount */
+    FQ_PRECIP = 1 << 10    /* precipitation_flux, precipitation_amount,
+                              lwe_thickness_of_precipitation_amount (split by air temperature) */
 } forcing_quantity;
+
+/* How accumulated fields (an amount, J m-2 or kg m-2) are read:
+ * INTERVAL: each value is the amount over the interval ending at its time
+ * (ERA5 hourly reanalysis, the default); RUNNING: the amount since a start
+ * that may reset (GFS, forecasts): consecutive values are differenced, and
+ * a time whose grid total is below the previous one's starts a new
+ * accumulation (its value is the amount since the previous time). */
+enum { FORCING_ACCUMULATION_INTERVAL = 0, FORCING_ACCUMULATION_RUNNING };
 
 enum { FORCING_VECTORS_AUTO = 0, FORCING_VECTORS_EARTH, FORCING_VECTORS_GRID };
 
@@ -70,6 +81,7 @@ typedef struct forcing_source_spec {
     int vectors;
     /* Added: 1 = harmonic tides without nodal corrections (f = 1, u = 0). */
     int tide_no_nodal;
+    int accumulation;          /* FORCING_ACCUMULATION_* */
 } forcing_source_spec;
 
 /* Values at n points; arrays the caller owns, each of length n. A pointer
@@ -85,6 +97,8 @@ typedef struct forcing_sample {
     double *ssh_dx_east, *ssh_dy_north; /* m/m */
     double *sst;                    /* deg C */
     double *fw;                     /* W/m^2 into the ice */
+    double *snowfall;               /* kg m-2 s-1 water equivalent */
+    double *precip;                 /* kg m-2 s-1, rain and snow together */
     unsigned provided;              /* forcing_quantity flags actually filled */
 } forcing_sample;
 

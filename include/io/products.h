@@ -55,6 +55,9 @@ typedef struct prod_options {
     int quicklook_width, quicklook_height; /* pixels (900 x 700) */
     double quicklook_thick_max; /* top of the thickness colour scale, m (0.6) */
     int deflate_level;          /* 0..9 (4) */
+    int write_snow;             /* sisnthick on the fields and particles files (0: left out,
+                                   as before snow existed; the engine sets it when a forcing
+                                   source may provide snowfall) */
 } prod_options;
 
 void products_options_default(prod_options *o);
@@ -89,6 +92,7 @@ typedef struct prod_fields {
     const double *divergence;  /* 1/s */
     const double *shear;       /* maximum shear rate, 1/s */
     const unsigned char *land; /* 1 = land; may be NULL (all sea) */
+    const double *snow;        /* snow thickness on the ice h_s, m (with write_snow) */
 } prod_fields;
 
 /* Particles at one output time (geographic positions and east/north
@@ -97,6 +101,7 @@ typedef struct prod_particles_view {
     size_t n;
     const double *lon, *lat, *u_east, *v_north, *mass, *thick, *conc;
     const long *id;
+    const double *snow;        /* snow depth h_s, m (with write_snow) */
 } prod_particles_view;
 
 /* Particles read back from a trajectory file (owned arrays). */
@@ -105,6 +110,7 @@ typedef struct prod_particles {
     double time;
     double *lon, *lat, *u_east, *v_north, *mass, *thick, *conc;
     long *id;
+    double *snow;              /* NaN when the file has none */
 } prod_particles;
 
 typedef struct prod_summary {

@@ -48,6 +48,7 @@ typedef struct cfg_forcing_source {
     double issue_hours;     /* how often the provider issues new files */
     int optional_source;    /* key "optional_source": a missing source is not an error */
     int vectors;            /* FORCING_VECTORS_*: orientation of wind and current pairs */
+    int accumulation;       /* FORCING_ACCUMULATION_*: how accumulated fields are read */
 } cfg_forcing_source;
 
 typedef struct cfg_station { char *name; double lon, lat; } cfg_station;

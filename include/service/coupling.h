@@ -24,7 +24,7 @@ struct sph_config;
 
 #define COUPLING_MAX_SOURCES SPHICE_MAX_SOURCES
 enum { CPL_Q_UE, CPL_Q_VN, CPL_Q_TAIR, CPL_Q_QAIR, CPL_Q_SWDN, CPL_Q_LWDN, CPL_Q_UWE, CPL_Q_VWN,
-       CPL_Q_SSH, CPL_Q_GXE, CPL_Q_GYN, CPL_Q_SST, CPL_Q_FW, CPL_NQ };
+       CPL_Q_SSH, CPL_Q_GXE, CPL_Q_GYN, CPL_Q_SST, CPL_Q_FW, CPL_Q_SNOW, CPL_Q_PRECIP, CPL_NQ };
 
 typedef struct fc_coupling {
     const char *cname;          /* cycle name, for messages */
@@ -38,6 +38,7 @@ typedef struct fc_coupling {
      * merged east/north forcing */
     double *lon, *lat, *angle, *ue, *vn, *uwe, *vwn, *gxe, *gyn, *ssh;
     double *tair, *qair, *swdn, *lwdn, *sst, *fw;
+    double *snowfall, *precip;  /* kg m-2 s-1 */
     double *q[CPL_NQ];          /* one source's sample */
     unsigned char *bad;         /* the source could not serve this particle */
     long *ids_before;           /* ids and positions at the last fill (error messages) */
@@ -56,7 +57,9 @@ int coupling_open(fc_coupling *c, const struct sph_config *cfg, const forecast_r
 int coupling_alloc(fc_coupling *c, size_t cap, sph_error *err);
 
 /* Fills every live particle's forcing in P (ua va uw vw sshx sshy lat tair
- * qair swdn lwdn sst fw; fsens and flat NaN) at time t. Particles at
+ * qair swdn lwdn sst fw snowfall; fsens and flat NaN) at time t. Snowfall:
+ * a source's snowfall, else its precipitation times sph_snow_fraction of
+ * the air temperature, else 0. Particles at
  * plane x/y of projection proj; th gives the freezing point (the air
  * temperature where none is given) and the air pressure (humidity
  * default). thermo_on: a missing air temperature is an error. */

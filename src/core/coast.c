@@ -300,6 +300,7 @@ void sph_remove_outflow(sph_model *m)
     for (size_t k = P->n; k-- > 0;) {
         if (outside_open(m, P->x[k], P->y[k])) {
             m->budget.outflow += P->mass[k];
+            m->budget.snow_to_ocean += sph_particle_snow_mass(&m->prm.thermo, P, k);
             m->budget.removed_particles++;
             sph_particles_remove(P, k);
         }

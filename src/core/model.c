@@ -67,6 +67,7 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     if (!m)
         return NULL;
     m->prm = *p;
+    m->prm.thermo.rho_w = m->prm.rho_w; /* one sea-water density: drag and freeboard */
     m->cap = cap;
     sph_kernel_init(&m->kern, p->kernel, p->kernel_radius);
     int nl = p->thermo.nlayers > 0 ? p->thermo.nlayers : 1;
@@ -180,6 +181,7 @@ int sph_model_set_params(sph_model *m, const sph_params *p)
         return SPH_STEP_FATAL;
     m->rheo = r;
     m->prm = *p;
+    m->prm.thermo.rho_w = m->prm.rho_w; /* one sea-water density: drag and freeboard */
     sph_kernel_init(&m->kern, p->kernel, p->kernel_radius);
     set_turning(m);
     return SPH_STEP_OK;
@@ -282,9 +284,10 @@ static int prepare(sph_model *m, sph_status *st)
 static void update_budget(sph_model *m)
 {
     sph_particles *P = m->P;
-    double mass = 0, area = 0, vol = 0, ke = 0;
+    double mass = 0, area = 0, vol = 0, ke = 0, snow = 0;
     for (size_t k = 0; k < P->n; k++) { /* serial: bit-reproducible */
         mass += P->mass[k];
+        snow += sph_particle_snow_mass(&m->prm.thermo, P, k);
         area += P->mass[k] / (m->prm.rho_i * P->thick[k]);
         vol += P->mass[k] / m->prm.rho_i;
         ke += 0.5 * P->mass[k] * (P->u[k] * P->u[k] + P->v[k] * P->v[k]);
@@ -293,6 +296,7 @@ static void update_budget(sph_model *m)
     m->budget.area = area;
     m->budget.volume = vol;
     m->budget.kinetic_energy = ke;
+    m->budget.snow = snow;
 }
 
 static int check_health(sph_model *m, sph_status *st)
@@ -324,6 +328,11 @@ static int check_health(sph_model *m, sph_status *st)
     double tol = p->mass_tolerance * fmax(fabs(expect), fabs(b->mass)) + 1e-300;
     if (fabs(b->mass - expect) > tol)
         return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "total mass", b->mass, expect,
+                              "changed beyond round-off with no source or sink to explain it");
+    double sexp = sph_budget_snow_expected(b);
+    double stol = p->mass_tolerance * fmax(fmax(fabs(sexp), fabs(b->snow)), b->snow_initial + b->snowfall) + 1e-300;
+    if (fabs(b->snow - sexp) > stol)
+        return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "total snow mass", b->snow, sexp,
                               "changed beyond round-off with no source or sink to explain it");
     return SPH_STEP_OK;
 }
@@ -426,6 +435,7 @@ int sph_model_init(sph_model *m, sph_status *st)
     memset(&m->budget, 0, sizeof m->budget);
     update_budget(m);
     m->budget.mass_initial = m->budget.mass;
+    m->budget.snow_initial = m->budget.snow;
     m->time = 0.0;
     m->thermo_accum = 0.0;
     m->steps = 0;

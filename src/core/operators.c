@@ -67,6 +67,7 @@ void sph_diagnose_pass(sph_model *m)
         double hbar = P->dens[k] / p->rho_i;
         double A = hbar / P->thick[k];
         if (A > 1.0) { /* ridging: A = 1, the ice thickens at constant volume */
+            P->snow[k] *= P->thick[k] / hbar; /* the snow piles up with it: snow mass kept */
             P->thick[k] = hbar;
             A = 1.0;
         }

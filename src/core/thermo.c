@@ -24,6 +24,10 @@ void sph_thermo_params_default(sph_thermo_params *p)
     p->salinity_b = 0.573;
     p->rho_s = 330.0;
     p->k_s = 0.31;
+    p->rho_w = 1026.0;
+    p->snow_ice = 1;
+    p->snow_t_snow = 0.0;
+    p->snow_t_rain = 2.0;
     p->ocean_salinity = 32.0;
     p->fw_default = 2.0;
     p->emissivity = 0.98;
@@ -75,6 +79,10 @@ int sph_thermo_params_check(const sph_thermo_params *p, const char **name, doubl
         {"salinity_b", p->salinity_b, 1e-3, 10.0},
         {"rho_s", p->rho_s, 50.0, 700.0},
         {"k_s", p->k_s, 0.01, 2.0},
+        {"rho_w", p->rho_w, p->rho_i, 1100.0}, /* ice floats */
+        {"snow_ice", p->snow_ice, 0, 1},
+        {"snow_t_snow", p->snow_t_snow, -20.0, 10.0},
+        {"snow_t_rain", p->snow_t_rain, p->snow_t_snow, 10.0},
         /* The base must be colder than the melting point of the bottom ice
          * (ocean at least as salty as the ice), else new ice has no latent heat. */
         {"ocean_salinity", p->ocean_salinity, p->salinity_max, 45.0},
@@ -124,6 +132,7 @@ int sph_thermo_params_check(const sph_thermo_params *p, const char **name, doubl
 /* Per-particle outcome, written by one thread, read serially. */
 typedef struct {
     double growth, new_ice, melt_top, melt_bottom, lateral_melt; /* kg */
+    double snowfall, snow_melt, snow_ice, snow_to_ocean;         /* kg (snow_ice: of ice) */
     int code;
     sph_fault kind;
     const char *quantity, *what;
@@ -273,6 +282,15 @@ static int check_particle(const sph_thermo_params *p, const sph_particles *P, si
     return SPH_STEP_OK;
 }
 
+double sph_particle_snow_mass(const sph_thermo_params *p, const sph_particles *P, size_t k)
+{
+    if (!(P->snow[k] > 0.0) || !(P->mass[k] > 0.0) || !(P->thick[k] > 0.0))
+        return 0.0;
+    return p->rho_s * P->snow[k] * P->mass[k] / (p->rho_i * P->thick[k]);
+}
+
+static double c0_snow(const sph_particles *P, size_t k) { return P->snow[k] > 0.0 ? P->snow[k] : 0.0; }
+
 static void mark_melted(sph_particles *P, size_t k)
 {
     P->mass[k] = 0.0;
@@ -285,6 +303,7 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
                           sph_column_solver *solver, particle_outcome *o)
 {
     o->growth = o->new_ice = o->melt_top = o->melt_bottom = o->lateral_melt = 0.0;
+    o->snowfall = o->snow_melt = o->snow_ice = o->snow_to_ocean = 0.0;
     o->code = SPH_STEP_OK;
     if (!(P->mass[k] > 0.0 && P->thick[k] > 0.0 && P->conc[k] > 0.0))
         return; /* already melted out, waiting for removal */
@@ -309,7 +328,11 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
      * and the coupling leave it) takes the default. */
     f.fw = isfinite(P->fw[k]) ? P->fw[k] : p->fw_default;
     f.tsurf_prescribed = NAN;
-    f.snowfall = 0.0; /* no snowfall forcing on particles yet */
+    /* Snowfall forcing is water equivalent, kg m-2 s-1 over the footprint:
+     * the part on the ice (A) builds the snow; on the leads it goes to the
+     * ocean (not part of the ice budget). Depth rate = flux / rho_s. */
+    double sf = P->snowfall[k] > 0.0 ? P->snowfall[k] : 0.0;
+    f.snowfall = sf / p->rho_s;
 
     int multi;
     if (p->model == SPH_THERMO_MULTI_LAYER)
@@ -334,9 +357,18 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
     }
     /* Column changes, per unit ice area -> kg over the ice part of the footprint. */
     const double m_ice = rho * A * area;
+    const double hs0 = c0_snow(P, k);
     o->growth = m_ice * r.growth;
     o->melt_top = m_ice * r.melt_top;
     o->melt_bottom = m_ice * r.melt_bottom;
+    /* Snow (kg over the ice part): fallen, melted, flooded into ice; what
+     * else left the column (melt-out) goes to the ocean. snow_ice is the
+     * ice it made, rho_i dh = rho_s ds: one mass, both budgets. */
+    const double s_ice = p->rho_s * A * area;
+    o->snowfall = sf * dt * A * area;
+    o->snow_melt = s_ice * r.snow_melt;
+    o->snow_ice = s_ice * r.snow_to_ice;
+    o->snow_to_ocean = o->snowfall + s_ice * hs0 - o->snow_melt - o->snow_ice - s_ice * c.snow;
     if (r.melted_out) {
         column_to_particle(&c, P, k);
         mark_melted(P, k);
@@ -378,15 +410,18 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
             double dV = Fow * (1.0 - A) * dt / (qbar < 0.0 ? -qbar : rho * p->L0);
             if (dV >= A * h) {
                 o->lateral_melt = rho * area * A * h;
+                o->snow_to_ocean += p->rho_s * P->snow[k] * area * A;
                 mark_melted(P, k);
                 return;
             }
             o->lateral_melt = rho * area * dV;
+            o->snow_to_ocean += p->rho_s * P->snow[k] * area * dV / h; /* the snow on the melted area */
             A -= dV / h;
         }
     }
     if (A < p->min_conc) {
         o->lateral_melt += rho * area * A * h;
+        o->snow_to_ocean += p->rho_s * P->snow[k] * area * A;
         mark_melted(P, k);
         return;
     }
@@ -448,6 +483,10 @@ int sph_thermo_step(const sph_thermo_params *p, sph_particles *P, double dt, sph
             b->melt_top += o->melt_top;
             b->melt_bottom += o->melt_bottom;
             b->lateral_melt += o->lateral_melt;
+            b->snow_ice += o->snow_ice;
+            b->snowfall += o->snowfall;
+            b->snow_melt += o->snow_melt;
+            b->snow_to_ocean += o->snow_to_ocean;
         }
     }
     return SPH_STEP_OK;

@@ -311,6 +311,7 @@ static void result_clear(sph_column_result *r)
 {
     r->growth = r->melt_top = r->melt_bottom = r->snow_melt = 0.0;
     r->albedo = r->fatm = r->fmelt = r->fcond_top = r->fcond_bottom = r->focean = 0.0;
+    r->snow_to_ice = r->snow_ice = 0.0;
     r->energy_to_ocean = 0.0;
     r->melted_out = 0;
     r->iterations = 0;
@@ -417,6 +418,8 @@ int sph_column_step_zero_layer(const sph_thermo_params *p, sph_column *c, const 
     c->snow = hs;
     c->tsurf = Ts;
     set_linear_profile(p, c, Ts > Tmelt ? Tmelt : Ts);
+    if (p->snow_ice)
+        sph_column_snow_ice(p, c, r);
     return rc;
 }
 
@@ -645,5 +648,54 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
     remap_layers(nseg, seg, hnew, n, c->enth);
     c->thick = hnew;
     c->snow = hs;
+    if (p->snow_ice)
+        sph_column_snow_ice(p, c, r);
     return rc;
+}
+
+/* ---------------- snow: rain/snow split, snow-ice -------------------- */
+
+double sph_snow_fraction(const sph_thermo_params *p, double tair)
+{
+    if (!isfinite(tair))
+        return 0.0;
+    if (tair <= p->snow_t_snow)
+        return 1.0;
+    if (tair >= p->snow_t_rain)
+        return 0.0;
+    return (p->snow_t_rain - tair) / (p->snow_t_rain - p->snow_t_snow);
+}
+
+int sph_column_snow_ice(const sph_thermo_params *p, sph_column *c, sph_column_result *r)
+{
+    double h = c->thick, hs = c->snow;
+    if (!(h > 0.0) || !(hs > 0.0))
+        return 0;
+    double excess = p->rho_s * hs - (p->rho_w - p->rho_i) * h; /* kg/m^2 below the waterline */
+    if (!(excess > 0.0))
+        return 0;
+    double dh = excess / p->rho_w;
+    double ds = p->rho_i * dh / p->rho_s;
+    if (ds > hs) { /* only when rho_i > rho_w: not in the parameter ranges */
+        ds = hs;
+        dh = p->rho_s * ds / p->rho_i;
+    }
+    /* The zero-layer keeps the linear profile; the multi-layer column
+     * gains a top segment of q = -rho_s L0 ds / dh, remapped. */
+    int n = c->nlayers;
+    segment seg[SPH_MAX_LAYERS + 1];
+    seg[0].dz = dh;
+    seg[0].q = -p->rho_s * p->L0 * ds / dh;
+    for (int k = 0; k < n; k++) {
+        seg[k + 1].dz = h / n;
+        seg[k + 1].q = c->enth[k];
+    }
+    remap_layers(n + 1, seg, h + dh, n, c->enth);
+    c->thick = h + dh;
+    c->snow = hs - ds;
+    if (r) {
+        r->snow_to_ice += ds;
+        r->snow_ice += dh;
+    }
+    return 1;
 }

@@ -70,6 +70,7 @@ static const char *const late_names[] = {"fail", "stale", NULL};
 static const char *const engine_names[] = {"forecast", "test-double", NULL};
 static const char *const level_names[] = {"error", "warn", "info", "debug", NULL};
 static const char *const vectors_names[] = {"auto", "earth", "grid", NULL};
+static const char *const accumulation_names[] = {"interval", "running", NULL};
 
 static const cfg_key forcing_keys[] = {
     K(cfg_forcing_source, "name", CT_STRING, name, NULL, 1, SPHICE_MAX_NAME, 0, NULL,
@@ -81,7 +82,7 @@ static const cfg_key forcing_keys[] = {
     K(cfg_forcing_source, "variables", CT_STRMAP, variables, "{}", 0, 64, 0, NULL,
       "Renames {standard_name: variable_in_file} for files without CF standard_name attributes."),
     K(cfg_forcing_source, "required", CT_STRLIST, required, "[]", 0, 16, 0, NULL,
-      "Quantities that must be found: wind, tair, humidity, swdn, lwdn, current, ssh, sst, ocean_flux."),
+      "Quantities that must be found: wind, tair, humidity, swdn, lwdn, current, ssh, sst, ocean_flux, snowfall, precipitation."),
     K(cfg_forcing_source, "optional", CT_STRLIST, optional_q, "[]", 0, 16, 0, NULL,
       "Quantities used when present (same names as required)."),
     K(cfg_forcing_source, "max_age_hours", CT_DOUBLE, max_age_hours, "24", 0, 720, 0, NULL,
@@ -92,6 +93,8 @@ static const cfg_key forcing_keys[] = {
       "A missing optional source does not fail the cycle (e.g. tides)."),
     K(cfg_forcing_source, "vectors", CT_ENUM, vectors, "\"auto\"", 0, 0, 0, vectors_names,
       "Wind and current components: auto (from the standard_name or the file's conventions; a pair found by name on a curvilinear grid is refused), earth (east/north) or grid (along the grid axes, rotated)."),
+    K(cfg_forcing_source, "accumulation", CT_ENUM, accumulation, "\"interval\"", 0, 0, 0, accumulation_names,
+      "Accumulated fields (J m-2; kg m-2 or m of water of snowfall and precipitation): interval (each value is the amount over the interval ending at its time, ERA5 hourly) or running (the amount since a start that may reset, GFS and forecasts: consecutive values are differenced; a time whose grid total drops starts a new accumulation)."),
 };
 static const cfg_table forcing_table = {forcing_keys, sizeof forcing_keys / sizeof forcing_keys[0],
                                         sizeof(cfg_forcing_source)};
@@ -740,7 +743,7 @@ int config_quantity_flag(const char *name)
     static const struct { const char *name; int flag; } q[] = {
         {"wind", FQ_WIND}, {"tair", FQ_TAIR}, {"humidity", FQ_HUMIDITY}, {"swdn", FQ_SWDN},
         {"lwdn", FQ_LWDN}, {"current", FQ_CURRENT}, {"ssh", FQ_SSH}, {"sst", FQ_SST},
-        {"ocean_flux", FQ_OCEAN_FLUX}};
+        {"ocean_flux", FQ_OCEAN_FLUX}, {"snowfall", FQ_SNOWFALL}, {"precipitation", FQ_PRECIP}};
     for (size_t i = 0; i < sizeof q / sizeof q[0]; i++)
         if (!strcmp(q[i].name, name))
             return q[i].flag;
@@ -836,7 +839,7 @@ static int cross_check(const struct sph_config *c, const char *origin, sph_error
                 if (config_quantity_flag(lists[l]->v[j]) < 0)
                     return sph_err_set(err, SPH_ERR_CONFIG,
                                        "config %s: forcing[%zu].%s[%zu]: unknown quantity \"%s\" (wind, tair, "
-                                       "humidity, swdn, lwdn, current, ssh, sst, ocean_flux)",
+                                       "humidity, swdn, lwdn, current, ssh, sst, ocean_flux, snowfall, precipitation)",
                                        origin, i, l ? "optional" : "required", j, lists[l]->v[j]);
         for (size_t j = 0; j < s->urls.n; j++)
             if (!s->urls.v[j][0])

@@ -47,6 +47,7 @@ int forecast_source_spec(const struct sph_config *cfg, size_t s, const char *con
         sp->nmap = src->variables.n;
     }
     sp->vectors = src->vectors; /* FORCING_VECTORS_* in the order of the key's names */
+    sp->accumulation = src->accumulation; /* FORCING_ACCUMULATION_*, likewise */
     for (size_t k = 0; k < src->required.n; k++)
         sp->required |= (unsigned)config_quantity_flag(src->required.v[k]);
     for (size_t k = 0; k < src->optional_q.n; k++)
@@ -106,7 +107,7 @@ int coupling_alloc(fc_coupling *c, size_t cap, sph_error *err)
     size_t n = cap ? cap : 1;
     double **arrays[] = {&c->lon, &c->lat, &c->angle, &c->ue, &c->vn, &c->uwe, &c->vwn, &c->gxe,
                          &c->gyn, &c->ssh, &c->tair, &c->qair, &c->swdn, &c->lwdn, &c->sst, &c->fw,
-                         &c->lon_before, &c->lat_before};
+                         &c->lon_before, &c->lat_before, &c->snowfall, &c->precip};
     int ok = 1;
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         ok &= (*arrays[k] = calloc(n, sizeof(double))) != NULL;
@@ -124,7 +125,7 @@ void coupling_free(fc_coupling *c)
     c->nforc = 0;
     double *arrays[] = {c->lon, c->lat, c->angle, c->ue, c->vn, c->uwe, c->vwn, c->gxe, c->gyn,
                         c->ssh, c->tair, c->qair, c->swdn, c->lwdn, c->sst, c->fw, c->lon_before,
-                        c->lat_before};
+                        c->lat_before, c->snowfall, c->precip};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         free(arrays[k]);
     for (int k = 0; k < CPL_NQ; k++)
@@ -139,7 +140,7 @@ static void sample_view(fc_coupling *c, size_t k, forcing_sample *s)
     memset(s, 0, sizeof *s);
     double **slot[CPL_NQ] = {&s->u_east, &s->v_north, &s->tair, &s->qair, &s->swdn, &s->lwdn,
                              &s->uw_east, &s->vw_north, &s->ssh, &s->ssh_dx_east, &s->ssh_dy_north,
-                             &s->sst, &s->fw};
+                             &s->sst, &s->fw, &s->snowfall, &s->precip};
     for (int q = 0; q < CPL_NQ; q++)
         *slot[q] = c->q[q] + k;
 }
@@ -207,9 +208,9 @@ static void merge_source(fc_coupling *c, size_t n, unsigned got, unsigned before
         {CPL_Q_QAIR, FQ_HUMIDITY, 0}, {CPL_Q_SWDN, FQ_SWDN, 0}, {CPL_Q_LWDN, FQ_LWDN, 0},
         {CPL_Q_UWE, FQ_CURRENT, 1}, {CPL_Q_VWN, FQ_CURRENT, 1}, {CPL_Q_SSH, FQ_SSH, 1},
         {CPL_Q_GXE, FQ_SSH, 1}, {CPL_Q_GYN, FQ_SSH, 1}, {CPL_Q_SST, FQ_SST, 0},
-        {CPL_Q_FW, FQ_OCEAN_FLUX, 0}};
+        {CPL_Q_FW, FQ_OCEAN_FLUX, 0}, {CPL_Q_SNOW, FQ_SNOWFALL, 0}, {CPL_Q_PRECIP, FQ_PRECIP, 0}};
     double *dst[CPL_NQ] = {c->ue, c->vn, c->tair, c->qair, c->swdn, c->lwdn, c->uwe, c->vwn, c->ssh,
-                           c->gxe, c->gyn, c->sst, c->fw};
+                           c->gxe, c->gyn, c->sst, c->fw, c->snowfall, c->precip};
     for (size_t m = 0; m < sizeof map / sizeof map[0]; m++) {
         if (!(got & map[m].flag) || (!map[m].sum && (before & map[m].flag)))
             continue;
@@ -245,6 +246,8 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
         c->lwdn[k] = NAN;
         c->sst[k] = NAN; /* the thermodynamics takes the freezing point */
         c->fw[k] = NAN;  /* the thermodynamics takes fw_default */
+        c->snowfall[k] = 0.0;
+        c->precip[k] = 0.0;
     }
     unsigned provided = 0;
     for (size_t src = 0; src < c->nforc; src++) {
@@ -288,6 +291,13 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
         P->fw[k] = c->fw[k];
         P->fsens[k] = NAN;
         P->flat[k] = NAN;
+        /* water equivalent; packing noise below zero is no snow */
+        double sf = 0.0;
+        if (provided & FQ_SNOWFALL)
+            sf = c->snowfall[k];
+        else if (provided & FQ_PRECIP)
+            sf = c->precip[k] * sph_snow_fraction(th, T);
+        P->snowfall[k] = sf > 0.0 ? sf : 0.0;
     }
     /* for messages about a step that fails */
     memcpy(c->ids_before, P->id, n * sizeof *P->id);

@@ -78,7 +78,7 @@ static void engine_free(engine *e)
     sph_model_free(e->m);
     double *arrays[] = {e->olon, e->olat, e->pue, e->pvn, e->div, e->shear, e->gx, e->gy, e->g_conc,
                         e->g_hbar, e->g_thick, e->g_u, e->g_v, e->g_pres, e->g_div, e->g_shear,
-                        e->g_dens};
+                        e->g_dens, e->g_snow};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         free(arrays[k]);
     free(e->g_land);

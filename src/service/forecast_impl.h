@@ -49,6 +49,7 @@ typedef struct engine {
     prod_grid grid;
     size_t npts;
     double *gx, *gy, *g_conc, *g_hbar, *g_thick, *g_u, *g_v, *g_pres, *g_div, *g_shear, *g_dens;
+    double *g_snow; /* snow thickness on the ice, m */
     unsigned char *g_land;
     prod_writer *pw;
     char restart_path[4200];
@@ -104,6 +105,8 @@ int fc_set_observation(engine *e, sph_error *err);
 int fc_read_observation(const struct sph_config *cfg, const char *path, const prod_grid *g, double t_valid,
                         double **out, double *t_obs, sph_error *err);
 int fc_write_output(engine *e, double t, sph_error *err);
+/* 1 when a forcing source may provide snowfall: products carry sisnthick. */
+int fc_snow_possible(const struct sph_config *cfg);
 int fc_write_restart(engine *e, double t, sph_error *err);
 
 #endif

@@ -47,7 +47,7 @@ int fc_setup_grid(engine *e, sph_error *err)
     e->npts = n;
     int ok = 1;
     double **arrays[] = {&e->gx, &e->gy, &e->g_conc, &e->g_hbar, &e->g_thick, &e->g_u, &e->g_v,
-                         &e->g_pres, &e->g_div, &e->g_shear, &e->g_dens};
+                         &e->g_pres, &e->g_div, &e->g_shear, &e->g_dens, &e->g_snow};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         *arrays[k] = xcalloc(n, sizeof(double), &ok);
     e->g_land = xcalloc(n, 1, &ok);
@@ -95,6 +95,7 @@ int fc_open_products(engine *e, prod_station *stations, sph_error *err)
     o.stations = ns ? stations : NULL;
     o.nstations = ns;
     o.write_particles = cfg->output.products.particles;
+    o.write_snow = fc_snow_possible(cfg);
     if (cfg->output.products.maps) {
         /* maps every k output times: k from the smallest gap of map_times */
         double gap = 24.0;
@@ -187,6 +188,29 @@ int fc_set_observation(engine *e, sph_error *err)
     return rc;
 }
 
+/* 1 when snow can appear: a forcing source lists snowfall or
+ * precipitation, or lists no quantities (then it reads whatever its kind
+ * provides, snowfall included). Products then carry sisnthick. */
+int fc_snow_possible(const struct sph_config *cfg)
+{
+    unsigned want = FQ_SNOWFALL | FQ_PRECIP;
+    for (size_t s = 0; s < cfg->nforcing; s++) {
+        const cfg_forcing_source *src = &cfg->forcing[s];
+        if (src->kind != FORCING_ATMOSPHERE)
+            continue;
+        if (src->required.n == 0 && src->optional_q.n == 0)
+            return 1;
+        const cfg_strlist *lists[2] = {&src->required, &src->optional_q};
+        for (int l = 0; l < 2; l++)
+            for (size_t j = 0; j < lists[l]->n; j++) {
+                int f = config_quantity_flag(lists[l]->v[j]);
+                if (f > 0 && ((unsigned)f & want))
+                    return 1;
+            }
+    }
+    return 0;
+}
+
 /* One output time: particles -> grid through the SPH interpolation. */
 int fc_write_output(engine *e, double t, sph_error *err)
 {
@@ -209,15 +233,17 @@ int fc_write_output(engine *e, double t, sph_error *err)
         double d = P->e11[k] - P->e22[k];
         e->shear[k] = sqrt(d * d + 4.0 * P->e12[k] * P->e12[k]);
     }
+    const int snow = fc_snow_possible(e->cfg);
     if (n > 0) {
-        const double *fields[6] = {P->thick, e->pue, e->pvn, P->pres, e->div, e->shear};
-        double *out[6] = {e->g_thick, e->g_u, e->g_v, e->g_pres, e->g_div, e->g_shear};
-        if (sph_model_interpolate(e->m, e->npts, e->gx, e->gy, 6, fields, out, e->g_dens) != SPH_STEP_OK)
+        const double *fields[7] = {P->thick, e->pue, e->pvn, P->pres, e->div, e->shear, P->snow};
+        double *out[7] = {e->g_thick, e->g_u, e->g_v, e->g_pres, e->g_div, e->g_shear, e->g_snow};
+        if (sph_model_interpolate(e->m, e->npts, e->gx, e->gy, snow ? 7 : 6, fields, out, e->g_dens) != SPH_STEP_OK)
             return sph_err_set(err, SPH_ERR_NUMERICS,
                                "output: SPH interpolation: too many particles near one grid point");
     } else {
         for (size_t k = 0; k < e->npts; k++) {
             e->g_thick[k] = e->g_u[k] = e->g_v[k] = e->g_pres[k] = e->g_div[k] = e->g_shear[k] = NAN;
+            e->g_snow[k] = NAN;
             e->g_dens[k] = 0.0;
         }
     }
@@ -230,9 +256,11 @@ int fc_write_output(engine *e, double t, sph_error *err)
     }
     prod_fields f = {.conc = e->g_conc, .hbar = e->g_hbar, .thick = e->g_thick, .u_east = e->g_u,
                      .v_north = e->g_v, .pressure = e->g_pres, .divergence = e->g_div,
-                     .shear = e->g_shear, .land = e->lm ? e->g_land : NULL};
+                     .shear = e->g_shear, .snow = snow ? e->g_snow : NULL,
+                     .land = e->lm ? e->g_land : NULL};
     prod_particles_view pv = {.n = n, .lon = e->olon, .lat = e->olat, .u_east = e->pue, .v_north = e->pvn,
-                              .mass = P->mass, .thick = P->thick, .conc = P->conc, .id = P->id};
+                              .mass = P->mass, .thick = P->thick, .conc = P->conc, .snow = P->snow,
+                              .id = P->id};
     return products_add_time(e->pw, t, &f, e->cfg->output.products.particles ? &pv : NULL, err);
 }
 

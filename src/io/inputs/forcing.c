@@ -45,6 +45,15 @@ static const struct slot_def {
     [FV_SST] = {{"sea_surface_temperature"}, {NULL}, "degC", 0},
     [FV_FW] = {{"upward_sea_ice_basal_heat_flux"}, {NULL}, "W m-2", 1},
     [FV_RH] = {{"relative_humidity"}, {NULL}, "1", 0},
+    /* water: a flux (kg m-2 s-1, or m s-1 of liquid water equivalent) or an
+     * accumulated amount (kg m-2, or m of liquid water equivalent); see
+     * water_units */
+    [FV_SNOW] = {{"snowfall_flux", "snowfall_amount", "lwe_thickness_of_snowfall_amount",
+                  "lwe_snowfall_rate"},
+                 {NULL}, "kg m-2 s-1", 1},
+    [FV_PRECIP] = {{"precipitation_flux", "precipitation_amount",
+                    "lwe_thickness_of_precipitation_amount", "lwe_precipitation_rate"},
+                   {NULL}, "kg m-2 s-1", 1},
 };
 
 /* Physical bounds of each slot in sphice units (docs/forcing.md): a value
@@ -65,6 +74,10 @@ static const struct { double lo, hi; } slot_bounds[FV_COUNT] = {
     [FV_SST] = {-5.0, 45.0},             /* degC: sea water freezes at about -2 */
     [FV_FW] = {-2000.0, 2000.0},         /* W/m2 */
     [FV_RH] = {0.0, 1.5},                /* fraction: supersaturation stays far below 1.5 */
+    /* kg m-2 s-1: 0.1 is 360 mm/h, above any record; packing noise of
+     * accumulations may go slightly below 0 (the coupling takes max(0, .)) */
+    [FV_SNOW] = {-1e-3, 0.1},
+    [FV_PRECIP] = {-1e-3, 0.1},
 };
 
 /* FVEC_STD_EARTH or FVEC_STD_GRID when standard name sn names slot w's
@@ -97,6 +110,12 @@ static const forcing_name_map default_names[] = {
     {"surface_air_pressure", "pressfc"},
     {"surface_downwelling_shortwave_flux_in_air", "dswrfsfc"},
     {"surface_downwelling_longwave_flux_in_air", "dlwrfsfc"},
+    /* ERA5 (CDS): sf and tp, metres of water equivalent, accumulated */
+    {"snowfall_flux", "sf"},        {"precipitation_flux", "tp"},
+    /* GFS: precipitation rate (kg m-2 s-1) over NOMADS OPeNDAP and as
+     * wgrib2 -netcdf writes it; the accumulated APCP (kg m-2) after it */
+    {"precipitation_flux", "pratesfc"}, {"precipitation_flux", "PRATE_surface"},
+    {"precipitation_flux", "apcpsfc"},  {"precipitation_flux", "APCP_surface"},
 };
 
 const forcing_name_map *forcing_default_names(size_t *n)
@@ -232,6 +251,54 @@ static int find_var(const forcing_varinfo *vars, size_t nv, const forcing_source
     return -1;
 }
 
+/* Snowfall and precipitation: the units' dimension says what the values
+ * are. kg m-2 s-1: a flux; m s-1: a rate of liquid water equivalent
+ * (times 1000 kg m-3); kg m-2: an accumulated amount; m: an accumulated
+ * depth of liquid water equivalent (times 1000 kg m-3). ECMWF writes ERA5's
+ * sf as "m of water equivalent": that suffix is read as liquid water
+ * equivalent. Anything else is refused. */
+static int water_units(fsource *s, fvar *v, const char *path, fvfile *vf, cf_units *units,
+                       sph_error *err)
+{
+    static const char lwe_suffix[] = " of water equivalent";
+    char u[sizeof vf->units];
+    snprintf(u, sizeof u, "%s", vf->units);
+    size_t ul = strlen(u), sl = sizeof lwe_suffix - 1;
+    int lwe_named = ul > sl && strcmp(u + ul - sl, lwe_suffix) == 0;
+    if (lwe_named)
+        u[ul - sl] = '\0';
+    static const struct { const char *to; double factor; int accumulated, lwe; } forms[] = {
+        {"kg m-2 s-1", 1.0, 0, 0}, {"m s-1", 1000.0, 0, 1}, {"kg m-2", 1.0, 1, 0}, {"m", 1000.0, 1, 1}};
+    int rc = -2;
+    for (size_t i = 0; i < sizeof forms / sizeof forms[0]; i++) {
+        if (lwe_named && !forms[i].lwe)
+            continue;
+        rc = cf_units_linear(units, u, forms[i].to, &vf->a, &vf->b);
+        if (rc == -1)
+            break;
+        if (rc != 0)
+            continue;
+        vf->a *= forms[i].factor;
+        vf->b *= forms[i].factor;
+        if (v->nvfiles > 0 && forms[i].accumulated != v->accumulated)
+            return forcing_fail(err, s, path, SPH_ERR_UNITS,
+                                "variable '%s' is accumulated in some files and not in others",
+                                v->varname);
+        v->accumulated = forms[i].accumulated;
+        return 0;
+    }
+    if (rc == -1)
+        return forcing_fail(err, s, path, SPH_ERR_UNITS,
+                            "unknown units '%s' of variable '%s' (%s): set forcing[].variables to "
+                            "a variable in kg m-2 s-1, kg m-2 or metres of water equivalent",
+                            vf->units, v->varname, v->standard_name);
+    return forcing_fail(err, s, path, SPH_ERR_UNITS,
+                        "units '%s' of variable '%s' (%s) are neither a flux (kg m-2 s-1, m s-1 of "
+                        "water) nor an amount (kg m-2, m of water): set forcing[].variables to "
+                        "another variable",
+                        vf->units, v->varname, v->standard_name);
+}
+
 /* Packing, missing values and units of one variable in one file. */
 static int read_var_atts(fsource *s, fvar *v, const char *path, void *fh, int varid, fvfile *vf,
                          cf_units *units, sph_error *err)
@@ -244,8 +311,10 @@ static int read_var_atts(fsource *s, fvar *v, const char *path, void *fh, int va
                                 v->standard_name);
         snprintf(vf->units, sizeof vf->units, "1");
     }
-    int rc = cf_units_linear(units, vf->units, d->target, &vf->a, &vf->b);
-    int accumulated = 0;
+    int rc, accumulated = 0;
+    if (v->which == FV_SNOW || v->which == FV_PRECIP)
+        return water_units(s, v, path, vf, units, err);
+    rc = cf_units_linear(units, vf->units, d->target, &vf->a, &vf->b);
     if (rc == -2 && d->accumulable &&
         cf_units_linear(units, vf->units, "J m-2", &vf->a, &vf->b) == 0) {
         rc = 0;
@@ -336,7 +405,7 @@ static int cmp_time(const void *a, const void *b)
 }
 
 static const unsigned kind_defaults[] = {
-    [FORCING_ATMOSPHERE] = FQ_WIND | FQ_TAIR | FQ_HUMIDITY | FQ_SWDN | FQ_LWDN,
+    [FORCING_ATMOSPHERE] = FQ_WIND | FQ_TAIR | FQ_HUMIDITY | FQ_SWDN | FQ_LWDN | FQ_SNOWFALL | FQ_PRECIP,
     [FORCING_OCEAN] = FQ_CURRENT | FQ_SSH | FQ_SST | FQ_OCEAN_FLUX,
     [FORCING_TIDE] = FQ_CURRENT | FQ_SSH,
 };
@@ -353,6 +422,8 @@ static unsigned slot_flag(fv_slot w)
     case FV_SSH: return FQ_SSH;
     case FV_SST: return FQ_SST;
     case FV_FW: return FQ_OCEAN_FLUX;
+    case FV_SNOW: return FQ_SNOWFALL;
+    case FV_PRECIP: return FQ_PRECIP;
     default: return 0;
     }
 }
@@ -479,6 +550,7 @@ static int read_slice_at(forcing *f, fvar *v, size_t ti, size_t mi, double *dst,
         free(raw);
     }
     f->reads++;
+    const int running = v->accumulated && s->accumulation == FORCING_ACCUMULATION_RUNNING;
     for (size_t p = 0; p < n; p++) {
         double x = dst[p];
         int missing = vf->has_fill && (x == vf->fill || (isnan(vf->fill) && isnan(x)));
@@ -499,9 +571,12 @@ static int read_slice_at(forcing *f, fvar *v, size_t ti, size_t mi, double *dst,
         if (!missing && !vf->valid_raw)
             missing = x < vf->vmin || x > vf->vmax;
         x = vf->a * x + vf->b;
-        if (v->accumulated)
+        if (v->accumulated && running)
+            ; /* an amount since the start: read_slice differences and checks it */
+        else if (v->accumulated)
             x /= ft ? ft->period : 1.0;
-        if (!missing && !(x >= slot_bounds[v->which].lo && x <= slot_bounds[v->which].hi)) {
+        if (!missing && !running &&
+            !(x >= slot_bounds[v->which].lo && x <= slot_bounds[v->which].hi)) {
             char when[40] = "static";
             if (ft)
                 iso(ft->t, when, sizeof when);
@@ -521,7 +596,7 @@ static int read_slice_at(forcing *f, fvar *v, size_t ti, size_t mi, double *dst,
 
 /* A slice; along a merged dimension (ERA5's expver) the first valid
  * value at each point, in index order. */
-static int read_slice(forcing *f, fvar *v, size_t ti, double *dst, sph_error *err)
+static int read_slice_merged(forcing *f, fvar *v, size_t ti, double *dst, sph_error *err)
 {
     const ftime *ft = v->ntimes ? &v->times[ti] : NULL;
     const fvfile *vf = &v->vfiles[ft ? ft->vf : 0];
@@ -546,6 +621,57 @@ static int read_slice(forcing *f, fvar *v, size_t ti, double *dst, sph_error *er
     }
     free(tmp);
     return rc;
+}
+
+/* A slice in sphice units. A running accumulation (forcing[].accumulation
+ * "running") becomes the mean rate over the interval ending at time ti:
+ * (a_k - a_{k-1}) / (t_k - t_{k-1}), or a_k / (t_k - t_{k-1}) when the
+ * grid total of a_k is below that of a_{k-1} (the accumulation was reset
+ * at t_{k-1}); the first time takes the rate of the interval after it. */
+static int read_slice(forcing *f, fvar *v, size_t ti, double *dst, sph_error *err)
+{
+    if (!(v->accumulated && v->src->accumulation == FORCING_ACCUMULATION_RUNNING))
+        return read_slice_merged(f, v, ti, dst, err);
+    size_t k = ti == 0 ? 1 : ti, n = v->grid->nx * v->grid->ny;
+    const char *path = v->src->paths[v->vfiles[v->times[k].vf].file];
+    double *prev = malloc(n * sizeof *prev);
+    if (!prev)
+        return forcing_fail(err, v->src, path, SPH_ERR_NOMEM, "out of memory");
+    int rc = read_slice_merged(f, v, k, dst, err);
+    if (!rc)
+        rc = read_slice_merged(f, v, k - 1, prev, err);
+    if (rc) {
+        free(prev);
+        return rc;
+    }
+    double sum_now = 0.0, sum_prev = 0.0;
+    for (size_t p = 0; p < n; p++)
+        if (isfinite(dst[p]) && isfinite(prev[p])) {
+            sum_now += dst[p];
+            sum_prev += prev[p];
+        }
+    int reset = sum_now < sum_prev;
+    double dt = v->times[k].t - v->times[k - 1].t;
+    for (size_t p = 0; p < n; p++) {
+        if (!isfinite(dst[p]))
+            continue;
+        double x = (reset || !isfinite(prev[p]) ? dst[p] : dst[p] - prev[p]) / dt;
+        if (!(x >= slot_bounds[v->which].lo && x <= slot_bounds[v->which].hi)) {
+            char when[40];
+            iso(v->times[k].t, when, sizeof when);
+            free(prev);
+            return forcing_fail(err, v->src, path, SPH_ERR_BAD_DATA,
+                                "rate %g %s of the running accumulation '%s' (%s) at %s (time index "
+                                "%zu), point %zu, is outside the physical bounds %g .. %g: check "
+                                "forcing[].accumulation",
+                                x, slot_defs[v->which].target, v->varname, v->standard_name, when,
+                                v->times[k].k, p, slot_bounds[v->which].lo,
+                                slot_bounds[v->which].hi);
+        }
+        dst[p] = x;
+    }
+    free(prev);
+    return 0;
 }
 
 static int alloc_slot(fvar *v, int k)
@@ -806,6 +932,7 @@ static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, 
         s->npaths++;
     }
     s->drv = driver_for(s->paths[0]);
+    s->accumulation = spec->accumulation;
     if (spec->kind == FORCING_TIDE && s->drv->tide) {
         int harmonic = 0;
         double t_ref = floor(t_start / 86400.0) * 86400.0;
@@ -1143,6 +1270,8 @@ int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const d
             {FV_LW, FQ_LWDN, offsetof(forcing_sample, lwdn)},
             {FV_SST, FQ_SST, offsetof(forcing_sample, sst)},
             {FV_FW, FQ_OCEAN_FLUX, offsetof(forcing_sample, fw)},
+            {FV_SNOW, FQ_SNOWFALL, offsetof(forcing_sample, snowfall)},
+            {FV_PRECIP, FQ_PRECIP, offsetof(forcing_sample, precip)},
         };
         for (size_t k = 0; k < sizeof scalars / sizeof scalars[0]; k++) {
             double *dst = *(double **)((char *)out + scalars[k].off);

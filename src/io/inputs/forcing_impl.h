@@ -23,7 +23,7 @@
 /* One physical field a source can supply. */
 typedef enum {
     FV_UWIND = 0, FV_VWIND, FV_TAIR, FV_DEW, FV_QAIR, FV_PSURF, FV_SW, FV_LW,
-    FV_UCUR, FV_VCUR, FV_SSH, FV_SST, FV_FW, FV_RH, FV_COUNT
+    FV_UCUR, FV_VCUR, FV_SSH, FV_SST, FV_FW, FV_RH, FV_SNOW, FV_PRECIP, FV_COUNT
 } fv_slot;
 
 /* How a vector component was found (fvar.found_how). */
@@ -97,7 +97,10 @@ typedef struct fvar {
     char varname[64];
     char units[64];
     char file0[512];         /* file of the first time */
-    int accumulated;         /* J m-2: divided by the accumulation period */
+    int accumulated;         /* J m-2 (or kg m-2 of snow, precipitation): an amount
+                                over the interval ending at each time (divided by the
+                                period), or, with forcing[].accumulation "running",
+                                since a start that may reset (differenced) */
     int grid_relative;       /* vector component along the grid axes */
     int found_how;           /* FVEC_*: how a vector component was found */
     char orient[192];        /* vector components: orientation and why (forcing_var_info) */
@@ -125,6 +128,7 @@ typedef struct fsource {
     fvar *vars[FV_COUNT];
     fgrid *grids;
     int harmonic;
+    int accumulation;        /* FORCING_ACCUMULATION_* */
     tide_args targs;
     const struct forcing_driver *drv; /* the format of the source's files */
     int open_file;           /* cached open file: index into paths, -1 none */

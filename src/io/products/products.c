@@ -144,6 +144,11 @@ static const var_spec field_specs[PF_NVARS] = {
     { "sishearvel", "maximum_shear_of_sea_ice_velocity",
       "maximum shear rate of the sea ice velocity field", "s-1",
       "area: mean where sea_ice time: point" },
+    /* SIMIP sisnthick: snow volume over the snow-covered area; the snow
+     * lies on the whole ice part here (written with opts.write_snow) */
+    { "sisnthick", "surface_snow_thickness",
+      "snow thickness on the sea ice (mean over the ice-covered part of the cell)", "m",
+      "area: mean where sea_ice time: point" },
 };
 
 #define NCT(call, what)                                                        \
@@ -263,6 +268,8 @@ static int fields_define(prod_writer *p, sph_error *err)
     float fill = PROD_FILL_FLOAT;
     for (int k = 0; k < PF_NVARS; k++) {
         const var_spec *s = &field_specs[k];
+        if (k == PF_VAR_SNOW && !p->opts.write_snow)
+            continue;
         NCT(nc_def_var(nc, s->name, NC_FLOAT, 3, dims3, &p->v_data[k]), "define variable in");
         v = p->v_data[k];
         NCT(nc_def_var_chunking(nc, v, NC_CHUNKED, chunk), "set chunking in");
@@ -524,7 +531,7 @@ static void mask_fields(prod_writer *p, const prod_fields *f)
 {
     size_t nn = (size_t)p->grid.nlat * p->grid.nlon;
     const double *src[PF_NVARS] = { f->conc, f->hbar, f->thick, f->u_east, f->v_north,
-                                    f->pressure, f->divergence, f->shear };
+                                    f->pressure, f->divergence, f->shear, f->snow };
     for (size_t k = 0; k < nn; k++) {
         int land = f->land && f->land[k];
         double c = land ? NAN : (isfinite(f->conc[k]) ? f->conc[k] : 0.0);
@@ -669,6 +676,8 @@ int products_add_time(prod_writer *p, double t, const prod_fields *f,
         return fail(p, rc);
     NCT(nc_put_var1_double(p->nc, p->v_time, &ti, &t), "write time to");
     for (int v = 0; v < PF_NVARS; v++) {
+        if (v == PF_VAR_SNOW && !p->opts.write_snow)
+            continue;
         if ((rc = write_record(p, v, ti, err)) != SPH_OK)
             return fail(p, rc);
         if (v == 0 && fault_point("products-mid-write")) {

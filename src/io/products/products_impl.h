@@ -17,7 +17,7 @@ typedef struct prod_file {
 } prod_file;
 
 enum { PF_VAR_CONC, PF_VAR_HBAR, PF_VAR_THICK, PF_VAR_U, PF_VAR_V, PF_VAR_PRES, PF_VAR_DIV,
-       PF_VAR_SHEAR, PF_NVARS };
+       PF_VAR_SHEAR, PF_VAR_SNOW, PF_NVARS };
 
 typedef struct id_slot { long id; long index; } id_slot;
 
@@ -60,7 +60,7 @@ struct prod_writer {
     /* particles */
     prod_file pt;
     int pt_nc;
-    int pt_v_tid, pt_v_tindex, pt_v[8];
+    int pt_v_tid, pt_v_tindex, pt_v[9];
     size_t pt_nobs, pt_ntraj;
     id_slot *ids;
     size_t ids_cap;

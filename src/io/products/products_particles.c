@@ -17,6 +17,9 @@
  * fields of SPH_PARTICLE_PRODUCT_FIELDS (core/particles.h), in its order. */
 enum { PT_TIME, PT_LON, PT_LAT, PT_NCOORDS };
 enum { PT_NVARS = PT_NCOORDS + SPH_PARTICLE_NPRODUCT_FIELDS };
+/* sisnthick, the last field of SPH_PARTICLE_PRODUCT_FIELDS: written only
+ * with opts.write_snow */
+enum { PT_SNOW = PT_NVARS - 1 };
 _Static_assert(PT_NVARS <= sizeof ((prod_writer *)0)->pt_v / sizeof(int),
                "prod_writer.pt_v holds every particle product variable");
 #define PT_IS_FIELD_(field, ...)                                                \
@@ -69,6 +72,8 @@ int prod_particles_open(prod_writer *p, sph_error *err)
     NCP(nc_def_var_chunking(nc, p->pt_v_tindex, NC_CHUNKED, &chunk), "set chunking in");
     for (int k = 0; k < PT_NVARS; k++) {
         int type = k <= PT_LAT ? NC_DOUBLE : NC_FLOAT;
+        if (k == PT_SNOW && !p->opts.write_snow)
+            continue;
         NCP(nc_def_var(nc, pt_specs[k].name, type, 1, &d_obs, &p->pt_v[k]), "define variable in");
         int v = p->pt_v[k];
         NCP(nc_def_var_chunking(nc, v, NC_CHUNKED, &chunk), "set chunking in");
@@ -199,6 +204,8 @@ int prod_particles_add(prod_writer *p, double t, const prod_particles_view *pv, 
     const double *src[PT_NVARS] = { NULL, NULL, NULL, SPH_PARTICLE_PRODUCT_FIELDS(PT_VIEW_) };
 #undef PT_VIEW_
     for (int v = PT_NCOORDS; v < PT_NVARS && st == NC_NOERR; v++) {
+        if (v == PT_SNOW && !p->opts.write_snow)
+            continue;
         for (size_t k = 0; k < n; k++)
             f[k] = src[v] && isfinite(src[v][k]) ? (float)src[v][k] : NC_FILL_FLOAT;
         st = nc_put_vara_float(p->pt_nc, p->pt_v[v], &start, &count, f);
@@ -334,6 +341,12 @@ int products_read_particles(const char *path, double t, prod_particles *out, sph
     for (int q = 0; q < SPH_PARTICLE_NPRODUCT_FIELDS && st == NC_NOERR; q++) {
         int v;
         st = nc_inq_varid(nc, pt_specs[PT_NCOORDS + q].name, &v);
+        if (st == NC_ENOTVAR && PT_NCOORDS + q == PT_SNOW) { /* written without snow */
+            st = NC_NOERR;
+            for (size_t k = 0; k < n; k++)
+                dst[q][k] = NAN;
+            continue;
+        }
         if (st == NC_NOERR)
             st = nc_get_vara_float(nc, v, &a, &n, fb);
         for (size_t k = 0; k < n && st == NC_NOERR; k++)

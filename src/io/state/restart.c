@@ -42,9 +42,11 @@ static int rv_get(int nc, int var, int type, const size_t *start, const size_t *
 typedef struct {
     const char *name;
     size_t offset;
+    int optional; /* 1: a file written before it existed reads it as zero */
 } clock_att;
 
-#define CA(name, member) {name, offsetof(sph_model_clock, member)}
+#define CA(name, member) {name, offsetof(sph_model_clock, member), 0}
+#define CA_OPT(name, member) {name, offsetof(sph_model_clock, member), 1}
 static const clock_att clock_atts[] = {
     CA("model_time_since_init", time),
     CA("model_thermo_accum", thermo_accum),
@@ -60,8 +62,15 @@ static const clock_att clock_atts[] = {
     CA("budget_area", budget.area),
     CA("budget_volume", budget.volume),
     CA("budget_kinetic_energy", budget.kinetic_energy),
+    CA_OPT("budget_snow_ice", budget.snow_ice),
+    CA_OPT("budget_snow_initial", budget.snow_initial),
+    CA_OPT("budget_snow", budget.snow),
+    CA_OPT("budget_snowfall", budget.snowfall),
+    CA_OPT("budget_snow_melt", budget.snow_melt),
+    CA_OPT("budget_snow_to_ocean", budget.snow_to_ocean),
 };
 #undef CA
+#undef CA_OPT
 #define NCLOCK (sizeof clock_atts / sizeof clock_atts[0])
 
 static int nc_fail(int st, const char *what, const char *path, sph_error *err)
@@ -118,6 +127,8 @@ static int write_body(int nc, const sph_particles *P, const restart_header *h, c
        "write attribute");
     for (size_t a = 0; a < NCLOCK; a++) {
         const double *val = (const double *)((const char *)&h->clock + clock_atts[a].offset);
+        if (clock_atts[a].optional && *val == 0.0)
+            continue; /* absent reads as zero: a run without snow writes what it always did */
         NC(nc_put_att_double(nc, NC_GLOBAL, clock_atts[a].name, NC_DOUBLE, 1, val),
            "write attribute");
     }
@@ -260,6 +271,11 @@ static int read_header_open(int nc, const char *path, restart_header *h, sph_err
                            h->cycle_time);
     for (size_t a = 0; a < NCLOCK; a++) {
         double *val = (double *)((char *)&h->clock + clock_atts[a].offset);
+        int attid;
+        if (clock_atts[a].optional && nc_inq_attid(nc, NC_GLOBAL, clock_atts[a].name, &attid) != NC_NOERR) {
+            *val = 0.0;
+            continue;
+        }
         if ((rc = get_double_att(nc, path, clock_atts[a].name, val, err)))
             return rc;
         if (!isfinite(*val))
