@@ -165,6 +165,13 @@ void products_abort(prod_writer *p);
  * latest_link (may be NULL) at final_dir with an atomic symlink switch
  * (relative target when both share a directory). On any failure before
  * the rename nothing is changed; latest moves only after the rename. */
+/* Lists more files of a closed stage directory in its manifest.json (the
+ * restart file, the service's cycle.json: written after products_close):
+ * each of names (NULL-terminated, plain file names in stage_dir) not yet
+ * listed gets its size and sha256; the manifest is rewritten atomically.
+ * A name that is missing or has a '/' is an error and nothing changes. */
+int products_manifest_add(const char *stage_dir, const char *const *names, sph_error *err);
+
 int products_publish(const char *stage_dir, const char *final_dir, const char *latest_link,
                      sph_error *err);
 

@@ -42,7 +42,7 @@ struct prod_writer {
     /* gridded fields file */
     prod_file fields;
     int nc;
-    int v_time, v_data[PF_NVARS], v_area, v_extent, v_volume, v_elen, v_edist;
+    int v_time, v_period, v_data[PF_NVARS], v_area, v_extent, v_volume, v_elen, v_edist;
     int v_node_count, v_part_count, v_ex, v_ey;
     size_t ntimes, edge_nodes, edge_parts;
     double t_first, t_last;

@@ -61,6 +61,56 @@ static int check_manifest(const char *stage, sph_error *err)
     return rc;
 }
 
+int products_manifest_add(const char *stage_dir, const char *const *names, sph_error *err)
+{
+    char path[PROD_PATH];
+    snprintf(path, sizeof path, "%s/manifest.json", stage_dir);
+    char *text = NULL;
+    int rc = read_file(path, &text, NULL, err);
+    if (rc != SPH_OK)
+        return rc;
+    cJSON *m = cJSON_Parse(text);
+    free(text);
+    cJSON *files = m ? cJSON_GetObjectItem(m, "files") : NULL;
+    if (!cJSON_IsArray(files)) {
+        cJSON_Delete(m);
+        return sph_err_set(err, SPH_ERR_BAD_DATA, "manifest %s: no file list", path);
+    }
+    for (const char *const *n = names; n && *n && rc == SPH_OK; n++) {
+        int listed = 0;
+        cJSON *f;
+        cJSON_ArrayForEach(f, files) {
+            const char *have = cJSON_GetStringValue(cJSON_GetObjectItem(f, "name"));
+            listed |= have && !strcmp(have, *n);
+        }
+        if (listed)
+            continue;
+        char fp[PROD_PATH], hex[65];
+        struct stat sb;
+        snprintf(fp, sizeof fp, "%s/%s", stage_dir, *n);
+        if (!**n || strchr(*n, '/') || stat(fp, &sb) != 0 || !S_ISREG(sb.st_mode)) {
+            rc = sph_err_set(err, SPH_ERR_IO, "manifest %s: %s is not a file of the stage", path, *n);
+            break;
+        }
+        if ((rc = sha256_file(fp, hex, err)) != SPH_OK)
+            break;
+        f = cJSON_CreateObject();
+        cJSON_AddItemToArray(files, f);
+        cJSON_AddStringToObject(f, "name", *n);
+        cJSON_AddNumberToObject(f, "bytes", (double)sb.st_size);
+        cJSON_AddStringToObject(f, "sha256", hex);
+    }
+    char *out = rc == SPH_OK ? cJSON_Print(m) : NULL;
+    cJSON_Delete(m);
+    if (rc != SPH_OK)
+        return rc;
+    if (!out)
+        return sph_err_set(err, SPH_ERR_NOMEM, "manifest %s: out of memory", path);
+    rc = atomic_write_file(path, out, strlen(out), err);
+    free(out);
+    return rc;
+}
+
 static int rm_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw)
 {
     (void)sb;
