@@ -3,9 +3,11 @@
 # Idempotent: does nothing when every package is already present. Works as
 # root (apt-get directly) or as a user with sudo (asks sudo for apt-get
 # only); says in one line what to do when it can be neither.
-# Usage: sh tools/install-deps.sh [--fuzz]
+# Usage: sh tools/install-deps.sh [--fuzz] [--browser]
 #   --fuzz  also clang, llvm (symbolizer) and libomp-dev: the libFuzzer
 #           harnesses of `make fuzz` and the fuzz smoke of `make check`
+#   --browser  also chromium: test_daemon loads the status page in headless
+#           chromium (skipped with one line without it)
 set -eu
 PKGS="build-essential make pkg-config libnetcdf-dev netcdf-bin libcurl4-openssl-dev \
 libcjson-dev libgsl-dev libproj-dev proj-data libudunits2-dev libmicrohttpd-dev \
@@ -14,6 +16,7 @@ valgrind curl systemd"
 if [ "${1:-}" = "--fuzz" ]; then
     PKGS="$PKGS clang llvm libomp-dev"
 fi
+case " $* " in *" --browser "*) PKGS="$PKGS chromium" ;; esac
 missing=""
 for p in $PKGS; do
     dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"
