@@ -24,7 +24,9 @@
 #include "io/cf.h"
 #include "io/products.h"
 #include "io/restart.h"
+#include "service/cycle.h"
 #include "util/fileio.h"
+#include "util/jsonutil.h"
 
 #define TABLE "tests/data/cf-standard-name-table-v83.txt"
 #define CYCLE 917820000.0 /* 1999-02-01T00:00:00Z */
@@ -280,47 +282,40 @@ static void check_forecast_period(const char *path)
     nc_close(nc);
 }
 
-static int listed(const cJSON *files, const char *name, double bytes)
+/* The manifest entry named name, or NULL. */
+static const cJSON *entry_named(const cJSON *files, const char *name)
 {
-    const cJSON *f;
-    cJSON_ArrayForEach(f, files) {
+    for (const cJSON *f = files ? files->child : NULL; f; f = f->next) {
         const char *n = cJSON_GetStringValue(cJSON_GetObjectItem(f, "name"));
-        const cJSON *b = cJSON_GetObjectItem(f, "bytes");
         if (n && !strcmp(n, name))
-            return cJSON_IsNumber(b) && b->valuedouble == bytes;
+            return f;
     }
-    return 0;
+    return NULL;
 }
 
-static cJSON *manifest(const char *stage)
+static int listed(const cJSON *files, const char *name, double bytes)
 {
-    char p[1200], *text = NULL;
-    snprintf(p, sizeof p, "%s/manifest.json", stage);
-    sph_error e;
-    sph_error_clear(&e);
-    if (read_file(p, &text, NULL, &e) != SPH_OK)
-        return NULL;
-    cJSON *m = cJSON_Parse(text);
-    free(text);
-    return m;
+    const cJSON *b = cJSON_GetObjectItem(entry_named(files, name), "bytes");
+    return cJSON_IsNumber(b) && b->valuedouble == bytes;
 }
 
 /* manifest.json gains the restart file and cycle.json (sizes from stat,
  * checksums from sha256sum); a missing or outside name changes nothing. */
 static void check_manifest_add(const char *stage, const char *restart_name)
 {
-    char p[1200];
-    snprintf(p, sizeof p, "%s/cycle.json", stage);
     sph_error e;
     sph_error_clear(&e);
+    char p[1200], mpath[1200];
+    snprintf(mpath, sizeof mpath, "%s/manifest.json", stage);
+    snprintf(p, sizeof p, "%s/cycle.json", stage);
     CHECK(atomic_write_file(p, "{}\n", 3, &e) == SPH_OK, "cycle.json: %s", e.msg);
     const char *bad1[] = { "no-such-file.nc", NULL }, *bad2[] = { "../manifest.json", NULL };
-    cJSON *before = manifest(stage);
+    cJSON *before = json_read_file(mpath, &e);
     char *btext = before ? cJSON_PrintUnformatted(before) : NULL;
     CHECK(products_manifest_add(stage, bad1, &e) != SPH_OK && strstr(e.msg, "no-such-file.nc"),
           "missing file refused: %s", e.msg);
     CHECK(products_manifest_add(stage, bad2, &e) != SPH_OK, "a name with '/' refused");
-    cJSON *same = manifest(stage);
+    cJSON *same = json_read_file(mpath, &e);
     char *stext = same ? cJSON_PrintUnformatted(same) : NULL;
     CHECK(btext && stext && !strcmp(btext, stext), "a refused addition leaves manifest.json as it was");
     free(btext);
@@ -330,7 +325,7 @@ static void check_manifest_add(const char *stage, const char *restart_name)
 
     const char *names[] = { restart_name, "cycle.json", restart_name, NULL };
     CHECK(products_manifest_add(stage, names, &e) == SPH_OK, "manifest add: %s", e.msg);
-    cJSON *m = manifest(stage);
+    cJSON *m = json_read_file(mpath, &e);
     const cJSON *files = cJSON_GetObjectItem(m, "files");
     struct stat sr, sc;
     char rp[1200];
@@ -428,9 +423,9 @@ int main(void)
         run_cfchecks(list, 4);
     }
     cf_units_free(U);
-    char cmd[700];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    if (system(cmd) != 0)
-        fprintf(stderr, "could not remove %s\n", dir);
+    if (!check_failed_)
+        cycle_remove_tree(dir);
+    else
+        fprintf(stderr, "files kept in %s\n", dir);
     return check_summary("test_cf_names");
 }

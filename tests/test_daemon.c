@@ -72,8 +72,9 @@ static size_t collect(void *d, size_t sz, size_t nm, void *u)
     return sz * nm;
 }
 
-/* HTTP status code (0 if no answer); body malloc'd into *body if non-NULL. */
-static long http_url(const char *url, const char *method, char **body)
+/* HTTP status code (0 if no answer); body malloc'd into *body if non-NULL
+ * (with its length in *len if non-NULL: binary bodies). */
+static long http_url_len(const char *url, const char *method, char **body, size_t *len)
 {
     CURL *c = curl_easy_init();
     membuf b = {0};
@@ -88,6 +89,8 @@ static long http_url(const char *url, const char *method, char **body)
     if (curl_easy_perform(c) == CURLE_OK)
         curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &code);
     curl_easy_cleanup(c);
+    if (len)
+        *len = b.n;
     if (body)
         *body = b.p;
     else
@@ -95,25 +98,17 @@ static long http_url(const char *url, const char *method, char **body)
     return code;
 }
 
-/* GET with the body's length (binary bodies). */
+static long http_url(const char *url, const char *method, char **body)
+{
+    return http_url_len(url, method, body, NULL);
+}
+
+/* GET with the body's length. */
 static long http_get_bytes(int port, const char *path, char **body, size_t *len)
 {
     char url[8192];
     snprintf(url, sizeof url, "http://127.0.0.1:%d%s", port, path);
-    CURL *c = curl_easy_init();
-    membuf b = {0};
-    long code = 0;
-    curl_easy_setopt(c, CURLOPT_URL, url);
-    curl_easy_setopt(c, CURLOPT_WRITEFUNCTION, collect);
-    curl_easy_setopt(c, CURLOPT_WRITEDATA, &b);
-    curl_easy_setopt(c, CURLOPT_TIMEOUT, 5L);
-    curl_easy_setopt(c, CURLOPT_NOSIGNAL, 1L);
-    if (curl_easy_perform(c) == CURLE_OK)
-        curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &code);
-    curl_easy_cleanup(c);
-    *body = b.p;
-    *len = b.n;
-    return code;
+    return http_url_len(url, "GET", body, len);
 }
 
 static long http(int port, const char *method, const char *path, char **body)
@@ -882,7 +877,7 @@ static void scenario_units(void)
  * symbolic link out of the cycle; latest points at it. */
 static void make_latest(const char *out)
 {
-    char cyc[700], p[900];
+    char cyc[800], p[900];
     snprintf(cyc, sizeof cyc, "%s/19990208T00Z", out);
     sph_error e;
     sph_error_clear(&e);
@@ -926,7 +921,7 @@ static double seeded_cycle(int k) { return floor(time_now() / 3600.0) * 3600.0 -
 
 static void seed_history(const char *state)
 {
-    char p[700];
+    char p[800];
     snprintf(p, sizeof p, "%s/history.sqlite", state);
     sph_error e;
     sph_error_clear(&e);
@@ -997,19 +992,22 @@ static long pixels_like(const char *png, int r, int g, int b, int *w, int *h)
 
 static void scenario_status_page(void)
 {
-    char dir[512], out[600], state[600], cfg[600], log[600], missing[600];
+    char dir[512], path[700];
     snprintf(dir, sizeof dir, "%s/page", tmp);
-    snprintf(out, sizeof out, "%s/out", dir);
-    snprintf(state, sizeof state, "%s/state", dir);
-    snprintf(cfg, sizeof cfg, "%s/page.json", tmp);
-    snprintf(log, sizeof log, "%s/page.log", tmp);
-    snprintf(missing, sizeof missing, "%s/no-such-forcing.nc", dir);
-    make_latest(out);
-    seed_history(state);
-    int port = free_port();
+    snprintf(path, sizeof path, "%s/out", dir);
+    make_latest(path);
+    char out[700];
+    memcpy(out, path, sizeof out);
+    snprintf(path, sizeof path, "%s/state", dir);
+    seed_history(path);
     /* hourly cycles on missing forcing: the catch-up cycles fail and
      * publish nothing, so latest stays the cycle made above */
+    int port = free_port();
+    char cfg[600], log[600], missing[600];
+    snprintf(missing, sizeof missing, "%s/no-such-forcing.nc", dir);
+    snprintf(cfg, sizeof cfg, "%s/page.json", tmp);
     write_config(cfg, dir, port, 3600, missing, "fail", NULL);
+    snprintf(log, sizeof log, "%s/page.log", tmp);
     pid_t pid = spawn(cfg, "sleep:0.05", log);
     CHECK(wait_up(port, 10), "daemon answers");
     cJSON *st = wait_status(port, "service", "state", "failed", 15);

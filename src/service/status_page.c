@@ -8,7 +8,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "util/fileio.h"
+#include "util/jsonutil.h"
 
 /* One document, nothing fetched from elsewhere: the script talks only to
  * this server (/status, /latest/...), the SVG namespace is taken from the
@@ -187,15 +187,11 @@ static int plain_name(const char *s)
 
 static cJSON *latest_manifest(const char *out_dir)
 {
-    char path[4200], *text = NULL;
+    char path[4200];
     snprintf(path, sizeof path, "%s/latest/manifest.json", out_dir);
     sph_error e;
     sph_error_clear(&e);
-    if (read_file(path, &text, NULL, &e) != SPH_OK)
-        return NULL;
-    cJSON *m = cJSON_Parse(text);
-    free(text);
-    return m;
+    return json_read_file(path, &e);
 }
 
 static int listed(const cJSON *m, const char *name)

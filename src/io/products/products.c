@@ -970,16 +970,23 @@ static int write_manifest(prod_writer *p, sph_error *err)
         cJSON_AddStringToObject(f, "sha256", hex);
     }
     cJSON_AddBoolToObject(m, "complete", 1);
-    char *text = rc == SPH_OK ? cJSON_Print(m) : NULL;
-    cJSON_Delete(m);
-    if (rc != SPH_OK)
+    if (rc != SPH_OK) {
+        cJSON_Delete(m);
         return rc;
+    }
+    if ((rc = prod_write_json(path, m, err)) == SPH_OK)
+        add_product(p, "manifest.json");
+    return rc;
+}
+
+int prod_write_json(const char *path, struct cJSON *doc, sph_error *err)
+{
+    char *text = cJSON_Print(doc);
+    cJSON_Delete(doc);
     if (!text)
         return sph_err_set(err, SPH_ERR_NOMEM, "write %s: out of memory", path);
-    rc = atomic_write_file(path, text, strlen(text), err);
+    int rc = atomic_write_file(path, text, strlen(text), err);
     free(text);
-    if (rc == SPH_OK)
-        add_product(p, "manifest.json");
     return rc;
 }
 

@@ -92,6 +92,9 @@ int prod_file_commit(prod_writer *p, prod_file *f, sph_error *err);
 void prod_file_discard(prod_file *f);
 int prod_nc_check(int status, const char *what, const char *path, sph_error *err);
 int prod_put_text(int ncid, int varid, const char *name, const char *text);
+struct cJSON;
+/* Writes doc (freed here) as indented JSON to path, atomically. */
+int prod_write_json(const char *path, struct cJSON *doc, sph_error *err);
 /* Defines a CF longitude (axis 'X') or latitude (axis 'Y') coordinate,
  * doubles over dims: standard_name, long_name, units, axis. */
 int prod_def_lonlat(int ncid, const char *name, int ndims, const int *dims, char axis,

@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "util/fileio.h"
+#include "util/jsonutil.h"
 #include "util/log.h"
 
 static int check_manifest(const char *stage, sph_error *err)
@@ -65,13 +66,11 @@ int products_manifest_add(const char *stage_dir, const char *const *names, sph_e
 {
     char path[PROD_PATH];
     snprintf(path, sizeof path, "%s/manifest.json", stage_dir);
-    char *text = NULL;
-    int rc = read_file(path, &text, NULL, err);
-    if (rc != SPH_OK)
-        return rc;
-    cJSON *m = cJSON_Parse(text);
-    free(text);
-    cJSON *files = m ? cJSON_GetObjectItem(m, "files") : NULL;
+    int rc = SPH_OK;
+    cJSON *m = json_read_file(path, err);
+    if (!m)
+        return err ? err->code : SPH_ERR_BAD_DATA;
+    cJSON *files = cJSON_GetObjectItem(m, "files");
     if (!cJSON_IsArray(files)) {
         cJSON_Delete(m);
         return sph_err_set(err, SPH_ERR_BAD_DATA, "manifest %s: no file list", path);
@@ -100,15 +99,11 @@ int products_manifest_add(const char *stage_dir, const char *const *names, sph_e
         cJSON_AddNumberToObject(f, "bytes", (double)sb.st_size);
         cJSON_AddStringToObject(f, "sha256", hex);
     }
-    char *out = rc == SPH_OK ? cJSON_Print(m) : NULL;
-    cJSON_Delete(m);
-    if (rc != SPH_OK)
+    if (rc != SPH_OK) {
+        cJSON_Delete(m);
         return rc;
-    if (!out)
-        return sph_err_set(err, SPH_ERR_NOMEM, "manifest %s: out of memory", path);
-    rc = atomic_write_file(path, out, strlen(out), err);
-    free(out);
-    return rc;
+    }
+    return prod_write_json(path, m, err);
 }
 
 static int rm_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw)
