@@ -148,6 +148,7 @@ static int write_products(const char *stage)
     }
     prod_options o;
     products_options_default(&o);
+    o.edge_threshold = 0.2;
     prod_station st = { "Centre", 121.6, 39.9 };
     o.stations = &st;
     o.nstations = 1;
@@ -275,6 +276,14 @@ static void check_forecast_period(const char *path)
                   strstr(co, "forecast_period") && strstr(co, "forecast_reference_time"),
               "%s: %s coordinates '%s'", path, series[k], co);
     }
+    /* sea_ice_extent with its threshold as a scalar coordinate (CF table) */
+    char co[256] = "";
+    int vt;
+    double thr = NAN;
+    CHECK(nc_inq_varid(nc, "siextent", &vs) == NC_NOERR && att_text(nc, vs, "coordinates", co, sizeof co) &&
+              strstr(co, "extent_threshold") && nc_inq_varid(nc, "extent_threshold", &vt) == NC_NOERR &&
+              nc_get_var_double(nc, vt, &thr) == NC_NOERR && thr == 0.2,
+          "%s: siextent coordinates '%s', threshold %g (0.2 asked)", path, co, thr);
     /* SIMIP's name stays, with a long_name and no invented standard name */
     char ln[256];
     CHECK(nc_inq_varid(nc, "sishearvel", &vs) == NC_NOERR && att_text(nc, vs, "long_name", ln, sizeof ln),

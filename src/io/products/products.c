@@ -321,6 +321,15 @@ static int fields_define(prod_writer *p, sph_error *err)
                                 "largest great-circle distance of an ice edge point from the "
                                 "reference point", "nautical_mile", &p->v_edist, err)) != SPH_OK)
         return rc;
+    /* CF's sea_ice_extent names its threshold in a scalar coordinate of
+     * standard name sea_ice_area_fraction */
+    int v_thr;
+    NCT(nc_def_var(nc, "extent_threshold", NC_DOUBLE, 0, NULL, &v_thr), "define variable in");
+    NCT(prod_put_text(nc, v_thr, "standard_name", "sea_ice_area_fraction"), "write attribute in");
+    NCT(prod_put_text(nc, v_thr, "long_name", "concentration threshold of the ice extent and the ice edge"),
+        "write attribute in");
+    NCT(prod_put_text(nc, v_thr, "units", "1"), "write attribute in");
+    NCT(prod_put_text(nc, p->v_extent, "coordinates", FORECAST_COORDS " extent_threshold"), "write attribute in");
     NCT(prod_put_text(nc, p->v_elen, "geometry", "edge_geometry"), "write attribute in");
     NCT(prod_put_text(nc, p->v_edist, "geometry", "edge_geometry"), "write attribute in");
     if (p->opts.has_reference) {
@@ -368,6 +377,7 @@ static int fields_define(prod_writer *p, sph_error *err)
 
     /* static variables */
     NCT(nc_put_var_double(nc, v_ref, &p->cycle_time), "write forecast_reference_time to");
+    NCT(nc_put_var_double(nc, v_thr, &p->opts.edge_threshold), "write extent_threshold to");
     double *buf = malloc(2 * sizeof(double) * (size_t)(g->nlat > g->nlon ? g->nlat : g->nlon));
     if (!buf)
         return sph_err_set(err, SPH_ERR_NOMEM, "products: out of memory");
