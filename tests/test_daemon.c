@@ -990,6 +990,65 @@ static long pixels_like(const char *png, int r, int g, int b, int *w, int *h)
     return n;
 }
 
+static int have_chromium(void)
+{
+    if (system("command -v chromium >/dev/null 2>&1") == 0)
+        return 1;
+    printf("test_daemon: status page: chromium is not installed (sh tools/install-deps.sh --browser): "
+           "browser check skipped\n");
+    return 0;
+}
+
+/* Headless chromium on the page of the daemon at port, with `what`
+ * (--dump-dom or --screenshot=...) and the output to `to`; the exit status. */
+static int chromium(const char *what, int port, const char *to)
+{
+    char cmd[2400];
+    snprintf(cmd, sizeof cmd,
+             "timeout 60 chromium --headless --no-sandbox --disable-gpu --hide-scrollbars --no-first-run "
+             "--virtual-time-budget=5000 --window-size=1280,1600 --user-data-dir=%s/chrome %s "
+             "http://127.0.0.1:%d/ >%s 2>/dev/null",
+             tmp, what, port, to);
+    return system(cmd);
+}
+
+/* While a cycle runs the page shows its phase and progress. */
+static void status_page_running(void)
+{
+    char dir[512], cfg[600], log[600], forcing_path[600], dom_path[700];
+    snprintf(dir, sizeof dir, "%s/page-run", tmp);
+    snprintf(forcing_path, sizeof forcing_path, "%s/atm-page.nc", tmp);
+    sph_error e;
+    sph_error_clear(&e);
+    atomic_write_file(forcing_path, "forcing", 7, &e);
+    int port = free_port();
+    snprintf(cfg, sizeof cfg, "%s/page-run.json", tmp);
+    write_config(cfg, dir, port, 3600, forcing_path, "fail", NULL);
+    snprintf(log, sizeof log, "%s/page-run.log", tmp);
+    pid_t pid = spawn(cfg, "sleep:30", log);
+    CHECK(wait_up(port, 10), "daemon answers");
+    cJSON *st = wait_status(port, "current", "phase", "running", 10);
+    CHECK(st != NULL, "a cycle runs");
+    snprintf(dom_path, sizeof dom_path, "%s/page-run.html", tmp);
+    CHECK(chromium("--dump-dom", port, dom_path) == 0, "chromium --dump-dom");
+    char *dom = NULL, t[256], want[64];
+    read_file(dom_path, &dom, NULL, &e);
+    CHECK(element_text(dom, "cur-phase", t, sizeof t) && !strcmp(t, "running"), "phase shown: %s", t);
+    CHECK(element_text(dom, "cur-cycle", t, sizeof t) && jstr(st, "current", "cycle") &&
+              !strcmp(t, jstr(st, "current", "cycle")),
+          "running cycle shown: %s", t);
+    double pc = -1;
+    CHECK(element_text(dom, "percent", t, sizeof t) && sscanf(t, "%lf", &pc) == 1 && pc > 0 && pc < 100,
+          "progress shown: %s", t);
+    snprintf(want, sizeof want, "id=\"progress-bar\" style=\"width: %.1f%%;\"", pc);
+    CHECK(dom && strstr(dom, want), "the bar is %.1f %% long", pc);
+    CHECK(dom && strstr(dom, "<p id=\"no-current\" hidden=\"\">"), "no 'No cycle is running'");
+    free(dom);
+    cJSON_Delete(st);
+    kill(pid, SIGTERM);
+    CHECK(wait_exit(pid, 10) == 0, "daemon exits 0 on SIGTERM during the cycle");
+}
+
 static void scenario_status_page(void)
 {
     char dir[512], path[700];
@@ -1066,18 +1125,12 @@ static void scenario_status_page(void)
     }
 
     /* in a browser: what the script shows after reading /status */
-    if (system("command -v chromium >/dev/null 2>&1") != 0) {
-        printf("test_daemon: status page: chromium is not installed (sh tools/install-deps.sh --browser): "
-               "browser check skipped\n");
-    } else {
-        char cmd[2400], dom_path[700], shot[700];
+    int browser = have_chromium();
+    if (browser) {
+        char dom_path[700], shot[700], what[800];
         snprintf(dom_path, sizeof dom_path, "%s/page-dom.html", tmp);
         snprintf(shot, sizeof shot, "%s/page.png", tmp);
-        const char *chrome = "timeout 60 chromium --headless --no-sandbox --disable-gpu --hide-scrollbars "
-                             "--no-first-run --virtual-time-budget=5000";
-        snprintf(cmd, sizeof cmd, "%s --user-data-dir=%s/chrome --dump-dom http://127.0.0.1:%d/ >%s 2>/dev/null",
-                 chrome, tmp, port, dom_path);
-        CHECK(system(cmd) == 0, "chromium --dump-dom");
+        CHECK(chromium("--dump-dom", port, dom_path) == 0, "chromium --dump-dom");
         char *dom = NULL, t[256];
         read_file(dom_path, &dom, NULL, &e);
         CHECK(dom && strstr(dom, "data-loaded=\"1\""), "the script read /status");
@@ -1100,10 +1153,8 @@ static void scenario_status_page(void)
               "edge info: %s", t);
         free(dom);
 
-        snprintf(cmd, sizeof cmd, "%s --user-data-dir=%s/chrome --window-size=1280,1600 --screenshot=%s "
-                 "http://127.0.0.1:%d/ >/dev/null 2>&1",
-                 chrome, tmp, shot, port);
-        CHECK(system(cmd) == 0, "chromium --screenshot");
+        snprintf(what, sizeof what, "--screenshot=%s", shot);
+        CHECK(chromium(what, port, "/dev/null") == 0, "chromium --screenshot");
         int w, h;
         long magenta = pixels_like(shot, 255, 0, 255, &w, &h);
         long edge = pixels_like(shot, 0xe0, 0x10, 0x3a, &w, &h);
@@ -1117,6 +1168,8 @@ static void scenario_status_page(void)
     cJSON_Delete(st);
     kill(pid, SIGTERM);
     CHECK(wait_exit(pid, 10) == 0, "daemon exits 0 on SIGTERM");
+    if (browser)
+        status_page_running();
 }
 
 int main(void)
