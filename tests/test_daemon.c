@@ -1012,21 +1012,31 @@ static int chromium(const char *what, int port, const char *to)
     return system(cmd);
 }
 
+/* A daemon with hourly cycles under tmp/NAME on forcing_file (fail policy),
+ * the test engine; waits until it answers. */
+static pid_t page_daemon(const char *name, const char *forcing_file, const char *engine, int *port)
+{
+    char dir[512], cfg[600], log[600];
+    snprintf(dir, sizeof dir, "%s/%s", tmp, name);
+    snprintf(cfg, sizeof cfg, "%s/%s.json", tmp, name);
+    snprintf(log, sizeof log, "%s/%s.log", tmp, name);
+    *port = free_port();
+    write_config(cfg, dir, *port, 3600, forcing_file, "fail", NULL);
+    pid_t pid = spawn(cfg, engine, log);
+    CHECK(wait_up(*port, 10), "daemon %s answers", name);
+    return pid;
+}
+
 /* While a cycle runs the page shows its phase and progress. */
 static void status_page_running(void)
 {
-    char dir[512], cfg[600], log[600], forcing_path[600], dom_path[700];
-    snprintf(dir, sizeof dir, "%s/page-run", tmp);
+    char forcing_path[600], dom_path[700];
     snprintf(forcing_path, sizeof forcing_path, "%s/atm-page.nc", tmp);
     sph_error e;
     sph_error_clear(&e);
     atomic_write_file(forcing_path, "forcing", 7, &e);
-    int port = free_port();
-    snprintf(cfg, sizeof cfg, "%s/page-run.json", tmp);
-    write_config(cfg, dir, port, 3600, forcing_path, "fail", NULL);
-    snprintf(log, sizeof log, "%s/page-run.log", tmp);
-    pid_t pid = spawn(cfg, "sleep:30", log);
-    CHECK(wait_up(port, 10), "daemon answers");
+    int port;
+    pid_t pid = page_daemon("page-run", forcing_path, "sleep:30", &port);
     cJSON *st = wait_status(port, "current", "phase", "running", 10);
     CHECK(st != NULL, "a cycle runs");
     snprintf(dom_path, sizeof dom_path, "%s/page-run.html", tmp);
@@ -1065,14 +1075,10 @@ static void scenario_status_page(void)
     seed_history(path);
     /* hourly cycles on missing forcing: the catch-up cycles fail and
      * publish nothing, so latest stays the cycle made above */
-    int port = free_port();
-    char cfg[600], log[600], missing[600];
+    char missing[600];
     snprintf(missing, sizeof missing, "%s/no-such-forcing.nc", dir);
-    snprintf(cfg, sizeof cfg, "%s/page.json", tmp);
-    write_config(cfg, dir, port, 3600, missing, "fail", NULL);
-    snprintf(log, sizeof log, "%s/page.log", tmp);
-    pid_t pid = spawn(cfg, "sleep:0.05", log);
-    CHECK(wait_up(port, 10), "daemon answers");
+    int port;
+    pid_t pid = page_daemon("page", missing, "sleep:0.05", &port);
     cJSON *st = wait_status(port, "service", "state", "failed", 15);
     CHECK(st != NULL, "state failed after the cycles on missing forcing");
 
