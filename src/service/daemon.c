@@ -183,14 +183,16 @@ static char *status_json(svc *s)
     cJSON *lj = last ? cJSON_Parse(last) : NULL;
     free(last);
     cJSON_AddItemToObject(root, "last_run", lj ? lj : cJSON_CreateNull());
-    /* the status page's: the last cycles (without their product lists)
-     * and the latest published cycle's maps and edge */
+    /* the status page's: the last cycles (cycle, result, duration, ice
+     * area, edge distance, stale, start mode: /runs has the rest) and the
+     * latest published cycle's maps and edge */
     char *recent = history_recent_json(s->hist, STATUS_RECENT_RUNS);
     cJSON *rj = recent ? cJSON_Parse(recent) : NULL, *r;
     free(recent);
+    static const char *const drop[] = {"products", "scores", "message", "started", "ended", "ice_volume_km3"};
     cJSON_ArrayForEach(r, rj) {
-        cJSON_DeleteItemFromObjectCaseSensitive(r, "products");
-        cJSON_DeleteItemFromObjectCaseSensitive(r, "scores");
+        for (size_t k = 0; k < sizeof drop / sizeof drop[0]; k++)
+            cJSON_DeleteItemFromObjectCaseSensitive(r, drop[k]);
     }
     cJSON_AddItemToObject(root, "recent", rj ? rj : cJSON_CreateArray());
     cJSON_AddItemToObject(root, "latest", status_latest_json(out_dir));
