@@ -6,8 +6,11 @@
  * reported and the old one keeps working; SIGTERM during a run exits 0
  * promptly with no partial product; kill -9 then restart re-runs the cycle
  * once; missing forcing fails (fail policy) or runs flagged stale; the
- * systemd units pass systemd-analyze verify. */
+ * systemd units pass systemd-analyze verify; the status page (GET /) shows
+ * in headless chromium what /status and the latest cycle hold, and
+ * /latest/NAME serves only the files the latest manifest lists. */
 #include <arpa/inet.h>
+#include <cairo.h>
 #include <cjson/cJSON.h>
 #include <curl/curl.h>
 #include <dirent.h>
@@ -69,8 +72,9 @@ static size_t collect(void *d, size_t sz, size_t nm, void *u)
     return sz * nm;
 }
 
-/* HTTP status code (0 if no answer); body malloc'd into *body if non-NULL. */
-static long http_url(const char *url, const char *method, char **body)
+/* HTTP status code (0 if no answer); body malloc'd into *body if non-NULL
+ * (with its length in *len if non-NULL: binary bodies). */
+static long http_url_len(const char *url, const char *method, char **body, size_t *len)
 {
     CURL *c = curl_easy_init();
     membuf b = {0};
@@ -85,11 +89,26 @@ static long http_url(const char *url, const char *method, char **body)
     if (curl_easy_perform(c) == CURLE_OK)
         curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &code);
     curl_easy_cleanup(c);
+    if (len)
+        *len = b.n;
     if (body)
         *body = b.p;
     else
         free(b.p);
     return code;
+}
+
+static long http_url(const char *url, const char *method, char **body)
+{
+    return http_url_len(url, method, body, NULL);
+}
+
+/* GET with the body's length. */
+static long http_get_bytes(int port, const char *path, char **body, size_t *len)
+{
+    char url[8192];
+    snprintf(url, sizeof url, "http://127.0.0.1:%d%s", port, path);
+    return http_url_len(url, "GET", body, len);
 }
 
 static long http(int port, const char *method, const char *path, char **body)
@@ -264,7 +283,7 @@ static int check_exposition(const char *text, char *why, size_t whysz)
         int f = -1, is_help = !strncmp(line, "# HELP ", 7), is_type = !strncmp(line, "# TYPE ", 7);
         if (is_help || is_type) {
             if (sscanf(line + 7, "%127s %31s", name, kind) < 1 || (is_help && !kind[0])) {
-                snprintf(why, whysz, "bad comment: %s", line);
+                snprintf(why, whysz, "bad comment: %.200s", line);
                 return -1;
             }
         } else if (line[0] == '#' || !line[0]) {
@@ -281,7 +300,7 @@ static int check_exposition(const char *text, char *why, size_t whysz)
             if (*v == ' ')
                 strtod(v + 1, &end);
             if (!n || !end || end == v + 1 || (*end && *end != ' ')) {
-                snprintf(why, whysz, "bad sample: %s", line);
+                snprintf(why, whysz, "bad sample: %.200s", line);
                 return -1;
             }
         }
@@ -299,7 +318,7 @@ static int check_exposition(const char *text, char *why, size_t whysz)
             help[f]++;
         } else if (is_type) {
             if (type[f]++ || (strcmp(kind, "gauge") && strcmp(kind, "counter") && strcmp(kind, "untyped"))) {
-                snprintf(why, whysz, "second or unknown TYPE: %s", line);
+                snprintf(why, whysz, "second or unknown TYPE: %.200s", line);
                 return -1;
             }
         } else if (!help[f] || !type[f]) {
@@ -846,6 +865,325 @@ static void scenario_units(void)
     CHECK(system(cmd) == 0, "systemd-analyze verify accepts the units");
 }
 
+/* ------------------------------------------------------- status page */
+
+#define PAGE_PNG "sphice_quicklook_19990208T0000Z.png"
+#define PAGE_PNG_W 160
+#define PAGE_PNG_H 100
+
+/* A published cycle the test makes: a quick-look (solid magenta, so the
+ * screenshot shows where it is drawn), an edge whose last time has two
+ * lines of 5 and 3 points, a file the manifest does not list and a listed
+ * symbolic link out of the cycle; latest points at it. */
+static void make_latest(const char *out)
+{
+    char cyc[800], p[900];
+    snprintf(cyc, sizeof cyc, "%s/19990208T00Z", out);
+    sph_error e;
+    sph_error_clear(&e);
+    mkdir_p(cyc, &e);
+    snprintf(p, sizeof p, "%s/%s", cyc, PAGE_PNG);
+    cairo_surface_t *img = cairo_image_surface_create(CAIRO_FORMAT_RGB24, PAGE_PNG_W, PAGE_PNG_H);
+    cairo_t *cr = cairo_create(img);
+    cairo_set_source_rgb(cr, 1, 0, 1);
+    cairo_paint(cr);
+    cairo_destroy(cr);
+    CHECK(cairo_surface_write_to_png(img, p) == CAIRO_STATUS_SUCCESS, "write %s", p);
+    cairo_surface_destroy(img);
+    const char *edge =
+        "{\"type\":\"FeatureCollection\",\"features\":["
+        "{\"type\":\"Feature\",\"geometry\":{\"type\":\"MultiLineString\",\"coordinates\":[[[121.0,39.0],[121.5,39.0]]]},"
+        "\"properties\":{\"valid_time\":\"1999-02-08T00:00:00Z\",\"threshold\":0.15}},"
+        "{\"type\":\"Feature\",\"geometry\":{\"type\":\"MultiLineString\",\"coordinates\":["
+        "[[121.0,39.2],[121.4,39.2],[121.4,39.6],[121.8,39.6],[121.8,40.0]],[[121.1,39.9],[121.3,39.9],[121.3,39.7]]]},"
+        "\"properties\":{\"valid_time\":\"1999-02-08T06:00:00Z\",\"threshold\":0.15}}]}";
+    snprintf(p, sizeof p, "%s/sphice_edge.geojson", cyc);
+    atomic_write_file(p, edge, strlen(edge), &e);
+    snprintf(p, sizeof p, "%s/unlisted.png", cyc);
+    atomic_write_file(p, "x", 1, &e);
+    snprintf(p, sizeof p, "%s/secret.png", out);
+    atomic_write_file(p, "secret", 6, &e);
+    snprintf(p, sizeof p, "%s/link.png", cyc);
+    CHECK(symlink("../secret.png", p) == 0, "symlink %s", p);
+    const char *manifest = "{\"cycle_time\":\"1999-02-08T00:00:00Z\",\"files\":["
+                           "{\"name\":\"" PAGE_PNG "\",\"bytes\":1},{\"name\":\"sphice_edge.geojson\",\"bytes\":1},"
+                           "{\"name\":\"link.png\",\"bytes\":6},{\"name\":\"../secret.png\",\"bytes\":6}],"
+                           "\"complete\":true}";
+    snprintf(p, sizeof p, "%s/manifest.json", cyc);
+    atomic_write_file(p, manifest, strlen(manifest), &e);
+    snprintf(p, sizeof p, "%s/latest", out);
+    CHECK(symlink("19990208T00Z", p) == 0, "symlink %s", p);
+}
+
+/* Two finished cycles in the history before the daemon starts: the two
+ * hours before this one (so the scheduler runs only the current hour). */
+static double seeded_cycle(int k) { return floor(time_now() / 3600.0) * 3600.0 - 3600.0 * (2 - k); }
+
+static void seed_history(const char *state)
+{
+    char p[800];
+    snprintf(p, sizeof p, "%s/history.sqlite", state);
+    sph_error e;
+    sph_error_clear(&e);
+    mkdir_p(state, &e);
+    history *h = NULL;
+    CHECK(history_open(&h, p, &e) == SPH_OK, "history: %s", e.msg);
+    for (int k = 0; h && k < 2; k++) {
+        history_run r;
+        memset(&r, 0, sizeof r);
+        r.cycle = seeded_cycle(k);
+        r.started = r.cycle + 3600;
+        r.ended = r.started + 120;
+        snprintf(r.result, sizeof r.result, "ok");
+        r.area_km2 = k ? 2345.6 : 1234.5;
+        r.volume_km3 = NAN;
+        r.edge_nm = 53.3;
+        snprintf(r.mode, sizeof r.mode, "cold");
+        CHECK(history_put(h, &r, &e) == SPH_OK, "history_put: %s", e.msg);
+    }
+    history_close(h);
+}
+
+/* Text of the element with id="ID" up to its first '<'. */
+static int element_text(const char *dom, const char *id, char *out, size_t len)
+{
+    char key[128];
+    snprintf(key, sizeof key, "id=\"%s\"", id);
+    const char *p = dom ? strstr(dom, key) : NULL;
+    p = p ? strchr(p, '>') : NULL;
+    if (!p)
+        return 0;
+    size_t n = strcspn(p + 1, "<");
+    snprintf(out, len, "%.*s", (int)(n < len ? n : len - 1), p + 1);
+    return 1;
+}
+
+static int count_of(const char *s, const char *part)
+{
+    int n = 0;
+    for (const char *p = s; p && (p = strstr(p, part)); p += strlen(part))
+        n++;
+    return n;
+}
+
+/* Pixels of the screenshot within 8 of (r, g, b) in each channel. */
+static long pixels_like(const char *png, int r, int g, int b, int *w, int *h)
+{
+    cairo_surface_t *s = cairo_image_surface_create_from_png(png);
+    long n = 0;
+    *w = *h = 0;
+    if (cairo_surface_status(s) == CAIRO_STATUS_SUCCESS) {
+        cairo_surface_flush(s);
+        *w = cairo_image_surface_get_width(s);
+        *h = cairo_image_surface_get_height(s);
+        int stride = cairo_image_surface_get_stride(s);
+        const unsigned char *d = cairo_image_surface_get_data(s);
+        for (int y = 0; y < *h; y++)
+            for (int x = 0; x < *w; x++) {
+                uint32_t px;
+                memcpy(&px, d + (size_t)y * stride + 4 * (size_t)x, 4);
+                int pr = (px >> 16) & 255, pg = (px >> 8) & 255, pb = px & 255;
+                n += abs(pr - r) <= 8 && abs(pg - g) <= 8 && abs(pb - b) <= 8;
+            }
+    }
+    cairo_surface_destroy(s);
+    return n;
+}
+
+static int have_chromium(void)
+{
+    if (system("command -v chromium >/dev/null 2>&1") == 0)
+        return 1;
+    printf("test_daemon: status page: chromium is not installed (sh tools/install-deps.sh --browser): "
+           "browser check skipped\n");
+    return 0;
+}
+
+/* Headless chromium on the page of the daemon at port, with `what`
+ * (--dump-dom or --screenshot=...) and the output to `to`; the exit status. */
+static int chromium(const char *what, int port, const char *to)
+{
+    char cmd[2400];
+    snprintf(cmd, sizeof cmd,
+             "timeout 60 chromium --headless --no-sandbox --disable-gpu --hide-scrollbars --no-first-run "
+             "--virtual-time-budget=5000 --window-size=1280,1600 --user-data-dir=%s/chrome %s "
+             "http://127.0.0.1:%d/ >%s 2>/dev/null",
+             tmp, what, port, to);
+    return system(cmd);
+}
+
+/* A daemon with hourly cycles under tmp/NAME on forcing_file (fail policy),
+ * the test engine; waits until it answers. */
+static pid_t page_daemon(const char *name, const char *forcing_file, const char *engine, int *port)
+{
+    char dir[512], cfg[600], log[600];
+    snprintf(dir, sizeof dir, "%s/%s", tmp, name);
+    snprintf(cfg, sizeof cfg, "%s/%s.json", tmp, name);
+    snprintf(log, sizeof log, "%s/%s.log", tmp, name);
+    *port = free_port();
+    write_config(cfg, dir, *port, 3600, forcing_file, "fail", NULL);
+    pid_t pid = spawn(cfg, engine, log);
+    CHECK(wait_up(*port, 10), "daemon %s answers", name);
+    return pid;
+}
+
+/* While a cycle runs the page shows its phase and progress. */
+static void status_page_running(void)
+{
+    char forcing_path[600], dom_path[700];
+    snprintf(forcing_path, sizeof forcing_path, "%s/atm-page.nc", tmp);
+    sph_error e;
+    sph_error_clear(&e);
+    atomic_write_file(forcing_path, "forcing", 7, &e);
+    int port;
+    pid_t pid = page_daemon("page-run", forcing_path, "sleep:30", &port);
+    cJSON *st = wait_status(port, "current", "phase", "running", 10);
+    CHECK(st != NULL, "a cycle runs");
+    snprintf(dom_path, sizeof dom_path, "%s/page-run.html", tmp);
+    CHECK(chromium("--dump-dom", port, dom_path) == 0, "chromium --dump-dom");
+    char *dom = NULL, t[256];
+    read_file(dom_path, &dom, NULL, &e);
+    CHECK(element_text(dom, "cur-phase", t, sizeof t) && !strcmp(t, "running"), "phase shown: %s", t);
+    CHECK(element_text(dom, "cur-cycle", t, sizeof t) && jstr(st, "current", "cycle") &&
+              !strcmp(t, jstr(st, "current", "cycle")),
+          "running cycle shown: %s", t);
+    double pc = -1;
+    CHECK(element_text(dom, "percent", t, sizeof t) && sscanf(t, "%lf", &pc) == 1 && pc > 0 && pc < 100,
+          "progress shown: %s", t);
+    /* the browser writes the width back as a CSS number (7.0% as 7%) */
+    const char *bar = dom ? strstr(dom, "id=\"progress-bar\" style=\"width: ") : NULL;
+    double width = -1;
+    CHECK(bar && sscanf(bar + strlen("id=\"progress-bar\" style=\"width: "), "%lf", &width) == 1 &&
+              fabs(width - pc) < 0.051,
+          "the bar is %g %% long for %.1f %%", width, pc);
+    CHECK(dom && strstr(dom, "<p id=\"no-current\" hidden=\"\">"), "no 'No cycle is running'");
+    free(dom);
+    cJSON_Delete(st);
+    kill(pid, SIGTERM);
+    CHECK(wait_exit(pid, 10) == 0, "daemon exits 0 on SIGTERM during the cycle");
+}
+
+static void scenario_status_page(void)
+{
+    char dir[512], path[700];
+    snprintf(dir, sizeof dir, "%s/page", tmp);
+    snprintf(path, sizeof path, "%s/out", dir);
+    make_latest(path);
+    char out[700];
+    memcpy(out, path, sizeof out);
+    snprintf(path, sizeof path, "%s/state", dir);
+    seed_history(path);
+    /* hourly cycles on missing forcing: the catch-up cycles fail and
+     * publish nothing, so latest stays the cycle made above */
+    char missing[600];
+    snprintf(missing, sizeof missing, "%s/no-such-forcing.nc", dir);
+    int port;
+    pid_t pid = page_daemon("page", missing, "sleep:0.05", &port);
+    cJSON *st = wait_status(port, "service", "state", "failed", 15);
+    CHECK(st != NULL, "state failed after the cycles on missing forcing");
+
+    /* /status: compact, with the history's cycles and the latest cycle */
+    char *body = NULL;
+    size_t len = 0;
+    CHECK(http_get_bytes(port, "/status", &body, &len) == 200 && len < 16384 && !strchr(body, '\n'),
+          "/status is compact: %zu bytes", len);
+    free(body);
+    CHECK(!cJSON_GetObjectItem(st, "config"), "/status does not embed the configuration");
+    const char *lc = jstr(st, "latest", "cycle");
+    CHECK(lc && !strcmp(lc, "1999-02-08T00:00:00Z"), "latest cycle %s", lc ? lc : "(null)");
+    const cJSON *ql = cJSON_GetObjectItem(cJSON_GetObjectItem(st, "latest"), "quicklooks");
+    CHECK(cJSON_GetArraySize(ql) == 1 && !strcmp(cJSON_GetStringValue(cJSON_GetArrayItem(ql, 0)), "/latest/" PAGE_PNG),
+          "one quick-look listed");
+    const cJSON *recent = cJSON_GetObjectItem(st, "recent"), *r;
+    char seed0[32], seed1[32];
+    time_format_iso(seeded_cycle(0), seed0, sizeof seed0);
+    time_format_iso(seeded_cycle(1), seed1, sizeof seed1);
+    int seeded = 0;
+    cJSON_ArrayForEach(r, recent) {
+        const char *c = jstr(r, "cycle", NULL);
+        seeded += c && (!strcmp(c, seed0) || !strcmp(c, seed1));
+        CHECK(!cJSON_GetObjectItem(r, "products") && !cJSON_GetObjectItem(r, "message") &&
+                  cJSON_GetObjectItem(r, "result") && cJSON_GetObjectItem(r, "ice_area_km2"),
+              "recent rows: the table's fields only");
+    }
+    CHECK(seeded == 2, "recent: the seeded cycles %s and %s (%d found)", seed0, seed1, seeded);
+
+    /* the page: one document, nothing from elsewhere */
+    CHECK(http_get_bytes(port, "/", &body, &len) == 200 && body && strstr(body, "<!DOCTYPE html>"), "GET / is the page");
+    CHECK(body && !strstr(body, "http:") && !strstr(body, "https:") && !strstr(body, "<link") &&
+              !strstr(body, "@import") && !strstr(body, "url(") && !strstr(body, "src=\"//"),
+          "the page loads nothing from elsewhere");
+    free(body);
+
+    /* /latest/NAME: the listed files, nothing else */
+    char p[900], *want = NULL;
+    size_t wlen = 0;
+    snprintf(p, sizeof p, "%s/latest/%s", out, PAGE_PNG);
+    sph_error e;
+    sph_error_clear(&e);
+    read_file(p, &want, &wlen, &e);
+    CHECK(http_get_bytes(port, "/latest/" PAGE_PNG, &body, &len) == 200 && want && len == wlen &&
+              !memcmp(body, want, len),
+          "the quick-look is served byte for byte (%zu of %zu bytes)", len, wlen);
+    free(body);
+    free(want);
+    static const char *const refused[] = {"/latest/unlisted.png", "/latest/link.png", "/latest/manifest.json",
+                                          "/latest/%2e%2e%2fsecret.png", "/latest/..%2Fsecret.png",
+                                          "/latest/.hidden.png", "/latest/", "/latest/sub%2f" PAGE_PNG};
+    for (size_t k = 0; k < sizeof refused / sizeof refused[0]; k++) {
+        long code = http_get_bytes(port, refused[k], &body, &len);
+        CHECK(code == 404 && !(body && strstr(body, "secret")), "%s: %ld", refused[k], code);
+        free(body);
+    }
+
+    /* in a browser: what the script shows after reading /status */
+    int browser = have_chromium();
+    if (browser) {
+        char dom_path[700], shot[700], what[800];
+        snprintf(dom_path, sizeof dom_path, "%s/page-dom.html", tmp);
+        snprintf(shot, sizeof shot, "%s/page.png", tmp);
+        CHECK(chromium("--dump-dom", port, dom_path) == 0, "chromium --dump-dom");
+        char *dom = NULL, t[256];
+        read_file(dom_path, &dom, NULL, &e);
+        CHECK(dom && strstr(dom, "data-loaded=\"1\""), "the script read /status");
+        CHECK(element_text(dom, "state", t, sizeof t) && !strcmp(t, "failed"), "state shown: %s", t);
+        CHECK(element_text(dom, "latest-cycle", t, sizeof t) && !strcmp(t, "1999-02-08T00:00:00Z"),
+              "latest cycle shown: %s", t);
+        CHECK(element_text(dom, "last-run", t, sizeof t) && strstr(t, "failed") && strstr(t, "no-such-forcing.nc"),
+              "last run and its message shown: %s", t);
+        CHECK(dom && strstr(dom, "data-source=\"atm\""), "the forcing source is listed");
+        int rows = count_of(dom, "<tr data-cycle=");
+        CHECK(rows == cJSON_GetArraySize(recent), "%d cycle rows for %d in /status", rows, cJSON_GetArraySize(recent));
+        char row[80];
+        snprintf(row, sizeof row, "data-cycle=\"%s\"", seed1);
+        CHECK(dom && strstr(dom, row) && strstr(dom, "<td>2345.6</td>"), "the seeded cycle %s with its ice area",
+              seed1);
+        CHECK(count_of(dom, "<img ") == 1 && strstr(dom, "src=\"/latest/" PAGE_PNG "\""), "one map shown");
+        CHECK(count_of(dom, "class=\"edge-line\"") == 2, "the last edge's 2 lines drawn");
+        CHECK(element_text(dom, "edge-info", t, sizeof t) &&
+                  !strcmp(t, "2 lines, 8 points, valid 1999-02-08T06:00:00Z, threshold 0.15"),
+              "edge info: %s", t);
+        free(dom);
+
+        snprintf(what, sizeof what, "--screenshot=%s", shot);
+        CHECK(chromium(what, port, "/dev/null") == 0, "chromium --screenshot");
+        int w, h;
+        long magenta = pixels_like(shot, 255, 0, 255, &w, &h);
+        long edge = pixels_like(shot, 0xe0, 0x10, 0x3a, &w, &h);
+        printf("test_daemon: status page screenshot %dx%d: %ld map pixels (of %d), %ld edge pixels\n", w, h, magenta,
+               PAGE_PNG_W * PAGE_PNG_H, edge);
+        CHECK(w == 1280 && h == 1600, "screenshot %dx%d", w, h);
+        CHECK(magenta >= PAGE_PNG_W * PAGE_PNG_H * 9 / 10, "the quick-look is on screen: %ld pixels", magenta);
+        /* two lines, 3 px wide: 1.2 + 0.6 degrees of lengths at > 100 px per degree */
+        CHECK(edge >= 3 * 150, "the edge is drawn: %ld pixels", edge);
+    }
+    cJSON_Delete(st);
+    kill(pid, SIGTERM);
+    CHECK(wait_exit(pid, 10) == 0, "daemon exits 0 on SIGTERM");
+    if (browser)
+        status_page_running();
+}
+
 int main(void)
 {
     signal(SIGPIPE, SIG_IGN);
@@ -868,6 +1206,7 @@ int main(void)
     scenario_second_serve();
     scenario_listen();
     scenario_units();
+    scenario_status_page();
     curl_global_cleanup();
     if (!check_failed_)
         cycle_remove_tree(tmp);

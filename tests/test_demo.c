@@ -228,6 +228,7 @@ static void check_products(const char *out, double hours)
     CHECK(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(m, "complete")), "%s: not complete", path);
     const cJSON *files = cJSON_GetObjectItemCaseSensitive(m, "files"), *f;
     int nc_files = 0, png = 0, have_fields = 0, have_parts = 0, have_stations = 0, have_csv = 0, have_geojson = 0;
+    int have_restart = 0, have_cycle = 0;
     cJSON_ArrayForEach(f, files)
     {
         const char *name = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(f, "name"));
@@ -276,8 +277,13 @@ static void check_products(const char *out, double hours)
         } else if (demo_ends_with(name, ".png")) {
             png++;
         }
+        /* issue 23: the manifest also lists what is written after it */
+        have_restart |= !strncmp(name, "restart-", 8) && demo_ends_with(name, ".nc");
+        have_cycle |= !strcmp(name, "cycle.json");
         nc_files += demo_ends_with(name, ".nc");
     }
+    CHECK(have_restart && have_cycle, "%s: manifest.json lists restart %d, cycle.json %d", cyc, have_restart,
+          have_cycle);
     CHECK(have_fields && have_parts && have_stations && have_csv && have_geojson,
           "%s: products missing (fields %d particles %d stations %d csv %d geojson %d)", cyc, have_fields,
           have_parts, have_stations, have_csv, have_geojson);

@@ -57,6 +57,14 @@ static char *route(void *ctx, const char *path, int *code, const char **ctype)
         *ctype = "text/plain; version=0.0.4";
         return strdup("# HELP x An x.\n# TYPE x gauge\nx 1\n");
     }
+    if (!strcmp(path, "/binary")) { /* a body with NULs (a PNG's), its length told */
+        char *b = malloc(5);
+        if (b) {
+            memcpy(b, "a\0b\0c", 5);
+            http_set_body_length(5);
+        }
+        return b;
+    }
     if (!strcmp(path, "/big")) {
         char *b = malloc(BIG + 1);
         if (b) {
@@ -231,6 +239,18 @@ static void replies(int port)
               strstr(r, "\r\nContent-Length: 13\r\n"),
           "headers: %s", r);
     CHECK(!strcmp(body_of(r), "{\"ok\": true}\n"), "body: %s", body_of(r));
+    free(r);
+
+    const char *bin = "GET /binary HTTP/1.1\r\nHost: x\r\n\r\n";
+    CHECK(request(AF_INET, port, bin, strlen(bin), 3, &r, &n, NULL) == 200, "GET /binary 200");
+    const char *bb = r ? strstr(r, "\r\n\r\n") : NULL;
+    CHECK(r && strstr(r, "\r\nContent-Length: 5\r\n") && bb && (size_t)(r + n - (bb + 4)) == 5 &&
+              !memcmp(bb + 4, "a\0b\0c", 5),
+          "a body with NULs goes out whole, with its length");
+    free(r);
+    CHECK(request(AF_INET, port, get_status, strlen(get_status), 3, &r, &n, NULL) == 200 &&
+              strstr(r, "\r\nContent-Length: 13\r\n"),
+          "the told length applies to that body only");
     free(r);
 
     const char *head = "HEAD /status HTTP/1.1\r\nHost: x\r\n\r\n";

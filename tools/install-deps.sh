@@ -3,9 +3,11 @@
 # Idempotent: does nothing when every package is already present. Works as
 # root (apt-get directly) or as a user with sudo (asks sudo for apt-get
 # only); says in one line what to do when it can be neither.
-# Usage: sh tools/install-deps.sh [--fuzz | --mpi]
+# Usage: sh tools/install-deps.sh [--fuzz] [--browser] [--mpi]
 #   --fuzz  also clang, llvm (symbolizer) and libomp-dev: the libFuzzer
 #           harnesses of `make fuzz` and the fuzz smoke of `make check`
+#   --browser  also chromium: test_daemon loads the status page in headless
+#           chromium (skipped with one line without it)
 #   --mpi   also OpenMPI (libopenmpi-dev, openmpi-bin): `make MPI=1`, the
 #           ensemble over ranks and its test in `make check`
 set -eu
@@ -13,12 +15,9 @@ PKGS="build-essential make pkg-config libnetcdf-dev netcdf-bin libcurl4-openssl-
 libcjson-dev libgsl-dev libproj-dev proj-data libudunits2-dev libmicrohttpd-dev \
 libsqlite3-dev sqlite3 libssl-dev libcairo2-dev libsystemd-dev gmt-gshhg-high gnuplot-nox \
 valgrind curl systemd"
-if [ "${1:-}" = "--fuzz" ]; then
-    PKGS="$PKGS clang llvm libomp-dev"
-fi
-if [ "${1:-}" = "--mpi" ]; then
-    PKGS="$PKGS libopenmpi-dev openmpi-bin"
-fi
+case " $* " in *" --fuzz "*) PKGS="$PKGS clang llvm libomp-dev" ;; esac
+case " $* " in *" --browser "*) PKGS="$PKGS chromium" ;; esac
+case " $* " in *" --mpi "*) PKGS="$PKGS libopenmpi-dev openmpi-bin" ;; esac
 missing=""
 for p in $PKGS; do
     dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"

@@ -165,6 +165,13 @@ int products_close(prod_writer *p, prod_summary *summary, sph_error *err);
 /* Discards an unfinished writer: closes and removes temporary files. NULL-safe. */
 void products_abort(prod_writer *p);
 
+/* Lists more files of a closed stage directory in its manifest.json (the
+ * restart file, the service's cycle.json: written after products_close):
+ * each of names (NULL-terminated, plain file names in stage_dir) not yet
+ * listed gets its size and sha256; the manifest is rewritten atomically.
+ * A name that is missing or has a '/' is an error and nothing changes. */
+int products_manifest_add(const char *stage_dir, const char *const *names, sph_error *err);
+
 /* Publishes a completed stage directory: checks manifest.json and every
  * file it lists (size), renames stage_dir to final_dir (an existing
  * final_dir is replaced: moved aside, then removed), then points
@@ -173,12 +180,6 @@ void products_abort(prod_writer *p);
  * the rename nothing is changed; latest moves only after the rename. */
 int products_publish(const char *stage_dir, const char *final_dir, const char *latest_link,
                      sph_error *err);
-
-/* Adds files (names relative to stage_dir, already complete) to the
- * stage's manifest.json with their sizes and sha256, rewriting it
- * atomically; a name already listed is refreshed. For products made
- * after products_close (the ensemble's). */
-int products_manifest_append(const char *stage_dir, const char *const *names, int n, sph_error *err);
 
 /* Reads the particles of output time t (NaN: the last time) from a
  * trajectory file written by products_*. For drift analysis and replay; a

@@ -31,6 +31,11 @@
 
 typedef char *(*http_route_fn)(void *ctx, const char *path, int *code, const char **content_type);
 
+/* For a body that is not a NUL-terminated text (a PNG): the route calls
+ * this with the body's length before returning it. Applies to the body
+ * the route returns next, on the calling thread. */
+void http_set_body_length(size_t len);
+
 typedef struct http_server http_server;
 
 /* listen: "A.B.C.D:PORT", "[IPV6]:PORT", or an address alone ("127.0.0.1",

@@ -16,6 +16,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "io/products.h"
 #include "service/config.h"
 #include "service/cycle_phase.h"
 #include "service/ensemble.h"
@@ -862,6 +863,22 @@ int cycle_run(const struct sph_config *cfg, const cycle_opts *o, forecast_progre
     cycle_set_phase(prog, o->cycle_time, FC_PHASE_WRITING, "manifest and publication");
     if ((rc = write_manifest(cfg, o, rep, stage, &f, &e)))
         goto done;
+    char mpath[4400];
+    struct stat mst;
+    snprintf(mpath, sizeof mpath, "%s/manifest.json", stage);
+    if (stat(mpath, &mst) == 0) { /* the test engine writes no manifest */
+        /* manifest.json (written by the products) also lists what came
+         * after it: the restart file and cycle.json */
+        const char *more[FC_MAX_PRODUCTS + 2];
+        int nm = 0;
+        for (int i = 0; i < rep->res.nproducts && i < FC_MAX_PRODUCTS; i++)
+            if (strcmp(rep->res.products[i], "manifest.json"))
+                more[nm++] = rep->res.products[i];
+        more[nm++] = "cycle.json";
+        more[nm] = NULL;
+        if ((rc = products_manifest_add(stage, more, &e)))
+            goto done;
+    }
     if ((rc = publish(cfg, out_dir, stage, cname, o->cycle_time, rep->product_dir, sizeof rep->product_dir, &e)))
         goto done;
     stage[0] = 0;

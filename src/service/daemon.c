@@ -20,6 +20,7 @@
 #include "service/history.h"
 #include "service/http.h"
 #include "service/schedule.h"
+#include "service/status_page.h"
 #include "util/fileio.h"
 #include "util/jsonutil.h"
 #include "util/log.h"
@@ -115,6 +116,8 @@ static int scheduler_alive(const svc *s) { return time_monotonic() - s->last_tic
 
 /* ------------------------------------------------------------- routes */
 
+#define STATUS_RECENT_RUNS 10 /* cycles of the history in /status (the page's table) */
+
 static char *status_json(svc *s)
 {
     cJSON *root = cJSON_CreateObject();
@@ -172,13 +175,28 @@ static char *status_json(svc *s)
     } else {
         cJSON_AddArrayToObject(root, "forcing");
     }
+    char out_dir[4096];
+    snprintf(out_dir, sizeof out_dir, "%s", s->cfg->output.dir);
     pthread_mutex_unlock(&s->lock);
 
     char *last = history_last_finished_json(s->hist, NULL);
     cJSON *lj = last ? cJSON_Parse(last) : NULL;
     free(last);
     cJSON_AddItemToObject(root, "last_run", lj ? lj : cJSON_CreateNull());
-    char *text = cJSON_Print(root);
+    /* the status page's: the last cycles (cycle, result, duration, ice
+     * area, edge distance, stale, start mode: /runs has the rest) and the
+     * latest published cycle's maps and edge */
+    char *recent = history_recent_json(s->hist, STATUS_RECENT_RUNS);
+    cJSON *rj = recent ? cJSON_Parse(recent) : NULL, *r;
+    free(recent);
+    static const char *const drop[] = {"products", "scores", "message", "started", "ended", "ice_volume_km3"};
+    cJSON_ArrayForEach(r, rj) {
+        for (size_t k = 0; k < sizeof drop / sizeof drop[0]; k++)
+            cJSON_DeleteItemFromObjectCaseSensitive(r, drop[k]);
+    }
+    cJSON_AddItemToObject(root, "recent", rj ? rj : cJSON_CreateArray());
+    cJSON_AddItemToObject(root, "latest", status_latest_json(out_dir));
+    char *text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
     return text;
 }
@@ -319,6 +337,21 @@ static char *route(void *ctx, const char *path, int *code, const char **ctype)
     svc *s = ctx;
     *code = 200;
     *ctype = "application/json";
+    if (!strcmp(path, "/")) {
+        *ctype = "text/html; charset=utf-8";
+        return strdup(status_page_html());
+    }
+    if (!strncmp(path, "/latest/", 8)) {
+        char out_dir[4096];
+        pthread_mutex_lock(&s->lock);
+        snprintf(out_dir, sizeof out_dir, "%s", s->cfg->output.dir);
+        pthread_mutex_unlock(&s->lock);
+        size_t len = 0;
+        char *b = status_latest_file(out_dir, path + 8, &len, ctype);
+        if (b)
+            http_set_body_length(len);
+        return b;
+    }
     if (!strcmp(path, "/status"))
         return status_json(s);
     if (!strcmp(path, "/config"))

@@ -240,8 +240,8 @@ int ensemble_run(const struct sph_config *cfg, const forecast_request *req, fore
     res->wall_seconds = wall;
     for (int k = 0; k < s.nproducts && res->nproducts < FC_MAX_PRODUCTS; k++)
         snprintf(res->products[res->nproducts++], sizeof res->products[0], "%s", s.products[k]);
-    if ((rc = products_manifest_append(req->stage_dir, (const char *const[]){s.products[0], s.products[1]},
-                                       s.nproducts, err)))
+    const char *names[3] = {s.products[0], s.products[1], NULL};
+    if ((rc = products_manifest_add(req->stage_dir, names, err)))
         goto done;
     log_info("ensemble: %d members, mean concentration spread %.4f%s", n, s.mean_spread_conc,
              s.has_scores ? "" : ", no observation scored");

@@ -120,15 +120,27 @@ static const char *reason(int code)
     }
 }
 
-/* Status line, headers and (unless head) body into one malloc'd buffer. */
-static int make_reply(int code, const char *ctype, const char *body, int head, char **out, size_t *len)
+/* The length of the next body a route returns when it is not text (see
+ * http_set_body_length); per thread, since the route runs on the server's. */
+static _Thread_local size_t next_body_len;
+static _Thread_local int next_body_len_set;
+
+void http_set_body_length(size_t len)
+{
+    next_body_len = len;
+    next_body_len_set = 1;
+}
+
+/* Status line, headers and (unless head) body of blen bytes into one
+ * malloc'd buffer. */
+static int make_reply(int code, const char *ctype, const char *body, size_t blen, int head, char **out,
+                      size_t *len)
 {
     char date[64] = "";
     time_t now = time(NULL);
     struct tm tm;
     if (gmtime_r(&now, &tm))
         strftime(date, sizeof date, "%a, %d %b %Y %H:%M:%S GMT", &tm);
-    size_t blen = body ? strlen(body) : 0;
     char hdr[512];
     int hl = snprintf(hdr, sizeof hdr,
                       "HTTP/1.1 %d %s\r\nDate: %s\r\nContent-Type: %s\r\nContent-Length: %zu\r\n"
@@ -153,7 +165,7 @@ static int error_reply(int code, const char *why, int head, char **out, size_t *
 {
     char body[256];
     snprintf(body, sizeof body, "{\"error\": %d, \"message\": \"%s\"}\n", code, why);
-    return make_reply(code, "application/json", body, head, out, len);
+    return make_reply(code, "application/json", body, strlen(body), head, out, len);
 }
 
 static int hexval(int c)
@@ -302,10 +314,13 @@ int http_respond(const char *req, size_t n, http_route_fn route, void *ctx, char
 
     int code = 200;
     const char *ctype = "application/json";
+    next_body_len_set = 0;
     char *b = route ? route(ctx, path, &code, &ctype) : NULL;
+    size_t blen = b && next_body_len_set ? next_body_len : b ? strlen(b) : 0;
+    next_body_len_set = 0;
     if (!b)
         return error_reply(404, "no such path", head, reply, reply_len);
-    make_reply(code, ctype, b, head, reply, reply_len);
+    make_reply(code, ctype, b, blen, head, reply, reply_len);
     free(b);
     return code;
 }

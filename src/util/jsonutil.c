@@ -2,7 +2,9 @@
 #include "util/jsonutil.h"
 
 #include <math.h>
+#include <stdlib.h>
 
+#include "util/fileio.h"
 #include "util/timeutil.h"
 
 void json_add_num(cJSON *o, const char *k, double v)
@@ -22,4 +24,16 @@ void json_add_time(cJSON *o, const char *k, double t)
     } else {
         cJSON_AddNullToObject(o, k);
     }
+}
+
+cJSON *json_read_file(const char *path, sph_error *err)
+{
+    char *text = NULL;
+    if (read_file(path, &text, NULL, err) != SPH_OK)
+        return NULL;
+    cJSON *j = cJSON_Parse(text);
+    free(text);
+    if (!j)
+        sph_err_set(err, SPH_ERR_BAD_DATA, "%s: not JSON", path);
+    return j;
 }

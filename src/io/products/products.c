@@ -20,6 +20,9 @@
 #include "util/version.h"
 
 #define TIME_UNITS "seconds since 1970-01-01 00:00:00"
+/* CF auxiliary coordinates of every time-dependent variable of the fields
+ * file: the lead time and the scalar cycle time (CF 4.4, 5.7). */
+#define FORECAST_COORDS "forecast_period forecast_reference_time"
 
 void products_options_default(prod_options *o)
 {
@@ -141,7 +144,9 @@ static const var_spec field_specs[PF_NVARS] = {
       "area: mean where sea_ice time: point" },
     { "sidivvel", "divergence_of_sea_ice_velocity", "divergence of the sea ice velocity field",
       "s-1", "area: mean where sea_ice time: point" },
-    { "sishearvel", "maximum_shear_of_sea_ice_velocity",
+    /* SIMIP's sishearvel has no CF standard name (its proposed
+     * maximum_shear_of_sea_ice_velocity is not in the table, v83 to v94) */
+    { "sishearvel", NULL,
       "maximum shear rate of the sea ice velocity field", "s-1",
       "area: mean where sea_ice time: point" },
     /* SIMIP sisnthick: snow volume over the snow-covered area; the snow
@@ -170,6 +175,7 @@ static int def_scalar_series(prod_writer *p, int dim_t, const char *name, const 
     NCT(prod_put_text(nc, *varid, "units", units), "write attribute in");
     double fill = NC_FILL_DOUBLE;
     NCT(nc_put_att_double(nc, *varid, "_FillValue", NC_DOUBLE, 1, &fill), "write attribute in");
+    NCT(prod_put_text(nc, *varid, "coordinates", FORECAST_COORDS), "write attribute in");
     return SPH_OK;
 }
 
@@ -221,10 +227,11 @@ static int fields_define(prod_writer *p, sph_error *err)
         p->nc = -1;
         return prod_nc_check(st, "create", p->fields.tmp, err);
     }
-    int nc = p->nc, d_t, d_lat, d_lon, d_node, d_part;
+    int nc = p->nc, d_t, d_lat, d_lon, d_node, d_part, d_bnds;
     NCT(nc_def_dim(nc, "time", NC_UNLIMITED, &d_t), "define dimension in");
     NCT(nc_def_dim(nc, "lat", (size_t)g->nlat, &d_lat), "define dimension in");
     NCT(nc_def_dim(nc, "lon", (size_t)g->nlon, &d_lon), "define dimension in");
+    NCT(nc_def_dim(nc, "bnds", 2, &d_bnds), "define dimension in");
     NCT(nc_def_dim(nc, "edge_node", NC_UNLIMITED, &d_node), "define dimension in");
     NCT(nc_def_dim(nc, "edge_part", NC_UNLIMITED, &d_part), "define dimension in");
 
@@ -244,9 +251,27 @@ static int fields_define(prod_writer *p, sph_error *err)
     NCT(prod_put_text(nc, v_ref, "units", TIME_UNITS), "write attribute in");
     NCT(prod_put_text(nc, v_ref, "calendar", "standard"), "write attribute in");
 
-    int v_lat, v_lon;
+    /* lead time as operational centres write it (Met Office, ECMWF's
+     * "step"): hours from forecast_reference_time to the valid time */
+    NCT(nc_def_var(nc, "forecast_period", NC_DOUBLE, 1, &d_t, &p->v_period), "define variable in");
+    NCT(prod_put_text(nc, p->v_period, "standard_name", "forecast_period"), "write attribute in");
+    NCT(prod_put_text(nc, p->v_period, "long_name", "lead time: valid time minus forecast_reference_time"),
+        "write attribute in");
+    NCT(prod_put_text(nc, p->v_period, "units", "hours"), "write attribute in");
+
+    int v_lat, v_lon, v_latb, v_lonb;
     NCT(prod_def_lonlat(nc, "lat", 1, &d_lat, 'Y', "latitude of the cell centre", &v_lat), "define variable in");
+    NCT(prod_put_text(nc, v_lat, "bounds", "lat_bnds"), "write attribute in");
     NCT(prod_def_lonlat(nc, "lon", 1, &d_lon, 'X', "longitude of the cell centre", &v_lon), "define variable in");
+    NCT(prod_put_text(nc, v_lon, "bounds", "lon_bnds"), "write attribute in");
+    /* CF 7.1 cell boundaries: the centre -+ half a grid step */
+    int db_lat[2] = { d_lat, d_bnds }, db_lon[2] = { d_lon, d_bnds };
+    NCT(nc_def_var(nc, "lat_bnds", NC_DOUBLE, 2, db_lat, &v_latb), "define variable in");
+    NCT(prod_put_text(nc, v_latb, "long_name", "latitude of the cell edges"), "write attribute in");
+    NCT(prod_put_text(nc, v_latb, "units", "degrees_north"), "write attribute in");
+    NCT(nc_def_var(nc, "lon_bnds", NC_DOUBLE, 2, db_lon, &v_lonb), "define variable in");
+    NCT(prod_put_text(nc, v_lonb, "long_name", "longitude of the cell edges"), "write attribute in");
+    NCT(prod_put_text(nc, v_lonb, "units", "degrees_east"), "write attribute in");
 
     int dims2[2] = { d_lat, d_lon }, v_area, v_land;
     NCT(nc_def_var(nc, "cell_area", NC_DOUBLE, 2, dims2, &v_area), "define variable in");
@@ -281,6 +306,7 @@ static int fields_define(prod_writer *p, sph_error *err)
         NCT(prod_put_text(nc, v, "units", s->units), "write attribute in");
         NCT(prod_put_text(nc, v, "cell_methods", s->cell_methods), "write attribute in");
         NCT(prod_put_text(nc, v, "cell_measures", "area: cell_area"), "write attribute in");
+        NCT(prod_put_text(nc, v, "coordinates", FORECAST_COORDS), "write attribute in");
     }
     float range[2] = { 0.0f, 1.0f };
     NCT(nc_put_att_float(nc, p->v_data[PF_VAR_CONC], "valid_range", NC_FLOAT, 2, range),
@@ -302,6 +328,15 @@ static int fields_define(prod_writer *p, sph_error *err)
                                 "largest great-circle distance of an ice edge point from the "
                                 "reference point", "nautical_mile", &p->v_edist, err)) != SPH_OK)
         return rc;
+    /* CF's sea_ice_extent names its threshold in a scalar coordinate of
+     * standard name sea_ice_area_fraction */
+    int v_thr;
+    NCT(nc_def_var(nc, "extent_threshold", NC_DOUBLE, 0, NULL, &v_thr), "define variable in");
+    NCT(prod_put_text(nc, v_thr, "standard_name", "sea_ice_area_fraction"), "write attribute in");
+    NCT(prod_put_text(nc, v_thr, "long_name", "concentration threshold of the ice extent and the ice edge"),
+        "write attribute in");
+    NCT(prod_put_text(nc, v_thr, "units", "1"), "write attribute in");
+    NCT(prod_put_text(nc, p->v_extent, "coordinates", FORECAST_COORDS " extent_threshold"), "write attribute in");
     NCT(prod_put_text(nc, p->v_elen, "geometry", "edge_geometry"), "write attribute in");
     NCT(prod_put_text(nc, p->v_edist, "geometry", "edge_geometry"), "write attribute in");
     if (p->opts.has_reference) {
@@ -349,7 +384,8 @@ static int fields_define(prod_writer *p, sph_error *err)
 
     /* static variables */
     NCT(nc_put_var_double(nc, v_ref, &p->cycle_time), "write forecast_reference_time to");
-    double *buf = malloc(sizeof(double) * (size_t)(g->nlat > g->nlon ? g->nlat : g->nlon));
+    NCT(nc_put_var_double(nc, v_thr, &p->opts.edge_threshold), "write extent_threshold to");
+    double *buf = malloc(2 * sizeof(double) * (size_t)(g->nlat > g->nlon ? g->nlat : g->nlon));
     if (!buf)
         return sph_err_set(err, SPH_ERR_NOMEM, "products: out of memory");
     for (int j = 0; j < g->nlat; j++)
@@ -359,6 +395,18 @@ static int fields_define(prod_writer *p, sph_error *err)
         buf[i] = g->lon0 + i * g->dlon;
     if (st == NC_NOERR)
         st = nc_put_var_double(nc, v_lon, buf);
+    for (int j = 0; j < g->nlat; j++) {
+        buf[2 * j] = g->lat0 + (j - 0.5) * g->dlat;
+        buf[2 * j + 1] = g->lat0 + (j + 0.5) * g->dlat;
+    }
+    if (st == NC_NOERR)
+        st = nc_put_var_double(nc, v_latb, buf);
+    for (int i = 0; i < g->nlon; i++) {
+        buf[2 * i] = g->lon0 + (i - 0.5) * g->dlon;
+        buf[2 * i + 1] = g->lon0 + (i + 0.5) * g->dlon;
+    }
+    if (st == NC_NOERR)
+        st = nc_put_var_double(nc, v_lonb, buf);
     free(buf);
     NCT(st, "write coordinates to");
     size_t nn = (size_t)g->nlat * g->nlon;
@@ -675,6 +723,8 @@ int products_add_time(prod_writer *p, double t, const prod_fields *f,
     if (ti == 0 && (rc = write_landmask(p, err)) != SPH_OK)
         return fail(p, rc);
     NCT(nc_put_var1_double(p->nc, p->v_time, &ti, &t), "write time to");
+    double lead_h = (t - p->cycle_time) / 3600.0;
+    NCT(nc_put_var1_double(p->nc, p->v_period, &ti, &lead_h), "write forecast_period to");
     for (int v = 0; v < PF_NVARS; v++) {
         if (v == PF_VAR_SNOW && !p->opts.write_snow)
             continue;
@@ -939,16 +989,23 @@ static int write_manifest(prod_writer *p, sph_error *err)
         cJSON_AddStringToObject(f, "sha256", hex);
     }
     cJSON_AddBoolToObject(m, "complete", 1);
-    char *text = rc == SPH_OK ? cJSON_Print(m) : NULL;
-    cJSON_Delete(m);
-    if (rc != SPH_OK)
+    if (rc != SPH_OK) {
+        cJSON_Delete(m);
         return rc;
+    }
+    if ((rc = prod_write_json(path, m, err)) == SPH_OK)
+        add_product(p, "manifest.json");
+    return rc;
+}
+
+int prod_write_json(const char *path, struct cJSON *doc, sph_error *err)
+{
+    char *text = cJSON_Print(doc);
+    cJSON_Delete(doc);
     if (!text)
         return sph_err_set(err, SPH_ERR_NOMEM, "write %s: out of memory", path);
-    rc = atomic_write_file(path, text, strlen(text), err);
+    int rc = atomic_write_file(path, text, strlen(text), err);
     free(text);
-    if (rc == SPH_OK)
-        add_product(p, "manifest.json");
     return rc;
 }
 

@@ -42,7 +42,7 @@ struct prod_writer {
     /* gridded fields file */
     prod_file fields;
     int nc;
-    int v_time, v_data[PF_NVARS], v_area, v_extent, v_volume, v_elen, v_edist;
+    int v_time, v_period, v_data[PF_NVARS], v_area, v_extent, v_volume, v_elen, v_edist;
     int v_node_count, v_part_count, v_ex, v_ey;
     size_t ntimes, edge_nodes, edge_parts;
     double t_first, t_last;
@@ -92,6 +92,9 @@ int prod_file_commit(prod_writer *p, prod_file *f, sph_error *err);
 void prod_file_discard(prod_file *f);
 int prod_nc_check(int status, const char *what, const char *path, sph_error *err);
 int prod_put_text(int ncid, int varid, const char *name, const char *text);
+struct cJSON;
+/* Writes doc (freed here) as indented JSON to path, atomically. */
+int prod_write_json(const char *path, struct cJSON *doc, sph_error *err);
 /* Defines a CF longitude (axis 'X') or latitude (axis 'Y') coordinate,
  * doubles over dims: standard_name, long_name, units, axis. */
 int prod_def_lonlat(int ncid, const char *name, int ndims, const int *dims, char axis,

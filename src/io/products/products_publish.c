@@ -17,61 +17,8 @@
 #include <unistd.h>
 
 #include "util/fileio.h"
+#include "util/jsonutil.h"
 #include "util/log.h"
-
-int products_manifest_append(const char *stage_dir, const char *const *names, int n, sph_error *err)
-{
-    char path[PROD_PATH];
-    snprintf(path, sizeof path, "%s/manifest.json", stage_dir);
-    char *text = NULL;
-    size_t len = 0;
-    int rc = read_file(path, &text, &len, err);
-    if (rc)
-        return rc;
-    cJSON *m = cJSON_Parse(text);
-    free(text);
-    cJSON *files = m ? cJSON_GetObjectItemCaseSensitive(m, "files") : NULL;
-    if (!cJSON_IsArray(files)) {
-        cJSON_Delete(m);
-        return sph_err_set(err, SPH_ERR_BAD_DATA, "manifest %s: no files list", path);
-    }
-    for (int k = 0; k < n && rc == SPH_OK; k++) {
-        char fp[PROD_PATH], hex[65];
-        snprintf(fp, sizeof fp, "%s/%s", stage_dir, names[k]);
-        struct stat sb;
-        if (stat(fp, &sb) != 0) {
-            rc = sph_err_set(err, SPH_ERR_IO, "manifest: %s: %s", fp, strerror(errno));
-            break;
-        }
-        if ((rc = sha256_file(fp, hex, err)) != SPH_OK)
-            break;
-        int i = 0;
-        const cJSON *it;
-        cJSON_ArrayForEach(it, files)
-        {
-            const cJSON *nm = cJSON_GetObjectItemCaseSensitive(it, "name");
-            if (cJSON_IsString(nm) && !strcmp(nm->valuestring, names[k])) {
-                cJSON_DeleteItemFromArray(files, i);
-                break;
-            }
-            i++;
-        }
-        cJSON *f = cJSON_CreateObject();
-        cJSON_AddStringToObject(f, "name", names[k]);
-        cJSON_AddNumberToObject(f, "bytes", (double)sb.st_size);
-        cJSON_AddStringToObject(f, "sha256", hex);
-        cJSON_AddItemToArray(files, f);
-    }
-    text = rc == SPH_OK ? cJSON_Print(m) : NULL;
-    cJSON_Delete(m);
-    if (rc != SPH_OK)
-        return rc;
-    if (!text)
-        return sph_err_set(err, SPH_ERR_NOMEM, "manifest %s: out of memory", path);
-    rc = atomic_write_file(path, text, strlen(text), err);
-    free(text);
-    return rc;
-}
 
 static int check_manifest(const char *stage, sph_error *err)
 {
@@ -113,6 +60,50 @@ static int check_manifest(const char *stage, sph_error *err)
     }
     cJSON_Delete(m);
     return rc;
+}
+
+int products_manifest_add(const char *stage_dir, const char *const *names, sph_error *err)
+{
+    char path[PROD_PATH];
+    snprintf(path, sizeof path, "%s/manifest.json", stage_dir);
+    int rc = SPH_OK;
+    cJSON *m = json_read_file(path, err);
+    if (!m)
+        return err ? err->code : SPH_ERR_BAD_DATA;
+    cJSON *files = cJSON_GetObjectItem(m, "files");
+    if (!cJSON_IsArray(files)) {
+        cJSON_Delete(m);
+        return sph_err_set(err, SPH_ERR_BAD_DATA, "manifest %s: no file list", path);
+    }
+    for (const char *const *n = names; n && *n && rc == SPH_OK; n++) {
+        int listed = 0;
+        cJSON *f;
+        cJSON_ArrayForEach(f, files) {
+            const char *have = cJSON_GetStringValue(cJSON_GetObjectItem(f, "name"));
+            listed |= have && !strcmp(have, *n);
+        }
+        if (listed)
+            continue;
+        char fp[PROD_PATH], hex[65];
+        struct stat sb;
+        snprintf(fp, sizeof fp, "%s/%s", stage_dir, *n);
+        if (!**n || strchr(*n, '/') || stat(fp, &sb) != 0 || !S_ISREG(sb.st_mode)) {
+            rc = sph_err_set(err, SPH_ERR_IO, "manifest %s: %s is not a file of the stage", path, *n);
+            break;
+        }
+        if ((rc = sha256_file(fp, hex, err)) != SPH_OK)
+            break;
+        f = cJSON_CreateObject();
+        cJSON_AddItemToArray(files, f);
+        cJSON_AddStringToObject(f, "name", *n);
+        cJSON_AddNumberToObject(f, "bytes", (double)sb.st_size);
+        cJSON_AddStringToObject(f, "sha256", hex);
+    }
+    if (rc != SPH_OK) {
+        cJSON_Delete(m);
+        return rc;
+    }
+    return prod_write_json(path, m, err);
 }
 
 static int rm_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw)

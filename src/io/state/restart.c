@@ -112,6 +112,7 @@ static int write_body(int nc, const sph_particles *P, const restart_header *h, c
 
     char iso[32];
     time_format_iso(h->time, iso, sizeof iso);
+    NC(put_text(nc, NC_GLOBAL, "Conventions", "CF-1.8"), "write attribute");
     NC(put_text(nc, NC_GLOBAL, "sphice_restart_format", RESTART_FORMAT), "write attribute");
     NC(put_text(nc, NC_GLOBAL, "title", "sphice particle state (warm start)"), "write attribute");
     NC(put_text(nc, NC_GLOBAL, "projection", h->projection), "write attribute");
