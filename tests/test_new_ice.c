@@ -227,10 +227,162 @@ static void test_open_water_freeze(void)
     sph_model_free(m);
 }
 
+/* Three cells of 10 km in a row; the western 5 km is land (mask of 5 km
+ * cells); the west half of cell 1 holds 0.5 m ice on its lattice points;
+ * cell 2 is held warm by restoring. Cold air everywhere. */
+static void test_placement(void)
+{
+    sph_params p;
+    base_params(&p);
+    p.ocean.restore_days = 0.1;
+    static unsigned char land[6 * 2] = {1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0};
+    sph_landmask mk = {6, 2, 0.0, 0.0, 5000.0, 5000.0, land, 1};
+    sph_model *m = sph_model_create(&p, 256, &mk);
+    sph_ocean_grid g = {3, 1, 0.0, 0.0, 1e4, 1e4, 1250.0, 1250.0, 2500.0};
+    CHECK(m && sph_model_ocean_create(m, &g) == SPH_STEP_OK, "model");
+    if (!m)
+        return;
+    sph_ocean *o = sph_model_ocean(m);
+    CHECK_CLOSE(o->seafrac[0], 0.5, 1e-12, 0, "sea fraction of the coastal cell");
+    for (size_t c = 0; c < 3; c++)
+        sph_ocean_set_cell(o, c, 20.0, 32.0, c == 2 ? 5.0 : -1.728);
+    o->sst_restore[2] = 5.0;
+    sph_particles *P = sph_model_particles(m);
+    size_t n0 = 0;
+    for (int b = 0; b < 4; b++)
+        for (int a = 0; a < 2; a++, n0++) {
+            P->x[n0] = 11250.0 + 2500.0 * a;
+            P->y[n0] = 1250.0 + 2500.0 * b;
+            P->thick[n0] = 0.5;
+            P->conc[n0] = 1.0;
+            P->mass[n0] = 900.0 * 0.5 * 2500.0 * 2500.0;
+            P->sml[n0] = 2500.0;
+            P->id[n0] = (long)n0 + 100;
+        }
+    P->n = n0;
+    for (size_t k = 0; k < n0; k++)
+        sph_thermo_init_particle(&p.thermo, P, k, -20.0);
+    atm a = {-20.0, 6e-4, 5.0, 5.0, 0.0, 180.0};
+    fill(m, &a);
+    sph_status st;
+    CHECK(sph_model_init(m, &st) == SPH_STEP_OK, "init: %s", st.what);
+    double frazil_before[3] = {0, 0, 0}, new_before = 0.0;
+    int done = 0;
+    for (int h = 0; h < 48 && !done; h++) {
+        for (int c = 0; c < 3; c++)
+            frazil_before[c] = o->frazil[c];
+        new_before = sph_model_budget(m)->new_ice;
+        size_t nb = P->n;
+        fill(m, &a);
+        CHECK(sph_model_step(m, &st) == SPH_STEP_OK, "step: %s %s", st.quantity, st.what);
+        if (P->n > nb) {
+            done = 1;
+            double made = 0.0;
+            size_t in0 = 0, in1 = 0;
+            for (size_t k = 0; k < P->n; k++) {
+                if (P->id[k] >= 100 && P->id[k] < 108)
+                    continue;
+                made += P->mass[k];
+                CHECK(P->id[k] >= 108, "new ids continue from the largest: %ld", P->id[k]);
+                CHECK(P->x[k] > 5000.0, "no new particle on land: x %g", P->x[k]);
+                CHECK(P->x[k] < 20000.0, "none in the warm cell: x %g", P->x[k]);
+                for (size_t j = 0; j < P->n; j++)
+                    if (P->id[j] >= 100 && P->id[j] < 108)
+                        CHECK(hypot(P->x[k] - P->x[j], P->y[k] - P->y[j]) >= 2499.0,
+                              "no new particle inside existing ice");
+                in0 += P->x[k] < 1e4;
+                in1 += P->x[k] >= 1e4;
+            }
+            CHECK(in0 == 8 && in1 == 8, "the free sea lattice points: %zu + %zu (want 8 + 8)", in0, in1);
+            /* the cells' frazil of this step: all of it became particles */
+            CHECK(o->frazil[0] == 0.0 && o->frazil[1] == 0.0, "frazil used up");
+            CHECK_CLOSE(made, sph_model_budget(m)->new_ice - new_before, 1e-12, 0, "created mass in the budget");
+            CHECK(made > frazil_before[0] + frazil_before[1], "created mass includes this hour's frazil");
+        }
+    }
+    CHECK(done, "new ice created");
+    CHECK(o->frazil[2] == 0.0 && o->temp[2] > 0.0, "the warm cell does not freeze: T %g", o->temp[2]);
+    sph_model_free(m);
+}
+
+/* 30 days on a 2 x 2 grid of 10 km cells with a land corner: cold, a warm
+ * sunny spell with restoring (melt-out, removal), cold again; ice drifts
+ * out through the open edge; merging on. */
+static void test_conservation(void)
+{
+    sph_params p;
+    base_params(&p);
+    p.Ca = 1.2e-3;
+    p.ocean.restore_days = 5.0;
+    p.ocean.merge = 1;
+    p.ocean.merge_distance = 1.05;
+    p.ocean.freezing = SPH_FREEZING_UNESCO;
+    p.thermo.model = SPH_THERMO_AUTO;
+    static unsigned char land[4 * 4] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0};
+    sph_landmask mk = {4, 4, 0.0, 0.0, 5000.0, 5000.0, land, 0};
+    sph_model *m = sph_model_create(&p, 4000, &mk);
+    sph_ocean_grid g = {2, 2, 0.0, 0.0, 1e4, 1e4, 1250.0, 1250.0, 2500.0};
+    CHECK(m && sph_model_ocean_create(m, &g) == SPH_STEP_OK, "model");
+    if (!m)
+        return;
+    sph_ocean *o = sph_model_ocean(m);
+    for (size_t c = 0; c < 4; c++) {
+        sph_ocean_set_cell(o, c, c == 1 ? 5.0 : 25.0, 31.0, -1.0);
+        o->sst_restore[c] = -1.0;
+        o->sss_restore[c] = 31.5;
+    }
+    atm cold = {-15.0, 6e-4, 2.0, 1.0, 0.0, 200.0};
+    atm warm = {6.0, 5e-3, 2.0, 1.0, 400.0, 330.0};
+    fill(m, &cold);
+    sph_status st;
+    CHECK(sph_model_init(m, &st) == SPH_STEP_OK, "init: %s", st.what);
+    size_t nmax = 0, nmin_warm = 100000;
+    int ok = 1;
+    double worst[3] = {0, 0, 0};
+    for (int h = 0; h < 30 * 24 && ok; h++) {
+        int day = h / 24;
+        const atm *a = day >= 6 && day < 12 ? &warm : &cold;
+        for (size_t c = 0; c < 4; c++)
+            o->sst_restore[c] = a == &warm ? 3.0 : -1.0;
+        fill(m, a);
+        int rc = sph_model_step(m, &st);
+        CHECK(rc == SPH_STEP_OK, "step %d: %s %s (%g vs %g)", h, st.quantity, st.what, st.value, st.limit);
+        ok = rc == SPH_STEP_OK;
+        size_t n = sph_model_particles(m)->n;
+        if (day < 6)
+            nmax = n > nmax ? n : nmax;
+        if (day >= 10 && day < 12)
+            nmin_warm = n < nmin_warm ? n : nmin_warm;
+        const sph_budget *b = sph_model_budget(m);
+        worst[0] = fmax(worst[0], sph_budget_energy_residual(b));
+        worst[1] = fmax(worst[1], sph_budget_water_residual(b));
+        worst[2] = fmax(worst[2], sph_budget_salt_residual(b));
+    }
+    const sph_budget *b = sph_model_budget(m);
+    printf("conservation 30 d: created %ld merged %ld outflow %ld particles, max %zu, min in the thaw %zu, "
+           "now %zu; residuals energy %.2e water %.2e salt %.2e\n",
+           b->created_particles, b->merged_particles, b->removed_particles, nmax, nmin_warm,
+           sph_model_particles(m)->n, worst[0], worst[1], worst[2]);
+    CHECK(b->created_particles > 0 && b->merged_particles > 0, "creation and merging happened");
+    CHECK(nmin_warm < nmax, "the thaw removed melted particles (%zu < %zu)", nmin_warm, nmax);
+    CHECK(b->outflow > 0.0 && b->energy_outflow < 0.0, "ice left through the open edge");
+    CHECK(b->energy_restoring != 0.0 && b->salt_restoring != 0.0, "restoring acted");
+    CHECK(worst[0] < 1e-12, "energy budget closes: %g", worst[0]);
+    CHECK(worst[1] < 1e-12, "water budget closes: %g", worst[1]);
+    CHECK(worst[2] < 1e-12, "salt budget closes: %g", worst[2]);
+    /* no particle on land */
+    sph_particles *P = sph_model_particles(m);
+    for (size_t k = 0; k < P->n; k++)
+        CHECK(!(P->x[k] < 5000.0 && P->y[k] >= 15000.0 && P->y[k] < 20000.0), "particle on land");
+    sph_model_free(m);
+}
+
 int main(void)
 {
     test_freezing_point();
     test_slab_cooling();
     test_open_water_freeze();
+    test_placement();
+    test_conservation();
     return check_summary("test_new_ice");
 }
