@@ -142,6 +142,8 @@ typedef struct sph_run_stats {
     double solver_stalled;      /* fraction of steps the auto mode stopped at a stall */
     long particles_start, particles_end;
     double budget_residual;     /* relative mass budget residual (sph_budget_residual) */
+    int ocean;                  /* 1: the mixed layer's budgets below were kept */
+    double energy_residual, water_residual, salt_residual; /* sph_budget_*_residual */
     double dt;                  /* dynamic step used, s */
     int dt_auto;                /* 1: chosen by auto time stepping (model.dt = 0) */
     long steps;                 /* steps added */

@@ -45,6 +45,7 @@ typedef enum {
 /* Model parameters (rows model.ocean.* and model.new_ice.* of params.c). */
 typedef struct sph_ocean_params {
     int mixed_layer;        /* 1: the slab mixed layer is on (0) */
+    double cell;            /* m (0: four seeding lattice spacings): the service's grid cell */
     double depth;           /* m (20): depth where no forcing field gives it */
     double min_depth;       /* m (1): floor of the depth of a sea cell */
     int freezing;           /* sph_freezing_kind (linear) */

@@ -519,8 +519,16 @@ int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st)
         sph_mark_near_land(m, m->kern.radius * p->sml_max_factor * new_ice_sml(m, sml0_max));
     m->dens_scale = c->dens_scale;
     m->budget = c->budget;
-    if (sph_ocean_on(m))
-        sph_ocean_mark(m); /* the mixed layer is not in restart files (docs/ocean.md) */
+    if (sph_ocean_on(m)) { /* the mixed layer is not in restart files (docs/ocean.md) */
+        sph_ocean_mark(m);
+        if (!m->budget.ocean) {
+            sph_ocean_totals(m, &m->budget.energy_initial, &m->budget.water_initial, &m->budget.salt_initial);
+            m->budget.energy = m->budget.energy_initial;
+            m->budget.water = m->budget.water_initial;
+            m->budget.salt = m->budget.salt_initial;
+            m->budget.ocean = 1;
+        }
+    }
     m->time = c->time;
     m->steps = c->steps;
     m->thermo_accum = c->thermo_accum;

@@ -103,6 +103,7 @@ static const sph_param rows[] = {
     DBL("thermo.auto_thickness", thermo.auto_thickness, 0.3, 0, 10, "m", "auto: zero-layer below this thickness, multi-layer above, m."),
     DBL("thermo.rho_ice", thermo.rho_i, 900, 800, 1000, "kg/m^3", "Ice density in the thermodynamics, kg/m^3."),
     BOOL("ocean.mixed_layer", ocean.mixed_layer, 0, "Slab ocean mixed layer per cell of the ocean grid (temperature, salinity), heated and cooled by open water, ice and restoring (docs/ocean.md); false: the forcing's SST as before."),
+    DBL("ocean.cell", ocean.cell, 0, 0, 1e6, "m", "Cell of the mixed layer's grid on the model plane, m; 0: four seeding lattice spacings (the grid covers the domain's plane box)."),
     DBL("ocean.depth", ocean.depth, 20, 0.1, 5000, "m", "Mixed-layer depth where no forcing field gives it, m (limited by the bathymetry)."),
     DBL("ocean.min_depth", ocean.min_depth, 1, 0.1, 100, "m", "Smallest mixed-layer depth of a sea cell (very shallow water), m."),
     ENUM("ocean.freezing_point", ocean.freezing, freezing_names, SPH_FREEZING_LINEAR, "Freezing point of the mixed layer from its salinity: linear (-thermo mu S, 0.054 K/psu) or unesco (Millero 1978, UNESCO 1983)."),
