@@ -36,8 +36,11 @@ typedef enum {
     FQ_CURRENT = 1 << 5,   /* eastward/northward_sea_water_velocity */
     FQ_SSH = 1 << 6,       /* sea_surface_height(_above_geoid) and gradient */
     FQ_SST = 1 << 7,       /* sea_surface_temperature */
-    FQ_OCEAN_FLUX = 1 << 8 /* upward_sea_ice_basal_heat_flux: upward at the ice base is
+    FQ_OCEAN_FLUX = 1 << 8, /* upward_sea_ice_basal_heat_flux: upward at the ice base is
                               from the ocean into the ice, so the sign is kept */
+    /* read only when asked for (the mixed layer's forecast asks an ocean source) */
+    FQ_MLD = 1 << 9,       /* ocean_mixed_layer_thickness(_defined_by_*) */
+    FQ_BATHY = 1 << 10     /* sea_floor_depth_below_sea_surface (or _geoid, _mean_sea_level) */
 } forcing_quantity;
 
 enum { FORCING_VECTORS_AUTO = 0, FORCING_VECTORS_EARTH, FORCING_VECTORS_GRID };
@@ -85,6 +88,8 @@ typedef struct forcing_sample {
     double *ssh_dx_east, *ssh_dy_north; /* m/m */
     double *sst;                    /* deg C */
     double *fw;                     /* W/m^2 into the ice */
+    double *mld;                    /* m, ocean mixed-layer thickness */
+    double *bathy;                  /* m, sea-floor depth (land: <= 0) */
     unsigned provided;              /* forcing_quantity flags actually filled */
 } forcing_sample;
 

@@ -88,6 +88,38 @@ int fc_ocean_setup(engine *e, sph_error *err)
     return SPH_OK;
 }
 
+/* 1 when the plane's land mask says (x, y) is land. */
+static int plane_land(const engine *e, double x, double y)
+{
+    const sph_landmask *L = &e->plane;
+    long i = (long)floor((x - L->x0) / L->dx), j = (long)floor((y - L->y0) / L->dy);
+    return L->land && i >= 0 && j >= 0 && i < L->nx && j < L->ny && L->land[(size_t)j * L->nx + i];
+}
+
+/* The bathymetry says land at a cell centre the land mask calls sea. */
+static int bathy_refusal(engine *e, double b, size_t c, sph_error *err)
+{
+    forcing_var_info info[32];
+    const char *file = "?", *var = "?", *src = "?";
+    for (size_t s = 0; s < e->cpl.nforc; s++) {
+        size_t n = forcing_describe(e->cpl.forc[s], info, 32);
+        for (size_t k = 0; k < n && k < 32; k++)
+            if (!strncmp(info[k].standard_name, "sea_floor_depth", 15)) {
+                file = info[k].file;
+                var = info[k].variable;
+                src = e->cpl.forc_name[s];
+            }
+        if (strcmp(file, "?"))
+            break;
+    }
+    char ll[64];
+    coupling_format_lonlat(e->cpl.lon[c], e->cpl.lat[c], ll, sizeof ll);
+    return sph_err_set(err, SPH_ERR_BAD_DATA,
+                       "forcing %s: %s: variable %s (sea-floor depth) is %g m, land, at %s where the land mask "
+                       "says sea: the bathymetry and the land mask disagree (set landmask.path to the ocean "
+                       "model's own mask)", src, file, var, b, ll);
+}
+
 int fc_ocean_fill(engine *e, double t, sph_error *err)
 {
     sph_ocean *o = sph_model_ocean(e->m);
@@ -109,10 +141,21 @@ int fc_ocean_fill(engine *e, double t, sph_error *err)
     }
     if (e->ocean_fresh) { /* a cold start: the slab starts at the forcing's SST, not below freezing */
         e->ocean_fresh = 0;
+        const sph_ocean_params *op = &e->prm.ocean;
         for (size_t c = 0; c < o->ncell; c++) {
-            double Tf = sph_ocean_freezing_point(e->prm.ocean.freezing, e->prm.thermo.mu, o->sal[c]);
+            double d = op->depth;
+            if (isfinite(e->cpl.mld[c]))
+                d = e->cpl.mld[c]; /* never negative: the reader refuses that */
+            double b = e->cpl.bathy[c];
+            if (isfinite(b) && b <= 0.0 && !plane_land(e, Q->x[c], Q->y[c]))
+                return bathy_refusal(e, b, c, err);
+            if (isfinite(b) && b < d)
+                d = b; /* shallow water: the slab reaches the sea floor */
+            if (d < op->min_depth)
+                d = op->min_depth;
+            double Tf = sph_ocean_freezing_point(op->freezing, e->prm.thermo.mu, o->sal[c]);
             double T = isfinite(Q->sst[c]) && Q->sst[c] > Tf ? Q->sst[c] : Tf;
-            sph_ocean_set_cell(o, c, o->depth[c], o->sal[c], T);
+            sph_ocean_set_cell(o, c, d, o->sal[c], T);
         }
     }
     return SPH_OK;

@@ -45,6 +45,14 @@ static const struct slot_def {
     [FV_SST] = {{"sea_surface_temperature"}, {NULL}, "degC", 0},
     [FV_FW] = {{"upward_sea_ice_basal_heat_flux"}, {NULL}, "W m-2", 1},
     [FV_RH] = {{"relative_humidity"}, {NULL}, "1", 0},
+    /* the ocean mixed layer (issue 20) */
+    [FV_MLD] = {{"ocean_mixed_layer_thickness", "ocean_mixed_layer_thickness_defined_by_sigma_theta",
+                 "ocean_mixed_layer_thickness_defined_by_sigma_t",
+                 "ocean_mixed_layer_thickness_defined_by_temperature"},
+                {NULL}, "m", 0},
+    [FV_BATHY] = {{"sea_floor_depth_below_sea_surface", "sea_floor_depth_below_geoid",
+                   "sea_floor_depth_below_mean_sea_level"},
+                  {NULL}, "m", 0},
 };
 
 /* Physical bounds of each slot in sphice units (docs/forcing.md): a value
@@ -65,6 +73,8 @@ static const struct { double lo, hi; } slot_bounds[FV_COUNT] = {
     [FV_SST] = {-5.0, 45.0},             /* degC: sea water freezes at about -2 */
     [FV_FW] = {-2000.0, 2000.0},         /* W/m2 */
     [FV_RH] = {0.0, 1.5},                /* fraction: supersaturation stays far below 1.5 */
+    [FV_MLD] = {0.0, 12000.0},           /* m: a thickness is never negative; deeper than any sea */
+    [FV_BATHY] = {-10000.0, 12000.0},    /* m: land heights (negative depth) to the deepest trench */
 };
 
 /* FVEC_STD_EARTH or FVEC_STD_GRID when standard name sn names slot w's
@@ -353,6 +363,8 @@ static unsigned slot_flag(fv_slot w)
     case FV_SSH: return FQ_SSH;
     case FV_SST: return FQ_SST;
     case FV_FW: return FQ_OCEAN_FLUX;
+    case FV_MLD: return FQ_MLD;
+    case FV_BATHY: return FQ_BATHY;
     default: return 0;
     }
 }
@@ -1143,6 +1155,8 @@ int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const d
             {FV_LW, FQ_LWDN, offsetof(forcing_sample, lwdn)},
             {FV_SST, FQ_SST, offsetof(forcing_sample, sst)},
             {FV_FW, FQ_OCEAN_FLUX, offsetof(forcing_sample, fw)},
+            {FV_MLD, FQ_MLD, offsetof(forcing_sample, mld)},
+            {FV_BATHY, FQ_BATHY, offsetof(forcing_sample, bathy)},
         };
         for (size_t k = 0; k < sizeof scalars / sizeof scalars[0]; k++) {
             double *dst = *(double **)((char *)out + scalars[k].off);
