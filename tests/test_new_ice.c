@@ -55,28 +55,19 @@ typedef struct {
     double ta, q, ua, va, sw, lw;
 } atm;
 
+/* The same atmosphere over every particle and every cell of the mixed layer. */
 static void fill(sph_model *m, const atm *a)
 {
     sph_particles *P = sph_model_particles(m);
-    for (size_t k = 0; k < P->n; k++) {
-        P->tair[k] = a->ta;
-        P->qair[k] = a->q;
-        P->ua[k] = a->ua;
-        P->va[k] = a->va;
-        P->swdn[k] = a->sw;
-        P->lwdn[k] = a->lw;
-        P->lat[k] = 40.0;
-    }
     sph_ocean *o = sph_model_ocean(m);
-    for (size_t c = 0; c < o->ncell; c++) {
-        o->tair[c] = a->ta;
-        o->qair[c] = a->q;
-        o->ua[c] = a->ua;
-        o->va[c] = a->va;
-        o->swdn[c] = a->sw;
-        o->lwdn[c] = a->lw;
-        o->lat[c] = 40.0;
-    }
+    const double val[7] = {a->ta, a->q, a->ua, a->va, a->sw, a->lw, 40.0};
+    double *const dst[2][7] = {{P->tair, P->qair, P->ua, P->va, P->swdn, P->lwdn, P->lat},
+                               {o->tair, o->qair, o->ua, o->va, o->swdn, o->lwdn, o->lat}};
+    const size_t n[2] = {P->n, o->ncell};
+    for (int s = 0; s < 2; s++)
+        for (int q = 0; q < 7; q++)
+            for (size_t k = 0; k < n[s]; k++)
+                dst[s][q][k] = val[q];
 }
 
 static void base_params(sph_params *p)
@@ -114,15 +105,23 @@ static void test_freezing_point(void)
     CHECK_CLOSE(sph_ocean_freezing_point(SPH_FREEZING_LINEAR, 0.054, 32.0), -1.728, 1e-12, 0, "linear Tf(32)");
 }
 
-/* One open cell 10 km x 10 km, lattice 2.5 km: 16 points. */
-static sph_model *column_model(const sph_params *p, size_t cap, double T0)
+/* One open cell 10 km x 10 km, lattice 2.5 km (16 points), at T0 and
+ * S 32 under atmosphere a, initialised; NULL (and a failed check) if not. */
+static sph_model *column_start(const sph_params *p, size_t cap, double T0, const atm *a)
 {
     sph_model *m = sph_model_create(p, cap, NULL);
     sph_ocean_grid g = {1, 1, 0.0, 0.0, 1e4, 1e4, 1250.0, 1250.0, 2500.0};
-    if (!m || sph_model_ocean_create(m, &g) != SPH_STEP_OK)
-        return NULL;
-    sph_ocean_set_cell(sph_model_ocean(m), 0, p->ocean.depth, 32.0, T0);
-    return m;
+    sph_status st;
+    int ok = m && sph_model_ocean_create(m, &g) == SPH_STEP_OK;
+    if (ok) {
+        sph_ocean_set_cell(sph_model_ocean(m), 0, p->ocean.depth, 32.0, T0);
+        fill(m, a);
+        ok = sph_model_init(m, &st) == SPH_STEP_OK;
+    }
+    CHECK(ok, "column model");
+    if (!ok)
+        sph_model_free(m);
+    return ok ? m : NULL;
 }
 
 static void test_slab_cooling(void)
@@ -130,14 +129,11 @@ static void test_slab_cooling(void)
     sph_params p;
     base_params(&p);
     p.ocean.create = 0;
-    sph_model *m = column_model(&p, 16, 5.0);
-    CHECK(m != NULL, "model");
+    atm a = {-10.0, 1e-3, 3.0, 4.0, 0.0, 250.0};
+    sph_model *m = column_start(&p, 16, 5.0, &a);
     if (!m)
         return;
-    atm a = {-10.0, 1e-3, 3.0, 4.0, 0.0, 250.0};
-    fill(m, &a);
     sph_status st;
-    CHECK(sph_model_init(m, &st) == SPH_STEP_OK, "init: %s", st.what);
     double H = 1026.0 * 3990.0 * 20.0, T = 5.0;
     for (int i = 0; i < 24; i++) {
         double T1 = T + ow_flux(T, -10.0, 1e-3, 5.0, 0.0, 250.0) * 3600.0 / H;
@@ -159,14 +155,11 @@ static void test_open_water_freeze(void)
     sph_params p;
     base_params(&p);
     double Tf = -0.054 * 32.0;
-    sph_model *m = column_model(&p, 64, Tf);
-    CHECK(m != NULL, "model");
+    atm a = {-20.0, 6e-4, 5.0, 5.0, 0.0, 180.0};
+    sph_model *m = column_start(&p, 64, Tf, &a);
     if (!m)
         return;
-    atm a = {-20.0, 6e-4, 5.0, 5.0, 0.0, 180.0};
-    fill(m, &a);
     sph_status st;
-    CHECK(sph_model_init(m, &st) == SPH_STEP_OK, "init: %s", st.what);
     CHECK(sph_model_particles(m)->n == 0, "starts with no particles");
     const double want[4] = {0.27, 0.40, 0.60, 0.75};
     const int day[4] = {5, 10, 20, 30};
@@ -227,6 +220,18 @@ static void test_open_water_freeze(void)
     sph_model_free(m);
 }
 
+/* A model on land mask mk with an nx x ny grid of 10 km cells, lattice 2.5 km. */
+static sph_model *grid_model(const sph_params *p, size_t cap, const sph_landmask *mk, int nx, int ny)
+{
+    sph_model *m = sph_model_create(p, cap, mk);
+    sph_ocean_grid g = {nx, ny, 0.0, 0.0, 1e4, 1e4, 1250.0, 1250.0, 2500.0};
+    int ok = m && sph_model_ocean_create(m, &g) == SPH_STEP_OK;
+    CHECK(ok, "model");
+    if (!ok)
+        sph_model_free(m);
+    return ok ? m : NULL;
+}
+
 /* Three cells of 10 km in a row; the western 5 km is land (mask of 5 km
  * cells); the west half of cell 1 holds 0.5 m ice on its lattice points;
  * cell 2 is held warm by restoring. Cold air everywhere. */
@@ -237,9 +242,7 @@ static void test_placement(void)
     p.ocean.restore_days = 0.1;
     static unsigned char land[6 * 2] = {1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0};
     sph_landmask mk = {6, 2, 0.0, 0.0, 5000.0, 5000.0, land, 1};
-    sph_model *m = sph_model_create(&p, 256, &mk);
-    sph_ocean_grid g = {3, 1, 0.0, 0.0, 1e4, 1e4, 1250.0, 1250.0, 2500.0};
-    CHECK(m && sph_model_ocean_create(m, &g) == SPH_STEP_OK, "model");
+    sph_model *m = grid_model(&p, 256, &mk, 3, 1);
     if (!m)
         return;
     sph_ocean *o = sph_model_ocean(m);
@@ -320,9 +323,7 @@ static void test_conservation(void)
     p.thermo.model = SPH_THERMO_AUTO;
     static unsigned char land[4 * 4] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0};
     sph_landmask mk = {4, 4, 0.0, 0.0, 5000.0, 5000.0, land, 0};
-    sph_model *m = sph_model_create(&p, 4000, &mk);
-    sph_ocean_grid g = {2, 2, 0.0, 0.0, 1e4, 1e4, 1250.0, 1250.0, 2500.0};
-    CHECK(m && sph_model_ocean_create(m, &g) == SPH_STEP_OK, "model");
+    sph_model *m = grid_model(&p, 4000, &mk, 2, 2);
     if (!m)
         return;
     sph_ocean *o = sph_model_ocean(m);

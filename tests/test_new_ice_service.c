@@ -34,19 +34,8 @@ static double ocn_fn(int which, double lon, double lat, size_t k)
 static void write_ocean(const char *path)
 {
     tgrid g;
-    memset(&g, 0, sizeof g);
-    g.nx = 41;
-    g.ny = 25;
-    g.lon0 = 120.9;
-    g.dlon = 0.05;
-    g.lat0 = 39.9;
-    g.dlat = 0.05;
-    g.time_units = "hours since 1999-02-08 00:00:00";
-    g.calendar = "standard";
-    g.tv0 = 3.0;
-    g.dtv = 1.0;
+    ec_ocean_grid(&g); /* the case's ocean grid, hourly */
     tvar v[4];
-    memset(v, 0, sizeof v);
     v[0] = (tvar){"uo", "eastward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ocn_fn, 0};
     v[1] = (tvar){"vo", "northward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ocn_fn, 1};
     v[2] = (tvar){"mlotst", "ocean_mixed_layer_thickness_defined_by_sigma_theta", "m", NC_FLOAT, 0, 0, 1,
@@ -57,34 +46,14 @@ static void write_ocean(const char *path)
 
 static struct sph_config *load(void)
 {
-    char text[8192];
-    snprintf(text, sizeof text,
-             "{ \"log_level\": \"warn\",\n"
-             "  \"domain\": {\"name\": \"testbox\", \"lon_min\": 121.0, \"lon_max\": 122.0,"
-             " \"lat_min\": 40.0, \"lat_max\": 40.6},\n"
-             "  \"model\": {\"dt\": 300, \"thermo\": {\"dt\": 600},"
-             " \"ocean\": {\"mixed_layer\": true, \"depth\": 30}, \"new_ice\": {\"create\": true}},\n"
-             "  \"forcing\": [{\"name\": \"atmosphere\", \"kind\": \"atmosphere\","
-             " \"urls\": \"%s/atm.nc\", \"required\": [\"wind\", \"tair\"]},"
-             " {\"name\": \"ocean\", \"kind\": \"ocean\", \"urls\": \"%s/ocean_ml.nc\"}],\n"
-             "  \"initial\": {\"path\": \"%s/ice.nc\", \"spacing\": 0.02, \"threshold\": 0.15},\n"
-             "  \"landmask\": {\"source\": \"netcdf\", \"path\": \"%s/mask.nc\"},\n"
-             "  \"output\": {\"dir\": \"%s/out\", \"interval_hours\": 1,"
-             " \"grid\": {\"lon0\": 121.0, \"lat0\": 40.0, \"dlon\": 0.01, \"dlat\": 0.01,"
-             " \"nlon\": 101, \"nlat\": 61},"
-             " \"edge_reference\": {\"lon\": 121.5, \"lat\": 40.6, \"name\": \"north\"}},\n"
-             "  \"stations\": [{\"name\": \"centre\", \"lon\": 121.5, \"lat\": 40.3}],\n"
-             "  \"schedule\": {\"every_hours\": 6, \"forecast_hours\": 6,"
-             " \"late_data\": {\"wait_minutes\": 0}},\n"
-             "  \"status\": {\"enabled\": false},\n"
-             "  \"paths\": {\"state_dir\": \"%s/state\", \"cache_dir\": \"%s/cache\"}\n"
-             "}\n",
-             dir, dir, dir, dir, dir, dir, dir);
+    char text[8192], src[1200];
+    snprintf(src, sizeof src, ", {\"name\": \"ocean\", \"kind\": \"ocean\", \"urls\": \"%s/ocean_ml.nc\"}", dir);
+    ec_config_more(text, sizeof text, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "\"log_level\": \"warn\",",
+                   ", \"ocean\": {\"mixed_layer\": true, \"depth\": 30}, \"new_ice\": {\"create\": true}", src);
     struct sph_config *cfg = NULL;
-    sph_error err;
-    sph_error_clear(&err);
-    int rc = sph_config_parse(text, "test", &cfg, &err);
-    CHECK(rc == SPH_OK, "config: %s", err.msg);
+    sph_error err = {0};
+    if (sph_config_parse(text, "test", &cfg, &err) != SPH_OK)
+        CHECK(0, "config: %s", err.msg);
     return cfg;
 }
 
@@ -98,13 +67,8 @@ static int run(const struct sph_config *cfg, const char *stage_name, forecast_re
     atm_files[0] = atm;
     ocn_files[0] = ocn;
     snprintf(stage, len, "%s/%s", dir, stage_name);
-    forecast_request req;
-    memset(&req, 0, sizeof req);
-    req.cycle_time = EC_CYCLE;
-    req.hours = 6;
-    req.stage_dir = stage;
-    req.forcing_files[0] = atm_files;
-    req.forcing_files[1] = ocn_files;
+    forecast_request req = {.cycle_time = EC_CYCLE, .hours = 6, .stage_dir = stage,
+                            .forcing_files = {atm_files, ocn_files}};
     forecast_progress prog;
     memset((void *)&prog, 0, sizeof prog);
     sph_error_clear(err);
@@ -130,10 +94,7 @@ static void refused(const struct sph_config *cfg, const char *name, const char *
 int main(int argc, char **argv)
 {
     (void)argc;
-    ec_passive_openmp(argv);
-    sph_log_level = LOG_LVL_WARN;
-    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
-    ec_write_inputs(dir);
+    CHECK(ec_start(argv, dir) == 0, "mkdtemp");
     char p[1200];
     snprintf(p, sizeof p, "%s/ocean_ml.nc", dir);
     struct sph_config *cfg = load();
