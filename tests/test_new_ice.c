@@ -105,23 +105,35 @@ static void test_freezing_point(void)
     CHECK_CLOSE(sph_ocean_freezing_point(SPH_FREEZING_LINEAR, 0.054, 32.0), -1.728, 1e-12, 0, "linear Tf(32)");
 }
 
+/* A model on land mask mk with an nx x ny grid of 10 km cells, lattice 2.5 km. */
+static sph_model *grid_model(const sph_params *p, size_t cap, const sph_landmask *mk, int nx, int ny)
+{
+    sph_model *m = sph_model_create(p, cap, mk);
+    sph_ocean_grid g = {nx, ny, 0.0, 0.0, 1e4, 1e4, 1250.0, 1250.0, 2500.0};
+    int ok = m && sph_model_ocean_create(m, &g) == SPH_STEP_OK;
+    CHECK(ok, "model");
+    if (!ok)
+        sph_model_free(m);
+    return ok ? m : NULL;
+}
+
 /* One open cell 10 km x 10 km, lattice 2.5 km (16 points), at T0 and
  * S 32 under atmosphere a, initialised; NULL (and a failed check) if not. */
 static sph_model *column_start(const sph_params *p, size_t cap, double T0, const atm *a)
 {
-    sph_model *m = sph_model_create(p, cap, NULL);
-    sph_ocean_grid g = {1, 1, 0.0, 0.0, 1e4, 1e4, 1250.0, 1250.0, 2500.0};
+    sph_model *m = grid_model(p, cap, NULL, 1, 1);
+    if (!m)
+        return NULL;
+    sph_ocean_set_cell(sph_model_ocean(m), 0, p->ocean.depth, 32.0, T0);
+    fill(m, a);
     sph_status st;
-    int ok = m && sph_model_ocean_create(m, &g) == SPH_STEP_OK;
-    if (ok) {
-        sph_ocean_set_cell(sph_model_ocean(m), 0, p->ocean.depth, 32.0, T0);
-        fill(m, a);
-        ok = sph_model_init(m, &st) == SPH_STEP_OK;
-    }
-    CHECK(ok, "column model");
-    if (!ok)
+    int rc = sph_model_init(m, &st);
+    CHECK(rc == SPH_STEP_OK, "init: %s", st.what);
+    if (rc != SPH_STEP_OK) {
         sph_model_free(m);
-    return ok ? m : NULL;
+        m = NULL;
+    }
+    return m;
 }
 
 static void test_slab_cooling(void)
@@ -148,6 +160,31 @@ static void test_slab_cooling(void)
     sph_ocean_open_water_fluxes(sph_model_ocean(m), &heat, NULL, NULL);
     CHECK(heat[0] < -100.0, "open-water heat flux into the ocean %g W/m2", heat[0]);
     sph_model_free(m);
+}
+
+/* Heat, water or salt from nowhere fails the step as the mass budget does. */
+static void test_budget_violation(void)
+{
+    sph_params p;
+    base_params(&p);
+    atm a = {-10.0, 1e-3, 3.0, 4.0, 0.0, 250.0};
+    static const char *const which[3] = {"energy", "water", "salt"};
+    for (int q = 0; q < 3; q++) {
+        sph_model *m = column_start(&p, 16, 2.0, &a);
+        if (!m)
+            return;
+        sph_status st;
+        fill(m, &a);
+        CHECK(sph_model_step(m, &st) == SPH_STEP_OK, "step");
+        sph_ocean *o = sph_model_ocean(m);
+        double *x = q == 0 ? &o->temp[0] : q == 1 ? &o->water[0] : &o->salt[0];
+        *x += q == 0 ? 1e-3 : 1e-6 * *x; /* a millikelvin; a millionth of the water or salt */
+        fill(m, &a);
+        int rc = sph_model_step(m, &st);
+        CHECK(rc == SPH_STEP_FATAL && st.kind == SPH_FAULT_MASS && strstr(st.quantity, which[q]),
+              "%s from nowhere fails the step: rc %d %s", which[q], rc, st.quantity);
+        sph_model_free(m);
+    }
 }
 
 static void test_open_water_freeze(void)
@@ -218,18 +255,6 @@ static void test_open_water_freeze(void)
     CHECK(sph_budget_water_residual(b) < 1e-12, "water residual %g", sph_budget_water_residual(b));
     CHECK(sph_budget_salt_residual(b) < 1e-12, "salt residual %g", sph_budget_salt_residual(b));
     sph_model_free(m);
-}
-
-/* A model on land mask mk with an nx x ny grid of 10 km cells, lattice 2.5 km. */
-static sph_model *grid_model(const sph_params *p, size_t cap, const sph_landmask *mk, int nx, int ny)
-{
-    sph_model *m = sph_model_create(p, cap, mk);
-    sph_ocean_grid g = {nx, ny, 0.0, 0.0, 1e4, 1e4, 1250.0, 1250.0, 2500.0};
-    int ok = m && sph_model_ocean_create(m, &g) == SPH_STEP_OK;
-    CHECK(ok, "model");
-    if (!ok)
-        sph_model_free(m);
-    return ok ? m : NULL;
 }
 
 /* Three cells of 10 km in a row; the western 5 km is land (mask of 5 km
@@ -382,6 +407,7 @@ int main(void)
 {
     test_freezing_point();
     test_slab_cooling();
+    test_budget_violation();
     test_open_water_freeze();
     test_placement();
     test_conservation();
