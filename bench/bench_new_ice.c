@@ -18,29 +18,22 @@
 
 #define DS 1000.0 /* lattice spacing, m */
 
+/* -15 C, dark, wind 6 m/s east, over every particle and every cell. */
 static void forcing(sph_model *m)
 {
     sph_particles *P = sph_model_particles(m);
-    for (size_t k = 0; k < P->n; k++) {
-        P->tair[k] = -15.0;
-        P->qair[k] = 8e-4;
-        P->ua[k] = 6.0;
-        P->va[k] = 0.0;
-        P->swdn[k] = 0.0;
-        P->lwdn[k] = 190.0;
-        P->lat[k] = 40.0;
-        P->uw[k] = P->vw[k] = 0.0;
-    }
     sph_ocean *o = sph_model_ocean(m);
-    for (size_t c = 0; o && c < o->ncell; c++) {
-        o->tair[c] = -15.0;
-        o->qair[c] = 8e-4;
-        o->ua[c] = 6.0;
-        o->va[c] = 0.0;
-        o->swdn[c] = 0.0;
-        o->lwdn[c] = 190.0;
-        o->lat[c] = 40.0;
-    }
+    const double val[7] = {-15.0, 8e-4, 6.0, 0.0, 0.0, 190.0, 40.0};
+    double *const dst[2][7] = {{P->tair, P->qair, P->ua, P->va, P->swdn, P->lwdn, P->lat},
+                               {o ? o->tair : NULL, o ? o->qair : NULL, o ? o->ua : NULL, o ? o->va : NULL,
+                                o ? o->swdn : NULL, o ? o->lwdn : NULL, o ? o->lat : NULL}};
+    const size_t n[2] = {P->n, o ? o->ncell : 0};
+    for (int s = 0; s < 2; s++)
+        for (int q = 0; q < 7; q++)
+            for (size_t k = 0; k < n[s]; k++)
+                dst[s][q][k] = val[q];
+    for (size_t k = 0; k < P->n; k++)
+        P->uw[k] = P->vw[k] = 0.0;
 }
 
 /* n particles on the lattice, open water east of them. */
