@@ -22,6 +22,7 @@
 #include <unistd.h>
 
 #include "test_forcing_nc.h"
+#include "util/log.h"
 
 #define EC_CYCLE 918453600.0 /* 1999-02-08T06:00:00Z */
 #define EC_CONC 0.5
@@ -104,7 +105,7 @@ static double ec_ocean_fn(int which, double lon, double lat, size_t k)
 /* An ocean source at 0.05 deg, hourly, eastward current EC_CURRENT_E, its
  * land (fill) from EC_OCEAN_LAND east: a coast it resolves worse than the
  * land mask, so particles there have no ocean data within a cell. */
-static inline void ec_write_ocean(const char *path)
+static inline void ec_ocean_grid(tgrid *gp)
 {
     tgrid g;
     memset(&g, 0, sizeof g);
@@ -118,6 +119,13 @@ static inline void ec_write_ocean(const char *path)
     g.calendar = "standard";
     g.tv0 = 3.0;
     g.dtv = 1.0;
+    *gp = g;
+}
+
+static inline void ec_write_ocean(const char *path)
+{
+    tgrid g;
+    ec_ocean_grid(&g);
     tvar v[2];
     memset(v, 0, sizeof v);
     v[0] = (tvar){"uo", "eastward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ec_ocean_fn, 0};
@@ -211,16 +219,20 @@ static inline void ec_write_mask(const char *path)
 
 /* The configuration text for the case in dir (extra: more top-level JSON
  * members, e.g. "\"log_level\": \"warn\",", or ""). */
-static inline void ec_config(char *buf, size_t len, const char *dir, double dt, const char *required,
-                             const char *ice, const char *extra)
+/* ec_config with more members in "model" (model_more, e.g.
+ * ", \"ocean\": {...}") and more sources after the atmosphere
+ * (forcing_more, e.g. ", {\"name\": \"ocean\", ...}"). */
+static inline void ec_config_more(char *buf, size_t len, const char *dir, double dt, const char *required,
+                                  const char *ice, const char *extra, const char *model_more,
+                                  const char *forcing_more)
 {
     snprintf(buf, len,
              "{ %s\n"
              "  \"domain\": {\"name\": \"testbox\", \"lon_min\": 121.0, \"lon_max\": 122.0,"
              " \"lat_min\": 40.0, \"lat_max\": 40.6},\n"
-             "  \"model\": {\"dt\": %g, \"thermo\": {\"dt\": 600}},\n"
+             "  \"model\": {\"dt\": %g, \"thermo\": {\"dt\": 600}%s},\n"
              "  \"forcing\": [{\"name\": \"atmosphere\", \"kind\": \"atmosphere\","
-             " \"urls\": \"%s/atm.nc\", \"required\": %s}],\n"
+             " \"urls\": \"%s/atm.nc\", \"required\": %s}%s],\n"
              "  \"initial\": {\"path\": \"%s/%s\", \"spacing\": 0.02, \"threshold\": 0.15},\n"
              "  \"landmask\": {\"source\": \"netcdf\", \"path\": \"%s/mask.nc\"},\n"
              "  \"output\": {\"dir\": \"%s/out\", \"interval_hours\": 1,"
@@ -233,7 +245,13 @@ static inline void ec_config(char *buf, size_t len, const char *dir, double dt, 
              "  \"status\": {\"enabled\": false},\n"
              "  \"paths\": {\"state_dir\": \"%s/state\", \"cache_dir\": \"%s/cache\"}\n"
              "}\n",
-             extra, dt, dir, required, dir, ice, dir, dir, dir, dir);
+             extra, dt, model_more, dir, required, forcing_more, dir, ice, dir, dir, dir, dir);
+}
+
+static inline void ec_config(char *buf, size_t len, const char *dir, double dt, const char *required,
+                             const char *ice, const char *extra)
+{
+    ec_config_more(buf, len, dir, dt, required, ice, extra, "", "");
 }
 
 /* Writes every input file of the case into dir. */
@@ -265,6 +283,18 @@ static inline void ec_passive_openmp(char **argv)
     setenv("OMP_WAIT_POLICY", "passive", 1);
     execv("/proc/self/exe", argv);
     /* exec failed: carry on with the default policy */
+}
+
+/* A test's start: passive OpenMP, warnings only, its directory dir (a
+ * mkdtemp template) made and the case's inputs written there. */
+static inline int ec_start(char **argv, char *dir)
+{
+    ec_passive_openmp(argv);
+    sph_log_level = LOG_LVL_WARN;
+    if (!mkdtemp(dir))
+        return -1;
+    ec_write_inputs(dir);
+    return 0;
 }
 
 /* Number of entries (other than . and ..) in a directory; -1 if absent. */

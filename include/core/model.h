@@ -17,6 +17,7 @@
 #include "core/status.h"
 #include "core/params.h" /* sph_params, the parameter table; the kinds */
 #include "core/thermo.h"
+#include "core/ocean.h"
 
 /* Land mask on a regular grid of the projected plane. Cells are land
  * (1) or sea (0); outside the grid is open boundary (particles leaving are
@@ -105,6 +106,14 @@ int sph_model_diagnose(sph_model *m, sph_status *st);
 /* Largest stable step of the explicit solver at the current state, s. */
 double sph_model_explicit_dt_limit(sph_model *m);
 
+/* The ocean mixed layer (core/ocean.h) on grid g, with new particles on
+ * g's lattice: allocated here, after sph_model_create and before
+ * sph_model_init (never inside a step); used when model.ocean.mixed_layer
+ * is on. The driver fills its forcing and may set cells
+ * (sph_ocean_set_cell) before init. SPH_STEP_OK or SPH_STEP_FATAL. */
+int sph_model_ocean_create(sph_model *m, const sph_ocean_grid *g);
+sph_ocean *sph_model_ocean(sph_model *m); /* NULL: none */
+
 const sph_budget *sph_model_budget(const sph_model *m);
 double sph_model_time(const sph_model *m);   /* seconds since init */
 long sph_model_steps(const sph_model *m);
@@ -133,6 +142,8 @@ typedef struct sph_run_stats {
     double solver_stalled;      /* fraction of steps the auto mode stopped at a stall */
     long particles_start, particles_end;
     double budget_residual;     /* relative mass budget residual (sph_budget_residual) */
+    int ocean;                  /* 1: the mixed layer's budgets below were kept */
+    double energy_residual, water_residual, salt_residual; /* sph_budget_*_residual */
     double dt;                  /* dynamic step used, s */
     int dt_auto;                /* 1: chosen by auto time stepping (model.dt = 0) */
     long steps;                 /* steps added */

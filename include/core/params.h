@@ -18,6 +18,7 @@
 #include <stddef.h>
 #include "core/kinds.h"
 #include "core/thermo.h"
+#include "core/ocean.h"
 
 typedef struct sph_params {
     /* numerics */
@@ -79,6 +80,8 @@ typedef struct sph_params {
     /* thermodynamics */
     double thermo_dt;           /* s (seed: 600); 0 = off */
     sph_thermo_params thermo;
+    /* the ocean mixed layer and new ice in open water (core/ocean.h) */
+    sph_ocean_params ocean;
 } sph_params;
 
 /* Every row's default; the thermodynamic column parameters without a row

@@ -153,6 +153,9 @@ void sph_particles_remove(sph_particles *p, size_t k);
 /* Reorders the live particles: new slot i takes old particle order[i].
  * scratch must hold n doubles (and n * nlayers for the enthalpy). */
 void sph_particles_permute(sph_particles *p, const int *order, double *scratch);
+/* Zeroes every array entry of slot k (a new particle starts from there:
+ * a field added to the list later is never left with another's value). */
+void sph_particles_clear_one(sph_particles *p, size_t k);
 /* Copies every array entry of particle src to dst (same or other set). */
 void sph_particles_copy_one(sph_particles *dst, size_t d, const sph_particles *src, size_t s);
 /* The array of field k (SPH_PF_*): sph_particle_fields[k].size bytes per

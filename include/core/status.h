@@ -92,6 +92,16 @@ typedef struct sph_budget {
     double lateral_melt; /* lateral melt (concentration loss) */
     double outflow;      /* removed at open boundaries */
     long removed_particles;
+    /* the ocean mixed layer (issue 20; zero when it is off). Energy J,
+     * water and salt kg; ice (particles and pending frazil) plus ocean:
+     *   energy = energy_initial + energy_surface + energy_restoring - energy_outflow
+     *   water  = water_initial - water_outflow
+     *   salt   = salt_initial + salt_restoring - salt_outflow            */
+    int ocean;             /* 1: the budgets below are kept */
+    double energy_initial, energy, energy_surface, energy_restoring, energy_outflow;
+    double water_initial, water, water_outflow;
+    double salt_initial, salt, salt_restoring, salt_outflow;
+    long created_particles, merged_particles;
     /* diagnostics, recomputed each step */
     double area;           /* ice-covered area sum m/(rho_i h_i), m^2 */
     double volume;         /* ice volume sum m/rho_i, m^3 */
@@ -130,6 +140,32 @@ static inline double sph_budget_snow_residual(const sph_budget *b)
 static inline double sph_budget_residual(const sph_budget *b)
 {
     return b->mass_initial > 0 ? fabs(sph_budget_expected(b) - b->mass) / b->mass_initial : 0.0;
+}
+
+/* The relative residuals of the ocean's budgets: |x - expected| / scale,
+ * the scale the largest magnitude among the terms (0 when it is off). */
+static inline double sph_budget_energy_residual(const sph_budget *b)
+{
+    if (!b->ocean)
+        return 0.0;
+    double e = b->energy_initial + b->energy_surface + b->energy_restoring - b->energy_outflow;
+    double s = fmax(fmax(fabs(b->energy_initial), fabs(b->energy)),
+                    fmax(fabs(b->energy_surface), fabs(b->energy_restoring)));
+    return s > 0 ? fabs(b->energy - e) / s : 0.0;
+}
+static inline double sph_budget_water_residual(const sph_budget *b)
+{
+    if (!b->ocean)
+        return 0.0;
+    double s = fmax(fabs(b->water_initial), fabs(b->water));
+    return s > 0 ? fabs(b->water - (b->water_initial - b->water_outflow)) / s : 0.0;
+}
+static inline double sph_budget_salt_residual(const sph_budget *b)
+{
+    if (!b->ocean)
+        return 0.0;
+    double s = fmax(fmax(fabs(b->salt_initial), fabs(b->salt)), fabs(b->salt_restoring));
+    return s > 0 ? fabs(b->salt - (b->salt_initial + b->salt_restoring - b->salt_outflow)) / s : 0.0;
 }
 
 #endif

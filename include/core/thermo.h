@@ -131,6 +131,10 @@ int sph_thermo_step(const sph_thermo_params *p, sph_particles *P, double dt,
 /* Snow mass of particle k, kg: rho_s h_s over its ice area
  * mass / (rho_i h). 0 for a melted or snow-free particle. */
 double sph_particle_snow_mass(const sph_thermo_params *p, const sph_particles *P, size_t k);
+/* After sph_thermo_step: the atmospheric energy (J) particle k took in the
+ * step, into its column over the ice part (the column's fatm) and into its
+ * leads (sph_open_water_flux x (1 - A)); 0 for a particle it skipped. */
+double sph_thermo_energy_atm(const sph_thermo_work *w, size_t k);
 
 /* ------------------------------------------------------------------ */
 /* Column-level API (tests, benchmarks, and the particle step itself).  */

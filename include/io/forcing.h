@@ -39,8 +39,11 @@ typedef enum {
     FQ_OCEAN_FLUX = 1 << 8, /* upward_sea_ice_basal_heat_flux: upward at the ice base is
                               from the ocean into the ice, so the sign is kept */
     FQ_SNOWFALL = 1 << 9,  /* snowfall_flux, snowfall_amount, lwe_thickness_of_snowfall_amount */
-    FQ_PRECIP = 1 << 10    /* precipitation_flux, precipitation_amount,
+    FQ_PRECIP = 1 << 10,   /* precipitation_flux, precipitation_amount,
                               lwe_thickness_of_precipitation_amount (split by air temperature) */
+    /* read only when asked for (the mixed layer's forecast asks an ocean source) */
+    FQ_MLD = 1 << 11,      /* ocean_mixed_layer_thickness(_defined_by_*) */
+    FQ_BATHY = 1 << 12     /* sea_floor_depth_below_sea_surface (or _geoid, _mean_sea_level) */
 } forcing_quantity;
 
 /* How accumulated fields (an amount, J m-2 or kg m-2) are read:
@@ -99,6 +102,8 @@ typedef struct forcing_sample {
     double *fw;                     /* W/m^2 into the ice */
     double *snowfall;               /* kg m-2 s-1 water equivalent */
     double *precip;                 /* kg m-2 s-1, rain and snow together */
+    double *mld;                    /* m, ocean mixed-layer thickness */
+    double *bathy;                  /* m, sea-floor depth (land: <= 0) */
     unsigned provided;              /* forcing_quantity flags actually filled */
 } forcing_sample;
 

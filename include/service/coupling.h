@@ -24,7 +24,8 @@ struct sph_config;
 
 #define COUPLING_MAX_SOURCES SPHICE_MAX_SOURCES
 enum { CPL_Q_UE, CPL_Q_VN, CPL_Q_TAIR, CPL_Q_QAIR, CPL_Q_SWDN, CPL_Q_LWDN, CPL_Q_UWE, CPL_Q_VWN,
-       CPL_Q_SSH, CPL_Q_GXE, CPL_Q_GYN, CPL_Q_SST, CPL_Q_FW, CPL_Q_SNOW, CPL_Q_PRECIP, CPL_NQ };
+       CPL_Q_SSH, CPL_Q_GXE, CPL_Q_GYN, CPL_Q_SST, CPL_Q_FW, CPL_Q_SNOW, CPL_Q_PRECIP, CPL_Q_MLD,
+       CPL_Q_BATHY, CPL_NQ };
 
 typedef struct fc_coupling {
     const char *cname;          /* cycle name, for messages */
@@ -39,6 +40,7 @@ typedef struct fc_coupling {
     double *lon, *lat, *angle, *ue, *vn, *uwe, *vwn, *gxe, *gyn, *ssh;
     double *tair, *qair, *swdn, *lwdn, *sst, *fw;
     double *snowfall, *precip;  /* kg m-2 s-1 */
+    double *mld, *bathy;        /* mixed-layer depth, sea-floor depth (NaN: none), m */
     double *q[CPL_NQ];          /* one source's sample */
     unsigned char *bad;         /* the source could not serve this particle */
     long *ids_before;           /* ids and positions at the last fill (error messages) */

@@ -152,6 +152,7 @@ void sph_model_free(sph_model *m)
     free(m->land);
     free(m->near_land);
     sph_thermo_work_free(m->tw);
+    sph_ocean_free(m->ocean);
     if (m->solver && m->solver->free)
         m->solver->free(m->solver_ws);
     free(m);
@@ -250,6 +251,15 @@ double sph_model_spacing(const sph_model *m)
     return s;
 }
 
+/* The largest smoothing length to plan coasts for: the particles', or that
+ * of the particles new ice will create. */
+static double new_ice_sml(const sph_model *m, double smax)
+{
+    if (m->ocean && m->prm.ocean.mixed_layer && m->prm.ocean.create)
+        smax = fmax(smax, m->prm.sml_factor * m->ocean->g.ds);
+    return smax;
+}
+
 /* Neighbours, density and diagnosis at the current positions. */
 static int prepare(sph_model *m, sph_status *st)
 {
@@ -297,6 +307,11 @@ static void update_budget(sph_model *m)
     m->budget.volume = vol;
     m->budget.kinetic_energy = ke;
     m->budget.snow = snow;
+    if (sph_ocean_on(m)) {
+        sph_ocean_account(m);
+        m->budget.ocean = 1;
+        sph_ocean_totals(m, &m->budget.energy, &m->budget.water, &m->budget.salt);
+    }
 }
 
 static int check_health(sph_model *m, sph_status *st)
@@ -325,7 +340,10 @@ static int check_health(sph_model *m, sph_status *st)
     }
     const sph_budget *b = &m->budget;
     double expect = sph_budget_expected(b);
-    double tol = p->mass_tolerance * fmax(fabs(expect), fabs(b->mass)) + 1e-300;
+    /* the scale includes the sources: ice that formed and melted away
+     * entirely leaves the round-off of its sums, not zero */
+    double scale = fmax(fmax(fabs(expect), fabs(b->mass)), b->mass_initial + b->growth + b->new_ice);
+    double tol = p->mass_tolerance * scale + 1e-300;
     if (fabs(b->mass - expect) > tol)
         return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "total mass", b->mass, expect,
                               "changed beyond round-off with no source or sink to explain it");
@@ -334,6 +352,19 @@ static int check_health(sph_model *m, sph_status *st)
     if (fabs(b->snow - sexp) > stol)
         return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "total snow mass", b->snow, sexp,
                               "changed beyond round-off with no source or sink to explain it");
+    if (b->ocean) { /* ice plus ocean: energy, water, salt */
+        double re = sph_budget_energy_residual(b), rw = sph_budget_water_residual(b);
+        double rs = sph_budget_salt_residual(b);
+        if (re > p->mass_tolerance)
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "energy budget residual", re,
+                                  p->mass_tolerance, "exceeds round-off (ice, snow and mixed-layer enthalpy)");
+        if (rw > p->mass_tolerance)
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "water budget residual", rw,
+                                  p->mass_tolerance, "exceeds round-off (ice plus ocean water)");
+        if (rs > p->mass_tolerance)
+            return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "salt budget residual", rs,
+                                  p->mass_tolerance, "exceeds round-off (ice plus ocean salt)");
+    }
     return SPH_STEP_OK;
 }
 
@@ -382,7 +413,7 @@ int sph_model_init(sph_model *m, sph_status *st)
     if (P->n > 0 && p->dt > dtmax)
         return sph_status_set(st, SPH_STEP_RECOVERABLE, SPH_FAULT_TIMESTEP, -1, "time step", p->dt, dtmax, why);
     if (m->has_mask)
-        sph_mark_near_land(m, m->kern.radius * p->sml_max_factor * sph_max_sml(P, P->n));
+        sph_mark_near_land(m, m->kern.radius * p->sml_max_factor * new_ice_sml(m, sph_max_sml(P, P->n)));
     /* Calibrate the kernel's lattice sum: intended M = rho_i A h_i from the
      * seeded state, over interior particles (full neighbourhoods). */
     m->dens_scale = 1.0;
@@ -433,9 +464,18 @@ int sph_model_init(sph_model *m, sph_status *st)
     for (size_t k = 0; k < P->n; k++)
         P->dens0[k] = P->dens[k];
     memset(&m->budget, 0, sizeof m->budget);
+    if (sph_ocean_on(m))
+        sph_ocean_mark(m);
     update_budget(m);
     m->budget.mass_initial = m->budget.mass;
     m->budget.snow_initial = m->budget.snow;
+    if (sph_ocean_on(m)) {
+        sph_ocean_totals(m, &m->budget.energy_initial, &m->budget.water_initial, &m->budget.salt_initial);
+        m->budget.ocean = 1;
+        m->budget.energy = m->budget.energy_initial;
+        m->budget.water = m->budget.water_initial;
+        m->budget.salt = m->budget.salt_initial;
+    }
     m->time = 0.0;
     m->thermo_accum = 0.0;
     m->steps = 0;
@@ -486,14 +526,50 @@ int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st)
         return sph_status_set(st, SPH_STEP_RECOVERABLE, SPH_FAULT_TIMESTEP, -1, "time step", p->dt, dtmax, why);
     /* the same radius as sph_model_init used: there every sml equalled sml0 */
     if (m->has_mask)
-        sph_mark_near_land(m, m->kern.radius * p->sml_max_factor * sml0_max);
+        sph_mark_near_land(m, m->kern.radius * p->sml_max_factor * new_ice_sml(m, sml0_max));
     m->dens_scale = c->dens_scale;
     m->budget = c->budget;
+    if (sph_ocean_on(m)) { /* the mixed layer is not in restart files (docs/ocean.md) */
+        sph_ocean_mark(m);
+        if (!m->budget.ocean) {
+            sph_ocean_totals(m, &m->budget.energy_initial, &m->budget.water_initial, &m->budget.salt_initial);
+            m->budget.energy = m->budget.energy_initial;
+            m->budget.water = m->budget.water_initial;
+            m->budget.salt = m->budget.salt_initial;
+            m->budget.ocean = 1;
+        }
+    }
     m->time = c->time;
     m->steps = c->steps;
     m->thermo_accum = c->thermo_accum;
     return SPH_STEP_OK;
 }
+int sph_model_ocean_create(sph_model *m, const sph_ocean_grid *g)
+{
+    const sph_params *p = &m->prm;
+    if (m->ocean)
+        return SPH_STEP_FATAL;
+    double S0 = p->thermo.ocean_salinity;
+    double Tf = sph_ocean_freezing_point(p->ocean.freezing, p->thermo.mu, S0);
+    m->ocean = sph_ocean_create(g, m->cap, p->ocean.depth, S0, Tf);
+    if (!m->ocean)
+        return SPH_STEP_FATAL;
+    sph_ocean *o = m->ocean;
+    /* the sea fraction of each cell from the land mask, sampled 8 x 8 */
+    for (size_t c = 0; m->has_mask && c < o->ncell; c++) {
+        int i = (int)(c % (size_t)g->nx), j = (int)(c / (size_t)g->nx), sea = 0;
+        for (int b = 0; b < 8; b++)
+            for (int a = 0; a < 8; a++)
+                sea += !sph_is_land(m, g->x0 + (i + (a + 0.5) / 8.0) * g->dx,
+                                    g->y0 + (j + (b + 0.5) / 8.0) * g->dy);
+        o->seafrac[c] = sea / 64.0;
+        sph_ocean_set_cell(o, c, p->ocean.depth, S0, Tf);
+    }
+    return SPH_STEP_OK;
+}
+
+sph_ocean *sph_model_ocean(sph_model *m) { return m->ocean; }
+
 static void regime_fractions(sph_model *m)
 {
     sph_particles *P = m->P;
@@ -558,7 +634,10 @@ int sph_model_step(sph_model *m, sph_status *st)
         if (m->thermo_accum >= p->thermo_dt - 1e-9 * p->thermo_dt) {
             for (size_t k = 0; k < P->n; k++)
                 m->dvel[k] = P->mass[k];
-            rc = sph_thermo_step(&p->thermo, P, m->thermo_accum, m->tw, &m->budget, st);
+            double tdt = m->thermo_accum;
+            if (sph_ocean_on(m))
+                sph_ocean_before(m, tdt);
+            rc = sph_thermo_step(&p->thermo, P, tdt, m->tw, &m->budget, st);
             /* the footprint is fixed: mass per area scales with the mass */
             if (!p->summation_density)
                 for (size_t k = 0; k < P->n; k++)
@@ -566,6 +645,8 @@ int sph_model_step(sph_model *m, sph_status *st)
                         P->dens[k] *= P->mass[k] / m->dvel[k];
             m->thermo_accum = 0.0;
             if (rc != SPH_STEP_OK)
+                return rc;
+            if (sph_ocean_on(m) && (rc = sph_ocean_after(m, tdt, m->tw, st)) != SPH_STEP_OK)
                 return rc;
             for (size_t k = P->n; k-- > 0;)
                 if (!(P->mass[k] > 0.0))

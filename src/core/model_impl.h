@@ -31,6 +31,7 @@
 #include "core/kernel.h"
 #include "core/model.h"
 #include "core/neighbours.h"
+#include "core/ocean.h"
 
 #define OMEGA_EARTH 7.292e-5
 /* Bound of lambda_max h^2 / nu of the SPH viscous operator (measured). */
@@ -78,6 +79,7 @@ struct sph_model {
     sph_thermo_work *tw;
     double *binv;    /* [6*c2] gradient correction per particle: B^-1 of the strain
                         rates (b11, b12, b22), then of the stress divergence */
+    sph_ocean *ocean;  /* the mixed layer (sph_model_ocean_create); NULL: none */
     sph_budget budget;
     sph_step_stats stats;
     double time, thermo_accum;
@@ -178,6 +180,22 @@ static inline void sph_reflect_tensor(double nx, double ny, double *a, double *b
     *b = s12;
     *c = s22;
 }
+
+/* ------------------------------------------------------------------ */
+/* the ocean mixed layer and new ice (ocean/new_ice.c)                 */
+
+/* Active when the model has a mixed layer and ocean.mixed_layer is on. */
+static inline int sph_ocean_on(const sph_model *m) { return m->ocean && m->prm.ocean.mixed_layer; }
+/* Records the particles' ice enthalpy and mass as the last look. */
+void sph_ocean_mark(sph_model *m);
+/* Books what the particles lost since the last look (open boundaries). */
+void sph_ocean_account(sph_model *m);
+/* Totals of ice (particles, frazil) plus ocean: energy J, water kg, salt kg. */
+void sph_ocean_totals(const sph_model *m, double *energy, double *water, double *salt);
+/* Before the particles' thermodynamic step: cells' SST and ice-ocean flux. */
+void sph_ocean_before(sph_model *m, double dt);
+/* After it: cells, frazil, removal, creation, merging. */
+int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_status *st);
 
 /* ------------------------------------------------------------------ */
 /* SPH passes (operators.c)                                            */

@@ -20,6 +20,7 @@ _Static_assert(sizeof(sph_physics_mode) == sizeof(int), "enums are stored as int
 _Static_assert(sizeof(sph_rheology_kind) == sizeof(int), "enums are stored as int");
 _Static_assert(sizeof(sph_pressure_form) == sizeof(int), "enums are stored as int");
 _Static_assert(sizeof(sph_thermo_model) == sizeof(int), "enums are stored as int");
+_Static_assert(sizeof(sph_freezing_kind) == sizeof(int), "enums are stored as int");
 
 /* index = enum value */
 static const char *const kernel_names[] = {"gaussian", "wendland_c2", "cubic_spline", NULL};
@@ -29,6 +30,7 @@ static const char *const physics_names[] = {"auto", "full", "free_drift", NULL};
 static const char *const rheology_names[] = {SPH_RHEOLOGIES(SPH_REGISTRY_NAME) NULL};
 static const char *const pressure_names[] = {"seed", "hibler", NULL};
 static const char *const thermo_names[] = {"off", "zero_layer", "multi_layer", "auto", NULL};
+static const char *const freezing_names[] = {"linear", "unesco", NULL};
 
 /* One row each, by type (as Redis's createBoolConfig ...): key, member,
  * default, bounds, units, description. Every row is reloadable (a reloaded
@@ -105,6 +107,18 @@ static const sph_param rows[] = {
     BOOL("thermo.snow_ice", thermo.snow_ice, 1, "Snow-ice formation: snow that pushes the freeboard below zero floods and becomes ice, mass and energy conserved (docs/thermo.md)."),
     DBL("thermo.snow_t_snow", thermo.snow_t_snow, 0, -20, 10, "degC", "Precipitation split by the 2 m air temperature: all snow at or below this, deg C (CLM 4.0: 0)."),
     DBL("thermo.snow_t_rain", thermo.snow_t_rain, 2, -20, 10, "degC", "All rain at or above this, deg C, linear in between (CLM 4.0: 2); must not be below thermo.snow_t_snow."),
+    BOOL("ocean.mixed_layer", ocean.mixed_layer, 0, "Slab ocean mixed layer per cell of the ocean grid (temperature, salinity), heated and cooled by open water, ice and restoring (docs/ocean.md); false: the forcing's SST as before."),
+    DBL("ocean.cell", ocean.cell, 0, 0, 1e6, "m", "Cell of the mixed layer's grid on the model plane, m; 0: four seeding lattice spacings (the grid covers the domain's plane box)."),
+    DBL("ocean.depth", ocean.depth, 20, 0.1, 5000, "m", "Mixed-layer depth where no forcing field gives it, m (limited by the bathymetry)."),
+    DBL("ocean.min_depth", ocean.min_depth, 1, 0.1, 100, "m", "Smallest mixed-layer depth of a sea cell (very shallow water), m."),
+    ENUM("ocean.freezing_point", ocean.freezing, freezing_names, SPH_FREEZING_LINEAR, "Freezing point of the mixed layer from its salinity: linear (-thermo mu S, 0.054 K/psu) or unesco (Millero 1978, UNESCO 1983)."),
+    DBL("ocean.restore_days", ocean.restore_days, 0, 0, 3650, "day", "Restoring time scale of the mixed layer to the forcing's SST and SSS, days; 0: no restoring."),
+    DBL("ocean.heat_transfer", ocean.heat_transfer, 246, 0, 10000, "W/m^2/K", "Ice-ocean heat transfer rho_w c_w c_h u* (McPhee 1992: c_h 0.006, u* 0.01 m/s): heat flux into the ice base per kelvin of mixed layer above freezing."),
+    BOOL("new_ice.create", ocean.create, 0, "New particles from frazil in open water with no particle (needs ocean.mixed_layer)."),
+    DBL("new_ice.thickness", ocean.new_thickness, 0.05, 0.001, 2, "m", "Frazil thickness over a cell's open water at which new particles are created there, m (Icepack hfrazilmin 0.05)."),
+    BOOL("new_ice.merge", ocean.merge, 0, "Merge thin crowded particles (mass, momentum, enthalpy conserved) so the count stays bounded."),
+    DBL("new_ice.merge_thickness", ocean.merge_thickness, 0.2, 0, 10, "m", "Merging: both particles thinner than this, m."),
+    DBL("new_ice.merge_distance", ocean.merge_distance, 0.5, 0, 2, "1", "Merging: particles closer than this times the mean side of their footprints."),
 };
 #undef ROW
 #undef DBL

@@ -68,6 +68,14 @@ void sph_particles_copy_one(sph_particles *dst, size_t d, const sph_particles *s
 #undef COPY_
 }
 
+void sph_particles_clear_one(sph_particles *p, size_t k)
+{
+#define CLEAR_(name, type, count, ...)                                                      \
+    memset(p->name + k * SPH_FIELD_COUNT(p, count), 0, SPH_FIELD_COUNT(p, count) * sizeof(type));
+    SPH_PARTICLE_FIELDS(CLEAR_)
+#undef CLEAR_
+}
+
 void sph_particles_remove(sph_particles *p, size_t k)
 {
     if (k >= p->n)

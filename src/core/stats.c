@@ -38,4 +38,8 @@ void sph_run_stats_end(sph_run_stats *r, sph_model *m)
     }
     r->particles_end = (long)sph_model_particles(m)->n;
     r->budget_residual = sph_budget_residual(sph_model_budget(m));
+    r->ocean = sph_model_budget(m)->ocean;
+    r->energy_residual = sph_budget_energy_residual(sph_model_budget(m));
+    r->water_residual = sph_budget_water_residual(sph_model_budget(m));
+    r->salt_residual = sph_budget_salt_residual(sph_model_budget(m));
 }

@@ -133,6 +133,7 @@ int sph_thermo_params_check(const sph_thermo_params *p, const char **name, doubl
 typedef struct {
     double growth, new_ice, melt_top, melt_bottom, lateral_melt; /* kg */
     double snowfall, snow_melt, snow_ice, snow_to_ocean;         /* kg (snow_ice: of ice) */
+    double energy_atm; /* J: atmosphere into the column and the leads */
     int code;
     sph_fault kind;
     const char *quantity, *what;
@@ -304,6 +305,7 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
 {
     o->growth = o->new_ice = o->melt_top = o->melt_bottom = o->lateral_melt = 0.0;
     o->snowfall = o->snow_melt = o->snow_ice = o->snow_to_ocean = 0.0;
+    o->energy_atm = 0.0;
     o->code = SPH_STEP_OK;
     if (!(P->mass[k] > 0.0 && P->thick[k] > 0.0 && P->conc[k] > 0.0))
         return; /* already melted out, waiting for removal */
@@ -358,6 +360,8 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
     /* Column changes, per unit ice area -> kg over the ice part of the footprint. */
     const double m_ice = rho * A * area;
     const double hs0 = c0_snow(P, k);
+    /* atmosphere into the column over the ice part and into the leads */
+    o->energy_atm = (r.fatm * A + (A < 1.0 ? sph_open_water_flux(p, &f) * (1.0 - A) : 0.0)) * area * dt;
     o->growth = m_ice * r.growth;
     o->melt_top = m_ice * r.melt_top;
     o->melt_bottom = m_ice * r.melt_bottom;
@@ -428,6 +432,11 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
     P->thick[k] = h;
     P->conc[k] = A;
     P->mass[k] = rho * A * h * area;
+}
+
+double sph_thermo_energy_atm(const sph_thermo_work *w, size_t k)
+{
+    return w && k < w->cap ? w->out[k].energy_atm : 0.0;
 }
 
 int sph_thermo_step(const sph_thermo_params *p, sph_particles *P, double dt, sph_thermo_work *w,

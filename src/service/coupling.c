@@ -52,6 +52,12 @@ int forecast_source_spec(const struct sph_config *cfg, size_t s, const char *con
         sp->required |= (unsigned)config_quantity_flag(src->required.v[k]);
     for (size_t k = 0; k < src->optional_q.n; k++)
         sp->optional |= (unsigned)config_quantity_flag(src->optional_q.v[k]);
+    /* the mixed layer reads its depth and the bathymetry from an ocean source when it has them */
+    if (cfg->model.ocean.mixed_layer && sp->kind == FORCING_OCEAN) {
+        if (!(sp->required | sp->optional))
+            sp->optional = FQ_CURRENT | FQ_SSH | FQ_SST | FQ_OCEAN_FLUX;
+        sp->optional |= FQ_MLD | FQ_BATHY;
+    }
     return SPH_OK;
 }
 
@@ -107,7 +113,7 @@ int coupling_alloc(fc_coupling *c, size_t cap, sph_error *err)
     size_t n = cap ? cap : 1;
     double **arrays[] = {&c->lon, &c->lat, &c->angle, &c->ue, &c->vn, &c->uwe, &c->vwn, &c->gxe,
                          &c->gyn, &c->ssh, &c->tair, &c->qair, &c->swdn, &c->lwdn, &c->sst, &c->fw,
-                         &c->lon_before, &c->lat_before, &c->snowfall, &c->precip};
+                         &c->lon_before, &c->lat_before, &c->snowfall, &c->precip, &c->mld, &c->bathy};
     int ok = 1;
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         ok &= (*arrays[k] = calloc(n, sizeof(double))) != NULL;
@@ -125,7 +131,7 @@ void coupling_free(fc_coupling *c)
     c->nforc = 0;
     double *arrays[] = {c->lon, c->lat, c->angle, c->ue, c->vn, c->uwe, c->vwn, c->gxe, c->gyn,
                         c->ssh, c->tair, c->qair, c->swdn, c->lwdn, c->sst, c->fw, c->lon_before,
-                        c->lat_before, c->snowfall, c->precip};
+                        c->lat_before, c->snowfall, c->precip, c->mld, c->bathy};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         free(arrays[k]);
     for (int k = 0; k < CPL_NQ; k++)
@@ -140,7 +146,7 @@ static void sample_view(fc_coupling *c, size_t k, forcing_sample *s)
     memset(s, 0, sizeof *s);
     double **slot[CPL_NQ] = {&s->u_east, &s->v_north, &s->tair, &s->qair, &s->swdn, &s->lwdn,
                              &s->uw_east, &s->vw_north, &s->ssh, &s->ssh_dx_east, &s->ssh_dy_north,
-                             &s->sst, &s->fw, &s->snowfall, &s->precip};
+                             &s->sst, &s->fw, &s->snowfall, &s->precip, &s->mld, &s->bathy};
     for (int q = 0; q < CPL_NQ; q++)
         *slot[q] = c->q[q] + k;
 }
@@ -208,9 +214,10 @@ static void merge_source(fc_coupling *c, size_t n, unsigned got, unsigned before
         {CPL_Q_QAIR, FQ_HUMIDITY, 0}, {CPL_Q_SWDN, FQ_SWDN, 0}, {CPL_Q_LWDN, FQ_LWDN, 0},
         {CPL_Q_UWE, FQ_CURRENT, 1}, {CPL_Q_VWN, FQ_CURRENT, 1}, {CPL_Q_SSH, FQ_SSH, 1},
         {CPL_Q_GXE, FQ_SSH, 1}, {CPL_Q_GYN, FQ_SSH, 1}, {CPL_Q_SST, FQ_SST, 0},
-        {CPL_Q_FW, FQ_OCEAN_FLUX, 0}, {CPL_Q_SNOW, FQ_SNOWFALL, 0}, {CPL_Q_PRECIP, FQ_PRECIP, 0}};
+        {CPL_Q_FW, FQ_OCEAN_FLUX, 0}, {CPL_Q_SNOW, FQ_SNOWFALL, 0}, {CPL_Q_PRECIP, FQ_PRECIP, 0},
+        {CPL_Q_MLD, FQ_MLD, 0}, {CPL_Q_BATHY, FQ_BATHY, 0}};
     double *dst[CPL_NQ] = {c->ue, c->vn, c->tair, c->qair, c->swdn, c->lwdn, c->uwe, c->vwn, c->ssh,
-                           c->gxe, c->gyn, c->sst, c->fw, c->snowfall, c->precip};
+                           c->gxe, c->gyn, c->sst, c->fw, c->snowfall, c->precip, c->mld, c->bathy};
     for (size_t m = 0; m < sizeof map / sizeof map[0]; m++) {
         if (!(got & map[m].flag) || (!map[m].sum && (before & map[m].flag)))
             continue;
@@ -248,6 +255,7 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
         c->fw[k] = NAN;  /* the thermodynamics takes fw_default */
         c->snowfall[k] = 0.0;
         c->precip[k] = 0.0;
+        c->mld[k] = c->bathy[k] = NAN; /* the mixed layer's configured depth */
     }
     unsigned provided = 0;
     for (size_t src = 0; src < c->nforc; src++) {

@@ -486,6 +486,11 @@ static cJSON *result_json(const forecast_result *r)
     NUM("ice_volume_km3", r->ice_volume_km3);
     NUM("edge_distance_nm", r->edge_distance_nm);
     NUM("budget_residual", r->run.budget_residual);
+    if (r->run.ocean) { /* the mixed layer's budgets (issue 20) */
+        NUM("energy_budget_residual", r->run.energy_residual);
+        NUM("water_budget_residual", r->run.water_residual);
+        NUM("salt_budget_residual", r->run.salt_residual);
+    }
     NUM("wall_seconds", r->wall_seconds);
     NUM("raster_ice_area_km2", r->raster_ice_area_km2);
     NUM("raster_ice_volume_km3", r->raster_ice_volume_km3);

@@ -76,6 +76,7 @@ static void engine_free(engine *e)
     coupling_free(&e->cpl);
     ice_raster_free(e->raster);
     sph_model_free(e->m);
+    sph_particles_free(e->ocean_pts);
     double *arrays[] = {e->olon, e->olat, e->pue, e->pvn, e->div, e->shear, e->gx, e->gy, e->g_conc,
                         e->g_hbar, e->g_thick, e->g_u, e->g_v, e->g_pres, e->g_div, e->g_shear,
                         e->g_dens, e->g_snow};
@@ -387,6 +388,10 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     log_info("forecast %s: %ld steps, %d output times, %ld -> %ld particles, budget residual %.3g, %.1f s",
              e->cname, nsteps, nout, res->run.particles_start, res->run.particles_end, res->run.budget_residual,
              res->wall_seconds);
+    if (b->ocean)
+        log_info("forecast %s: ice and ocean budgets: energy residual %.3g, water %.3g, salt %.3g; %ld particles "
+                 "created, %ld merged", e->cname, res->run.energy_residual, res->run.water_residual,
+                 res->run.salt_residual, b->created_particles, b->merged_particles);
     e->restart_written = 0; /* keep it */
     engine_free(e);
     free(stations);

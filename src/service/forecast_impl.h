@@ -56,6 +56,8 @@ typedef struct engine {
     int restart_written;
     char start_mode[16];
     forecast_result *res;    /* the cold start's conservation numbers and flag go here */
+    sph_particles *ocean_pts; /* the mixed layer's cell centres, for their forcing (forecast_ocean.c) */
+    int ocean_fresh;          /* 1 until the first fill sets the cold start's slab from the SST */
 } engine;
 
 static inline void *xcalloc(size_t n, size_t size, int *ok)
@@ -68,11 +70,22 @@ static inline void *xcalloc(size_t n, size_t size, int *ok)
 
 static inline void iso(double t, char *buf, size_t len) { time_format_iso(t, buf, len); }
 
+/* forecast_ocean.c: the mixed layer (model.ocean.mixed_layer). The
+ * capacity new ice needs (at most every lattice point of the plane box);
+ * the grid, created on the model before sph_model_init; its cells'
+ * forcing at time t (before the particles', whose messages it keeps). */
+size_t fc_ocean_capacity(const engine *e, size_t count);
+int fc_ocean_setup(engine *e, sph_error *err);
+int fc_ocean_fill(engine *e, double t, sph_error *err);
+
 /* The particles' forcing at time t (service/coupling.h). */
 static inline int fc_fill_forcing(engine *e, double t, sph_error *err)
 {
-    int rc = coupling_fill(&e->cpl, e->proj, &e->cfg->model.thermo, e->thermo_on, sph_model_particles(e->m),
-                           t, err);
+    int rc = e->ocean_pts ? fc_ocean_fill(e, t, err) : SPH_OK;
+    if (rc)
+        return rc;
+    rc = coupling_fill(&e->cpl, e->proj, &e->cfg->model.thermo, e->thermo_on, sph_model_particles(e->m), t,
+                       err);
     if (rc == SPH_OK && e->req->member) /* an ensemble member's perturbations (service/ensemble.h) */
         fc_member_perturb_forcing(e->req->member, sph_model_particles(e->m), t - e->t0);
     return rc;

@@ -383,7 +383,7 @@ int fc_cold_start(engine *e, sph_error *err)
     size_t count = 0;
     if ((rc = seed_count(e->raster, e->proj, e->lm, &so, &count, err)))
         return rc;
-    e->cap = count > 0 ? count : 1;
+    e->cap = fc_ocean_capacity(e, count > 0 ? count : 1);
     e->m = sph_model_create(&e->prm, e->cap, &e->plane);
     if (!e->m)
         return sph_err_set(err, SPH_ERR_NOMEM, "model: cannot create a model for %zu particles", e->cap);
@@ -411,6 +411,8 @@ int fc_cold_start(engine *e, sph_error *err)
     if (e->req->member)
         fc_member_perturb_initial(e->req->member, P);
     if ((rc = alloc_work(e, err)))
+        return rc;
+    if ((rc = fc_ocean_setup(e, err)))
         return rc;
     if ((rc = fc_fill_forcing(e, e->t0, err)))
         return rc;
@@ -440,12 +442,14 @@ int fc_warm_start(engine *e, sph_error *err)
     int rc = restart_read_header(path, &h, err);
     if (rc)
         return rc;
-    e->cap = h.n > 0 ? h.n : 1;
+    e->cap = fc_ocean_capacity(e, h.n > 0 ? h.n : 1);
     e->m = sph_model_create(&e->prm, e->cap, &e->plane);
     if (!e->m)
         return sph_err_set(err, SPH_ERR_NOMEM, "model: cannot create a model for %zu particles", e->cap);
     sph_particles *P = sph_model_particles(e->m);
     if ((rc = restart_read(path, geo_proj_definition(e->proj), &h, P, err)))
+        return rc;
+    if ((rc = fc_ocean_setup(e, err))) /* the mixed layer starts afresh (docs/ocean.md) */
         return rc;
     if (fabs(h.time - e->t0) > 1.0) {
         char a[32], b[32];

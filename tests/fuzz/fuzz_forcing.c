@@ -30,9 +30,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         return 0;
     enum { N = 4 };
     double lon[N] = {121.0, 121.2, 121.5, 121.37}, lat[N] = {40.0, 40.3, 40.5, 40.11};
-    double a[15][N];
+    double a[17][N];
     forcing_sample out = {a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10],
-                          a[11], a[12], a[13], a[14], 0};
+                          a[11], a[12], a[13], a[14], a[15], a[16], 0};
     for (int k = 0; k < 3; k++) {
         sph_error_clear(&err);
         if (forcing_sample_at(f, T0 + 1800.0 * k, N, lon, lat, &out, &err) != SPH_OK)

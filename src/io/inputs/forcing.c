@@ -54,6 +54,14 @@ static const struct slot_def {
     [FV_PRECIP] = {{"precipitation_flux", "precipitation_amount",
                     "lwe_thickness_of_precipitation_amount", "lwe_precipitation_rate"},
                    {NULL}, "kg m-2 s-1", 1},
+    /* the ocean mixed layer (issue 20) */
+    [FV_MLD] = {{"ocean_mixed_layer_thickness", "ocean_mixed_layer_thickness_defined_by_sigma_theta",
+                 "ocean_mixed_layer_thickness_defined_by_sigma_t",
+                 "ocean_mixed_layer_thickness_defined_by_temperature"},
+                {NULL}, "m", 0},
+    [FV_BATHY] = {{"sea_floor_depth_below_sea_surface", "sea_floor_depth_below_geoid",
+                   "sea_floor_depth_below_mean_sea_level"},
+                  {NULL}, "m", 0},
 };
 
 /* Physical bounds of each slot in sphice units (docs/forcing.md): a value
@@ -78,6 +86,8 @@ static const struct { double lo, hi; } slot_bounds[FV_COUNT] = {
      * accumulations may go slightly below 0 (the coupling takes max(0, .)) */
     [FV_SNOW] = {-1e-3, 0.1},
     [FV_PRECIP] = {-1e-3, 0.1},
+    [FV_MLD] = {0.0, 12000.0},           /* m: a thickness is never negative; deeper than any sea */
+    [FV_BATHY] = {-10000.0, 12000.0},    /* m: land heights (negative depth) to the deepest trench */
 };
 
 /* FVEC_STD_EARTH or FVEC_STD_GRID when standard name sn names slot w's
@@ -424,6 +434,8 @@ static unsigned slot_flag(fv_slot w)
     case FV_FW: return FQ_OCEAN_FLUX;
     case FV_SNOW: return FQ_SNOWFALL;
     case FV_PRECIP: return FQ_PRECIP;
+    case FV_MLD: return FQ_MLD;
+    case FV_BATHY: return FQ_BATHY;
     default: return 0;
     }
 }
@@ -1272,6 +1284,8 @@ int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const d
             {FV_FW, FQ_OCEAN_FLUX, offsetof(forcing_sample, fw)},
             {FV_SNOW, FQ_SNOWFALL, offsetof(forcing_sample, snowfall)},
             {FV_PRECIP, FQ_PRECIP, offsetof(forcing_sample, precip)},
+            {FV_MLD, FQ_MLD, offsetof(forcing_sample, mld)},
+            {FV_BATHY, FQ_BATHY, offsetof(forcing_sample, bathy)},
         };
         for (size_t k = 0; k < sizeof scalars / sizeof scalars[0]; k++) {
             double *dst = *(double **)((char *)out + scalars[k].off);

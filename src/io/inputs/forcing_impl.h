@@ -23,7 +23,7 @@
 /* One physical field a source can supply. */
 typedef enum {
     FV_UWIND = 0, FV_VWIND, FV_TAIR, FV_DEW, FV_QAIR, FV_PSURF, FV_SW, FV_LW,
-    FV_UCUR, FV_VCUR, FV_SSH, FV_SST, FV_FW, FV_RH, FV_SNOW, FV_PRECIP, FV_COUNT
+    FV_UCUR, FV_VCUR, FV_SSH, FV_SST, FV_FW, FV_RH, FV_SNOW, FV_PRECIP, FV_MLD, FV_BATHY, FV_COUNT
 } fv_slot;
 
 /* How a vector component was found (fvar.found_how). */
