@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "io/ncfile.h"
+#include "io/gis.h"
 #include "io/quicklook.h"
 #include "service/check.h"
 #include "service/config.h"
@@ -337,6 +338,7 @@ static int leave(int code)
 int main(int argc, char **argv)
 {
     atexit(quicklook_release_caches);
+    atexit(gis_release_caches);
     /* GSL's default handler aborts; every GSL call here checks its status */
     gsl_set_error_handler_off();
     if (argc < 2)

@@ -93,4 +93,8 @@ int gis_write_gpkg(const gis_store *s, const char *path, double cycle_time, sph_
 int gis_write_cog(const char *path, const prod_grid *g, int nb, const double *const *bands,
                   const char *const *names, const char *const *units, sph_error *err);
 
+/* Frees GDAL's driver manager and PROJ/OSR caches (for leak checkers);
+ * call once at program exit. */
+void gis_release_caches(void);
+
 #endif

@@ -602,3 +602,10 @@ done:
         unlink(tmp);
     return rc;
 }
+
+void gis_release_caches(void)
+{
+    GDALDestroyDriverManager();
+    OSRCleanup();
+
+}

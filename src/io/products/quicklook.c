@@ -159,7 +159,7 @@ static double nice_step(double span, int want)
 
 static void fmt_deg(char *buf, size_t len, double v, int lon, double step)
 {
-    int dec = step < 0.1 ? 2 : step < 1 ? 1 : 0;
+    int dec = fabs(step * 10 - round(step * 10)) > 1e-9 ? 2 : step < 1 ? 1 : 0;
     const char *hemi = lon ? (v < 0 ? "W" : "E") : (v < 0 ? "S" : "N");
     snprintf(buf, len, "%.*f\xc2\xb0%s", dec, fabs(v), hemi);
 }
@@ -175,16 +175,13 @@ typedef struct panel_data {
 
 static rgb pixel_colour(const panel_data *pd, const quicklook_opts *o, double lon, double lat)
 {
+    /* land in the grid's mask: no data where the coastline (drawn over
+     * the field) says sea */
+    if (nearest_land(pd->g, pd->land, lon, lat))
+        return pd->coast ? C_NODATA : C_LAND;
     double v = sample(pd->g, pd->field, lon, lat);
-    if (isnan(v) && (pd->kind != 2 || isnan(sample(pd->g, pd->conc, lon, lat)))) {
-        /* no value: land in the grid's mask (shown as no data where the
-         * coastline says sea), else open water */
-        if (nearest_land(pd->g, pd->land, lon, lat))
-            return pd->coast ? C_NODATA : C_LAND;
-        if (pd->kind == 2)
-            return C_WATER;
-        v = 0;
-    }
+    if (isnan(v) && pd->kind != 2)
+        v = 0; /* undefined sea: open water */
     switch (pd->kind) {
     case 0:
         return class_rgb(gis_class_of(v));
