@@ -76,6 +76,17 @@ int gis_class_polygons(const prod_grid *g, const double *conc, const unsigned ch
                        double lo, double hi, gis_multipolygon *out, sph_error *err);
 void gis_multipolygon_free(gis_multipolygon *m); /* NULL-safe */
 
+/* Appends a GeoJSON Feature {"type", "geometry": {type, coordinates},
+ * "properties"} to the array feats; *coords is the (empty) coordinates
+ * array to fill; returns the properties object. */
+typedef struct cJSON cJSON;
+/* A FeatureCollection with its (empty) features array in *feats; NULL
+ * when out of memory. */
+cJSON *gis_geojson_collection(cJSON **feats);
+/* Writes fc (unformatted) atomically to path and deletes it. */
+int gis_geojson_write(cJSON *fc, const char *path, sph_error *err);
+cJSON *gis_geojson_feature(cJSON *feats, const char *type, cJSON **coords);
+
 /* Writer state kept by the products writer between output times. */
 typedef struct gis_store gis_store;
 

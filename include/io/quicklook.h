@@ -82,6 +82,14 @@ int quicklook_write_png(const char *path, const prod_grid *g, const double *conc
                         const char *const *st_names, const double *st_lon, const double *st_lat,
                         int nst, double valid_time, const quicklook_opts *o, sph_error *err);
 
+/* Writes a finished cairo image atomically to path as PNG and destroys
+ * cr and s (also on failure); `what` names the product in the error. */
+typedef struct _cairo cairo_t;
+typedef struct _cairo_surface cairo_surface_t;
+int quicklook_png_commit(cairo_t *cr, cairo_surface_t *s, const char *path, const char *what, sph_error *err);
+/* A black 1-pixel frame on the pixel edges of (x, y, w, h). */
+void quicklook_box(cairo_t *cr, double x, double y, double w, double h);
+
 /* Frees cairo's and fontconfig's one-time caches (for leak checkers);
  * call once at program exit, after the last map. */
 void quicklook_release_caches(void);

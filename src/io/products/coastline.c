@@ -32,12 +32,12 @@ void coast_free(coast_set *c)
 {
     if (!c)
         return;
-    for (int s = 0; s < c->nsegs; s++) {
-        free(c->segs[s].lon);
-        free(c->segs[s].lat);
+    for (coast_seg *sg = c->segs; sg && sg < c->segs + c->nsegs; sg++) {
+        free(sg->lon);
+        free(sg->lat);
     }
-    free(c->segs);
     free(c->bins);
+    free(c->segs);
     memset(c, 0, sizeof *c);
 }
 

@@ -32,17 +32,21 @@ int gis_class_of(double c)
     return 0;
 }
 
+static void polygon_free(gis_polygon *pg)
+{
+    for (gis_ring *r = pg->rings; r && r < pg->rings + pg->nrings; r++) {
+        free(r->lon);
+        free(r->lat);
+    }
+    free(pg->rings);
+}
+
 void gis_multipolygon_free(gis_multipolygon *m)
 {
     if (!m)
         return;
-    for (size_t p = 0; p < m->npolys; p++) {
-        for (size_t r = 0; r < m->polys[p].nrings; r++) {
-            free(m->polys[p].rings[r].lon);
-            free(m->polys[p].rings[r].lat);
-        }
-        free(m->polys[p].rings);
-    }
+    for (gis_polygon *pg = m->polys; pg && pg < m->polys + m->npolys; pg++)
+        polygon_free(pg);
     free(m->polys);
     memset(m, 0, sizeof *m);
 }
@@ -53,26 +57,12 @@ typedef struct trace_edge { long from, to; int dir; } trace_edge; /* dir 0 E, 1 
 
 static const int DX[4] = { 1, 0, -1, 0 }, DY[4] = { 0, 1, 0, -1 };
 
-typedef struct ring_buf { size_t n, cap; double *x, *y; } ring_buf;
+/* a ring under construction: an edge_line and its capacity */
+typedef struct ring_buf { edge_line l; size_t cap; } ring_buf;
 
 static int rb_push(ring_buf *b, double x, double y)
 {
-    if (b->n == b->cap) {
-        size_t nc = b->cap ? 2 * b->cap : 64;
-        double *a = realloc(b->x, nc * sizeof *a);
-        if (!a)
-            return -1;
-        b->x = a;
-        double *c = realloc(b->y, nc * sizeof *c);
-        if (!c)
-            return -1;
-        b->y = c;
-        b->cap = nc;
-    }
-    b->x[b->n] = x;
-    b->y[b->n] = y;
-    b->n++;
-    return 0;
+    return edge_line_push(&b->l, &b->cap, x, y);
 }
 
 static double ring_area2(const double *x, const double *y, size_t n) /* twice the signed area */
@@ -100,9 +90,9 @@ static int add_ring(gis_polygon *p, ring_buf *b)
     if (!nr)
         return -1;
     p->rings = nr;
-    p->rings[p->nrings].n = b->n;
-    p->rings[p->nrings].lon = b->x;
-    p->rings[p->nrings].lat = b->y;
+    p->rings[p->nrings].n = b->l.npts;
+    p->rings[p->nrings].lon = b->l.lon;
+    p->rings[p->nrings].lat = b->l.lat;
     p->nrings++;
     memset(b, 0, sizeof *b);
     return 0;
@@ -195,13 +185,13 @@ int gis_class_polygons(const prod_grid *g, const double *conc, const unsigned ch
             prev = cur;
             cur = (size_t)nxt;
         } while (cur != s0);
-        if (rb_push(&rb, rb.x[0], rb.y[0]))
+        if (rb_push(&rb, rb.l.lon[0], rb.l.lat[0]))
             goto nomem;
-        for (size_t q = 0; q < rb.n; q++) { /* corner indices -> degrees */
-            rb.x[q] = g->lon0 + (rb.x[q] - 0.5) * g->dlon;
-            rb.y[q] = g->lat0 + (rb.y[q] - 0.5) * g->dlat;
+        for (size_t q = 0; q < rb.l.npts; q++) { /* corner indices -> degrees */
+            rb.l.lon[q] = g->lon0 + (rb.l.lon[q] - 0.5) * g->dlon;
+            rb.l.lat[q] = g->lat0 + (rb.l.lat[q] - 0.5) * g->dlat;
         }
-        int is_hole = ring_area2(rb.x, rb.y, rb.n) < 0;
+        int is_hole = ring_area2(rb.l.lon, rb.l.lat, rb.l.npts) < 0;
         if (is_hole) {
             gis_polygon *nh = realloc(holes, (nholes + 1) * sizeof *nh);
             if (!nh)
@@ -239,7 +229,7 @@ int gis_class_polygons(const prod_grid *g, const double *conc, const unsigned ch
             rc = sph_err_set(err, SPH_ERR_INTERNAL, "class polygons: a hole outside every ring");
             goto done;
         }
-        ring_buf tmp = { hr->n, hr->n, hr->lon, hr->lat };
+        ring_buf tmp = { { hr->n, 1, hr->lon, hr->lat }, hr->n };
         if (add_ring(&out->polys[best], &tmp))
             goto nomem;
         holes[h].nrings = 0;
@@ -250,22 +240,17 @@ int gis_class_polygons(const prod_grid *g, const double *conc, const unsigned ch
 nomem:
     rc = sph_err_set(err, SPH_ERR_NOMEM, "class polygons: out of memory (%d x %d grid)", nx, ny);
 done:
-    for (size_t h = 0; h < nholes; h++) {
-        for (size_t r = 0; r < holes[h].nrings; r++) {
-            free(holes[h].rings[r].lon);
-            free(holes[h].rings[r].lat);
-        }
-        free(holes[h].rings);
-    }
-    free(holes);
-    free(rb.x);
-    free(rb.y);
-    free(in);
-    free(out_e);
-    free(edges);
-    free(used);
     if (rc != SPH_OK)
         gis_multipolygon_free(out);
+    for (size_t h = 0; h < nholes; h++)
+        polygon_free(&holes[h]);
+    free(holes);
+    free(rb.l.lon);
+    free(rb.l.lat);
+    free(used);
+    free(edges);
+    free(out_e);
+    free(in);
     return rc;
 }
 
@@ -352,6 +337,44 @@ int gis_store_add(gis_store *s, const prod_grid *g, const double *conc, const un
 
 /* ---- GeoJSON ---- */
 
+cJSON *gis_geojson_collection(cJSON **feats)
+{
+    cJSON *fc = cJSON_CreateObject();
+    *feats = cJSON_CreateArray();
+    if (!fc || !*feats) {
+        cJSON_Delete(fc);
+        cJSON_Delete(*feats);
+        return NULL;
+    }
+    cJSON_AddStringToObject(fc, "type", "FeatureCollection");
+    cJSON_AddItemToObject(fc, "features", *feats);
+    return fc;
+}
+
+int gis_geojson_write(cJSON *fc, const char *path, sph_error *err)
+{
+    char *text = cJSON_PrintUnformatted(fc);
+    cJSON_Delete(fc);
+    if (!text)
+        return sph_err_set(err, SPH_ERR_NOMEM, "write %s: out of memory", path);
+    int rc = atomic_write_file(path, text, strlen(text), err);
+    free(text);
+    return rc;
+}
+
+cJSON *gis_geojson_feature(cJSON *feats, const char *type, cJSON **coords)
+{
+    cJSON *f = cJSON_CreateObject(), *geom = cJSON_CreateObject(), *props = cJSON_CreateObject();
+    *coords = cJSON_CreateArray();
+    cJSON_AddItemToArray(feats, f);
+    cJSON_AddStringToObject(f, "type", "Feature");
+    cJSON_AddItemToObject(f, "geometry", geom);
+    cJSON_AddItemToObject(f, "properties", props);
+    cJSON_AddStringToObject(geom, "type", type);
+    cJSON_AddItemToObject(geom, "coordinates", *coords);
+    return props;
+}
+
 static double r7(double v)
 {
     return round(v * 1e7) / 1e7;
@@ -364,27 +387,15 @@ static void colour_hex(int c, char *buf, size_t len)
 
 int gis_write_classes_geojson(const gis_store *s, const char *path, sph_error *err)
 {
-    cJSON *fc = cJSON_CreateObject(), *feats = cJSON_CreateArray();
-    if (!fc || !feats) {
-        cJSON_Delete(fc);
-        cJSON_Delete(feats);
+    cJSON *feats, *fc = gis_geojson_collection(&feats);
+    if (!fc)
         return sph_err_set(err, SPH_ERR_NOMEM, "write %s: out of memory", path);
-    }
-    cJSON_AddStringToObject(fc, "type", "FeatureCollection");
-    cJSON_AddItemToObject(fc, "features", feats);
     char iso[32], hex[16];
     for (size_t k = 0; k < s->n; k++) {
         time_format_iso(s->e[k].t, iso, sizeof iso);
         for (int c = 0; c < GIS_NCLASSES; c++) {
             const gis_multipolygon *m = &s->e[k].cls[c];
-            cJSON *f = cJSON_CreateObject(), *geom = cJSON_CreateObject(), *polys = cJSON_CreateArray(),
-                  *props = cJSON_CreateObject();
-            cJSON_AddItemToArray(feats, f);
-            cJSON_AddStringToObject(f, "type", "Feature");
-            cJSON_AddItemToObject(f, "geometry", geom);
-            cJSON_AddItemToObject(f, "properties", props);
-            cJSON_AddStringToObject(geom, "type", "MultiPolygon");
-            cJSON_AddItemToObject(geom, "coordinates", polys);
+            cJSON *polys, *props = gis_geojson_feature(feats, "MultiPolygon", &polys);
             for (size_t p = 0; p < m->npolys; p++) {
                 cJSON *poly = cJSON_CreateArray();
                 cJSON_AddItemToArray(polys, poly);
@@ -410,13 +421,7 @@ int gis_write_classes_geojson(const gis_store *s, const char *path, sph_error *e
             cJSON_AddStringToObject(props, "colour", hex);
         }
     }
-    char *text = cJSON_PrintUnformatted(fc);
-    cJSON_Delete(fc);
-    if (!text)
-        return sph_err_set(err, SPH_ERR_NOMEM, "write %s: out of memory", path);
-    int rc = atomic_write_file(path, text, strlen(text), err);
-    free(text);
-    return rc;
+    return gis_geojson_write(fc, path, err);
 }
 
 /* ---- GDAL / OGR ---- */
@@ -437,6 +442,26 @@ static int gdal_fail(const char *what, const char *path, sph_error *err)
 {
     const char *m = CPLGetLastErrorMsg();
     return sph_err_set(err, SPH_ERR_IO, "%s %s: %s", what, path, m && m[0] ? m : "GDAL error");
+}
+
+static void gdal_close(GDALDatasetH a, GDALDatasetH b, OGRSpatialReferenceH srs)
+{
+    if (a)
+        GDALClose(a);
+    if (b)
+        GDALClose(b);
+    if (srs)
+        OSRDestroySpatialReference(srs);
+}
+
+/* restores GDAL's error handler; commits tmp to path, or removes it */
+static int gdal_finish(int rc, const char *tmp, const char *path, sph_error *err)
+{
+    CPLPopErrorHandler();
+    if (rc == SPH_OK)
+        return atomic_commit(tmp, path, err);
+    unlink(tmp);
+    return rc;
 }
 
 static void add_field(OGRLayerH l, const char *name, OGRFieldType t)
@@ -528,17 +553,9 @@ int gis_write_gpkg(const gis_store *s, const char *path, double cycle_time, sph_
     if (GDALDatasetCommitTransaction(ds) != OGRERR_NONE && rc == SPH_OK)
         rc = gdal_fail("write GeoPackage", tmp, err);
 done:
-    if (ds)
-        GDALClose(ds);
-    if (srs)
-        OSRDestroySpatialReference(srs);
+    gdal_close(ds, NULL, srs);
     CPLSetThreadLocalConfigOption("OGR_CURRENT_DATE", NULL);
-    CPLPopErrorHandler();
-    if (rc == SPH_OK)
-        rc = atomic_commit(tmp, path, err);
-    else
-        unlink(tmp);
-    return rc;
+    return gdal_finish(rc, tmp, path, err);
 }
 
 int gis_write_cog(const char *path, const prod_grid *g, int nb, const double *const *bands,
@@ -588,19 +605,9 @@ int gis_write_cog(const char *path, const prod_grid *g, int nb, const double *co
             rc = gdal_fail("write GeoTIFF", tmp, err);
     }
 done:
-    if (out)
-        GDALClose(out);
-    if (ds)
-        GDALClose(ds);
-    if (srs)
-        OSRDestroySpatialReference(srs);
+    gdal_close(out, ds, srs);
     free(row);
-    CPLPopErrorHandler();
-    if (rc == SPH_OK)
-        rc = atomic_commit(tmp, path, err);
-    else
-        unlink(tmp);
-    return rc;
+    return gdal_finish(rc, tmp, path, err);
 }
 
 void gis_release_caches(void)

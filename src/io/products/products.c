@@ -866,24 +866,12 @@ static int write_geojson(prod_writer *p, sph_error *err)
     char name[PROD_NAME_LEN], path[PROD_PATH], iso[32];
     snprintf(name, sizeof name, "%s_edge.geojson", p->prefix);
     snprintf(path, sizeof path, "%s/%s", p->stage, name);
-    cJSON *fc = cJSON_CreateObject(), *feats = cJSON_CreateArray();
-    if (!fc || !feats) {
-        cJSON_Delete(fc);
-        cJSON_Delete(feats);
+    cJSON *feats, *fc = gis_geojson_collection(&feats);
+    if (!fc)
         return sph_err_set(err, SPH_ERR_NOMEM, "write %s: out of memory", path);
-    }
-    cJSON_AddStringToObject(fc, "type", "FeatureCollection");
-    cJSON_AddItemToObject(fc, "features", feats);
     for (size_t t = 0; t < p->nedges; t++) {
         const edge_set *e = &p->edges[t];
-        cJSON *f = cJSON_CreateObject(), *geom = cJSON_CreateObject(), *lines = cJSON_CreateArray();
-        cJSON *props = cJSON_CreateObject();
-        cJSON_AddItemToArray(feats, f);
-        cJSON_AddStringToObject(f, "type", "Feature");
-        cJSON_AddItemToObject(f, "geometry", geom);
-        cJSON_AddItemToObject(f, "properties", props);
-        cJSON_AddStringToObject(geom, "type", "MultiLineString");
-        cJSON_AddItemToObject(geom, "coordinates", lines);
+        cJSON *lines, *props = gis_geojson_feature(feats, "MultiLineString", &lines);
         for (size_t l = 0; l < e->nlines; l++) {
             cJSON *line = cJSON_CreateArray();
             cJSON_AddItemToArray(lines, line);
@@ -903,12 +891,7 @@ static int write_geojson(prod_writer *p, sph_error *err)
             cJSON_AddStringToObject(props, "reference", p->ref_name);
         }
     }
-    char *text = cJSON_PrintUnformatted(fc);
-    cJSON_Delete(fc);
-    if (!text)
-        return sph_err_set(err, SPH_ERR_NOMEM, "write %s: out of memory", path);
-    int rc = atomic_write_file(path, text, strlen(text), err);
-    free(text);
+    int rc = gis_geojson_write(fc, path, err);
     if (rc == SPH_OK)
         add_product(p, name);
     return rc;

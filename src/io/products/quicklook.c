@@ -72,6 +72,14 @@ void quicklook_to_px(const quicklook_frame *m, double lon, double lat, double *x
     *y = m->oy + (m->latmax - lat) * m->scale;
 }
 
+void quicklook_box(cairo_t *cr, double x, double y, double w, double h)
+{
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 1);
+    cairo_rectangle(cr, x + 0.5, y + 0.5, w - 1, h - 1);
+    cairo_stroke(cr);
+}
+
 static void set_rgb(cairo_t *cr, rgb c)
 {
     cairo_set_source_rgb(cr, c.r / 255.0, c.g / 255.0, c.b / 255.0);
@@ -452,10 +460,7 @@ static void colour_bar(cairo_t *cr, double x, double y, double w, double h, int 
         cairo_set_line_width(cr, 0.8);
         cairo_stroke(cr);
     }
-    cairo_set_source_rgb(cr, 0, 0, 0);
-    cairo_set_line_width(cr, 1);
-    cairo_rectangle(cr, x + 0.5, y + 0.5, w - 1, h - 1);
-    cairo_stroke(cr);
+    quicklook_box(cr, x, y, w, h);
     cairo_set_font_size(cr, 10);
     for (int t = 0; t <= 4; t++) {
         double v = lo + (hi - lo) * t / 4, tx = x + w * t / 4;
@@ -665,10 +670,7 @@ int quicklook_write_png(const char *path, const prod_grid *g, const double *conc
             draw_drift(cr, &m, g, conc, o, px_per_ms);
         draw_graticule(cr, &m, g);
         draw_stations(cr, &m, st_names, st_lon, st_lat, nst);
-        cairo_set_source_rgb(cr, 0, 0, 0);
-        cairo_set_line_width(cr, 1);
-        cairo_rectangle(cr, m.ox + 0.5, m.oy + 0.5, m.w - 1, m.h - 1);
-        cairo_stroke(cr);
+        quicklook_box(cr, m.ox, m.oy, m.w, m.h);
         draw_legend(cr, &m, q, o, thick_seen_max, have_coast, key, px_per_ms,
                     o->height - BOTTOM + 8);
     }
@@ -712,6 +714,12 @@ int quicklook_write_png(const char *path, const prod_grid *g, const double *conc
     free(sconc);
     free(sthick);
 
+    return quicklook_png_commit(cr, s, path, "quick-look", err);
+}
+
+int quicklook_png_commit(cairo_t *cr, cairo_surface_t *s, const char *path, const char *what, sph_error *err)
+{
+    cairo_surface_flush(s);
     cairo_status_t cs = cairo_status(cr);
     char tmp[4096];
     atomic_tmp_name(path, tmp, sizeof tmp);
@@ -721,7 +729,7 @@ int quicklook_write_png(const char *path, const prod_grid *g, const double *conc
     cairo_surface_destroy(s);
     if (cs != CAIRO_STATUS_SUCCESS) {
         unlink(tmp);
-        return sph_err_set(err, SPH_ERR_IO, "quick-look %s: %s", tmp, cairo_status_to_string(cs));
+        return sph_err_set(err, SPH_ERR_IO, "%s %s: %s", what, tmp, cairo_status_to_string(cs));
     }
     return atomic_commit(tmp, path, err);
 }

@@ -7,7 +7,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "util/fileio.h"
+#include "io/quicklook.h"
 #include "util/timeutil.h"
 
 double stationplot_axis_max(double vmax, double floor_value)
@@ -106,10 +106,7 @@ int stationplot_write_png(const char *path, const stationplot_series *s, sph_err
             cairo_line_to(cr, x0 + w * h / hours, top + ph);
         }
         cairo_stroke(cr);
-        cairo_set_source_rgb(cr, 0, 0, 0);
-        cairo_set_line_width(cr, 1);
-        cairo_rectangle(cr, x0 + 0.5, top + 0.5, w - 1, ph - 1);
-        cairo_stroke(cr);
+        quicklook_box(cr, x0, top, w, ph);
         cairo_set_font_size(cr, 10);
         for (int q = 0; q <= 4; q++) {
             snprintf(buf, sizeof buf, vmaxs[k] < 0.2 ? "%.3f" : "%.2f", vmaxs[k] * (4 - q) / 4);
@@ -162,17 +159,5 @@ int stationplot_write_png(const char *path, const stationplot_series *s, sph_err
             cairo_show_text(cr, "solid: h_i of the ice-covered part; dashed: volume per area");
         }
     }
-    cairo_surface_flush(sf);
-    cairo_status_t cs = cairo_status(cr);
-    char tmp[4096];
-    atomic_tmp_name(path, tmp, sizeof tmp);
-    if (cs == CAIRO_STATUS_SUCCESS)
-        cs = cairo_surface_write_to_png(sf, tmp);
-    cairo_destroy(cr);
-    cairo_surface_destroy(sf);
-    if (cs != CAIRO_STATUS_SUCCESS) {
-        unlink(tmp);
-        return sph_err_set(err, SPH_ERR_IO, "station plot %s: %s", tmp, cairo_status_to_string(cs));
-    }
-    return atomic_commit(tmp, path, err);
+    return quicklook_png_commit(cr, sf, path, "station plot", err);
 }
