@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "io/ncfile.h"
+#include "io/gis.h"
 #include "io/quicklook.h"
 #include "service/check.h"
 #include "service/config.h"
@@ -350,6 +351,7 @@ int main(int argc, char **argv)
     }
     atexit(ens_mpi_finalize);
     atexit(quicklook_release_caches);
+    atexit(gis_release_caches);
     if (ens_mpi_size() > 1 && (argc < 2 || strcmp(argv[1], "run"))) {
         if (ens_mpi_rank() == 0)
             fprintf(stderr, "sphice: under mpirun only `sphice run` is supported (ensemble members over ranks)\n");

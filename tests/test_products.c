@@ -286,7 +286,10 @@ static void test_full(const char *root)
     const char *want[] = { "bohai_fields.nc", "bohai_stations.nc", "bohai_stations.csv",
                            "bohai_particles.nc", "bohai_edge.geojson", "bohai_scores.json",
                            "bohai_quicklook_20240115T0000Z.png", "bohai_quicklook_20240115T1200Z.png",
-                           "manifest.json" };
+                           /* issue 23: GIS products at the map times, station plots */
+                           "bohai_fields_20240115T0000Z.tif", "bohai_fields_20240115T1200Z.tif",
+                           "bohai_ice_classes.geojson", "bohai_gis.gpkg", "bohai_station_Bayuquan.png",
+                           "bohai_station_Off__Bay___mouth.png", "manifest.json" };
     for (size_t k = 0; k < sizeof want / sizeof want[0]; k++) {
         int listed = 0;
         for (int q = 0; q < sum.nproducts; q++)

@@ -1,4 +1,5 @@
-/* Quick-look PNG: size, not blank, ice colour where ice is (io/quicklook.h). */
+/* Quick-look charts: size, the documented frame, class and ice colours
+ * where ice is, clipped thickness (io/quicklook.h). */
 #include <cairo.h>
 #include <math.h>
 #include <stdlib.h>
@@ -86,6 +87,7 @@ int main(void)
     snprintf(path, sizeof path, "%s/ql.png", dir);
     quicklook_opts o;
     quicklook_opts_default(&o);
+    o.coastline = 0; /* synthetic land: the grid's mask (GSHHG in test_coastline) */
     const char *names[1] = { "Bayuquan" };
     double slon[1] = { cx }, slat[1] = { cy };
     CHECK(quicklook_write_png(path, &g, c, h, land, &e, names, slon, slat, 1, 1705276800.0, &o,
@@ -93,32 +95,68 @@ int main(void)
     cairo_surface_t *s = cairo_image_surface_create_from_png(path);
     CHECK(cairo_surface_status(s) == CAIRO_STATUS_SUCCESS, "PNG reads back");
     if (cairo_surface_status(s) == CAIRO_STATUS_SUCCESS) {
-        CHECK(cairo_image_surface_get_width(s) == 900 && cairo_image_surface_get_height(s) == 700,
+        CHECK(cairo_image_surface_get_width(s) == 1500 && cairo_image_surface_get_height(s) == 720,
               "size %dx%d", cairo_image_surface_get_width(s), cairo_image_surface_get_height(s));
         cairo_surface_flush(s);
         long ncol = distinct_colours(s);
         CHECK(ncol >= 8, "only %ld distinct colours", ncol);
-        /* the ice colour (conc 1: 245,250,255) covers at least half the
-         * disc's share of the concentration map (the map is at most a
-         * panel: 430 x 560 px; the disc is nice/nn of it) */
-        long ice_px = count_colour(s, 245, 250, 255);
-        double map_px = 0; /* map size from the layout: width-limited or height-limited */
-        {
-            double pw = (900 - 60) / 2.0, ph = 700 - 50 - 80 - 10;
+        /* map size from the documented frame (three panels) */
+        quicklook_frame f;
+        quicklook_frame_of(&o, &g, 1, 1, &f);
+        double map_px = f.w * f.h;
+        {   /* the frame from the documented formula, written here */
+            double pw = (1500 - 14.0 * 4) / 3 - 44, ph = 720 - 84 - 128 - 18;
             double coslat = cos((g.lat0 + 0.5 * (g.nlat - 1) * g.dlat) * M_PI / 180);
             double wdeg = g.nlon * g.dlon * coslat, hdeg = g.nlat * g.dlat;
             double sc = fmin(pw / wdeg, ph / hdeg);
-            map_px = wdeg * sc * hdeg * sc;
+            CHECK(fabs(f.scale - sc) < 1e-9 && fabs(f.coslat - coslat) < 1e-12, "frame scale %g vs %g", f.scale, sc);
         }
+        /* the ice colour (conc 1: 245,250,255) covers the disc's share of
+         * the concentration map (ice inside the disc, bilinear to its rim) */
+        long ice_px = count_colour(s, 245, 250, 255);
         double want = map_px * (double)nice / (double)nn;
         CHECK(ice_px > 0.8 * want && ice_px < 1.2 * want + 2000,
               "ice-coloured pixels %ld, disc area %.0f px", ice_px, want);
-        CHECK(count_colour(s, 170, 170, 170) > 0.5 * map_px * 8 / g.nlon, "land grey present");
+        /* the WMO chart: the disc in the 10/10 colour (145,0,0) */
+        long cls_px = count_colour(s, 145, 0, 0);
+        CHECK(cls_px > 0.8 * want && cls_px < 1.2 * want + 500, "10/10 pixels %ld, disc %.0f px", cls_px, want);
+        CHECK(count_colour(s, 214, 200, 170) > 3 * 0.5 * map_px * 8 / g.nlon, "land colour on three maps");
         CHECK(count_colour(s, 24, 52, 92) > 0, "open water colour present");
+        CHECK(count_colour(s, 150, 200, 255) > map_px * 0.3, "WMO open water (<1/10) present");
         CHECK(count_colour(s, 220, 30, 30) > 50, "ice edge drawn in red");
         /* thickness 0.3 m on a 0..0.6 m scale: halfway (140,145,95) */
         long th_px = count_colour(s, 140, 145, 95);
         CHECK(th_px > 0.8 * want, "thickness colour pixels %ld, disc %.0f px", th_px, want);
+        /* the chart's transform: the disc's centre is ice on every panel */
+        for (int q = 0; q < 3; q++) {
+            quicklook_frame fq;
+            quicklook_frame_of(&o, &g, 1, q, &fq);
+            double x, y;
+            quicklook_to_px(&fq, cx + 0.3 * R, cy - 0.3 * R, &x, &y);
+            unsigned px = *(unsigned *)(void *)(cairo_image_surface_get_data(s) +
+                                                (size_t)y * cairo_image_surface_get_stride(s) + 4 * (size_t)x);
+            unsigned want_px[3] = { 0x910000u, 0xf5faffu, 0x8c915fu };
+            CHECK(abs((int)((px >> 16) & 255) - (int)(want_px[q] >> 16)) <= 3 &&
+                      abs((int)((px >> 8) & 255) - (int)((want_px[q] >> 8) & 255)) <= 3,
+                  "panel %d at the disc: %06x, want %06x", q, px & 0xffffffu, want_px[q]);
+        }
+    }
+    cairo_surface_destroy(s);
+
+    /* thickness above the scale: drawn at the top colour (clipped) */
+    for (size_t k = 0; k < nn; k++)
+        if (!isnan(h[k]))
+            h[k] = 0.9;
+    CHECK(quicklook_write_png(path, &g, c, h, land, &e, names, slon, slat, 1, 1705276800.0, &o,
+                              &err) == SPH_OK, "%s", err.msg);
+    s = cairo_image_surface_create_from_png(path);
+    if (cairo_surface_status(s) == CAIRO_STATUS_SUCCESS) {
+        cairo_surface_flush(s);
+        double want = 0;
+        quicklook_frame f;
+        quicklook_frame_of(&o, &g, 1, 2, &f);
+        want = f.w * f.h * (double)nice / (double)nn;
+        CHECK(count_colour(s, 240, 230, 40) > 0.8 * want, "clipped thickness in the top colour");
     }
     cairo_surface_destroy(s);
 
@@ -135,6 +173,7 @@ int main(void)
         /* only the colour bar shows the top of the ice scale */
         long ice_px = count_colour(s, 245, 250, 255);
         CHECK(ice_px < 14 * 20, "no ice but %ld ice-coloured pixels", ice_px);
+        CHECK(count_colour(s, 145, 0, 0) < 12 * 18 + 5, "no 10/10 beyond the legend");
     }
     cairo_surface_destroy(s);
     unlink(path);

@@ -14,6 +14,7 @@ set -eu
 PKGS="build-essential make pkg-config libnetcdf-dev netcdf-bin libcurl4-openssl-dev \
 libcjson-dev libgsl-dev libproj-dev proj-data libudunits2-dev libmicrohttpd-dev \
 libsqlite3-dev sqlite3 libssl-dev libcairo2-dev libsystemd-dev gmt-gshhg-high gnuplot-nox \
+libgdal-dev gdal-bin \
 valgrind curl systemd"
 case " $* " in *" --fuzz "*) PKGS="$PKGS clang llvm libomp-dev" ;; esac
 case " $* " in *" --browser "*) PKGS="$PKGS chromium" ;; esac

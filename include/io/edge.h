@@ -59,6 +59,9 @@ typedef struct edge_set {
 int edge_extract(const prod_grid *g, const double *conc, const unsigned char *land,
                  double threshold, edge_set *out, sph_error *err);
 void edge_set_free(edge_set *s); /* NULL-safe; leaves an empty set */
+/* Appends a point to a line, growing its arrays (capacity *cap); -1 when
+ * out of memory (the line keeps its points). */
+int edge_line_push(edge_line *l, size_t *cap, double lon, double lat);
 
 /* Total great-circle length of all lines, km. */
 double edge_length_km(const edge_set *s);

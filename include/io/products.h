@@ -52,8 +52,9 @@ typedef struct prod_options {
     int write_particles;        /* trajectory file <prefix>_particles.nc */
     int quicklook_every;        /* PNG for output times 0, k, 2k, ... and the
                                    last one; 0 = none */
-    int quicklook_width, quicklook_height; /* pixels (900 x 700) */
+    int quicklook_width, quicklook_height; /* pixels (1500 x 720) */
     double quicklook_thick_max; /* top of the thickness colour scale, m (0.6) */
+    int quicklook_drift;        /* drift vectors on the concentration map (0) */
     int deflate_level;          /* 0..9 (4) */
     int write_snow;             /* sisnthick on the fields and particles files (0: left out,
                                    as before snow existed; the engine sets it when a forcing

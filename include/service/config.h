@@ -110,6 +110,7 @@ struct sph_config {
         double edge_threshold;
         struct { double lon, lat; char *name; } edge_reference;
         cfg_dbllist map_times;  /* hours after the cycle time */
+        int map_drift;          /* drift vectors on the concentration map */
         int retention_cycles;
     } output;
 

@@ -41,6 +41,11 @@ void fc_member_perturb_forcing(const fc_member *m, sph_particles *P, double t);
  * h (1 + f_h) (f_h clipped to +-3 sigma); mass follows A h. */
 void fc_member_perturb_initial(const fc_member *m, sph_particles *P);
 
+/* The configuration a perturbed member runs with: cfg, or (without
+ * ensemble.member_products, when its products are thrown away after the
+ * reduction) a shallow copy in *lite without maps and GIS products. */
+const struct sph_config *fc_member_config(const struct sph_config *cfg, struct sph_config *lite);
+
 /* The cycle engine: forecast_run when ensemble.members is 1, else the
  * members in turn and the ensemble products. The control's products are
  * the cycle's own; res describes the control plus the ensemble block. */

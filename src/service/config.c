@@ -200,6 +200,8 @@ static const cfg_key tail_keys[] = {
        "Reference point name; empty: no edge distance."),
     C_("output.map_times", CT_DBLLIST, output.map_times, "[]", 0, 10000, R, NULL,
        "Hours after the cycle time at which maps are drawn."),
+    C_("output.map_drift", CT_BOOL, output.map_drift, "true", 0, 0, R, NULL,
+       "Drift vectors (with a key) on the concentration map."),
     C_("output.retention_cycles", CT_INT, output.retention_cycles, "14", 0, 100000, R, NULL,
        "Published cycles kept in output.dir; 0 keeps all."),
 

@@ -109,6 +109,15 @@ void fc_member_perturb_initial(const fc_member *m, sph_particles *P)
     }
 }
 
+const struct sph_config *fc_member_config(const struct sph_config *cfg, struct sph_config *lite)
+{
+    if (cfg->ensemble.member_products)
+        return cfg;
+    *lite = *cfg; /* shallow: read only, its strings stay cfg's */
+    lite->output.products.maps = 0;
+    return lite;
+}
+
 /* ---- the ensemble engine ---- */
 
 /* Progress of the whole ensemble from a member's. */
@@ -188,7 +197,8 @@ int ensemble_run(const struct sph_config *cfg, const forecast_request *req, fore
         forecast_result *out = m ? mres : res;
         sph_error me;
         sph_error_clear(&me);
-        rc = forecast_run(cfg, &r, &mp, cancel, out, &me);
+        struct sph_config lite;
+        rc = forecast_run(m ? fc_member_config(cfg, &lite) : cfg, &r, &mp, cancel, out, &me);
         relay(prog, &mp, m, n);
         fc_member_free(&mem);
         if (rc) {

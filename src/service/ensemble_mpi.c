@@ -16,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "service/config.h"
 #include "util/log.h"
 
 #ifdef SPHICE_MPI
@@ -122,7 +123,8 @@ static void serve_job(const struct sph_config *cfg, const char *text, const vola
         fc_member mem;
         if (!(rc = fc_member_init(&mem, cfg, member, &err))) {
             req.member = member ? &mem : NULL;
-            rc = forecast_run(cfg, &req, NULL, cancel, res, &err);
+            struct sph_config lite;
+            rc = forecast_run(fc_member_config(cfg, &lite), &req, NULL, cancel, res, &err);
             fc_member_free(&mem);
         }
     }

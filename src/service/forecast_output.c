@@ -106,6 +106,7 @@ int fc_open_products(engine *e, prod_station *stations, sph_error *err)
         }
         int every = (int)lround(gap / cfg->output.interval_hours);
         o.quicklook_every = every > 0 ? every : 1;
+        o.quicklook_drift = cfg->output.map_drift;
     }
     prod_meta meta;
     memset(&meta, 0, sizeof meta);

@@ -82,7 +82,7 @@ static void edge_point(const ms_ctx *c, long id, double *lon, double *lat)
     *lat = c->g->lat0 + y * c->g->dlat;
 }
 
-static int line_push(edge_line *l, size_t *cap, double lon, double lat)
+int edge_line_push(edge_line *l, size_t *cap, double lon, double lat)
 {
     if (l->npts == *cap) {
         size_t nc = *cap ? 2 * *cap : 64;
@@ -211,13 +211,13 @@ int edge_extract(const prod_grid *g, const double *conc, const unsigned char *la
             size_t pcap = 0;
             double lon, lat;
             edge_point(&ctx, seg_from[s0], &lon, &lat);
-            if (line_push(l, &pcap, lon, lat) != 0)
+            if (edge_line_push(l, &pcap, lon, lat) != 0)
                 goto nomem;
             long s = s0;
             while (s >= 0 && !used[s]) {
                 used[s] = 1;
                 edge_point(&ctx, seg_to[s], &lon, &lat);
-                if (line_push(l, &pcap, lon, lat) != 0)
+                if (edge_line_push(l, &pcap, lon, lat) != 0)
                     goto nomem;
                 s = start_at[seg_to[s]];
             }

@@ -13,6 +13,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "io/gis.h"
 #include "io/quicklook.h"
 #include "util/fileio.h"
 #include "util/log.h"
@@ -30,8 +31,8 @@ void products_options_default(prod_options *o)
     o->prefix = "sphice";
     o->edge_threshold = 0.15;
     o->quicklook_every = 0;
-    o->quicklook_width = 900;
-    o->quicklook_height = 700;
+    o->quicklook_width = 1500;
+    o->quicklook_height = 720;
     o->quicklook_thick_max = 0.6;
     o->deflate_level = 4;
 }
@@ -83,6 +84,11 @@ static void add_product(prod_writer *p, const char *name)
 {
     if (p->nproducts < PROD_MAX_PRODUCTS)
         snprintf(p->products[p->nproducts++], PROD_NAME_LEN, "%s", name);
+}
+
+void prod_add_product(prod_writer *p, const char *name)
+{
+    add_product(p, name);
 }
 
 int prod_file_init(prod_writer *p, prod_file *f, const char *suffix, sph_error *err)
@@ -651,11 +657,11 @@ static int write_edge_record(prod_writer *p, size_t t, const edge_set *e, sph_er
 static int render_quicklook(prod_writer *p, size_t index, double t, const edge_set *e,
                             sph_error *err)
 {
-    if (p->nproducts >= PROD_MAX_PRODUCTS - 6) {
+    if (p->nproducts >= PROD_MAX_PRODUCTS - 8) {
         log_warn("products: too many files, quick-look for output time %zu skipped", index);
         return SPH_OK;
     }
-    char iso[32], stamp[32], name[PROD_NAME_LEN], path[PROD_PATH];
+    char iso[32], stamp[32], name[PROD_NAME_LEN], path[PROD_PATH], run[256];
     time_format_iso(t, iso, sizeof iso);
     /* "YYYY-MM-DDTHH:MM:SSZ" -> "YYYYMMDDTHHMMZ" */
     snprintf(stamp, sizeof stamp, "%.4s%.2s%.2sT%.2s%.2sZ", iso, iso + 5, iso + 8, iso + 11, iso + 14);
@@ -669,6 +675,16 @@ static int render_quicklook(prod_writer *p, size_t index, double t, const edge_s
     if (p->opts.quicklook_thick_max > 0)
         qo.thick_max = p->opts.quicklook_thick_max;
     qo.title = p->title;
+    qo.domain = p->region;
+    snprintf(run, sizeof run, "%s, %s start, sphice %s", p->prefix,
+             p->start_mode ? p->start_mode : "cold", p->version);
+    qo.run = run;
+    qo.cycle_time = p->cycle_time;
+    qo.smooth_km = 0.5 * p->spacing_km;
+    if (p->opts.quicklook_drift) {
+        qo.u_east = p->masked[PF_VAR_U];
+        qo.v_north = p->masked[PF_VAR_V];
+    }
     int ns = p->opts.nstations;
     const char **names = ns ? malloc(sizeof *names * (size_t)ns) : NULL;
     double *lon = ns ? malloc(sizeof *lon * (size_t)ns) : NULL;
@@ -691,6 +707,7 @@ static int render_quicklook(prod_writer *p, size_t index, double t, const edge_s
     if (rc == SPH_OK) {
         add_product(p, name);
         p->last_quicklook_index = (int)index;
+        rc = prod_gis_add(p, t, stamp, e, err);
     }
     return rc;
 }
@@ -812,6 +829,8 @@ int products_add_time(prod_writer *p, double t, const prod_fields *f,
         return fail(p, rc);
     if (particles && (rc = prod_particles_add(p, t, particles, err)) != SPH_OK)
         return fail(p, rc);
+    if (particles && particles->n > 0) /* the maps smooth at this scale */
+        p->spacing_km = sqrt(p->extent_km2 / (double)particles->n);
     if (p->has_obs && fabs(t - p->obs_time) <= 1.0) {
         if ((rc = verify_compute(g, p->masked[PF_VAR_CONC], p->obs, p->persistence, p->land,
                                  p->opts.edge_threshold, &p->scores, err)) != SPH_OK)
@@ -906,24 +925,12 @@ static int write_geojson(prod_writer *p, sph_error *err)
     char name[PROD_NAME_LEN], path[PROD_PATH], iso[32];
     snprintf(name, sizeof name, "%s_edge.geojson", p->prefix);
     snprintf(path, sizeof path, "%s/%s", p->stage, name);
-    cJSON *fc = cJSON_CreateObject(), *feats = cJSON_CreateArray();
-    if (!fc || !feats) {
-        cJSON_Delete(fc);
-        cJSON_Delete(feats);
+    cJSON *feats, *fc = gis_geojson_collection(&feats);
+    if (!fc)
         return sph_err_set(err, SPH_ERR_NOMEM, "write %s: out of memory", path);
-    }
-    cJSON_AddStringToObject(fc, "type", "FeatureCollection");
-    cJSON_AddItemToObject(fc, "features", feats);
     for (size_t t = 0; t < p->nedges; t++) {
         const edge_set *e = &p->edges[t];
-        cJSON *f = cJSON_CreateObject(), *geom = cJSON_CreateObject(), *lines = cJSON_CreateArray();
-        cJSON *props = cJSON_CreateObject();
-        cJSON_AddItemToArray(feats, f);
-        cJSON_AddStringToObject(f, "type", "Feature");
-        cJSON_AddItemToObject(f, "geometry", geom);
-        cJSON_AddItemToObject(f, "properties", props);
-        cJSON_AddStringToObject(geom, "type", "MultiLineString");
-        cJSON_AddItemToObject(geom, "coordinates", lines);
+        cJSON *lines, *props = gis_geojson_feature(feats, "MultiLineString", &lines);
         for (size_t l = 0; l < e->nlines; l++) {
             cJSON *line = cJSON_CreateArray();
             cJSON_AddItemToArray(lines, line);
@@ -943,12 +950,7 @@ static int write_geojson(prod_writer *p, sph_error *err)
             cJSON_AddStringToObject(props, "reference", p->ref_name);
         }
     }
-    char *text = cJSON_PrintUnformatted(fc);
-    cJSON_Delete(fc);
-    if (!text)
-        return sph_err_set(err, SPH_ERR_NOMEM, "write %s: out of memory", path);
-    int rc = atomic_write_file(path, text, strlen(text), err);
-    free(text);
+    int rc = gis_geojson_write(fc, path, err);
     if (rc == SPH_OK)
         add_product(p, name);
     return rc;
@@ -1035,6 +1037,9 @@ static void writer_free(prod_writer *p)
     free(p->persistence);
     free(p->obs);
     free(p->ids);
+    gis_store_free(p->gis);
+    free(p->st_series);
+    free(p->st_times);
     free(p);
 }
 
@@ -1082,6 +1087,8 @@ int products_close(prod_writer *p, prod_summary *summary, sph_error *err)
     if (p->opts.quicklook_every > 0 && p->last_quicklook_index != (int)p->ntimes - 1 &&
         (rc = render_quicklook(p, p->ntimes - 1, p->t_last, &p->edges[p->nedges - 1], err)) !=
             SPH_OK)
+        goto failed;
+    if ((rc = prod_gis_close(p, err)) != SPH_OK)
         goto failed;
     if ((rc = write_manifest(p, err)) != SPH_OK)
         goto failed;

@@ -78,6 +78,13 @@ struct prod_writer {
 
     /* quick-looks */
     int last_quicklook_index;
+    /* GIS products at the map times (io/gis.h) */
+    struct gis_store *gis;
+    double spacing_km;          /* mean particle spacing, sqrt(extent / N) */
+    /* station series for the plots (products_stations.c) */
+    double *st_series;          /* [station][time][ST_PLOT_NVARS] */
+    double *st_times;
+    size_t st_cap;
 
     /* results */
     double area_km2, extent_km2, volume_km3;
@@ -87,6 +94,7 @@ struct prod_writer {
 };
 
 /* products.c */
+void prod_add_product(prod_writer *p, const char *name); /* lists a file for the manifest */
 int prod_file_init(prod_writer *p, prod_file *f, const char *suffix, sph_error *err);
 int prod_file_commit(prod_writer *p, prod_file *f, sph_error *err);
 void prod_file_discard(prod_file *f);
@@ -105,6 +113,11 @@ int prod_stations_open(prod_writer *p, sph_error *err);
 int prod_stations_add(prod_writer *p, double t, sph_error *err);
 int prod_stations_close(prod_writer *p, sph_error *err);
 void prod_stations_abort(prod_writer *p);
+
+/* products_gis.c: at each map time the class polygons and edge are kept
+ * and the fields written as a COG; at close the GeoJSON and GeoPackage */
+int prod_gis_add(prod_writer *p, double t, const char *stamp, const edge_set *e, sph_error *err);
+int prod_gis_close(prod_writer *p, sph_error *err);
 
 /* products_particles.c */
 int prod_particles_open(prod_writer *p, sph_error *err);

@@ -11,7 +11,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "io/stationplot.h"
 #include "util/fileio.h"
+#include "util/log.h"
 #include "util/timeutil.h"
 
 #define NAME_LEN 64
@@ -148,6 +150,71 @@ int prod_stations_open(prod_writer *p, sph_error *err)
     return SPH_OK;
 }
 
+/* the series kept for the plots: conc, thick, hbar, speed per (station, time) */
+#define ST_PLOT_NVARS 4
+
+static int keep_series(prod_writer *p, size_t ti, double t, int s, const double *v)
+{
+    size_t ns = (size_t)p->opts.nstations;
+    if (ti >= p->st_cap) {
+        size_t nc = p->st_cap ? 2 * p->st_cap : 32;
+        double *a = realloc(p->st_series, ns * nc * ST_PLOT_NVARS * sizeof *a);
+        if (!a)
+            return -1;
+        /* re-pack rows from stride st_cap to stride nc, last station first */
+        for (size_t q = ns; q-- > 0;)
+            memmove(a + q * nc * ST_PLOT_NVARS, a + q * p->st_cap * ST_PLOT_NVARS,
+                    p->st_cap * ST_PLOT_NVARS * sizeof *a);
+        p->st_series = a;
+        double *b = realloc(p->st_times, nc * sizeof *b);
+        if (!b)
+            return -1;
+        p->st_times = b;
+        p->st_cap = nc;
+    }
+    p->st_times[ti] = t;
+    double *row = p->st_series + ((size_t)s * p->st_cap + ti) * ST_PLOT_NVARS;
+    row[0] = v[ST_CONC];
+    row[1] = v[ST_THICK];
+    row[2] = v[ST_HBAR];
+    row[3] = v[ST_SPEED];
+    return 0;
+}
+
+static int write_plots(prod_writer *p, sph_error *err)
+{
+    size_t nt = p->ntimes, ns = (size_t)p->opts.nstations;
+    double *buf = malloc(4 * (nt ? nt : 1) * sizeof *buf);
+    if (!buf)
+        return sph_err_set(err, SPH_ERR_NOMEM, "station plots: out of memory");
+    int rc = SPH_OK;
+    for (size_t s = 0; s < ns && rc == SPH_OK; s++) {
+        if (p->nproducts >= PROD_MAX_PRODUCTS - 4) {
+            log_warn("products: too many files, plot of station %s skipped", p->stations[s].name);
+            continue;
+        }
+        for (size_t t = 0; t < nt; t++)
+            for (int k = 0; k < ST_PLOT_NVARS; k++)
+                buf[k * nt + t] = p->st_series[(s * p->st_cap + t) * ST_PLOT_NVARS + k];
+        char safe[NAME_LEN], name[PROD_NAME_LEN], path[PROD_PATH];
+        size_t q = 0;
+        for (const char *c = p->stations[s].name; *c && q + 1 < sizeof safe; c++, q++) {
+            int ok = (*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') || (*c >= '0' && *c <= '9') ||
+                     *c == '-' || *c == '_';
+            safe[q] = ok ? *c : '_';
+        }
+        safe[q] = 0;
+        snprintf(name, sizeof name, "%s_station_%s.png", p->prefix, safe);
+        snprintf(path, sizeof path, "%s/%s", p->stage, name);
+        stationplot_series ser = { p->stations[s].name, p->stations[s].lon, p->stations[s].lat, nt, p->st_times,
+                                   buf, buf + nt, buf + 2 * nt, buf + 3 * nt, p->cycle_time, 0, 0 };
+        if ((rc = stationplot_write_png(path, &ser, err)) == SPH_OK)
+            prod_add_product(p, name);
+    }
+    free(buf);
+    return rc;
+}
+
 static void csv_num(FILE *f, double v, int decimals)
 {
     fputc(',', f);
@@ -175,6 +242,8 @@ int prod_stations_add(prod_writer *p, double t, sph_error *err)
         v[ST_PRES] = sample(p, p->masked[PF_VAR_PRES], st->lon, st->lat);
         v[ST_SPEED] = hypot(v[ST_U], v[ST_V]);
         v[ST_DIR] = products_drift_direction_deg(v[ST_U], v[ST_V]);
+        if (keep_series(p, ti, t, s, v))
+            return sph_err_set(err, SPH_ERR_NOMEM, "stations: out of memory");
         for (int k = 0; k < ST_NVARS; k++) {
             float x = isnan(v[k]) ? PROD_FILL_FLOAT : (float)v[k];
             size_t idx[2] = { (size_t)s, ti };
@@ -219,6 +288,8 @@ int prod_stations_close(prod_writer *p, sph_error *err)
     int rc = prod_file_commit(p, &p->st_nc, err);
     if (rc == SPH_OK)
         rc = prod_file_commit(p, &p->st_csv, err);
+    if (rc == SPH_OK && p->ntimes > 0)
+        rc = write_plots(p, err);
     return rc;
 }
 
