@@ -110,6 +110,7 @@ struct sph_config {
         struct { double lon, lat; char *name; } edge_reference;
         cfg_dbllist map_times;  /* hours after the cycle time */
         int retention_cycles;
+        int ocean_fluxes;       /* <prefix>_ocean_fluxes.nc (docs/ocean-coupling.md) */
     } output;
 
     struct { char *path, *conc_var; int format; } observations;

@@ -186,6 +186,10 @@ static const cfg_key tail_keys[] = {
     C_("output.products.maps", CT_BOOL, output.products.maps, "false", 0, 0, R, NULL, "PNG maps at map_times."),
     C_("output.products.verification", CT_BOOL, output.products.verification, "true", 0, 0, R, NULL,
        "Scores against observations when a raster exists."),
+    C_("output.ocean_fluxes", CT_BOOL, output.ocean_fluxes, "false", 0, 0, R, NULL,
+       "Fluxes into the ocean (heat, fresh water, salt, ice-ocean stress, shortwave at the ice base; ice "
+       "concentration and volume) as means over each output interval on the output grid, in "
+       "sphice_ocean_fluxes.nc: what a coupled ocean model reads (docs/ocean-coupling.md)."),
     C_("output.edge_threshold", CT_DOUBLE, output.edge_threshold, "0.15", 0.01, 0.99, R, NULL,
        "Concentration defining the ice edge."),
     C_("output.edge_reference.lon", CT_DOUBLE, output.edge_reference.lon, "0", -180, 360, R, NULL,

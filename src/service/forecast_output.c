@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "io/restart.h"
+#include "util/log.h"
 #include "util/version.h"
 
 int fc_setup_grid(engine *e, sph_error *err)
@@ -176,6 +177,8 @@ int fc_set_observation(engine *e, sph_error *err)
     return rc;
 }
 
+static int ofx_record(engine *e, double t, sph_error *err);
+
 /* One output time: particles -> grid through the SPH interpolation. */
 int fc_write_output(engine *e, double t, sph_error *err)
 {
@@ -222,7 +225,10 @@ int fc_write_output(engine *e, double t, sph_error *err)
                      .shear = e->g_shear, .land = e->lm ? e->g_land : NULL};
     prod_particles_view pv = {.n = n, .lon = e->olon, .lat = e->olat, .u_east = e->pue, .v_north = e->pvn,
                               .mass = P->mass, .thick = P->thick, .conc = P->conc, .id = P->id};
-    return products_add_time(e->pw, t, &f, e->cfg->output.products.particles ? &pv : NULL, err);
+    int rc = products_add_time(e->pw, t, &f, e->cfg->output.products.particles ? &pv : NULL, err);
+    if (rc == SPH_OK && e->ofx && t > e->ofx_t0)
+        rc = ofx_record(e, t, err);
+    return rc;
 }
 
 int fc_write_restart(engine *e, double t, sph_error *err)
@@ -237,4 +243,121 @@ int fc_write_restart(engine *e, double t, sph_error *err)
     if (rc == SPH_OK)
         e->restart_written = 1;
     return rc;
+}
+
+/* ------------------------------------------------------------ ocean fluxes */
+
+#define OFX_FILE "sphice_ocean_fluxes.nc"
+
+void fc_free_ocean_fluxes(engine *e)
+{
+    ofx_abort(e->ofx);
+    e->ofx = NULL;
+    free(e->ofx_buf);
+    free(e->ofx_area);
+    free(e->ofx_lon);
+    free(e->ofx_lat);
+    e->ofx_buf = e->ofx_area = e->ofx_lon = e->ofx_lat = NULL;
+}
+
+/* The particles' accumulators restart from zero at the cycle time: each
+ * cycle's file starts its first interval there (a warm start's restart
+ * file carries the previous cycle's last interval, already published). */
+static void ofx_zero(sph_particles *P)
+{
+    size_t b = P->n * sizeof(double);
+    memset(P->ofx_heat_ice, 0, b);
+    memset(P->ofx_heat_lead, 0, b);
+    memset(P->ofx_water, 0, b);
+    memset(P->ofx_salt, 0, b);
+    memset(P->ofx_taux, 0, b);
+    memset(P->ofx_tauy, 0, b);
+    memset(P->ofx_swbase, 0, b);
+}
+
+int fc_open_ocean_fluxes(engine *e, sph_error *err)
+{
+    const prod_grid *g = &e->grid;
+    int ok = 1;
+    e->ofx_buf = xcalloc(6 * e->cap, sizeof(double), &ok);
+    e->ofx_area = xcalloc(e->npts, sizeof(double), &ok);
+    e->ofx_lon = xcalloc((size_t)g->nlon, sizeof(double), &ok);
+    e->ofx_lat = xcalloc((size_t)g->nlat, sizeof(double), &ok);
+    if (!ok)
+        return sph_err_set(err, SPH_ERR_NOMEM, "output.ocean_fluxes: out of memory");
+    for (int i = 0; i < g->nlon; i++)
+        e->ofx_lon[i] = g->lon0 + i * g->dlon;
+    for (int j = 0; j < g->nlat; j++) {
+        e->ofx_lat[j] = g->lat0 + j * g->dlat;
+        double a = prod_grid_cell_area_m2(g, j);
+        for (int i = 0; i < g->nlon; i++)
+            e->ofx_area[(size_t)j * g->nlon + i] = a;
+    }
+    ofx_grid og = {.kind = OFX_GRID_LONLAT, .nx = g->nlon, .ny = g->nlat, .xaxis = e->ofx_lon,
+                   .yaxis = e->ofx_lat, .cx = e->gx, .cy = e->gy, .area = e->ofx_area,
+                   .land = e->lm ? e->g_land : NULL, .projection = geo_proj_definition(e->proj)};
+    char title[160];
+    snprintf(title, sizeof title, "sphice fluxes into the ocean, %s",
+             e->cfg->domain.name ? e->cfg->domain.name : "domain");
+    ofx_meta meta = {.title = title, .institution = "sphice", .model_version = SPHICE_VERSION,
+                     .git_revision = SPHICE_GIT, .cycle_time = e->t0};
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s", e->req->stage_dir, OFX_FILE);
+    int rc = ofx_open(&e->ofx, &og, &meta, path, err);
+    if (rc)
+        return rc;
+    ofx_zero(sph_model_particles(e->m));
+    e->ofx_t0 = e->t0;
+    return SPH_OK;
+}
+
+/* One record: the mean over [e->ofx_t0, t]. e->olon/olat hold the
+ * particles' positions (fc_write_output). */
+static int ofx_record(engine *e, double t, sph_error *err)
+{
+    sph_particles *P = sph_model_particles(e->m);
+    size_t n = P->n;
+    const double rho_i = e->cfg->model.rho_i, kr = e->prm.kernel_radius;
+    double *rad = e->ofx_buf, *tx = rad + e->cap, *ty = tx + e->cap, *ia = ty + e->cap,
+           *iv = ia + e->cap;
+    for (size_t k = 0; k < n; k++) {
+        /* plane x/y -> east/north, as the velocities in fc_write_output */
+        double a = geo_grid_angle(e->proj, e->olon[k], e->olat[k]);
+        if (!isfinite(a))
+            a = 0.0;
+        double c = cos(a), s = sin(a);
+        tx[k] = P->ofx_taux[k] * c - P->ofx_tauy[k] * s;
+        ty[k] = P->ofx_taux[k] * s + P->ofx_tauy[k] * c;
+        /* spread over a disc whose kernel (1 - d^2/R^2)^2 integrates to the
+         * footprint m/M: pi R^2 / 3 = footprint, so that ice packed edge to
+         * edge gives its own concentration, not more, near coasts too */
+        double fp = P->dens[k] > 0.0 ? P->mass[k] / P->dens[k] : 0.0;
+        rad[k] = fp > 0.0 ? sqrt(3.0 * fp / M_PI) : kr * P->sml[k];
+        ia[k] = P->thick[k] > 0.0 ? P->mass[k] / (rho_i * P->thick[k]) : 0.0; /* A x footprint */
+        iv[k] = P->mass[k] / rho_i;
+    }
+    ofx_particles op = {.n = n, .x = P->x, .y = P->y, .radius = rad, .heat_ice = P->ofx_heat_ice,
+                        .heat_lead = P->ofx_heat_lead, .water = P->ofx_water, .salt = P->ofx_salt,
+                        .taux = tx, .tauy = ty, .swbase = P->ofx_swbase, .ice_area = ia, .ice_volume = iv};
+    int rc = ofx_add_particles(e->ofx, &op, err);
+    if (!rc)
+        rc = ofx_write_record(e->ofx, e->ofx_t0, t, err);
+    if (rc)
+        return rc;
+    if (ofx_lost(e->ofx) > 0)
+        log_warn("forecast %s: ocean fluxes: %zu particles are farther than their radius from every "
+                 "water cell of the output grid; their fluxes are not in the record ending %.0f s after the cycle",
+                 e->cname, ofx_lost(e->ofx), t - e->t0);
+    ofx_zero(P);
+    e->ofx_t0 = t;
+    return SPH_OK;
+}
+
+int fc_close_ocean_fluxes(engine *e, sph_error *err)
+{
+    int rc = ofx_close(e->ofx, err);
+    e->ofx = NULL;
+    if (rc)
+        return rc;
+    return products_add_file(e->pw, OFX_FILE, err);
 }
