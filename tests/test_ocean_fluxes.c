@@ -262,12 +262,16 @@ static void plane_grid(void)
     if (!w)
         return;
     ofx_particles o;
-    fill_particles(&ps, &o, xa[0] - dx, xa[NXG - 1] + dx, ya[0] - dx, ya[NYG - 1] + dx, dx);
+    /* anywhere on the cells (their outer edges are half a cell beyond the
+     * centres); the last 20 one to three cells beyond the grid's edge */
+    fill_particles(&ps, &o, xa[0] - 0.5 * dx, xa[NXG - 1] + 0.5 * dx, ya[0] - 0.5 * dx, ya[NYG - 1] + 0.5 * dx, dx);
+    for (int k = NP - 20; k < NP; k++)
+        ps.y[k] = ya[NYG - 1] + dx * (1.0 + 2.0 * urand());
     CHECK(ofx_add_particles(w, &o, &err) == SPH_OK, "add: %s", err.msg);
     CHECK(ofx_write_record(w, 0.0, 600.0, &err) == SPH_OK, "record: %s", err.msg);
-    CHECK(ofx_lost(w) == 0, "a cell beyond the edge is within reach: none lost (%zu)", ofx_lost(w));
+    CHECK(ofx_lost(w) == 20, "the 20 particles beyond the edge are left out (%zu)", ofx_lost(w));
     CHECK(ofx_close(w, &err) == SPH_OK, "close: %s", err.msg);
-    check_sums(path, 0, ncell, &ps, 0, NP, 600.0, 0.0, "projected");
+    check_sums(path, 0, ncell, &ps, 0, NP - 20, 600.0, 0.0, "projected");
 }
 
 /* Steady free drift without Coriolis: wind stress + water drag = 0. */
@@ -345,6 +349,29 @@ static void stress(void)
     CHECK_CLOSE(area_sum(path, "tauuo", 0, NG * NG) / area, -dx_, 1e-10, 0, "file: tauuo = -drag x");
     CHECK_CLOSE(area_sum(path, "tauvo", 0, NG * NG) / area, -dy_, 1e-10, 0, "file: tauvo = -drag y");
     CHECK_CLOSE(area_sum(path, "sistrxubot", 0, NG * NG) / area, dx_, 1e-10, 0, "file: sistrxubot = drag x");
+    CHECK_CLOSE(area_sum(path, "siconc", 0, NG * NG), ia, 1e-10, 0, "file: the ice area");
+
+    /* ten times the ice area in one small patch: siconc is capped at 1,
+     * sivol still conserves and sithick = sivol / siconc */
+    double ia10 = 10.0 * 9e6, iv10 = 0.5 * ia10, rad1 = 1000.0;
+    o.ice_area = &ia10;
+    o.ice_volume = &iv10;
+    o.radius = &rad1;
+    snprintf(path, sizeof path, "%s/stress2.nc", dir);
+    CHECK(ofx_open(&w, &g, &meta, path, &err) == SPH_OK && ofx_add_particles(w, &o, &err) == SPH_OK &&
+              ofx_write_record(w, 0.0, T, &err) == SPH_OK && ofx_close(w, &err) == SPH_OK,
+          "capped file: %s", err.msg);
+    size_t nn;
+    double *cc = read_var(path, "siconc", &nn), *tk = read_var(path, "sithick", &nn), *vv = read_var(path, "sivol", &nn);
+    int capped = 1;
+    for (size_t c = 0; cc && tk && vv && c < NG * NG; c++)
+        if (cc[c] > 1.0 || (cc[c] > 0.0 && fabs(tk[c] - vv[c] / cc[c]) > 1e-12 * tk[c]))
+            capped = 0;
+    CHECK(cc && capped && cc[(NG / 2) * NG + NG / 2] == 1.0, "siconc capped at 1, sithick = sivol / siconc");
+    free(cc);
+    free(tk);
+    free(vv);
+    CHECK_CLOSE(area_sum(path, "sivol", 0, NG * NG), iv10, 1e-10, 0, "sivol conserves where siconc is capped");
     sph_model_free(m);
 }
 

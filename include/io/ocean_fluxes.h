@@ -13,10 +13,12 @@
  * are spread over the water cells whose centres lie within its radius,
  * with weights W(d) area_c / sum(W area) that sum to 1 (W = (1 - d^2/R^2)^2);
  * a particle that reaches no cell centre goes to the nearest water cell
- * within R plus two index bins; one farther from every water cell is
- * counted in particles_lost and gives nothing. So sum_c flux_c area_c dt
- * equals the particles' sum to round-off. Cell areas are the true ones
- * (the sphere's for a lon/lat grid) and are written as areacello. */
+ * within R plus two index bins. A particle outside the grid (farther than
+ * 0.75 sqrt(area) from every cell centre, land included) or farther from
+ * every water cell is counted in particles_lost and gives nothing. So
+ * sum_c flux_c area_c dt equals the placed particles' sum to round-off.
+ * Cell areas are the true ones (the sphere's for a lon/lat grid) and are
+ * written as areacello. */
 #ifndef SPHICE_IO_OCEAN_FLUXES_H
 #define SPHICE_IO_OCEAN_FLUXES_H
 
@@ -53,7 +55,7 @@ enum {
     OFX_SISTRXUBOT,  /* N m-2: stress of the ocean on the ice, x (= -tauuo) */
     OFX_SISTRYUBOT,  /* N m-2: y (= -tauvo) */
     OFX_SIFLSWDBOT,  /* W m-2: shortwave reaching the ice base */
-    OFX_SICONC,      /* 1: ice area fraction of the cell */
+    OFX_SICONC,      /* 1: ice area fraction of the cell (regridded ice area / cell area, capped at 1) */
     OFX_SIVOL,       /* m: ice volume per cell area */
     OFX_SITHICK,     /* m: ice thickness over the ice-covered part (sivol / siconc) */
     OFX_NFIELDS

@@ -345,8 +345,8 @@ static int ofx_record(engine *e, double t, sph_error *err)
     if (rc)
         return rc;
     if (ofx_lost(e->ofx) > 0)
-        log_warn("forecast %s: ocean fluxes: %zu particles are farther than their radius from every "
-                 "water cell of the output grid; their fluxes are not in the record ending %.0f s after the cycle",
+        log_warn("forecast %s: ocean fluxes: %zu particles lie outside the output grid or far from its "
+                 "water cells; their fluxes are not in the record ending %.0f s after the cycle (particles_lost)",
                  e->cname, ofx_lost(e->ofx), t - e->t0);
     ofx_zero(P);
     e->ofx_t0 = t;

@@ -51,7 +51,8 @@ static const struct {
     [OFX_SIFLSWDBOT] = {"siflswdbot", "downwelling_shortwave_flux_in_sea_water_at_sea_ice_base",
                         "shortwave reaching the ice base (already absorbed there: not part of hfds)",
                         "W m-2", "area: mean time: mean", "down"},
-    [OFX_SICONC] = {"siconc", "sea_ice_area_fraction", "ice area fraction at the end of the interval",
+    [OFX_SICONC] = {"siconc", "sea_ice_area_fraction",
+                    "ice area fraction at the end of the interval (regridded ice area, at most 1)",
                     "1", "area: mean time: point", NULL},
     [OFX_SIVOL] = {"sivol", "sea_ice_thickness",
                    "ice volume per cell area at the end of the interval", "m",
@@ -114,18 +115,17 @@ void ofx_abort(ofx_writer *w)
     writer_free(w);
 }
 
-static int water(const ofx_writer *w, size_t c)
-{
-    return !(w->land && w->land[c]) && isfinite(w->cx[c]) && isfinite(w->cy[c]);
-}
+static int on_plane(const ofx_writer *w, size_t c) { return isfinite(w->cx[c]) && isfinite(w->cy[c]); }
+static int water(const ofx_writer *w, size_t c) { return !(w->land && w->land[c]) && on_plane(w, c); }
 
-/* Bins over the water cells' centres, side ~ the mean cell size. */
+/* Bins over the cells' centres (land too: it tells inside from outside),
+ * side ~ the mean cell size. */
 static int build_index(ofx_writer *w, sph_error *err)
 {
     double x0 = HUGE_VAL, x1 = -HUGE_VAL, y0 = HUGE_VAL, y1 = -HUGE_VAL, side = 0.0;
     size_t nw = 0;
     for (size_t c = 0; c < w->n; c++) {
-        if (!water(w, c))
+        if (!on_plane(w, c))
             continue;
         x0 = fmin(x0, w->cx[c]);
         x1 = fmax(x1, w->cx[c]);
@@ -156,7 +156,7 @@ static int build_index(ofx_writer *w, sph_error *err)
     if (!w->bstart || !w->bcell)
         return sph_err_set(err, SPH_ERR_NOMEM, "ocean fluxes %s: out of memory (grid index)", w->path);
     for (size_t c = 0; c < w->n; c++)
-        if (water(w, c)) {
+        if (on_plane(w, c)) {
             int bi = (int)((w->cx[c] - x0) / w->bin), bj = (int)((w->cy[c] - y0) / w->bin);
             w->bstart[(size_t)bj * w->nbx + bi + 1]++;
         }
@@ -166,7 +166,7 @@ static int build_index(ofx_writer *w, sph_error *err)
     if (!fill)
         return sph_err_set(err, SPH_ERR_NOMEM, "ocean fluxes %s: out of memory (grid index)", w->path);
     for (size_t c = 0; c < w->n; c++) /* cells in index order: deterministic sums */
-        if (water(w, c)) {
+        if (on_plane(w, c)) {
             int bi = (int)((w->cx[c] - x0) / w->bin), bj = (int)((w->cy[c] - y0) / w->bin);
             size_t b = (size_t)bj * w->nbx + bi;
             w->bcell[w->bstart[b] + fill[b]++] = c;
@@ -358,12 +358,14 @@ int ofx_open(ofx_writer **out, const ofx_grid *g, const ofx_meta *m, const char 
 
 /* The water cells within radius R of (x, y) and their normalised weights
  * into w->wc / w->w; the nearest water cell within R + 2 bins when none
- * is. Returns the count (0: lost). */
+ * is. A point farther than 0.75 sqrt(area) from the nearest cell centre
+ * (land or water) is outside the grid (a square cell's corner is at
+ * 0.707). Returns the count (0: outside or lost). */
 static size_t place(ofx_writer *w, double x, double y, double R, sph_error *err, int *rc)
 {
     size_t cnt = 0;
-    double sum = 0.0, reach = R + 2.0 * w->bin, best = HUGE_VAL;
-    size_t bestc = 0;
+    double sum = 0.0, reach = R + 2.0 * w->bin, best = HUGE_VAL, best_any = HUGE_VAL;
+    size_t bestc = 0, bestc_any = 0;
     int i0 = (int)floor((x - reach - w->bx0) / w->bin), i1 = (int)floor((x + reach - w->bx0) / w->bin);
     int j0 = (int)floor((y - reach - w->by0) / w->bin), j1 = (int)floor((y + reach - w->by0) / w->bin);
     if (i0 < 0)
@@ -380,6 +382,12 @@ static size_t place(ofx_writer *w, double x, double y, double R, sph_error *err,
             for (size_t q = w->bstart[b]; q < w->bstart[b + 1]; q++) {
                 size_t c = w->bcell[q];
                 double dx = w->cx[c] - x, dy = w->cy[c] - y, d2 = dx * dx + dy * dy;
+                if (d2 < best_any) {
+                    best_any = d2;
+                    bestc_any = c;
+                }
+                if (!water(w, c))
+                    continue;
                 if (d2 < best) {
                     best = d2;
                     bestc = c;
@@ -405,6 +413,8 @@ static size_t place(ofx_writer *w, double x, double y, double R, sph_error *err,
                 sum += w->w[cnt - 1];
             }
         }
+    if (!(best_any <= 0.5625 * w->area[bestc_any])) /* 0.75^2 */
+        return 0;
     if (cnt == 0 || !(sum > 0.0)) {
         if (best > reach * reach)
             return 0;
@@ -512,11 +522,16 @@ static void record_field(ofx_writer *w, int k, double dt)
         case OFX_SISTRXUBOT: v = -w->acc[ACC_TAUX][c] * r; break;
         case OFX_SISTRYUBOT: v = -w->acc[ACC_TAUY][c] * r; break;
         case OFX_SIFLSWDBOT: v = w->acc[ACC_SWBASE][c] * r; break;
-        case OFX_SICONC: v = w->acc[ACC_ICE_AREA][c] / w->area[c]; break;
+        /* the particles' footprints m/M need not tile the plane exactly, so
+         * the regridded ice area may exceed a cell: the fraction is capped
+         * at 1 (volume and fluxes are not: they conserve) */
+        case OFX_SICONC: v = fmin(1.0, w->acc[ACC_ICE_AREA][c] / w->area[c]); break;
         case OFX_SIVOL: v = w->acc[ACC_ICE_VOLUME][c] / w->area[c]; break;
-        default: /* OFX_SITHICK */
-            v = w->acc[ACC_ICE_AREA][c] > 0.0 ? w->acc[ACC_ICE_VOLUME][c] / w->acc[ACC_ICE_AREA][c] : OFX_FILL;
+        default: { /* OFX_SITHICK = sivol / siconc */
+            double a = fmin(w->acc[ACC_ICE_AREA][c], w->area[c]);
+            v = a > 0.0 ? w->acc[ACC_ICE_VOLUME][c] / a : OFX_FILL;
             break;
+        }
         }
         w->out[c] = k <= OFX_SIFLSWDBOT ? v + w->add[k][c] : v;
     }
