@@ -151,6 +151,17 @@ static void check_sums(const char *path, int r, size_t ncell, const pset *p, int
 
 static pset ps;
 
+static ofx_writer *open_file(const ofx_grid *g, const char *name, char *path, size_t len, sph_error *err)
+{
+    ofx_meta m = {.title = "test", .institution = "test", .model_version = "0", .git_revision = "0",
+                  .cycle_time = 1e9};
+    snprintf(path, len, "%s/%s", dir, name);
+    ofx_writer *w = NULL;
+    sph_error_clear(err);
+    CHECK(ofx_open(&w, g, &m, path, err) == SPH_OK, "open %s: %s", name, err->msg);
+    return w;
+}
+
 /* Lon/lat grid 120..122 E, 39..40.5 N at 0.05 deg with a land block; the
  * plane: a local equirectangular map around (121, 39.75). */
 static void lonlat_grid(void)
@@ -175,14 +186,9 @@ static void lonlat_grid(void)
         }
     ofx_grid g = {.kind = OFX_GRID_LONLAT, .nx = NXG, .ny = NYG, .xaxis = lon, .yaxis = lat, .cx = cx,
                   .cy = cy, .area = area, .land = land, .projection = "+proj=eqc (test)"};
-    ofx_meta m = {.title = "test", .institution = "test", .model_version = "0", .git_revision = "0",
-                  .cycle_time = 1e9};
     char path[1024];
-    snprintf(path, sizeof path, "%s/lonlat.nc", dir);
-    ofx_writer *w = NULL;
     sph_error err;
-    sph_error_clear(&err);
-    CHECK(ofx_open(&w, &g, &m, path, &err) == SPH_OK, "open: %s", err.msg);
+    ofx_writer *w = open_file(&g, "lonlat.nc", path, sizeof path, &err);
     if (!w)
         return;
     double xmin = cx[0], xmax = cx[NXG - 1], ymin = cy[0], ymax = cy[ncell - 1];
@@ -252,13 +258,9 @@ static void plane_grid(void)
         }
     ofx_grid g = {.kind = OFX_GRID_PLANE, .nx = NXG, .ny = NYG, .xaxis = xa, .yaxis = ya, .lon = lon,
                   .lat = lat, .cx = cx, .cy = cy, .area = area, .land = NULL, .projection = "+proj=test"};
-    ofx_meta m = {.title = "test", .cycle_time = 0};
     char path[1024];
-    snprintf(path, sizeof path, "%s/plane.nc", dir);
-    ofx_writer *w = NULL;
     sph_error err;
-    sph_error_clear(&err);
-    CHECK(ofx_open(&w, &g, &m, path, &err) == SPH_OK, "open: %s", err.msg);
+    ofx_writer *w = open_file(&g, "plane.nc", path, sizeof path, &err);
     if (!w)
         return;
     ofx_particles o;

@@ -188,6 +188,16 @@ static int put_text(int nc, int var, const char *name, const char *text)
     return text ? nc_put_att_text(nc, var, name, strlen(text), text) : NC_NOERR;
 }
 
+static int def_coord(int nc, const char *name, int ndims, const int *dims, const char *std, const char *units,
+                     const char *axis, int *v)
+{
+    int st;
+    if ((st = nc_def_var(nc, name, NC_DOUBLE, ndims, dims, v)) || (st = put_text(nc, *v, "standard_name", std)) ||
+        (st = put_text(nc, *v, "units", units)))
+        return st;
+    return put_text(nc, *v, "axis", axis);
+}
+
 static int define_file(ofx_writer *w, const ofx_grid *g, const ofx_meta *m, sph_error *err)
 {
     int nc = w->nc, d_t, d_nv, d_y, d_x, v_x, v_y, v_area, v_lon = -1, v_lat = -1;
@@ -206,33 +216,16 @@ static int define_file(ofx_writer *w, const ofx_grid *g, const ofx_meta *m, sph_
     int dtb[2] = {d_t, d_nv};
     NCW(nc_def_var(nc, "time_bnds", NC_DOUBLE, 2, dtb, &w->v_bnds), "define variable");
     NCW(put_text(nc, w->v_bnds, "units", "seconds since 1970-01-01 00:00:00"), "write attribute");
-    if (lonlat) {
-        NCW(nc_def_var(nc, "lat", NC_DOUBLE, 1, &d_y, &v_y), "define variable");
-        NCW(put_text(nc, v_y, "standard_name", "latitude"), "write attribute");
-        NCW(put_text(nc, v_y, "units", "degrees_north"), "write attribute");
-        NCW(put_text(nc, v_y, "axis", "Y"), "write attribute");
-        NCW(nc_def_var(nc, "lon", NC_DOUBLE, 1, &d_x, &v_x), "define variable");
-        NCW(put_text(nc, v_x, "standard_name", "longitude"), "write attribute");
-        NCW(put_text(nc, v_x, "units", "degrees_east"), "write attribute");
-        NCW(put_text(nc, v_x, "axis", "X"), "write attribute");
-    } else {
-        NCW(nc_def_var(nc, "y", NC_DOUBLE, 1, &d_y, &v_y), "define variable");
-        NCW(put_text(nc, v_y, "standard_name", "projection_y_coordinate"), "write attribute");
-        NCW(put_text(nc, v_y, "units", "m"), "write attribute");
-        NCW(put_text(nc, v_y, "axis", "Y"), "write attribute");
-        NCW(nc_def_var(nc, "x", NC_DOUBLE, 1, &d_x, &v_x), "define variable");
-        NCW(put_text(nc, v_x, "standard_name", "projection_x_coordinate"), "write attribute");
-        NCW(put_text(nc, v_x, "units", "m"), "write attribute");
-        NCW(put_text(nc, v_x, "axis", "X"), "write attribute");
-        int d2[2] = {d_y, d_x};
-        NCW(nc_def_var(nc, "lat", NC_DOUBLE, 2, d2, &v_lat), "define variable");
-        NCW(put_text(nc, v_lat, "standard_name", "latitude"), "write attribute");
-        NCW(put_text(nc, v_lat, "units", "degrees_north"), "write attribute");
-        NCW(nc_def_var(nc, "lon", NC_DOUBLE, 2, d2, &v_lon), "define variable");
-        NCW(put_text(nc, v_lon, "standard_name", "longitude"), "write attribute");
-        NCW(put_text(nc, v_lon, "units", "degrees_east"), "write attribute");
-    }
     int d2[2] = {d_y, d_x}, d3[3] = {d_t, d_y, d_x};
+    /* lon/lat axes, or x/y axes with 2-D lat/lon auxiliary coordinates */
+    NCW(def_coord(nc, lonlat ? "lat" : "y", 1, &d_y, lonlat ? "latitude" : "projection_y_coordinate",
+                  lonlat ? "degrees_north" : "m", "Y", &v_y), "define variable");
+    NCW(def_coord(nc, lonlat ? "lon" : "x", 1, &d_x, lonlat ? "longitude" : "projection_x_coordinate",
+                  lonlat ? "degrees_east" : "m", "X", &v_x), "define variable");
+    if (!lonlat) {
+        NCW(def_coord(nc, "lat", 2, d2, "latitude", "degrees_north", NULL, &v_lat), "define variable");
+        NCW(def_coord(nc, "lon", 2, d2, "longitude", "degrees_east", NULL, &v_lon), "define variable");
+    }
     NCW(nc_def_var(nc, "areacello", NC_DOUBLE, 2, d2, &v_area), "define variable");
     NCW(put_text(nc, v_area, "standard_name", "cell_area"), "write attribute");
     NCW(put_text(nc, v_area, "long_name", "true area of the cell"), "write attribute");
