@@ -40,6 +40,7 @@ typedef struct ofx_grid {
     const double *area;       /* true cell area, m^2 [ny*nx], > 0 */
     const unsigned char *land;/* NULL, or [ny*nx] with 1 for land: receives nothing, written as fill */
     const char *projection;   /* the model plane's definition, written as an attribute; may be NULL */
+    const char *grid_source;  /* where the grid comes from, written as an attribute; may be NULL */
 } ofx_grid;
 
 /* The file's data variables, in file order. Fluxes are means over the

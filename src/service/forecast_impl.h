@@ -57,6 +57,8 @@ typedef struct engine {
     ofx_writer *ofx;
     double ofx_t0;
     double *ofx_buf, *ofx_area, *ofx_lon, *ofx_lat;
+    unsigned char *ofx_land;  /* the ocean grid's land (ocean_fluxes_grid ocean) */
+    char ofx_grid_from[4200]; /* "output grid" or "ocean forcing PATH" */
     char restart_path[4200];
     int restart_written;
     char start_mode[16];

@@ -270,6 +270,8 @@ static int define_file(ofx_writer *w, const ofx_grid *g, const ofx_meta *m, sph_
                  "docs/ocean-coupling.md."), "write attribute");
     if (g->projection)
         NCW(put_text(nc, NC_GLOBAL, "model_plane_projection", g->projection), "write attribute");
+    if (g->grid_source)
+        NCW(put_text(nc, NC_GLOBAL, "grid_source", g->grid_source), "write attribute");
     NCW(nc_enddef(nc), "end definitions");
     NCW(nc_put_var_double(nc, v_x, g->xaxis), "write");
     NCW(nc_put_var_double(nc, v_y, g->yaxis), "write");
