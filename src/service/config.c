@@ -189,7 +189,7 @@ static const cfg_key tail_keys[] = {
        "Scores against observations when a raster exists."),
     C_("output.ocean_fluxes", CT_BOOL, output.ocean_fluxes, "false", 0, 0, R, NULL,
        "Fluxes into the ocean (heat, fresh water, salt, ice-ocean stress, shortwave at the ice base; ice "
-       "concentration and volume) as means over each output interval on the output grid, in "
+       "concentration and volume) as means over each output interval on output.ocean_fluxes_grid, in "
        "sphice_ocean_fluxes.nc: what a coupled ocean model reads (docs/ocean-coupling.md)."),
     C_("output.ocean_fluxes_grid", CT_ENUM, output.ocean_fluxes_grid, "\"auto\"", 0, 0, R, ofx_grid_names,
        "Grid of the ocean-fluxes file: ocean (the first ocean forcing file's regular lon/lat grid and its "
