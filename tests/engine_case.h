@@ -101,10 +101,8 @@ static double ec_ocean_fn(int which, double lon, double lat, size_t k)
     return which == 0 ? EC_CURRENT_E : 0.0;
 }
 
-/* An ocean source at 0.05 deg, hourly, eastward current EC_CURRENT_E, its
- * land (fill) from EC_OCEAN_LAND east: a coast it resolves worse than the
- * land mask, so particles there have no ocean data within a cell. */
-static inline void ec_write_ocean(const char *path)
+/* The ocean file of ec_write_ocean with the values of fn (NAN: missing). */
+static inline void ec_write_ocean_with(const char *path, double (*fn)(int, double, double, size_t))
 {
     tgrid g;
     memset(&g, 0, sizeof g);
@@ -120,10 +118,15 @@ static inline void ec_write_ocean(const char *path)
     g.dtv = 1.0;
     tvar v[2];
     memset(v, 0, sizeof v);
-    v[0] = (tvar){"uo", "eastward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ec_ocean_fn, 0};
-    v[1] = (tvar){"vo", "northward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ec_ocean_fn, 1};
+    v[0] = (tvar){"uo", "eastward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, fn, 0};
+    v[1] = (tvar){"vo", "northward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, fn, 1};
     tnc_write(path, &g, v, 2, 0, 13, ec_ocean_format);
 }
+
+/* An ocean source at 0.05 deg, hourly, eastward current EC_CURRENT_E, its
+ * land (fill) from EC_OCEAN_LAND east: a coast it resolves worse than the
+ * land mask, so particles there have no ocean data within a cell. */
+static inline void ec_write_ocean(const char *path) { ec_write_ocean_with(path, ec_ocean_fn); }
 
 /* Ice raster of nlon x nlat nodes from (lon0, lat0) every (dlon, dlat),
  * concentration conc, thickness thick (standard names); nan_cell >= 0

@@ -22,6 +22,8 @@
 
 static char dir[] = "/tmp/sphice-ofxe-XXXXXX";
 
+static char last_error[1024]; /* run()'s error message, "" when it succeeded */
+
 /* Inserts `add` after the first `key` of text. */
 static int insert(char *text, size_t len, const char *key, const char *add)
 {
@@ -76,8 +78,7 @@ static int run(int on, const char *grid, const char *ocean, const char *stage_na
     forecast_progress prog;
     memset((void *)&prog, 0, sizeof prog);
     int rc = forecast_run(cfg, &req, &prog, NULL, res, &err);
-    if (rc)
-        fprintf(stderr, "forecast: %s\n", err.msg);
+    snprintf(last_error, sizeof last_error, "%s", rc ? err.msg : "");
     sph_config_free(cfg);
     return rc;
 }
@@ -152,21 +153,7 @@ static void ocean_grid(void)
 {
     char p[1200];
     snprintf(p, sizeof p, "%s/ocean_open.nc", dir);
-    tgrid g;
-    memset(&g, 0, sizeof g);
-    g.nx = 41;
-    g.ny = 25;
-    g.lon0 = 120.9;
-    g.dlon = 0.05;
-    g.lat0 = 39.9;
-    g.dlat = 0.05;
-    g.time_units = "hours since 1999-02-08 00:00:00";
-    g.calendar = "standard";
-    g.tv0 = 3.0;
-    g.dtv = 1.0;
-    tvar v[2] = {{"uo", "eastward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ocean_open_fn, 0},
-                 {"vo", "northward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ocean_open_fn, 1}};
-    tnc_write(p, &g, v, 2, 0, 13, NC_NETCDF4);
+    ec_write_ocean_with(p, ocean_open_fn);
     char so[1024], sg[1024];
     forecast_result res;
     CHECK(run(1, "output", "ocean_open.nc", "open-output", so, sizeof so, &res) == 0, "output grid with an ocean");
@@ -237,32 +224,11 @@ static void ocean_grid(void)
         free(hf);
         nc_close(nc);
     }
-    sph_error err;
-    sph_error_clear(&err);
-    char t2[10000];
-    ec_config(t2, sizeof t2, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "");
-    insert(t2, sizeof t2, "\"interval_hours\": 1,", " \"ocean_fluxes\": true, \"ocean_fluxes_grid\": \"ocean\",");
-    struct sph_config *cfg = NULL;
-    CHECK(sph_config_parse(t2, "test", &cfg, &err) == SPH_OK, "config: %s", err.msg);
     char stage[1024];
-    snprintf(stage, sizeof stage, "%s/no-ocean", dir);
-    static const char *atm[2];
-    static char ap[1024];
-    snprintf(ap, sizeof ap, "%s/atm.nc", dir);
-    atm[0] = ap;
-    forecast_request req;
-    memset(&req, 0, sizeof req);
-    req.cycle_time = EC_CYCLE;
-    req.hours = 1;
-    req.stage_dir = stage;
-    req.forcing_files[0] = atm;
-    forecast_progress prog;
-    memset((void *)&prog, 0, sizeof prog);
-    int rc = cfg ? forecast_run(cfg, &req, &prog, NULL, &res, &err) : -1;
-    CHECK(rc == SPH_ERR_CONFIG && strstr(err.msg, "output.ocean_fluxes_grid") && !strchr(err.msg, '\n'),
-          "\"ocean\" without an ocean source: one line naming the key: %s", err.msg);
+    int rc = run(1, "ocean", "", "no-ocean", stage, sizeof stage, &res);
+    CHECK(rc == SPH_ERR_CONFIG && strstr(last_error, "output.ocean_fluxes_grid") && !strchr(last_error, '\n'),
+          "\"ocean\" without an ocean source: one line naming the key: %s", last_error);
     CHECK(ec_count_entries(stage) <= 0, "nothing written");
-    sph_config_free(cfg);
 }
 
 int main(int argc, char **argv)
