@@ -122,15 +122,21 @@ static inline void ec_ocean_grid(tgrid *gp)
     *gp = g;
 }
 
-static inline void ec_write_ocean(const char *path)
+/* The ocean file of ec_write_ocean with the values of fn (NAN: missing). */
+static inline void ec_write_ocean_with(const char *path, double (*fn)(int, double, double, size_t))
 {
     tgrid g;
     ec_ocean_grid(&g);
     tvar v[2];
     memset(v, 0, sizeof v);
-    v[0] = (tvar){"uo", "eastward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ec_ocean_fn, 0};
-    v[1] = (tvar){"vo", "northward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ec_ocean_fn, 1};
+    v[0] = (tvar){"uo", "eastward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, fn, 0};
+    v[1] = (tvar){"vo", "northward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, fn, 1};
     tnc_write(path, &g, v, 2, 0, 13, ec_ocean_format);
+}
+
+static inline void ec_write_ocean(const char *path)
+{
+    ec_write_ocean_with(path, ec_ocean_fn);
 }
 
 /* Ice raster of nlon x nlat nodes from (lon0, lat0) every (dlon, dlat),

@@ -1,5 +1,5 @@
 /* Restart files (io/restart.h): write, read, continue; the continued run
- * is bit for bit the uninterrupted one. Then the same through the engine:
+ * is bit for bit the uninterrupted one (the ocean-flux accumulators too). Then the same through the engine:
  * a forecast warm-started from the restart file an earlier forecast wrote
  * at the next cycle's time ends with the particles of the earlier
  * forecast, to the last bit. */
@@ -34,6 +34,7 @@ static void setup_params(sph_params *p)
     p->dt = 120.0;
     p->thermo_dt = 360.0;
     p->thermo.model = SPH_THERMO_AUTO;
+    p->thermo.ocean_fluxes = 1; /* the accumulators continue too (docs/ocean-coupling.md) */
 }
 
 static unsigned char land[40 * 40];
@@ -169,6 +170,17 @@ static void module_level(void)
         SAME(s12, n);
         SAME(id, n);
         SAME(enth, n * (size_t)A->nlayers);
+        SAME(ofx_heat_ice, n);
+        SAME(ofx_heat_lead, n);
+        SAME(ofx_water, n);
+        SAME(ofx_salt, n);
+        SAME(ofx_taux, n);
+        SAME(ofx_tauy, n);
+        SAME(ofx_swbase, n);
+        double acc = 0.0;
+        for (size_t k = 0; k < n; k++)
+            acc += fabs(A->ofx_taux[k]) + fabs(A->ofx_water[k]) + fabs(A->ofx_heat_ice[k]);
+        CHECK(acc > 0.0, "the ocean-flux accumulators hold something (%g)", acc);
     }
     const sph_budget *ba = sph_model_budget(a), *bc = sph_model_budget(c);
     CHECK(ba->mass == bc->mass && ba->growth == bc->growth && ba->new_ice == bc->new_ice,
@@ -312,6 +324,24 @@ static void every_field(void)
         CHECK(zeroed(R->coastc, N * sizeof *R->coastc), "coastc absent: zero");
         CHECK(!memcmp(R->s12, W->s12, N * sizeof *R->s12), "the rest restored");
     }
+
+    /* a diagnostic optional field that is zero everywhere (an ocean-flux
+     * accumulator while output.ocean_fluxes is off) is left out of the
+     * file, which is then the file written before it existed; it reads
+     * back as zero */
+    memset(W->ofx_water, 0, N * sizeof *W->ofx_water);
+    sph_error_clear(&err);
+    CHECK(restart_write(path, W, &h, &err) == SPH_OK, "write: %s", err.msg);
+    if (nc_open(path, NC_NOWRITE, &nc) == NC_NOERR) {
+        int v;
+        CHECK(nc_inq_varid(nc, "ofx_water", &v) != NC_NOERR && nc_inq_varid(nc, "ofx_salt", &v) == NC_NOERR,
+              "an all-zero accumulator is left out, a nonzero one written");
+        nc_close(nc);
+    }
+    fill_all(R, N, 2);
+    CHECK(restart_read(path, NULL, &r, R, &err) == SPH_OK, "read without ofx_water: %s", err.msg);
+    CHECK(zeroed(R->ofx_water, N * sizeof *R->ofx_water) && !memcmp(R->ofx_salt, W->ofx_salt, N * sizeof *R->ofx_salt),
+          "ofx_water absent: zero; ofx_salt restored");
 done:
     sph_particles_free(W);
     sph_particles_free(R);

@@ -92,7 +92,25 @@ enum {
       "prescribed sensible heat flux into the surface (NaN: bulk formula)")                      \
     X(flat, double, ONE, FORCING, NO, "W m-2",                                                   \
       "prescribed latent heat flux into the surface (NaN: bulk formula)")                         \
-    X(snowfall, double, ONE, FORCING, NO, "kg m-2 s-1", "snowfall rate, water equivalent")
+    X(snowfall, double, ONE, FORCING, NO, "kg m-2 s-1", "snowfall rate, water equivalent")      \
+    /* Fluxes into the ocean through the particle's footprint, summed over  \
+     * the output interval while thermo.ocean_fluxes is on (core/thermo.h); \
+     * extensive (flux x footprint area x time), zeroed by the driver after \
+     * each record of the ocean-fluxes file (docs/ocean-coupling.md). */     \
+    X(ofx_heat_ice, double, ONE, DIAGNOSTIC, OPT, "J",                                           \
+      "heat into the ocean under the ice, summed over the output interval")                     \
+    X(ofx_heat_lead, double, ONE, DIAGNOSTIC, OPT, "J",                                          \
+      "heat into the ocean through the leads, summed over the output interval")                 \
+    X(ofx_water, double, ONE, DIAGNOSTIC, OPT, "kg",                                             \
+      "fresh water into the ocean from ice and snow, summed over the output interval")          \
+    X(ofx_salt, double, ONE, DIAGNOSTIC, OPT, "kg",                                              \
+      "salt into the ocean from the ice, summed over the output interval")                      \
+    X(ofx_taux, double, ONE, DIAGNOSTIC, OPT, "N s",                                             \
+      "stress of the ice on the ocean x area x time, plane x, summed over the output interval") \
+    X(ofx_tauy, double, ONE, DIAGNOSTIC, OPT, "N s",                                             \
+      "stress of the ice on the ocean x area x time, plane y, summed over the output interval") \
+    X(ofx_swbase, double, ONE, DIAGNOSTIC, OPT, "J",                                             \
+      "shortwave reaching the ice base, summed over the output interval")
 
 /* The particle trajectory product's data variables after its coordinates
  * time, lon, lat, in file order (io products_particles.c):

@@ -98,6 +98,13 @@ typedef struct sph_thermo_params {
     int tsurf_max_iter;     /* (100) */
     double picard_tolerance;/* K (1e-9): nonlinear (c, K) iteration of the multi-layer column */
     int picard_max_iter;    /* (50) */
+
+    /* 1: every step adds each particle's fluxes into the ocean to its ofx_*
+     * accumulators (core/particles.h; the model step adds the ice-ocean
+     * stress). Set by the driver (output.ocean_fluxes), not a model key;
+     * 0 (default) leaves them untouched. Reads the state only: the
+     * trajectory is the same either way. docs/ocean-coupling.md. */
+    int ocean_fluxes;
 } sph_thermo_params;
 
 void sph_thermo_params_default(sph_thermo_params *p);
@@ -192,6 +199,7 @@ typedef struct sph_column_result {
     double snow_to_ice; /* m of snow flooded and turned into ice (sph_column_snow_ice) */
     double snow_ice;    /* m of ice formed from it (rho_i snow_ice = rho_s snow_to_ice) */
     double energy_to_ocean; /* J/m^2 leaving the column when it melts out (snow or ice remnants, excess melt energy) */
+    double sw_base;     /* W/m^2 of shortwave reaching the base (absorbed there by the column) */
     int melted_out;     /* 1 when no ice is left */
     int iterations;     /* Picard iterations (multi-layer) */
 } sph_column_result;

@@ -157,6 +157,9 @@ typedef struct prod_init_info {
     const char *flag; /* copied; NULL or "": none */
 } prod_init_info;
 void products_set_init_info(prod_writer *p, const prod_init_info *info);
+/* Lists a file another writer has committed into the stage directory
+ * (name relative to it: the ocean fluxes) in the manifest and the summary. */
+int products_add_file(prod_writer *p, const char *name, sph_error *err);
 
 /* Finalises and commits every file, writes manifest.json last, fills
  * *summary (may be NULL) and frees p. On failure removes the temporary

@@ -61,6 +61,7 @@ enum { CFG_LAND_NONE = 0, CFG_LAND_GSHHG, CFG_LAND_NETCDF, CFG_LAND_FORCING };
 enum { CFG_LAND_RES_CRUDE = 0, CFG_LAND_RES_LOW, CFG_LAND_RES_INTERMEDIATE, CFG_LAND_RES_HIGH,
        CFG_LAND_RES_FULL };
 enum { CFG_GRID_REGULAR = 0, CFG_GRID_RASTER };
+enum { CFG_OFX_GRID_AUTO = 0, CFG_OFX_GRID_OUTPUT, CFG_OFX_GRID_OCEAN }; /* output.ocean_fluxes_grid */
 enum { CFG_LATE_FAIL = 0, CFG_LATE_STALE };
 enum { CFG_ENGINE_FORECAST = 0, CFG_ENGINE_TEST_DOUBLE };
 enum { CFG_LOG_ERROR = 0, CFG_LOG_WARN, CFG_LOG_INFO, CFG_LOG_DEBUG };
@@ -112,6 +113,8 @@ struct sph_config {
         cfg_dbllist map_times;  /* hours after the cycle time */
         int map_drift;          /* drift vectors on the concentration map */
         int retention_cycles;
+        int ocean_fluxes;       /* <prefix>_ocean_fluxes.nc (docs/ocean-coupling.md) */
+        int ocean_fluxes_grid;  /* CFG_OFX_GRID_* */
     } output;
 
     struct { char *path, *conc_var; int format; } observations;

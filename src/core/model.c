@@ -587,6 +587,29 @@ static void regime_fractions(sph_model *m)
     m->stats.frac_multi_layer = (double)ml / n;
 }
 
+/* The stress of the ice on the ocean, added to ofx_taux/ofx_tauy as
+ * stress x area x time (N s): minus the water drag of the momentum
+ * equation (model_impl.h sph_momentum), rho_w C_w |U_w - u| R_w (U_w - u)
+ * per unit footprint, which the equation applies to the mass per area
+ * M = dens, so the force on the particle is its mass / M = footprint times
+ * the stress. Evaluated with the step's new velocity from the solver (its
+ * fixed point: the lagged speed |U_w - u_p| equals |U_w - u| there), before
+ * land blocks any motion. Reads the state only. */
+static void accumulate_ocean_stress(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    const double cw = m->cos_water, sw = m->sin_water, dt = p->dt;
+    for (size_t k = 0; k < P->n; k++) {
+        if (!(P->dens[k] > 0.0))
+            continue;
+        double dux = P->uw[k] - P->u[k], duy = P->vw[k] - P->v[k];
+        double c = p->rho_w * p->Cw * sqrt(dux * dux + duy * duy) * (P->mass[k] / P->dens[k]) * dt;
+        P->ofx_taux[k] -= c * (cw * dux - sw * duy);
+        P->ofx_tauy[k] -= c * (sw * dux + cw * duy);
+    }
+}
+
 int sph_model_step(sph_model *m, sph_status *st)
 {
     sph_particles *P = m->P;
@@ -614,6 +637,8 @@ int sph_model_step(sph_model *m, sph_status *st)
         if (rc != SPH_STEP_OK)
             return rc;
     }
+    if (p->thermo.ocean_fluxes)
+        accumulate_ocean_stress(m);
     /* positions first: a move blocked by land zeroes the blocked velocity,
      * and only the realised motion may compress a parcel (a particle held
      * at a coast otherwise kept "converging" into land and ridged without

@@ -57,6 +57,7 @@ void sph_thermo_params_default(sph_thermo_params *p)
     p->tsurf_max_iter = 100;
     p->picard_tolerance = 1e-9;
     p->picard_max_iter = 50;
+    p->ocean_fluxes = 0;
 }
 
 int sph_thermo_params_check(const sph_thermo_params *p, const char **name, double *lo, double *hi)
@@ -299,9 +300,15 @@ static void mark_melted(sph_particles *P, size_t k)
     P->snow[k] = 0.0;
 }
 
+/* Heat into the ocean of one particle's step, J (docs/ocean-coupling.md). */
+typedef struct {
+    double ice, lead, sw_base;
+} ocean_heat;
+
 /* One particle: column step on the ice part, then the leads. */
-static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k, double dt,
-                          sph_column_solver *solver, particle_outcome *o)
+static void particle_column_step(const sph_thermo_params *p, sph_particles *P, size_t k, double dt,
+                                 sph_column_solver *solver, particle_outcome *o, ocean_heat *oh,
+                                 double *snowfall_dt)
 {
     o->growth = o->new_ice = o->melt_top = o->melt_bottom = o->lateral_melt = 0.0;
     o->snowfall = o->snow_melt = o->snow_ice = o->snow_to_ocean = 0.0;
@@ -335,6 +342,8 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
      * ocean (not part of the ice budget). Depth rate = flux / rho_s. */
     double sf = P->snowfall[k] > 0.0 ? P->snowfall[k] : 0.0;
     f.snowfall = sf / p->rho_s;
+    /* the hook of the ocean fluxes: snow that falls on the ice is not the ocean's */
+    *snowfall_dt = f.snowfall > 0.0 ? f.snowfall * dt : 0.0;
 
     int multi;
     if (p->model == SPH_THERMO_MULTI_LAYER)
@@ -373,6 +382,10 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
     o->snow_melt = s_ice * r.snow_melt;
     o->snow_ice = s_ice * r.snow_to_ice;
     o->snow_to_ocean = o->snowfall + s_ice * hs0 - o->snow_melt - o->snow_ice - s_ice * c.snow;
+    /* Under the ice the ocean gives the base its heat flux and receives
+     * what the column sheds (melt-out remnants, excess melt energy). */
+    oh->ice = A * area * (-r.focean * dt + r.energy_to_ocean);
+    oh->sw_base = A * area * r.sw_base * dt;
     if (r.melted_out) {
         column_to_particle(&c, P, k);
         mark_melted(P, k);
@@ -405,16 +418,23 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
             }
             P->snow[k] *= A / Anew;
             o->new_ice = rho * area * dV;
+            /* the heat the lead loses is the latent heat of its new ice:
+             * the water under it stays at the freezing point (oh->lead 0) */
             A = Anew;
             h = hnew;
+        } else if (Fow < 0.0) {
+            oh->lead = area * Fow * (1.0 - A) * dt; /* warm water cools */
         } else if (Fow > 0.0) {
             double qbar = 0.0;
             for (int i = 0; i < n; i++)
                 qbar += q[i] / n;
-            double dV = Fow * (1.0 - A) * dt / (qbar < 0.0 ? -qbar : rho * p->L0);
+            double qmelt = qbar < 0.0 ? -qbar : rho * p->L0;
+            double dV = Fow * (1.0 - A) * dt / qmelt;
             if (dV >= A * h) {
                 o->lateral_melt = rho * area * A * h;
                 o->snow_to_ocean += p->rho_s * P->snow[k] * area * A;
+                /* what the melt did not use, and the snow, to the water */
+                oh->lead = area * (Fow * (1.0 - A) * dt - A * h * qmelt - A * P->snow[k] * p->rho_s * p->L0);
                 mark_melted(P, k);
                 return;
             }
@@ -426,6 +446,12 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
     if (A < p->min_conc) {
         o->lateral_melt += rho * area * A * h;
         o->snow_to_ocean += p->rho_s * P->snow[k] * area * A;
+        /* the remnant's ice and snow melt in the water, which pays for it */
+        const double *q = P->enth + k * (size_t)P->nlayers;
+        double e = 0.0;
+        for (int i = 0; i < P->nlayers; i++)
+            e += q[i] * h / P->nlayers;
+        oh->lead += area * A * (e - P->snow[k] * p->rho_s * p->L0);
         mark_melted(P, k);
         return;
     }
@@ -437,6 +463,49 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
 double sph_thermo_energy_atm(const sph_thermo_work *w, size_t k)
 {
     return w && k < w->cap ? w->out[k].energy_atm : 0.0;
+}
+
+/* Bulk salinity of the ice, ppt: the mean of the Bitz-Lipscomb profile
+ * over the layer midpoints, the profile every layer's enthalpy uses, so
+ * that the salt a particle's ice holds is this times its mass. */
+static double bulk_salinity(const sph_thermo_params *p, int n)
+{
+    double s = 0.0;
+    for (int i = 0; i < n; i++)
+        s += sph_bl_salinity(p, (i + 0.5) / n);
+    return s / n;
+}
+
+/* The column step, then (thermo.ocean_fluxes) its fluxes into the ocean
+ * added to the particle's accumulators: water and salt from the change of
+ * the ice mass (ice of bulk salinity S_i: a share S_i/1000 of its mass is
+ * salt) and of the snow mass; heat from the column and the leads. */
+static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k, double dt,
+                          sph_column_solver *solver, particle_outcome *o, double S_ice)
+{
+    ocean_heat oh = {0.0, 0.0, 0.0};
+    double snowfall_dt = 0.0;
+    const double m0 = P->mass[k], A0 = P->conc[k] > 1.0 ? 1.0 : P->conc[k], s0 = P->snow[k];
+    const double footprint = m0 > 0.0 && P->thick[k] > 0.0 && A0 > 0.0 ? m0 / (p->rho_i * A0 * P->thick[k]) : 0.0;
+    particle_column_step(p, P, k, dt, solver, o, &oh, &snowfall_dt);
+    if (!p->ocean_fluxes || o->code != SPH_STEP_OK || !(footprint > 0.0))
+        return;
+    double A1 = P->conc[k] > 1.0 ? 1.0 : P->conc[k];
+    double dice = m0 - P->mass[k]; /* kg of ice returned to the ocean (negative: frozen out of it) */
+    /* snow melt and melt-out; snowfall_dt is the snowfall on the ice. Snow
+     * turned into ice (snow-ice) leaves the snow and enters dice with the
+     * opposite sign: its mass never reaches the ocean, only the salt share
+     * S_i/1000 the ice of bulk salinity S_i holds is exchanged for fresh
+     * water (docs/ocean-coupling.md). */
+    double dsnow = p->rho_s * footprint * (A0 * ((s0 > 0.0 ? s0 : 0.0) + snowfall_dt) - A1 * P->snow[k]);
+    /* snow on the leads goes straight into the water (water equivalent) */
+    if (P->snowfall[k] > 0.0)
+        dsnow += P->snowfall[k] * dt * (1.0 - A0) * footprint;
+    P->ofx_water[k] += dice * (1.0 - 1e-3 * S_ice) + dsnow;
+    P->ofx_salt[k] += dice * 1e-3 * S_ice;
+    P->ofx_heat_ice[k] += oh.ice;
+    P->ofx_heat_lead[k] += oh.lead;
+    P->ofx_swbase[k] += oh.sw_base;
 }
 
 int sph_thermo_step(const sph_thermo_params *p, sph_particles *P, double dt, sph_thermo_work *w,
@@ -474,9 +543,10 @@ int sph_thermo_step(const sph_thermo_params *p, sph_particles *P, double dt, sph
         }
     }
 
+    const double S_ice = p->ocean_fluxes ? bulk_salinity(p, P->nlayers) : 0.0;
 #pragma omp parallel for schedule(dynamic, 16) num_threads(nthreads)
     for (long k = 0; k < n; k++)
-        particle_step(p, P, (size_t)k, dt, w->solvers[omp_get_thread_num()], &w->out[k]);
+        particle_step(p, P, (size_t)k, dt, w->solvers[omp_get_thread_num()], &w->out[k], S_ice);
     for (long k = 0; k < n; k++) {
         if (w->out[k].code != SPH_STEP_OK) {
             const particle_outcome *o = &w->out[k];

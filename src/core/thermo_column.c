@@ -313,6 +313,7 @@ static void result_clear(sph_column_result *r)
     r->albedo = r->fatm = r->fmelt = r->fcond_top = r->fcond_bottom = r->focean = 0.0;
     r->snow_to_ice = r->snow_ice = 0.0;
     r->energy_to_ocean = 0.0;
+    r->sw_base = 0.0;
     r->melted_out = 0;
     r->iterations = 0;
 }
@@ -591,6 +592,7 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
     r->fcond_top = Fc[0];
     r->fcond_bottom = Fc[n];
     r->focean = Fw;
+    r->sw_base = Ibase;
 
     /* Segments of the old grid, trimmed by melt, plus new ice at the base. */
     segment seg[SPH_MAX_LAYERS + 1];

@@ -66,6 +66,7 @@ static const char *const landres_names[] = {"crude", "low", "intermediate", "hig
 static const char *const landfrom_names[] = {"auto", "mask", "fill", NULL};
 static const char *const landpol_names[] = {"auto", "land_is_1", "water_is_1", NULL};
 static const char *const grid_names[] = {"regular", "raster", NULL};
+static const char *const ofx_grid_names[] = {"auto", "output", "ocean", NULL};
 static const char *const late_names[] = {"fail", "stale", NULL};
 static const char *const engine_names[] = {"forecast", "test-double", NULL};
 static const char *const level_names[] = {"error", "warn", "info", "debug", NULL};
@@ -190,6 +191,14 @@ static const cfg_key tail_keys[] = {
     C_("output.products.maps", CT_BOOL, output.products.maps, "false", 0, 0, R, NULL, "PNG maps at map_times."),
     C_("output.products.verification", CT_BOOL, output.products.verification, "true", 0, 0, R, NULL,
        "Scores against observations when a raster exists."),
+    C_("output.ocean_fluxes", CT_BOOL, output.ocean_fluxes, "false", 0, 0, R, NULL,
+       "Fluxes into the ocean (heat, fresh water, salt, ice-ocean stress, shortwave at the ice base; ice "
+       "concentration and volume) as means over each output interval on output.ocean_fluxes_grid, in "
+       "sphice_ocean_fluxes.nc: what a coupled ocean model reads (docs/ocean-coupling.md)."),
+    C_("output.ocean_fluxes_grid", CT_ENUM, output.ocean_fluxes_grid, "\"auto\"", 0, 0, R, ofx_grid_names,
+       "Grid of the ocean-fluxes file: ocean (the first ocean forcing file's regular lon/lat grid and its "
+       "land, the cells over the domain), output (the output grid) or auto (ocean when an ocean source has "
+       "files, else output). A curvilinear ocean grid is refused: set output."),
     C_("output.edge_threshold", CT_DOUBLE, output.edge_threshold, "0.15", 0.01, 0.99, R, NULL,
        "Concentration defining the ice edge."),
     C_("output.edge_reference.lon", CT_DOUBLE, output.edge_reference.lon, "0", -180, 360, R, NULL,

@@ -68,6 +68,7 @@ static void engine_free(engine *e)
 {
     products_abort(e->pw);
     e->pw = NULL;
+    fc_free_ocean_fluxes(e);
     if (e->restart_written)
         unlink(e->restart_path);
     geo_proj_free(e->proj);
@@ -223,6 +224,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     e->prm = cfg->model;
     if (req->member)
         fc_member_perturb_params(req->member, &e->prm);
+    e->prm.thermo.ocean_fluxes = cfg->output.ocean_fluxes; /* the accumulators (docs/ocean-coupling.md) */
     e->dt_auto = cfg->model.dt == 0.0; /* negative: refused by check_params */
     e->dt_base = auto_dt_base(e, schedule_next(cfg, e->t0));
     if (e->dt_auto)
@@ -279,6 +281,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     if ((rc = fc_open_products(e, stations, er)))
         goto fail;
     if (req->observation && cfg->output.products.verification && (rc = fc_set_observation(e, er)))
+        goto fail;
+    if (cfg->output.ocean_fluxes && (rc = fc_open_ocean_fluxes(e, er)))
         goto fail;
 
     /* restart file for the next cycle */
@@ -358,6 +362,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     prod_init_info ii = {res->raster_ice_area_km2, res->raster_ice_volume_km3, res->seeded_ice_area_km2,
                          res->seeded_ice_volume_km3, res->land_fraction, res->quality_flag};
     products_set_init_info(e->pw, &ii);
+    if (e->ofx && (rc = fc_close_ocean_fluxes(e, er)))
+        goto fail;
     prod_summary sum;
     rc = products_close(e->pw, &sum, er);
     e->pw = NULL;

@@ -14,6 +14,7 @@
 #include "core/model.h"
 #include "io/geo.h"
 #include "io/landmask.h"
+#include "io/ocean_fluxes.h"
 #include "io/products.h"
 #include "io/raster.h"
 #include "service/config.h"
@@ -52,6 +53,14 @@ typedef struct engine {
     double *g_snow; /* snow thickness on the ice, m */
     unsigned char *g_land;
     prod_writer *pw;
+    /* output.ocean_fluxes (forecast_output.c): the writer, the start of the
+     * interval being summed, per-particle scratch (6 x cap) and the output
+     * grid's cell areas and axes */
+    ofx_writer *ofx;
+    double ofx_t0;
+    double *ofx_buf, *ofx_area, *ofx_lon, *ofx_lat;
+    unsigned char *ofx_land;  /* the ocean grid's land (ocean_fluxes_grid ocean) */
+    char ofx_grid_from[4200]; /* "output grid" or "ocean forcing PATH" */
     char restart_path[4200];
     int restart_written;
     char start_mode[16];
@@ -121,5 +130,12 @@ int fc_write_output(engine *e, double t, sph_error *err);
 /* 1 when a forcing source may provide snowfall: products carry sisnthick. */
 int fc_snow_possible(const struct sph_config *cfg);
 int fc_write_restart(engine *e, double t, sph_error *err);
+/* output.ocean_fluxes: opens the file on the output grid and zeroes the
+ * particles' accumulators (the interval starts at the cycle time); the
+ * records are written by fc_write_output; closing commits the file into
+ * the stage directory and lists it in the manifest. Free: NULL-safe. */
+int fc_open_ocean_fluxes(engine *e, sph_error *err);
+int fc_close_ocean_fluxes(engine *e, sph_error *err);
+void fc_free_ocean_fluxes(engine *e);
 
 #endif

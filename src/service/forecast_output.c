@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "io/restart.h"
+#include "util/log.h"
 #include "util/version.h"
 
 int fc_setup_grid(engine *e, sph_error *err)
@@ -211,6 +212,7 @@ int fc_snow_possible(const struct sph_config *cfg)
     }
     return 0;
 }
+static int ofx_record(engine *e, double t, sph_error *err);
 
 /* One output time: particles -> grid through the SPH interpolation. */
 int fc_write_output(engine *e, double t, sph_error *err)
@@ -262,7 +264,10 @@ int fc_write_output(engine *e, double t, sph_error *err)
     prod_particles_view pv = {.n = n, .lon = e->olon, .lat = e->olat, .u_east = e->pue, .v_north = e->pvn,
                               .mass = P->mass, .thick = P->thick, .conc = P->conc, .snow = P->snow,
                               .id = P->id};
-    return products_add_time(e->pw, t, &f, e->cfg->output.products.particles ? &pv : NULL, err);
+    int rc = products_add_time(e->pw, t, &f, e->cfg->output.products.particles ? &pv : NULL, err);
+    if (rc == SPH_OK && e->ofx && t > e->ofx_t0)
+        rc = ofx_record(e, t, err);
+    return rc;
 }
 
 int fc_write_restart(engine *e, double t, sph_error *err)
@@ -277,4 +282,257 @@ int fc_write_restart(engine *e, double t, sph_error *err)
     if (rc == SPH_OK)
         e->restart_written = 1;
     return rc;
+}
+
+/* ------------------------------------------------------------ ocean fluxes */
+
+#define OFX_FILE "sphice_ocean_fluxes.nc"
+
+void fc_free_ocean_fluxes(engine *e)
+{
+    ofx_abort(e->ofx);
+    e->ofx = NULL;
+    free(e->ofx_buf);
+    free(e->ofx_area);
+    free(e->ofx_lon);
+    free(e->ofx_lat);
+    free(e->ofx_land);
+    e->ofx_buf = e->ofx_area = e->ofx_lon = e->ofx_lat = NULL;
+    e->ofx_land = NULL;
+}
+
+/* The particles' accumulators restart from zero at the cycle time: each
+ * cycle's file starts its first interval there (a warm start's restart
+ * file carries the previous cycle's last interval, already published). */
+static void ofx_zero(sph_particles *P)
+{
+    size_t b = P->n * sizeof(double);
+    memset(P->ofx_heat_ice, 0, b);
+    memset(P->ofx_heat_lead, 0, b);
+    memset(P->ofx_water, 0, b);
+    memset(P->ofx_salt, 0, b);
+    memset(P->ofx_taux, 0, b);
+    memset(P->ofx_tauy, 0, b);
+    memset(P->ofx_swbase, 0, b);
+}
+
+/* The first file of the first ocean source with files, or NULL. */
+static const char *ofx_ocean_file(const engine *e)
+{
+    for (size_t s = 0; s < e->cfg->nforcing && s < SPHICE_MAX_SOURCES; s++)
+        if (e->cfg->forcing[s].kind == FORCING_OCEAN && e->req->forcing_files[s] && e->req->forcing_files[s][0])
+            return e->req->forcing_files[s][0];
+    return NULL;
+}
+
+/* The longitude of a cell centre moved by whole turns next to lonc. */
+static double ofx_near(double lon, double lonc)
+{
+    while (lon - lonc > 180.0)
+        lon -= 360.0;
+    while (lon - lonc < -180.0)
+        lon += 360.0;
+    return lon;
+}
+
+/* The ocean forcing's regular lon/lat grid over the domain (cells whose
+ * centres lie within one cell of the domain box), its land from the fill
+ * pattern of the file's current: e->ofx_lon/lat/area, e->ofx_land, cx/cy
+ * (in e->ofx_buf's tail), *nx, *ny. */
+static int ofx_ocean_grid(engine *e, const char *path, int *nx, int *ny, double **cx, double **cy,
+                          unsigned char **land, sph_error *err)
+{
+    const struct sph_config *cfg = e->cfg;
+    landmask_read_opts o;
+    memset(&o, 0, sizeof o);
+    o.from = LANDMASK_FROM_FILL;
+    o.land_value = NAN;
+    landmask *m = landmask_read_model(path, &o, err);
+    if (!m)
+        return err->code ? err->code : SPH_ERR_IO;
+    if (landmask_is_native(m)) {
+        landmask_free(m);
+        return sph_err_set(err, SPH_ERR_CONFIG,
+                           "output.ocean_fluxes_grid: the ocean forcing %s is not on a regular lon/lat grid, "
+                           "which the ocean-fluxes file does not take yet: set output.ocean_fluxes_grid to "
+                           "\"output\"", path);
+    }
+    int gx, gy;
+    double lon0, lat0, dlon, dlat;
+    landmask_get_grid(m, &gx, &gy, &lon0, &lat0, &dlon, &dlat);
+    const unsigned char *ml = landmask_data(m);
+    double lonc = 0.5 * (cfg->domain.lon_min + cfg->domain.lon_max);
+    int i0 = -1, i1 = -1, j0 = -1, j1 = -1, ok = 1;
+    for (int i = 0; i < gx; i++) {
+        double c = ofx_near(lon0 + (i + 0.5) * dlon, lonc);
+        if (c >= cfg->domain.lon_min - dlon && c <= cfg->domain.lon_max + dlon) {
+            if (i1 >= 0 && i != i1 + 1)
+                ok = 0; /* the grid's seam inside the domain */
+            if (i0 < 0)
+                i0 = i;
+            i1 = i;
+        }
+    }
+    for (int j = 0; j < gy; j++) {
+        double c = lat0 + (j + 0.5) * dlat;
+        if (c >= cfg->domain.lat_min - dlat && c <= cfg->domain.lat_max + dlat) {
+            if (j0 < 0)
+                j0 = j;
+            j1 = j;
+        }
+    }
+    if (i0 < 0 || j0 < 0 || !ok) {
+        landmask_free(m);
+        return sph_err_set(err, SPH_ERR_CONFIG,
+                           "output.ocean_fluxes_grid: the ocean forcing %s's grid %s the domain: set "
+                           "output.ocean_fluxes_grid to \"output\"", path,
+                           ok ? "has no cell over" : "has its longitude seam inside");
+    }
+    *nx = i1 - i0 + 1;
+    *ny = j1 - j0 + 1;
+    size_t n = (size_t)*nx * (size_t)*ny;
+    e->ofx_lon = xcalloc((size_t)*nx, sizeof(double), &ok);
+    e->ofx_lat = xcalloc((size_t)*ny, sizeof(double), &ok);
+    e->ofx_area = xcalloc(3 * n, sizeof(double), &ok); /* area, then the centres' x and y */
+    e->ofx_land = xcalloc(n, 1, &ok);
+    if (!ok) {
+        landmask_free(m);
+        return sph_err_set(err, SPH_ERR_NOMEM, "output.ocean_fluxes: out of memory (%zu cells)", n);
+    }
+    for (int i = 0; i < *nx; i++)
+        e->ofx_lon[i] = ofx_near(lon0 + (i0 + i + 0.5) * dlon, lonc);
+    double *glon = *cx = e->ofx_area + n, *glat = *cy = e->ofx_area + 2 * n;
+    for (int j = 0; j < *ny; j++) {
+        double la = lat0 + (j0 + j + 0.5) * dlat;
+        e->ofx_lat[j] = la;
+        /* R^2 |dlon| |sin(lat_n) - sin(lat_s)|, the sphere of io/edge.h */
+        double a = 6371000.0 * 6371000.0 * fabs(dlon) * DEG2RAD *
+                   fabs(sin((la + 0.5 * dlat) * DEG2RAD) - sin((la - 0.5 * dlat) * DEG2RAD));
+        for (int i = 0; i < *nx; i++) {
+            size_t c = (size_t)j * *nx + i;
+            e->ofx_area[c] = a;
+            e->ofx_land[c] = ml[(size_t)(j0 + j) * gx + (i0 + i)];
+            glon[c] = e->ofx_lon[i];
+            glat[c] = la;
+        }
+    }
+    landmask_free(m);
+    *land = e->ofx_land;
+    sph_error local;
+    sph_error_clear(&local);
+    if (geo_forward(e->proj, n, glon, glat, glon, glat, &local) != SPH_OK)
+        for (size_t c = 0; c < n; c++)
+            if (!isfinite(glon[c]) || !isfinite(glat[c]))
+                glon[c] = glat[c] = NAN; /* never reached */
+    return SPH_OK;
+}
+
+int fc_open_ocean_fluxes(engine *e, sph_error *err)
+{
+    const struct sph_config *cfg = e->cfg;
+    const prod_grid *g = &e->grid;
+    const char *ocean = ofx_ocean_file(e);
+    int mode = cfg->output.ocean_fluxes_grid;
+    if (mode == CFG_OFX_GRID_OCEAN && !ocean)
+        return sph_err_set(err, SPH_ERR_CONFIG, "output.ocean_fluxes_grid: \"ocean\" but no ocean forcing has "
+                           "files: set output.ocean_fluxes_grid to \"output\" or \"auto\"");
+    int ok = 1, nx = 0, ny = 0;
+    double *cx = NULL, *cy = NULL;
+    unsigned char *land = NULL;
+    e->ofx_buf = xcalloc(6 * e->cap, sizeof(double), &ok);
+    if (!ok)
+        return sph_err_set(err, SPH_ERR_NOMEM, "output.ocean_fluxes: out of memory");
+    if (mode != CFG_OFX_GRID_OUTPUT && ocean) {
+        int rc = ofx_ocean_grid(e, ocean, &nx, &ny, &cx, &cy, &land, err);
+        if (rc)
+            return rc;
+        snprintf(e->ofx_grid_from, sizeof e->ofx_grid_from, "ocean forcing %s", ocean);
+    } else {
+        nx = g->nlon;
+        ny = g->nlat;
+        e->ofx_area = xcalloc(e->npts, sizeof(double), &ok);
+        e->ofx_lon = xcalloc((size_t)g->nlon, sizeof(double), &ok);
+        e->ofx_lat = xcalloc((size_t)g->nlat, sizeof(double), &ok);
+        if (!ok)
+            return sph_err_set(err, SPH_ERR_NOMEM, "output.ocean_fluxes: out of memory");
+        for (int i = 0; i < g->nlon; i++)
+            e->ofx_lon[i] = g->lon0 + i * g->dlon;
+        for (int j = 0; j < g->nlat; j++) {
+            e->ofx_lat[j] = g->lat0 + j * g->dlat;
+            double a = prod_grid_cell_area_m2(g, j);
+            for (int i = 0; i < g->nlon; i++)
+                e->ofx_area[(size_t)j * g->nlon + i] = a;
+        }
+        cx = e->gx;
+        cy = e->gy;
+        land = e->lm ? e->g_land : NULL;
+        snprintf(e->ofx_grid_from, sizeof e->ofx_grid_from, "output grid");
+    }
+    ofx_grid og = {.kind = OFX_GRID_LONLAT, .nx = nx, .ny = ny, .xaxis = e->ofx_lon, .yaxis = e->ofx_lat,
+                   .cx = cx, .cy = cy, .area = e->ofx_area, .land = land,
+                   .projection = geo_proj_definition(e->proj), .grid_source = e->ofx_grid_from};
+    char title[160];
+    snprintf(title, sizeof title, "sphice fluxes into the ocean, %s",
+             e->cfg->domain.name ? e->cfg->domain.name : "domain");
+    ofx_meta meta = {.title = title, .institution = "sphice", .model_version = SPHICE_VERSION,
+                     .git_revision = SPHICE_GIT, .cycle_time = e->t0};
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s", e->req->stage_dir, OFX_FILE);
+    int rc = ofx_open(&e->ofx, &og, &meta, path, err);
+    if (rc)
+        return rc;
+    ofx_zero(sph_model_particles(e->m));
+    e->ofx_t0 = e->t0;
+    return SPH_OK;
+}
+
+/* One record: the mean over [e->ofx_t0, t]. e->olon/olat hold the
+ * particles' positions (fc_write_output). */
+static int ofx_record(engine *e, double t, sph_error *err)
+{
+    sph_particles *P = sph_model_particles(e->m);
+    size_t n = P->n;
+    const double rho_i = e->cfg->model.rho_i, kr = e->prm.kernel_radius;
+    double *rad = e->ofx_buf, *tx = rad + e->cap, *ty = tx + e->cap, *ia = ty + e->cap,
+           *iv = ia + e->cap;
+    for (size_t k = 0; k < n; k++) {
+        /* plane x/y -> east/north, as the velocities in fc_write_output */
+        double a = geo_grid_angle(e->proj, e->olon[k], e->olat[k]);
+        if (!isfinite(a))
+            a = 0.0;
+        double c = cos(a), s = sin(a);
+        tx[k] = P->ofx_taux[k] * c - P->ofx_tauy[k] * s;
+        ty[k] = P->ofx_taux[k] * s + P->ofx_tauy[k] * c;
+        /* spread over a disc whose kernel (1 - d^2/R^2)^2 integrates to the
+         * footprint m/M: pi R^2 / 3 = footprint, so that ice packed edge to
+         * edge gives its own concentration, not more, near coasts too */
+        double fp = P->dens[k] > 0.0 ? P->mass[k] / P->dens[k] : 0.0;
+        rad[k] = fp > 0.0 ? sqrt(3.0 * fp / M_PI) : kr * P->sml[k];
+        ia[k] = P->thick[k] > 0.0 ? P->mass[k] / (rho_i * P->thick[k]) : 0.0; /* A x footprint */
+        iv[k] = P->mass[k] / rho_i;
+    }
+    ofx_particles op = {.n = n, .x = P->x, .y = P->y, .radius = rad, .heat_ice = P->ofx_heat_ice,
+                        .heat_lead = P->ofx_heat_lead, .water = P->ofx_water, .salt = P->ofx_salt,
+                        .taux = tx, .tauy = ty, .swbase = P->ofx_swbase, .ice_area = ia, .ice_volume = iv};
+    int rc = ofx_add_particles(e->ofx, &op, err);
+    if (!rc)
+        rc = ofx_write_record(e->ofx, e->ofx_t0, t, err);
+    if (rc)
+        return rc;
+    if (ofx_lost(e->ofx) > 0)
+        log_warn("forecast %s: ocean fluxes: %zu particles lie outside the ocean-fluxes grid or far from its "
+                 "water cells; their fluxes are not in the record ending %.0f s after the cycle (particles_lost)",
+                 e->cname, ofx_lost(e->ofx), t - e->t0);
+    ofx_zero(P);
+    e->ofx_t0 = t;
+    return SPH_OK;
+}
+
+int fc_close_ocean_fluxes(engine *e, sph_error *err)
+{
+    int rc = ofx_close(e->ofx, err);
+    e->ofx = NULL;
+    if (rc)
+        return rc;
+    return products_add_file(e->pw, OFX_FILE, err);
 }

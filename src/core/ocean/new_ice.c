@@ -322,6 +322,14 @@ static void merge_into(sph_model *m, size_t k, size_t j)
     P->mass[k] = ms;
     P->thick[k] = ms / (tp->rho_i * P->conc[k] * fs);
     P->snow[k] = snow / (P->conc[k] * fs);
+    /* the fluxes into the ocean the two gathered this record stay in it */
+    P->ofx_heat_ice[k] += P->ofx_heat_ice[j];
+    P->ofx_heat_lead[k] += P->ofx_heat_lead[j];
+    P->ofx_water[k] += P->ofx_water[j];
+    P->ofx_salt[k] += P->ofx_salt[j];
+    P->ofx_taux[k] += P->ofx_taux[j];
+    P->ofx_tauy[k] += P->ofx_tauy[j];
+    P->ofx_swbase[k] += P->ofx_swbase[j];
     if (mj > mk)
         P->id[k] = P->id[j];
     P->mass[j] = 0.0;

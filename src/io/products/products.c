@@ -570,6 +570,21 @@ void products_set_run_info(prod_writer *p, const prod_run_info *info)
     }
 }
 
+int products_add_file(prod_writer *p, const char *name, sph_error *err)
+{
+    if (!p || !name || !name[0] || strchr(name, '/'))
+        return sph_err_set(err, SPH_ERR_PARAM, "products: bad extra file name");
+    char path[PROD_PATH];
+    struct stat sb;
+    snprintf(path, sizeof path, "%s/%s", p->stage, name);
+    if (stat(path, &sb) != 0)
+        return sph_err_set(err, SPH_ERR_IO, "products: %s: %s", path, strerror(errno));
+    if (p->nproducts >= PROD_MAX_PRODUCTS - 6)
+        return sph_err_set(err, SPH_ERR_PARAM, "products: too many files for the manifest");
+    add_product(p, name);
+    return SPH_OK;
+}
+
 void products_set_init_info(prod_writer *p, const prod_init_info *info)
 {
     if (p && info) {

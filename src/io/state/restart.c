@@ -83,6 +83,25 @@ static int put_text(int nc, int var, const char *name, const char *text)
     return nc_put_att_text(nc, var, name, strlen(text), text);
 }
 
+/* Field k goes into the file unless it is a diagnostic optional field
+ * that is zero on every particle (the ocean-flux accumulators while
+ * output.ocean_fluxes is off): reading it back as absent gives the same
+ * zeros, and files stay as they were before such fields existed. */
+static int rv_written(const sph_particles *P, int k)
+{
+    const sph_particle_field *f = &sph_particle_fields[k];
+    if (f->restart == SPH_RESTART_NO)
+        return 0;
+    if (f->restart != SPH_RESTART_OPT || f->tag != SPH_FIELD_DIAGNOSTIC)
+        return 1;
+    const unsigned char *a = sph_particles_field(P, k);
+    size_t bytes = P->n * sph_particles_field_count(P, k) * f->size;
+    for (size_t i = 0; i < bytes; i++)
+        if (a[i])
+            return 1;
+    return 0;
+}
+
 static int write_body(int nc, const sph_particles *P, const restart_header *h, const char *path,
                       sph_error *err)
 {
@@ -101,7 +120,7 @@ static int write_body(int nc, const sph_particles *P, const restart_header *h, c
     int dims2[2] = {d_p, d_l};
     for (int k = 0; k < SPH_PARTICLE_NFIELDS; k++) {
         const sph_particle_field *f = &sph_particle_fields[k];
-        if (f->restart == SPH_RESTART_NO)
+        if (!rv_written(P, k))
             continue;
         NC(nc_def_var(nc, f->name, rv_nctype[f->type], f->layered ? 2 : 1, dims2, &v[k]),
            "define variable");
@@ -138,7 +157,7 @@ static int write_body(int nc, const sph_particles *P, const restart_header *h, c
         return SPH_OK;
     size_t start[2] = {0, 0}, count[2] = {n, (size_t)nl};
     for (int k = 0; k < SPH_PARTICLE_NFIELDS; k++)
-        if (sph_particle_fields[k].restart != SPH_RESTART_NO)
+        if (rv_written(P, k))
             NC(rv_put(nc, v[k], sph_particle_fields[k].type, start, count,
                       sph_particles_field(P, k)), "write");
 #undef NC

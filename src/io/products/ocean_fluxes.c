@@ -1,0 +1,583 @@
+/* Fluxes into the ocean on the ocean's grid: see io/ocean_fluxes.h and
+ * docs/ocean-coupling.md. One netCDF-4 file per cycle, one record per
+ * output interval along an unlimited time with bounds; written to a
+ * temporary name and renamed into place by ofx_close. */
+#include "io/ocean_fluxes.h"
+
+#include <math.h>
+#include <netcdf.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "io/ncfile.h"
+#include "util/fileio.h"
+#include "util/timeutil.h"
+
+#define OFX_FILL 1.0e20
+#define OFX_PATH 4200
+
+/* The extensive amounts gathered from the particles. */
+enum { ACC_HEAT_ICE, ACC_HEAT_LEAD, ACC_WATER, ACC_SALT, ACC_TAUX, ACC_TAUY, ACC_SWBASE,
+       ACC_ICE_AREA, ACC_ICE_VOLUME, NACC };
+
+static const struct {
+    const char *name, *standard_name, *long_name, *units, *cell_methods, *positive;
+} specs[OFX_NFIELDS] = {
+    [OFX_HFDS] = {"hfds", "surface_downward_heat_flux_in_sea_water",
+                  "net heat flux into the ocean under the ice and through its leads", "W m-2",
+                  "area: mean time: mean", "down"},
+    [OFX_HFSITHERMDS] = {"hfsithermds", "heat_flux_into_sea_water_due_to_sea_ice_thermodynamics",
+                         "heat flux into the ocean under the ice (ice-ocean exchange)", "W m-2",
+                         "area: mean time: mean", "down"},
+    [OFX_SIFLFWBOT] = {"siflfwbot", "water_flux_into_sea_water_due_to_sea_ice_thermodynamics",
+                       "fresh water flux from sea ice (its salt excluded) and snow melt", "kg m-2 s-1",
+                       "area: mean time: mean", "down"},
+    [OFX_SIFLSALTBOT] = {"siflsaltbot", "downward_sea_ice_basal_salt_flux", "salt flux from sea ice",
+                         "kg m-2 s-1", "area: mean time: mean", "down"},
+    [OFX_TAUUO] = {"tauuo", "downward_x_stress_at_sea_water_surface",
+                   "stress of the ice on the ocean, grid x component", "N m-2", "area: mean time: mean",
+                   "down"},
+    [OFX_TAUVO] = {"tauvo", "downward_y_stress_at_sea_water_surface",
+                   "stress of the ice on the ocean, grid y component", "N m-2", "area: mean time: mean",
+                   "down"},
+    [OFX_SISTRXUBOT] = {"sistrxubot", "upward_x_stress_at_sea_ice_base",
+                        "stress of the ocean on the ice, grid x component (= -tauuo)", "N m-2",
+                        "area: mean time: mean", NULL},
+    [OFX_SISTRYUBOT] = {"sistryubot", "upward_y_stress_at_sea_ice_base",
+                        "stress of the ocean on the ice, grid y component (= -tauvo)", "N m-2",
+                        "area: mean time: mean", NULL},
+    [OFX_SIFLSWDBOT] = {"siflswdbot", "downwelling_shortwave_flux_in_sea_water_at_sea_ice_base",
+                        "shortwave reaching the ice base (already absorbed there: not part of hfds)",
+                        "W m-2", "area: mean time: mean", "down"},
+    [OFX_SICONC] = {"siconc", "sea_ice_area_fraction",
+                    "ice area fraction at the end of the interval (regridded ice area, at most 1)",
+                    "1", "area: mean time: point", NULL},
+    [OFX_SIVOL] = {"sivol", "sea_ice_thickness",
+                   "ice volume per cell area at the end of the interval", "m",
+                   "area: mean time: point", NULL},
+    [OFX_SITHICK] = {"sithick", "sea_ice_thickness",
+                     "ice thickness over the ice-covered part at the end of the interval", "m",
+                     "area: mean where sea_ice time: point", NULL},
+};
+
+struct ofx_writer {
+    ofx_grid_kind kind;
+    int nx, ny;
+    size_t n;
+    double *cx, *cy, *area;
+    unsigned char *land;
+    double *acc[NACC];          /* extensive amounts of the current record */
+    double *add[OFX_NFIELDS];   /* per-cell fluxes added by ofx_add_cells */
+    double *out;                /* one field of a record */
+    /* index of the water cells on the plane: bins of side `bin` */
+    double bx0, by0, bin;
+    int nbx, nby;
+    size_t *bstart, *bcell;
+    double *w;                  /* weights of one particle's cells */
+    size_t *wc;
+    size_t wcap;
+    size_t lost, lost_record, nrec;
+    char path[OFX_PATH], tmp[OFX_PATH];
+    int nc, v_time, v_bnds, v_lost, v_data[OFX_NFIELDS];
+};
+
+const char *ofx_field_name(int k) { return k >= 0 && k < OFX_NFIELDS ? specs[k].name : NULL; }
+size_t ofx_lost(const ofx_writer *w) { return w ? w->lost_record : 0; }
+size_t ofx_records(const ofx_writer *w) { return w ? w->nrec : 0; }
+
+static void writer_free(ofx_writer *w)
+{
+    free(w->cx);
+    free(w->cy);
+    free(w->area);
+    free(w->land);
+    for (int k = 0; k < NACC; k++)
+        free(w->acc[k]);
+    for (int k = 0; k < OFX_NFIELDS; k++)
+        free(w->add[k]);
+    free(w->out);
+    free(w->bstart);
+    free(w->bcell);
+    free(w->w);
+    free(w->wc);
+    free(w);
+}
+
+void ofx_abort(ofx_writer *w)
+{
+    if (!w)
+        return;
+    (void)ncfile_close(&w->nc);
+    if (w->tmp[0])
+        unlink(w->tmp);
+    writer_free(w);
+}
+
+static int on_plane(const ofx_writer *w, size_t c) { return isfinite(w->cx[c]) && isfinite(w->cy[c]); }
+static int water(const ofx_writer *w, size_t c) { return !(w->land && w->land[c]) && on_plane(w, c); }
+
+/* Bins over the cells' centres (land too: it tells inside from outside),
+ * side ~ the mean cell size. */
+static int build_index(ofx_writer *w, sph_error *err)
+{
+    double x0 = HUGE_VAL, x1 = -HUGE_VAL, y0 = HUGE_VAL, y1 = -HUGE_VAL, side = 0.0;
+    size_t nw = 0;
+    for (size_t c = 0; c < w->n; c++) {
+        if (!on_plane(w, c))
+            continue;
+        x0 = fmin(x0, w->cx[c]);
+        x1 = fmax(x1, w->cx[c]);
+        y0 = fmin(y0, w->cy[c]);
+        y1 = fmax(y1, w->cy[c]);
+        side += sqrt(w->area[c]);
+        nw++;
+    }
+    w->bin = nw ? side / (double)nw : 1.0;
+    if (!nw) {
+        x0 = x1 = y0 = y1 = 0.0;
+    }
+    w->bx0 = x0;
+    w->by0 = y0;
+    double fx = (x1 - x0) / w->bin + 1.0, fy = (y1 - y0) / w->bin + 1.0;
+    /* at most ~4 bins per cell: a plane far wider than its cells (a grid
+     * crossing the projection's edge) gets coarser bins */
+    while (fx * fy > 4.0 * (double)w->n + 16.0) {
+        w->bin *= 2.0;
+        fx = (x1 - x0) / w->bin + 1.0;
+        fy = (y1 - y0) / w->bin + 1.0;
+    }
+    w->nbx = (int)fx;
+    w->nby = (int)fy;
+    size_t nb = (size_t)w->nbx * (size_t)w->nby;
+    w->bstart = calloc(nb + 1, sizeof *w->bstart);
+    w->bcell = malloc((nw ? nw : 1) * sizeof *w->bcell);
+    if (!w->bstart || !w->bcell)
+        return sph_err_set(err, SPH_ERR_NOMEM, "ocean fluxes %s: out of memory (grid index)", w->path);
+    for (size_t c = 0; c < w->n; c++)
+        if (on_plane(w, c)) {
+            int bi = (int)((w->cx[c] - x0) / w->bin), bj = (int)((w->cy[c] - y0) / w->bin);
+            w->bstart[(size_t)bj * w->nbx + bi + 1]++;
+        }
+    for (size_t b = 0; b < nb; b++)
+        w->bstart[b + 1] += w->bstart[b];
+    size_t *fill = calloc(nb ? nb : 1, sizeof *fill);
+    if (!fill)
+        return sph_err_set(err, SPH_ERR_NOMEM, "ocean fluxes %s: out of memory (grid index)", w->path);
+    for (size_t c = 0; c < w->n; c++) /* cells in index order: deterministic sums */
+        if (on_plane(w, c)) {
+            int bi = (int)((w->cx[c] - x0) / w->bin), bj = (int)((w->cy[c] - y0) / w->bin);
+            size_t b = (size_t)bj * w->nbx + bi;
+            w->bcell[w->bstart[b] + fill[b]++] = c;
+        }
+    free(fill);
+    return SPH_OK;
+}
+
+#define NCW(call, what)                                                                      \
+    do {                                                                                     \
+        int st_ = (call);                                                                    \
+        if (st_ != NC_NOERR)                                                                 \
+            return sph_err_set(err, SPH_ERR_NETCDF, "ocean fluxes %s: %s: %s", w->path, what, \
+                               nc_strerror(st_));                                            \
+    } while (0)
+
+static int put_text(int nc, int var, const char *name, const char *text)
+{
+    return text ? nc_put_att_text(nc, var, name, strlen(text), text) : NC_NOERR;
+}
+
+static int def_coord(int nc, const char *name, int ndims, const int *dims, const char *std, const char *units,
+                     const char *axis, int *v)
+{
+    int st;
+    if ((st = nc_def_var(nc, name, NC_DOUBLE, ndims, dims, v)) || (st = put_text(nc, *v, "standard_name", std)) ||
+        (st = put_text(nc, *v, "units", units)))
+        return st;
+    return put_text(nc, *v, "axis", axis);
+}
+
+static int define_file(ofx_writer *w, const ofx_grid *g, const ofx_meta *m, sph_error *err)
+{
+    int nc = w->nc, d_t, d_nv, d_y, d_x, v_x, v_y, v_area, v_lon = -1, v_lat = -1;
+    int lonlat = g->kind == OFX_GRID_LONLAT;
+    NCW(nc_def_dim(nc, "time", NC_UNLIMITED, &d_t), "define dimension");
+    NCW(nc_def_dim(nc, "nv", 2, &d_nv), "define dimension");
+    NCW(nc_def_dim(nc, lonlat ? "lat" : "y", (size_t)g->ny, &d_y), "define dimension");
+    NCW(nc_def_dim(nc, lonlat ? "lon" : "x", (size_t)g->nx, &d_x), "define dimension");
+    NCW(nc_def_var(nc, "time", NC_DOUBLE, 1, &d_t, &w->v_time), "define variable");
+    NCW(put_text(nc, w->v_time, "standard_name", "time"), "write attribute");
+    NCW(put_text(nc, w->v_time, "long_name", "end of the averaging interval"), "write attribute");
+    NCW(put_text(nc, w->v_time, "units", "seconds since 1970-01-01 00:00:00"), "write attribute");
+    NCW(put_text(nc, w->v_time, "calendar", "standard"), "write attribute");
+    NCW(put_text(nc, w->v_time, "axis", "T"), "write attribute");
+    NCW(put_text(nc, w->v_time, "bounds", "time_bnds"), "write attribute");
+    int dtb[2] = {d_t, d_nv};
+    NCW(nc_def_var(nc, "time_bnds", NC_DOUBLE, 2, dtb, &w->v_bnds), "define variable");
+    NCW(put_text(nc, w->v_bnds, "units", "seconds since 1970-01-01 00:00:00"), "write attribute");
+    int d2[2] = {d_y, d_x}, d3[3] = {d_t, d_y, d_x};
+    /* lon/lat axes, or x/y axes with 2-D lat/lon auxiliary coordinates */
+    NCW(def_coord(nc, lonlat ? "lat" : "y", 1, &d_y, lonlat ? "latitude" : "projection_y_coordinate",
+                  lonlat ? "degrees_north" : "m", "Y", &v_y), "define variable");
+    NCW(def_coord(nc, lonlat ? "lon" : "x", 1, &d_x, lonlat ? "longitude" : "projection_x_coordinate",
+                  lonlat ? "degrees_east" : "m", "X", &v_x), "define variable");
+    if (!lonlat) {
+        NCW(def_coord(nc, "lat", 2, d2, "latitude", "degrees_north", NULL, &v_lat), "define variable");
+        NCW(def_coord(nc, "lon", 2, d2, "longitude", "degrees_east", NULL, &v_lon), "define variable");
+    }
+    NCW(nc_def_var(nc, "areacello", NC_DOUBLE, 2, d2, &v_area), "define variable");
+    NCW(put_text(nc, v_area, "standard_name", "cell_area"), "write attribute");
+    NCW(put_text(nc, v_area, "long_name", "true area of the cell"), "write attribute");
+    NCW(put_text(nc, v_area, "units", "m2"), "write attribute");
+    if (!lonlat)
+        NCW(put_text(nc, v_area, "coordinates", "lat lon"), "write attribute");
+    NCW(nc_def_var(nc, "particles_lost", NC_INT64, 1, &d_t, &w->v_lost), "define variable");
+    NCW(put_text(nc, w->v_lost, "long_name", "particles farther from every water cell than their "
+                                             "radius: their fluxes are not in this record"), "write attribute");
+    NCW(put_text(nc, w->v_lost, "units", "1"), "write attribute");
+    for (int k = 0; k < OFX_NFIELDS; k++) {
+        int v;
+        NCW(nc_def_var(nc, specs[k].name, NC_DOUBLE, 3, d3, &v), "define variable");
+        size_t chunk[3] = {1, (size_t)g->ny, (size_t)g->nx};
+        NCW(nc_def_var_chunking(nc, v, NC_CHUNKED, chunk), "define chunking");
+        NCW(nc_def_var_deflate(nc, v, 1, 1, 4), "define compression");
+        double fill = OFX_FILL;
+        NCW(nc_def_var_fill(nc, v, 0, &fill), "define fill value");
+        NCW(put_text(nc, v, "standard_name", specs[k].standard_name), "write attribute");
+        NCW(put_text(nc, v, "long_name", specs[k].long_name), "write attribute");
+        NCW(put_text(nc, v, "units", specs[k].units), "write attribute");
+        NCW(put_text(nc, v, "cell_methods", specs[k].cell_methods), "write attribute");
+        NCW(put_text(nc, v, "cell_measures", "area: areacello"), "write attribute");
+        NCW(put_text(nc, v, "positive", specs[k].positive), "write attribute");
+        if (!lonlat)
+            NCW(put_text(nc, v, "coordinates", "lat lon"), "write attribute");
+        w->v_data[k] = v;
+    }
+    char iso[32];
+    time_format_iso(m->cycle_time, iso, sizeof iso);
+    NCW(put_text(nc, NC_GLOBAL, "Conventions", "CF-1.8"), "write attribute");
+    NCW(put_text(nc, NC_GLOBAL, "title", m->title ? m->title : "sphice fluxes into the ocean"),
+        "write attribute");
+    NCW(put_text(nc, NC_GLOBAL, "institution", m->institution), "write attribute");
+    NCW(put_text(nc, NC_GLOBAL, "source", "sphice SPH sea-ice model"), "write attribute");
+    NCW(put_text(nc, NC_GLOBAL, "sphice_version", m->model_version), "write attribute");
+    NCW(put_text(nc, NC_GLOBAL, "git_revision", m->git_revision), "write attribute");
+    NCW(put_text(nc, NC_GLOBAL, "cycle_time", iso), "write attribute");
+    NCW(put_text(nc, NC_GLOBAL, "comment",
+                 "Fluxes into the ocean, positive down, means over each record's time_bnds; "
+                 "siconc, sivol, sithick at the record's end. Layout, signs and formulas: "
+                 "docs/ocean-coupling.md."), "write attribute");
+    if (g->projection)
+        NCW(put_text(nc, NC_GLOBAL, "model_plane_projection", g->projection), "write attribute");
+    if (g->grid_source)
+        NCW(put_text(nc, NC_GLOBAL, "grid_source", g->grid_source), "write attribute");
+    NCW(nc_enddef(nc), "end definitions");
+    NCW(nc_put_var_double(nc, v_x, g->xaxis), "write");
+    NCW(nc_put_var_double(nc, v_y, g->yaxis), "write");
+    if (!lonlat) {
+        NCW(nc_put_var_double(nc, v_lat, g->lat), "write");
+        NCW(nc_put_var_double(nc, v_lon, g->lon), "write");
+    }
+    NCW(nc_put_var_double(nc, v_area, g->area), "write");
+    return SPH_OK;
+}
+
+int ofx_open(ofx_writer **out, const ofx_grid *g, const ofx_meta *m, const char *path, sph_error *err)
+{
+    *out = NULL;
+    if (!g || !m || !path || g->nx < 1 || g->ny < 1 || !g->xaxis || !g->yaxis || !g->cx || !g->cy ||
+        !g->area || (g->kind == OFX_GRID_PLANE && (!g->lon || !g->lat)))
+        return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes %s: incomplete grid", path ? path : "(no path)");
+    ofx_writer *w = calloc(1, sizeof *w);
+    if (!w)
+        return sph_err_set(err, SPH_ERR_NOMEM, "ocean fluxes %s: out of memory", path);
+    w->nc = -1;
+    w->kind = g->kind;
+    w->nx = g->nx;
+    w->ny = g->ny;
+    w->n = (size_t)g->nx * (size_t)g->ny;
+    if (snprintf(w->path, sizeof w->path, "%s", path) >= (int)sizeof w->path) {
+        writer_free(w);
+        return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes: path too long: %s", path);
+    }
+    for (size_t c = 0; c < w->n; c++)
+        if (!(g->area[c] > 0.0) || !isfinite(g->area[c])) {
+            int rc = sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes %s: cell %zu has area %g m2 (must be > 0)",
+                                 path, c, g->area[c]);
+            writer_free(w);
+            return rc;
+        }
+    int ok = 1;
+    size_t bytes = w->n * sizeof(double);
+    ok &= (w->cx = malloc(bytes)) != NULL;
+    ok &= (w->cy = malloc(bytes)) != NULL;
+    ok &= (w->area = malloc(bytes)) != NULL;
+    ok &= (w->out = malloc(bytes)) != NULL;
+    for (int k = 0; k < NACC; k++)
+        ok &= (w->acc[k] = calloc(w->n, sizeof(double))) != NULL;
+    for (int k = 0; k < OFX_NFIELDS; k++)
+        ok &= (w->add[k] = calloc(w->n, sizeof(double))) != NULL;
+    if (g->land)
+        ok &= (w->land = malloc(w->n)) != NULL;
+    if (!ok) {
+        writer_free(w);
+        return sph_err_set(err, SPH_ERR_NOMEM, "ocean fluxes %s: out of memory (%zu cells)", path, w->n);
+    }
+    memcpy(w->cx, g->cx, bytes);
+    memcpy(w->cy, g->cy, bytes);
+    memcpy(w->area, g->area, bytes);
+    if (g->land)
+        memcpy(w->land, g->land, w->n);
+    int rc = build_index(w, err);
+    if (rc) {
+        writer_free(w);
+        return rc;
+    }
+    atomic_tmp_name(path, w->tmp, sizeof w->tmp);
+    int st = nc_create(w->tmp, NC_NETCDF4 | NC_CLOBBER, &w->nc);
+    if (st != NC_NOERR) {
+        w->nc = -1;
+        w->tmp[0] = '\0';
+        rc = sph_err_set(err, SPH_ERR_NETCDF, "ocean fluxes %s: create: %s", path, nc_strerror(st));
+        writer_free(w);
+        return rc;
+    }
+    if ((rc = define_file(w, g, m, err))) {
+        ofx_abort(w);
+        return rc;
+    }
+    *out = w;
+    return SPH_OK;
+}
+
+/* The water cells within radius R of (x, y) and their normalised weights
+ * into w->wc / w->w; the nearest water cell within R + 2 bins when none
+ * is. A point farther than 0.75 sqrt(area) from the nearest cell centre
+ * (land or water) is outside the grid (a square cell's corner is at
+ * 0.707). Returns the count (0: outside or lost). */
+static size_t place(ofx_writer *w, double x, double y, double R, sph_error *err, int *rc)
+{
+    size_t cnt = 0;
+    double sum = 0.0, reach = R + 2.0 * w->bin, best = HUGE_VAL, best_any = HUGE_VAL;
+    size_t bestc = 0, bestc_any = 0;
+    int i0 = (int)floor((x - reach - w->bx0) / w->bin), i1 = (int)floor((x + reach - w->bx0) / w->bin);
+    int j0 = (int)floor((y - reach - w->by0) / w->bin), j1 = (int)floor((y + reach - w->by0) / w->bin);
+    if (i0 < 0)
+        i0 = 0;
+    if (j0 < 0)
+        j0 = 0;
+    if (i1 >= w->nbx)
+        i1 = w->nbx - 1;
+    if (j1 >= w->nby)
+        j1 = w->nby - 1;
+    for (int j = j0; j <= j1; j++)
+        for (int i = i0; i <= i1; i++) {
+            size_t b = (size_t)j * w->nbx + i;
+            for (size_t q = w->bstart[b]; q < w->bstart[b + 1]; q++) {
+                size_t c = w->bcell[q];
+                double dx = w->cx[c] - x, dy = w->cy[c] - y, d2 = dx * dx + dy * dy;
+                if (d2 < best_any) {
+                    best_any = d2;
+                    bestc_any = c;
+                }
+                if (!water(w, c))
+                    continue;
+                if (d2 < best) {
+                    best = d2;
+                    bestc = c;
+                }
+                if (d2 >= R * R)
+                    continue;
+                if (cnt == w->wcap) {
+                    size_t nc = w->wcap ? 2 * w->wcap : 64;
+                    double *nw = realloc(w->w, nc * sizeof *nw);
+                    if (nw)
+                        w->w = nw;
+                    size_t *nwc = nw ? realloc(w->wc, nc * sizeof *nwc) : NULL;
+                    if (!nw || !nwc) {
+                        *rc = sph_err_set(err, SPH_ERR_NOMEM, "ocean fluxes %s: out of memory", w->path);
+                        return 0;
+                    }
+                    w->wc = nwc;
+                    w->wcap = nc;
+                }
+                double s = 1.0 - d2 / (R * R);
+                w->w[cnt] = s * s * w->area[c];
+                w->wc[cnt++] = c;
+                sum += w->w[cnt - 1];
+            }
+        }
+    if (!(best_any <= 0.5625 * w->area[bestc_any])) /* 0.75^2 */
+        return 0;
+    if (cnt == 0 || !(sum > 0.0)) {
+        if (best > reach * reach)
+            return 0;
+        if (w->wcap == 0) {
+            w->w = malloc(64 * sizeof *w->w);
+            w->wc = malloc(64 * sizeof *w->wc);
+            if (!w->w || !w->wc) {
+                *rc = sph_err_set(err, SPH_ERR_NOMEM, "ocean fluxes %s: out of memory", w->path);
+                return 0;
+            }
+            w->wcap = 64;
+        }
+        w->w[0] = 1.0;
+        w->wc[0] = bestc;
+        return 1;
+    }
+    for (size_t q = 0; q < cnt; q++)
+        w->w[q] /= sum;
+    return cnt;
+}
+
+int ofx_add_particles(ofx_writer *w, const ofx_particles *p, sph_error *err)
+{
+    if (!w || !p)
+        return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes: no writer or particles");
+    if (p->n == 0)
+        return SPH_OK;
+    const double *src[NACC] = {p->heat_ice, p->heat_lead, p->water, p->salt, p->taux, p->tauy,
+                               p->swbase, p->ice_area, p->ice_volume};
+    if (!p->x || !p->y || !p->radius)
+        return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes %s: particles without positions", w->path);
+    for (int a = 0; a < NACC; a++)
+        if (!src[a])
+            return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes %s: particle amount %d missing", w->path, a);
+    for (size_t k = 0; k < p->n; k++) {
+        for (int a = 0; a < NACC; a++)
+            if (!isfinite(src[a][k]))
+                return sph_err_set(err, SPH_ERR_NUMERICS, "ocean fluxes %s: particle %zu: amount %d is not finite",
+                                   w->path, k, a);
+        int rc = SPH_OK;
+        double R = p->radius[k] > 0.0 && isfinite(p->radius[k]) ? p->radius[k] : 0.0;
+        size_t cnt = isfinite(p->x[k]) && isfinite(p->y[k]) ? place(w, p->x[k], p->y[k], R, err, &rc) : 0;
+        if (rc)
+            return rc;
+        if (cnt == 0) {
+            w->lost++;
+            continue;
+        }
+        for (size_t q = 0; q < cnt; q++) {
+            size_t c = w->wc[q];
+            double wt = w->w[q];
+            for (int a = 0; a < NACC; a++)
+                w->acc[a][c] += wt * src[a][k];
+        }
+    }
+    return SPH_OK;
+}
+
+int ofx_add_cells(ofx_writer *w, int k, const double *flux, sph_error *err)
+{
+    if (!w || !flux)
+        return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes: no writer or cell fluxes");
+    if (k < OFX_HFDS || k > OFX_SIFLSWDBOT)
+        return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes %s: field %d is not a flux that cells may add to",
+                           w->path, k);
+    for (size_t c = 0; c < w->n; c++) {
+        if (!isfinite(flux[c]))
+            return sph_err_set(err, SPH_ERR_NUMERICS, "ocean fluxes %s: %s of cell %zu is not finite", w->path,
+                               specs[k].name, c);
+        if (flux[c] != 0.0 && !water(w, c))
+            return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes %s: %s of cell %zu is %g on land", w->path,
+                               specs[k].name, c, flux[c]);
+    }
+    /* the stress pairs stay opposite */
+    int twin = k == OFX_TAUUO ? OFX_SISTRXUBOT : k == OFX_TAUVO ? OFX_SISTRYUBOT
+             : k == OFX_SISTRXUBOT ? OFX_TAUUO : k == OFX_SISTRYUBOT ? OFX_TAUVO : -1;
+    for (size_t c = 0; c < w->n; c++) {
+        w->add[k][c] += flux[c];
+        if (twin >= 0)
+            w->add[twin][c] -= flux[c];
+    }
+    /* hfsithermds is part of hfds: heat under the ice adds to both */
+    if (k == OFX_HFSITHERMDS)
+        for (size_t c = 0; c < w->n; c++)
+            w->add[OFX_HFDS][c] += flux[c];
+    return SPH_OK;
+}
+
+/* Field k of the current record into w->out. */
+static void record_field(ofx_writer *w, int k, double dt)
+{
+    for (size_t c = 0; c < w->n; c++) {
+        if (!water(w, c)) {
+            w->out[c] = OFX_FILL;
+            continue;
+        }
+        double r = 1.0 / (w->area[c] * dt), v;
+        switch (k) {
+        case OFX_HFDS: v = (w->acc[ACC_HEAT_ICE][c] + w->acc[ACC_HEAT_LEAD][c]) * r; break;
+        case OFX_HFSITHERMDS: v = w->acc[ACC_HEAT_ICE][c] * r; break;
+        case OFX_SIFLFWBOT: v = w->acc[ACC_WATER][c] * r; break;
+        case OFX_SIFLSALTBOT: v = w->acc[ACC_SALT][c] * r; break;
+        case OFX_TAUUO: v = w->acc[ACC_TAUX][c] * r; break;
+        case OFX_TAUVO: v = w->acc[ACC_TAUY][c] * r; break;
+        case OFX_SISTRXUBOT: v = -w->acc[ACC_TAUX][c] * r; break;
+        case OFX_SISTRYUBOT: v = -w->acc[ACC_TAUY][c] * r; break;
+        case OFX_SIFLSWDBOT: v = w->acc[ACC_SWBASE][c] * r; break;
+        /* the particles' footprints m/M need not tile the plane exactly, so
+         * the regridded ice area may exceed a cell: the fraction is capped
+         * at 1 (volume and fluxes are not: they conserve) */
+        case OFX_SICONC: v = fmin(1.0, w->acc[ACC_ICE_AREA][c] / w->area[c]); break;
+        case OFX_SIVOL: v = w->acc[ACC_ICE_VOLUME][c] / w->area[c]; break;
+        default: { /* OFX_SITHICK = sivol / siconc */
+            double a = fmin(w->acc[ACC_ICE_AREA][c], w->area[c]);
+            v = a > 0.0 ? w->acc[ACC_ICE_VOLUME][c] / a : OFX_FILL;
+            break;
+        }
+        }
+        w->out[c] = k <= OFX_SIFLSWDBOT ? v + w->add[k][c] : v;
+    }
+}
+
+int ofx_write_record(ofx_writer *w, double t_start, double t_end, sph_error *err)
+{
+    if (!w)
+        return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes: no writer");
+    double dt = t_end - t_start;
+    if (!(dt > 0.0) || !isfinite(dt))
+        return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes %s: interval [%g, %g] is empty", w->path, t_start,
+                           t_end);
+    size_t r = w->nrec;
+    size_t s1 = r, one = 1, s2[2] = {r, 0}, c2[2] = {1, 2};
+    double bnds[2] = {t_start, t_end};
+    long long lost = (long long)w->lost;
+    NCW(nc_put_var1_double(w->nc, w->v_time, &s1, &t_end), "write");
+    NCW(nc_put_vara_double(w->nc, w->v_bnds, s2, c2, bnds), "write");
+    NCW(nc_put_vara_longlong(w->nc, w->v_lost, &s1, &one, &lost), "write");
+    size_t s3[3] = {r, 0, 0}, c3[3] = {1, (size_t)w->ny, (size_t)w->nx};
+    for (int k = 0; k < OFX_NFIELDS; k++) {
+        record_field(w, k, dt);
+        NCW(nc_put_vara_double(w->nc, w->v_data[k], s3, c3, w->out), "write");
+    }
+    for (int a = 0; a < NACC; a++)
+        memset(w->acc[a], 0, w->n * sizeof(double));
+    for (int k = 0; k < OFX_NFIELDS; k++)
+        memset(w->add[k], 0, w->n * sizeof(double));
+    w->lost_record = w->lost;
+    w->lost = 0;
+    w->nrec++;
+    return SPH_OK;
+}
+
+int ofx_close(ofx_writer *w, sph_error *err)
+{
+    if (!w)
+        return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes: no writer");
+    int st = ncfile_close(&w->nc);
+    if (st != NC_NOERR) {
+        int rc = sph_err_set(err, SPH_ERR_NETCDF, "ocean fluxes %s: close: %s", w->path, nc_strerror(st));
+        ofx_abort(w);
+        return rc;
+    }
+    int rc = atomic_commit(w->tmp, w->path, err);
+    if (rc) {
+        ofx_abort(w);
+        return rc;
+    }
+    w->tmp[0] = '\0';
+    writer_free(w);
+    return SPH_OK;
+}
