@@ -191,6 +191,7 @@ void sph_strain_pass(sph_model *m, const int *list, size_t count);
 void sph_divergence_pass(sph_model *m, const int *list, size_t count);
 void sph_gradient_correction_pass(sph_model *m);
 void sph_free_drift_pass(sph_model *m);
+void sph_parcels_drift_pass(sph_model *m);
 void sph_continuity_pass(sph_model *m);
 void sph_update_sml(sph_model *m);
 
