@@ -309,12 +309,16 @@ static void parcels_diagnose(sph_model *m)
 }
 
 /* Neighbours' part of prepare() for parcels: cell order (locality of the
- * forcing and of the arrays), diagnosis, every particle loose. */
+ * forcing and of the arrays) every SPH_PARCELS_REORDER steps (parcels
+ * move a fraction of a cell per step; a reorder permutes every field),
+ * diagnosis, every particle loose. */
+#define SPH_PARCELS_REORDER 16
 static void parcels_prepare(sph_model *m)
 {
     sph_particles *P = m->P;
     size_t n = P->n;
-    sph_reorder(m);
+    if (m->steps % SPH_PARCELS_REORDER == 0)
+        sph_reorder(m);
     m->ng = 0;
     sph_diagnose_pass(m);
     for (size_t k = 0; k < n; k++) {

@@ -262,7 +262,8 @@ void sph_free_drift_pass(sph_model *m)
  * (F: internal force, air stress / M, -g grad xi). Its modulus gives
  * s = |W| as the root of phi(s) = s |1 + i a + b s e^{i theta}| - |G|,
  * increasing and convex for |theta| <= 90 degrees: Newton from
- * s0 = |G| / |1 + i a| >= the root converges monotonically, 3-6 steps.
+ * s0 = |G| / |1 + i a| >= the root converges monotonically (from any
+ * s0 > 0 after its first step); started at the last step's relative speed.
  * Then W = G / (1 + i a + b s e^{i theta}) and z = Z_w - W: an algebraic
  * solve, no transcendental function. It agrees with the Picard sweeps to
  * their stopping tolerance (1e-13 relative; tests/test_parcels.c). */
@@ -287,7 +288,12 @@ void sph_parcels_drift_pass(sph_model *m)
         double gr = (uw - a * vw) - (un + a * vn) - dt * fx;
         double gi = (vw + a * uw) - (vn - a * un) - dt * fy;
         double G = sqrt(gr * gr + gi * gi);
-        double s = G / sqrt(1.0 + a * a);
+        /* start: the relative speed at the start of the step (close in a
+         * slowly varying drift); from below, Newton's first step lands
+         * above the root, then it descends monotonically */
+        double s = sqrt((uw - un) * (uw - un) + (vw - vn) * (vw - vn));
+        if (!(s > 0.0))
+            s = G / sqrt(1.0 + a * a);
         for (int it = 0; it < 50; it++) {
             double re = 1.0 + b * s * cw, im = a + b * s * sw;
             double q = sqrt(re * re + im * im);
