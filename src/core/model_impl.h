@@ -78,6 +78,8 @@ struct sph_model {
     sph_thermo_work *tw;
     double *binv;    /* [6*c2] gradient correction per particle: B^-1 of the strain
                         rates (b11, b12, b22), then of the stress divergence */
+    size_t binv_ident;  /* slots [0, binv_ident) hold the identity or the correction;
+                           beyond, untouched zero pages (memory: model.c) */
     sph_budget budget;
     sph_step_stats stats;
     double time, thermo_accum;

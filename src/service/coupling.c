@@ -269,7 +269,6 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
         if (c->plane) { /* from the table: no trigonometry per particle */
             cs = c->cs[k];
             sn = c->sn[k];
-            c->angle[k] = NAN;
         } else {
             double a = geo_grid_angle(proj, c->lon[k], c->lat[k]);
             if (!isfinite(a))
