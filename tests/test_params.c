@@ -48,7 +48,7 @@ static void test_rows(void)
 {
     size_t n;
     const sph_param *t = sph_param_table(&n);
-    CHECK(n == 54, "54 rows (the configuration's model.* keys), got %zu", n);
+    CHECK(n == 55, "55 rows (the configuration's model.* keys; model.free_drift_parcels is the 55th), got %zu", n);
     sph_params d;
     sph_params_default(&d);
     for (size_t i = 0; i < n; i++) {
