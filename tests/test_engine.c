@@ -398,6 +398,16 @@ int main(int argc, char **argv)
         sph_config_free(c);
     }
     {
+        /* parcels are a free-drift path: with another physics, refused */
+        struct sph_config *c = load(300, "[\"wind\", \"tair\"]", "ice.nc");
+        c->model.physics = SPH_PHYSICS_AUTO;
+        c->model.free_drift_parcels = 1;
+        run_out o;
+        run(c, "stage-parcels", 6, NULL, NULL, &o);
+        expect_failure(&o, SPH_ERR_PARAM, "model.free_drift_parcels false", "parcels without free drift");
+        sph_config_free(c);
+    }
+    {
         /* a step outside the measured stability envelope (0.2 s/m x the
          * 0.02 deg spacing, about 340 s here) is the settings' fault */
         struct sph_config *c = load(600, "[\"wind\", \"tair\"]", "ice.nc");

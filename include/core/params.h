@@ -60,6 +60,7 @@ typedef struct sph_params {
     double delta_min;           /* s^-1, 2e-9 */
     int replacement_pressure;   /* Hibler/Kreyscher replacement pressure */
     double auto_tolerance;      /* auto: free drift where exp(-C(1-A)) < tol */
+    int free_drift_parcels;     /* free_drift: independent parcels, no SPH (model.c) */
     /* collision rheology (Shen, Hibler & Lepparanta 1987) */
     double coll_restitution;    /* e_r */
     double coll_floe_diameter;  /* d = D, m */

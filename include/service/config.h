@@ -77,6 +77,7 @@ struct sph_config {
         char *name;
         double lon_min, lon_max, lat_min, lat_max;
         char *projection;       /* "auto" or a PROJ string */
+        int plane_tables;       /* lon/lat and grid angle from tables (io/geo.h) */
     } domain;
 
     sph_params model;           /* every field has a key under model. */

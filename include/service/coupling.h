@@ -46,6 +46,8 @@ typedef struct fc_coupling {
     long *ids_before;           /* ids and positions at the last fill (error messages) */
     double *lon_before, *lat_before;
     size_t n_before;
+    geo_plane_table *plane;     /* domain.plane_tables (NULL: PROJ per particle); owned */
+    double *cs, *sn;            /* [cap] cos and sin of the grid angle from plane */
 } fc_coupling;
 
 /* Opens the forcing of the cycle [t0, t_end] over the configured domain

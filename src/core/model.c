@@ -87,11 +87,7 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     m->vn = calloc(c2, sizeof(double));
     m->zeta = calloc(c2, sizeof(double));
     m->dvel = calloc(c2, sizeof(double));
-    m->binv = calloc(6 * c2, sizeof(double));
-    for (size_t q = 0; m->binv && q < 2 * c2; q++) { /* B^-1 = I: no correction */
-        m->binv[3 * q] = 1.0;
-        m->binv[3 * q + 2] = 1.0;
-    }
+    m->binv = calloc(6 * c2, sizeof(double)); /* B^-1 = I set as slots come into use */
     m->fcor = calloc(c2, sizeof(double));
     m->scratch = calloc(c2 * SPH_MAX_LAYERS, sizeof(double));
     m->order = calloc(c2, sizeof(int));
@@ -181,6 +177,8 @@ int sph_model_set_params(sph_model *m, const sph_params *p)
     if (!r || !s || rheology_fields(m, r) != 0 || use_solver(m, s) != 0)
         return SPH_STEP_FATAL;
     m->rheo = r;
+    if (m->prm.gradient_correction && !p->gradient_correction)
+        m->binv_ident = 0; /* the identity again, as slots are used */
     m->prm = *p;
     m->prm.thermo.rho_w = m->prm.rho_w; /* one sea-water density: drag and freeboard */
     sph_kernel_init(&m->kern, p->kernel, p->kernel_radius);
@@ -267,6 +265,16 @@ static int prepare(sph_model *m, sph_status *st)
     sph_reorder(m);
     sph_build_ghosts(m);
     size_t nall = P->n + m->ng;
+    /* B^-1 = I (no correction) for the slots in use: set once per slot, so
+     * that the pages beyond the live particles and ghosts stay untouched
+     * (4 x capacity x 48 bytes with a land mask; 190 MB at 1e6) */
+    for (size_t q = m->binv_ident; q < nall; q++) {
+        double *b = m->binv + 6 * q;
+        b[0] = b[2] = b[3] = b[5] = 1.0;
+        b[1] = b[4] = 0.0;
+    }
+    if (nall > m->binv_ident)
+        m->binv_ident = nall;
     double cell = m->kern.radius * sph_max_sml(P, nall);
     sph_nbr_grid(m->nb, nall, P->x, P->y, cell);
     long over = -1;
@@ -289,6 +297,56 @@ static int prepare(sph_model *m, sph_status *st)
     sph_ghost_stress(m);
     sph_select_active(m);
     return SPH_STEP_OK;
+}
+
+/* ------------------------------------------------------------------ */
+/* free drift as independent parcels (model.free_drift_parcels)       */
+
+/* 1 where a step runs without SPH machinery: whole-run free drift with
+ * model.free_drift_parcels. */
+static int parcels_mode(const sph_model *m)
+{
+    return m->prm.physics == SPH_PHYSICS_FREE_DRIFT && m->prm.free_drift_parcels;
+}
+
+/* The per-particle state the SPH passes would leave for a particle with
+ * no neighbour but itself: zero strain rates and stress, free drift, no
+ * coast ghosts; mass per area kept by continuity at zero divergence, with
+ * the same floor (sph_continuity_pass). */
+static void parcels_diagnose(sph_model *m)
+{
+    sph_particles *P = m->P;
+    const double rho_i = m->prm.rho_i;
+    const int continuity = !m->prm.summation_density;
+    size_t n = P->n;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
+        P->e11[k] = P->e22[k] = P->e12[k] = 0.0;
+        double floor_dens = SPH_CONC_MIN * rho_i * P->thick[k];
+        if (continuity && P->dens[k] < floor_dens)
+            P->dens[k] = floor_dens;
+    }
+}
+
+/* Neighbours' part of prepare() for parcels: cell order (locality of the
+ * forcing and of the arrays) every SPH_PARCELS_REORDER steps (parcels
+ * move a fraction of a cell per step; a reorder permutes every field),
+ * diagnosis, every particle loose. */
+#define SPH_PARCELS_REORDER 16
+static void parcels_prepare(sph_model *m)
+{
+    sph_particles *P = m->P;
+    size_t n = P->n;
+    if (m->steps % SPH_PARCELS_REORDER == 0)
+        sph_reorder(m);
+    m->ng = 0;
+    sph_diagnose_pass(m);
+    for (size_t k = 0; k < n; k++) {
+        P->regime[k] &= (unsigned char)~(SPH_REGIME_FREE_DRIFT | SPH_REGIME_RHEOLOGY |
+                                         SPH_REGIME_NEAR_COAST);
+        P->regime[k] |= SPH_REGIME_FREE_DRIFT;
+    }
+    m->nactive = 0;
 }
 
 static void update_budget(sph_model *m)
@@ -326,7 +384,10 @@ static int check_health(sph_model *m, sph_status *st)
             if (!isfinite(vals[q]))
                 return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_NONFINITE, P->id[k], names[q], vals[q], 0.0,
                                       "is not finite (numerical blow-up)");
-        double sp = hypot(P->u[k], P->v[k]);
+        /* hypot only near the limit (its overflow care is not needed for
+         * finite speeds this far below it; the decision is hypot's) */
+        double sp2 = P->u[k] * P->u[k] + P->v[k] * P->v[k];
+        double sp = sp2 > 0.81 * p->speed_limit * p->speed_limit ? hypot(P->u[k], P->v[k]) : 0.0;
         if (sp > p->speed_limit)
             return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_SPEED, P->id[k], "speed", sp, p->speed_limit,
                                   "exceeds the speed limit (numerical blow-up)");
@@ -425,14 +486,17 @@ int sph_model_init(sph_model *m, sph_status *st)
     }
     for (size_t k = 0; k < P->n; k++)
         P->dens[k] = p->rho_i * seed_conc[k] * seed_thick[k];
-    int rc = prepare(m, st);
+    int parcels = parcels_mode(m);
+    int rc = parcels ? (parcels_prepare(m), SPH_STEP_OK) : prepare(m, st);
     if (rc != SPH_STEP_OK)
         return rc;
     int maxc = 0;
-    for (size_t k = 0; k < P->n; k++)
-        maxc = m->nb->count[k] > maxc ? m->nb->count[k] : maxc;
     size_t ni = 0;
     double *ratio = m->scratch;
+    if (parcels)
+        goto calibrated; /* no neighbours: dens_scale only serves summation density */
+    for (size_t k = 0; k < P->n; k++)
+        maxc = m->nb->count[k] > maxc ? m->nb->count[k] : maxc;
     for (size_t k = 0; k < P->n; k++)
         if (m->nb->count[k] >= (int)(0.9 * maxc) && P->dens[k] > 0)
             ratio[ni++] = p->rho_i * seed_conc[k] * seed_thick[k] / P->dens[k];
@@ -452,13 +516,14 @@ int sph_model_init(sph_model *m, sph_status *st)
         if (med > 0.8 && med < 1.25 && p->summation_density)
             m->dens_scale = med;
     }
+calibrated:
     /* re-diagnose with the calibrated density from the seeded state */
     for (size_t k = 0; k < P->n; k++) {
         P->thick[k] = seed_thick[k];
         P->conc[k] = seed_conc[k];
         P->dens[k] = p->rho_i * seed_conc[k] * seed_thick[k];
     }
-    rc = prepare(m, st);
+    rc = parcels ? (parcels_prepare(m), SPH_STEP_OK) : prepare(m, st);
     if (rc != SPH_STEP_OK)
         return rc;
     for (size_t k = 0; k < P->n; k++)
@@ -620,7 +685,8 @@ int sph_model_step(sph_model *m, sph_status *st)
     m->stats.iterations = 0;
     m->stats.stalled = 0;
     m->stats.residual = 0.0;
-    int rc = prepare(m, st);
+    const int parcels = parcels_mode(m);
+    int rc = parcels ? (parcels_prepare(m), SPH_STEP_OK) : prepare(m, st);
     if (rc != SPH_STEP_OK)
         return rc;
     size_t n = P->n;
@@ -631,7 +697,10 @@ int sph_model_step(sph_model *m, sph_status *st)
         P->ax[k] = P->ay[k] = 0.0;
         m->fcor[k] = p->coriolis ? 2.0 * OMEGA_EARTH * sin(P->lat[k] * DEG2RAD) : 0.0;
     }
-    sph_free_drift_pass(m);
+    if (parcels)
+        sph_parcels_drift_pass(m);
+    else
+        sph_free_drift_pass(m);
     if (m->nactive > 0) {
         rc = m->solver->solve(m, m->solver_ws, st);
         if (rc != SPH_STEP_OK)
@@ -644,12 +713,16 @@ int sph_model_step(sph_model *m, sph_status *st)
      * at a coast otherwise kept "converging" into land and ridged without
      * bound) */
     sph_move_and_constrain(m);
-    /* final strain rates of every particle, for output, continuity and
-     * the smoothing length */
-    sph_ghost_velocity(m, P->u, P->v, 1);
-    sph_strain_pass(m, NULL, P->n);
-    if (!p->summation_density)
-        sph_continuity_pass(m);
+    if (parcels) {
+        parcels_diagnose(m);
+    } else {
+        /* final strain rates of every particle, for output, continuity
+         * and the smoothing length */
+        sph_ghost_velocity(m, P->u, P->v, 1);
+        sph_strain_pass(m, NULL, P->n);
+        if (!p->summation_density)
+            sph_continuity_pass(m);
+    }
     sph_remove_outflow(m);
     sph_update_sml(m);
     m->time += p->dt;

@@ -80,6 +80,8 @@ struct sph_model {
     double *binv;    /* [6*c2] gradient correction per particle: B^-1 of the strain
                         rates (b11, b12, b22), then of the stress divergence */
     sph_ocean *ocean;  /* the mixed layer (sph_model_ocean_create); NULL: none */
+    size_t binv_ident;  /* slots [0, binv_ident) hold the identity or the correction;
+                           beyond, untouched zero pages (memory: model.c) */
     sph_budget budget;
     sph_step_stats stats;
     double time, thermo_accum;
@@ -209,6 +211,7 @@ void sph_strain_pass(sph_model *m, const int *list, size_t count);
 void sph_divergence_pass(sph_model *m, const int *list, size_t count);
 void sph_gradient_correction_pass(sph_model *m);
 void sph_free_drift_pass(sph_model *m);
+void sph_parcels_drift_pass(sph_model *m);
 void sph_continuity_pass(sph_model *m);
 void sph_update_sml(sph_model *m);
 

@@ -73,6 +73,7 @@ static const sph_param rows[] = {
     DBL("implicit.tol", implicit_tol, 1e-6, 1e-14, 1, "1", "Implicit solver: relative residual."),
     ENUM("physics", physics, physics_names, SPH_PHYSICS_AUTO, "auto (free drift where loose, rheology where packed), full, free_drift."),
     DBL("auto_tolerance", auto_tolerance, 1e-2, 0, 1, "1", "auto physics: free drift where exp(-C(1-A)) is below this."),
+    BOOL("free_drift_parcels", free_drift_parcels, 0, "physics free_drift: particles drift as independent parcels (no neighbour search, mirror ghosts, density, strain rates or continuity; mass per area changes only by thermodynamics): several times faster, and identical to the SPH path wherever particles lie farther apart than the kernel support (docs/engine.md). Off: free drift still evolves each parcel's mass per area by the SPH divergence of the drift."),
     ENUM("rheology.kind", rheology, rheology_names, SPH_RHEOLOGY_VP, "Rheology: vp (Hibler viscous-plastic) or collision (Shen, Hibler & Lepparanta 1987)."),
     ENUM("rheology.pressure_form", pressure_form, pressure_names, SPH_PRESSURE_SEED, "seed: P = P0 exp(-C(1-A)) integrated as hbar P; hibler: P = P* hbar exp(-C(1-A))."),
     DBL("rheology.P0", P0, 1.0e4, 1, 1e7, "N/m^2", "Ice strength P0 (seed) or P* (hibler), N/m^2."),

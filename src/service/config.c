@@ -124,6 +124,8 @@ static const cfg_key head_keys[] = {
     C_("domain.lat_max", CT_DOUBLE, domain.lat_max, NULL, -90, 90, R, NULL, "North edge, degrees north."),
     C_("domain.projection", CT_STRING, domain.projection, "\"auto\"", 1, 511, R, NULL,
        "\"auto\" (local transverse Mercator at the domain centre) or a PROJ string."),
+    C_("domain.plane_tables", CT_BOOL, domain.plane_tables, "false", 0, 0, R, NULL,
+       "Longitude, latitude and the east/north rotation of the particles from tables computed once per run on a 1 km plane grid (bilinear; within 2 cm and 1e-10 rad of PROJ for aeqd, docs/engine.md) instead of PROJ and trigonometry per particle and step; refused within 2 degrees of a pole."),
 
 };
 

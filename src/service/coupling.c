@@ -113,7 +113,8 @@ int coupling_alloc(fc_coupling *c, size_t cap, sph_error *err)
     size_t n = cap ? cap : 1;
     double **arrays[] = {&c->lon, &c->lat, &c->angle, &c->ue, &c->vn, &c->uwe, &c->vwn, &c->gxe,
                          &c->gyn, &c->ssh, &c->tair, &c->qair, &c->swdn, &c->lwdn, &c->sst, &c->fw,
-                         &c->lon_before, &c->lat_before, &c->snowfall, &c->precip, &c->mld, &c->bathy};
+                         &c->lon_before, &c->lat_before, &c->snowfall, &c->precip, &c->mld, &c->bathy,
+                         &c->cs, &c->sn};
     int ok = 1;
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         ok &= (*arrays[k] = calloc(n, sizeof(double))) != NULL;
@@ -131,13 +132,15 @@ void coupling_free(fc_coupling *c)
     c->nforc = 0;
     double *arrays[] = {c->lon, c->lat, c->angle, c->ue, c->vn, c->uwe, c->vwn, c->gxe, c->gyn,
                         c->ssh, c->tair, c->qair, c->swdn, c->lwdn, c->sst, c->fw, c->lon_before,
-                        c->lat_before, c->snowfall, c->precip, c->mld, c->bathy};
+                        c->lat_before, c->snowfall, c->precip, c->mld, c->bathy, c->cs, c->sn};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         free(arrays[k]);
     for (int k = 0; k < CPL_NQ; k++)
         free(c->q[k]);
     free(c->bad);
     free(c->ids_before);
+    geo_plane_table_free(c->plane);
+    c->plane = NULL;
 }
 
 /* The sample slots of particle k: its place in each c->q[CPL_Q_*]. */
@@ -238,7 +241,8 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
     size_t n = P->n;
     if (n == 0)
         return SPH_OK;
-    int rc = geo_inverse(proj, n, P->x, P->y, c->lon, c->lat, err);
+    int rc = c->plane ? geo_plane_lookup(c->plane, n, P->x, P->y, c->lon, c->lat, c->cs, c->sn, err)
+                      : geo_inverse(proj, n, P->x, P->y, c->lon, c->lat, err);
     if (rc)
         return rc;
     const double tf = sph_freezing_point(th);
@@ -273,11 +277,18 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
                            "needs (add it, or set model.thermo.dt 0)");
     double pa = th->air_pressure;
     for (size_t k = 0; k < n; k++) {
-        double a = geo_grid_angle(proj, c->lon[k], c->lat[k]);
-        if (!isfinite(a))
-            a = 0.0;
-        c->angle[k] = a;
-        double cs = cos(a), sn = sin(a);
+        double cs, sn;
+        if (c->plane) { /* from the table: no trigonometry per particle */
+            cs = c->cs[k];
+            sn = c->sn[k];
+        } else {
+            double a = geo_grid_angle(proj, c->lon[k], c->lat[k]);
+            if (!isfinite(a))
+                a = 0.0;
+            c->angle[k] = a;
+            cs = cos(a);
+            sn = sin(a);
+        }
         /* east/north -> plane x/y (io/geo.h) */
         P->ua[k] = c->ue[k] * cs + c->vn[k] * sn;
         P->va[k] = -c->ue[k] * sn + c->vn[k] * cs;

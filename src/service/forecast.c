@@ -101,6 +101,11 @@ static int check_params(const struct sph_config *cfg, const sph_params *prm, sph
                                lo, hi);
         return sph_err_set(err, SPH_ERR_PARAM, "model: parameter %s outside [%g, %g]", name, lo, hi);
     }
+    if (prm->free_drift_parcels && prm->physics != SPH_PHYSICS_FREE_DRIFT)
+        return sph_err_set(err, SPH_ERR_PARAM,
+                           "model: free_drift_parcels is true but model.physics is not free_drift "
+                           "(parcels are a free-drift path; set model.physics \"free_drift\" or "
+                           "model.free_drift_parcels false)");
     if (cfg->model.thermo_dt > 0 && cfg->model.thermo.model != SPH_THERMO_OFF &&
         sph_thermo_params_check(&cfg->model.thermo, &name, &lo, &hi) != SPH_STEP_OK)
         return sph_err_set(err, SPH_ERR_PARAM, "model.thermo: parameter %s outside [%g, %g]", name, lo,
@@ -247,6 +252,13 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     double xmin, xmax, ymin, ymax;
     if ((rc = fc_plane_box(e, &xmin, &xmax, &ymin, &ymax, er)))
         goto fail;
+    if (cfg->domain.plane_tables) { /* 1 km nodes over the box and a margin of 2 km */
+        e->cpl.plane = geo_plane_table_create(e->proj, xmin - 2e3, xmax + 2e3, ymin - 2e3, ymax + 2e3, 1e3, er);
+        if (!e->cpl.plane) {
+            rc = er->code ? er->code : SPH_ERR_CONFIG;
+            goto fail;
+        }
+    }
 
     /* 3. forcing (before anything heavier: a missing file fails fast) */
     if ((rc = coupling_open(&e->cpl, cfg, req, e->t0, e->t_end, e->cname, er)))

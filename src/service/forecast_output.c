@@ -222,13 +222,23 @@ int fc_write_output(engine *e, double t, sph_error *err)
     const double rho_i = e->cfg->model.rho_i;
     sph_error local;
     sph_error_clear(&local);
-    if (n > 0 && geo_inverse(e->proj, n, P->x, P->y, e->olon, e->olat, &local) != SPH_OK)
+    int grc = e->cpl.plane ? geo_plane_lookup(e->cpl.plane, n, P->x, P->y, e->olon, e->olat, e->cpl.cs,
+                                              e->cpl.sn, &local)
+                           : geo_inverse(e->proj, n, P->x, P->y, e->olon, e->olat, &local);
+    if (n > 0 && grc != SPH_OK)
         return sph_err_set(err, SPH_ERR_NUMERICS, "output: %s", local.msg);
     for (size_t k = 0; k < n; k++) {
-        double a = geo_grid_angle(e->proj, e->olon[k], e->olat[k]);
-        if (!isfinite(a))
-            a = 0.0;
-        double c = cos(a), s = sin(a);
+        double c, s;
+        if (e->cpl.plane) { /* domain.plane_tables */
+            c = e->cpl.cs[k];
+            s = e->cpl.sn[k];
+        } else {
+            double a = geo_grid_angle(e->proj, e->olon[k], e->olat[k]);
+            if (!isfinite(a))
+                a = 0.0;
+            c = cos(a);
+            s = sin(a);
+        }
         /* plane x/y -> east/north: the inverse of the rotation in coupling_fill */
         e->pue[k] = P->u[k] * c - P->v[k] * s;
         e->pvn[k] = P->u[k] * s + P->v[k] * c;

@@ -201,3 +201,130 @@ int geo_rotate_to_plane(const geo_proj *p, size_t n, const double *lon, const do
     }
     return SPH_OK;
 }
+
+/* ------------------------------------------------------------------ */
+/* plane tables (domain.plane_tables)                                  */
+
+struct geo_plane_table {
+    const geo_proj *proj; /* for points outside the table */
+    double x0, y0, step, inv;
+    int nx, ny;           /* nodes */
+    double lon0;          /* longitudes stored relative to it (no wrap inside) */
+    double *node;         /* [4 * nx * ny]: lon - lon0, lat, cos, sin of the grid angle */
+};
+
+geo_plane_table *geo_plane_table_create(const geo_proj *p, double x0, double x1, double y0, double y1,
+                                        double step, sph_error *err)
+{
+    if (!p || !(x1 > x0) || !(y1 > y0) || !(step > 0.0)) {
+        sph_err_set(err, SPH_ERR_PARAM, "projection tables: empty box or step");
+        return NULL;
+    }
+    double fx = ceil((x1 - x0) / step) + 1.0, fy = ceil((y1 - y0) / step) + 1.0;
+    if (fx * fy > 4e7) {
+        sph_err_set(err, SPH_ERR_PARAM,
+                    "projection tables: %.0f x %.0f nodes at %g m over the domain is too many "
+                    "(set domain.plane_tables false)", fx, fy, step);
+        return NULL;
+    }
+    geo_plane_table *t = calloc(1, sizeof *t);
+    size_t nn = (size_t)fx * (size_t)fy;
+    double *xs = t ? malloc(2 * nn * sizeof *xs) : NULL;
+    double *ll = xs ? malloc(2 * nn * sizeof *ll) : NULL;
+    if (t)
+        t->node = malloc(4 * nn * sizeof *t->node);
+    if (!t || !xs || !ll || !t->node) {
+        free(xs);
+        free(ll);
+        geo_plane_table_free(t);
+        sph_err_set(err, SPH_ERR_NOMEM, "projection tables: out of memory");
+        return NULL;
+    }
+    t->proj = p;
+    t->x0 = x0;
+    t->y0 = y0;
+    t->step = step;
+    t->inv = 1.0 / step;
+    t->nx = (int)fx;
+    t->ny = (int)fy;
+    t->lon0 = p->lon0;
+    double *ys = xs + nn, *lon = ll, *lat = ll + nn;
+    for (int j = 0; j < t->ny; j++)
+        for (int i = 0; i < t->nx; i++) {
+            xs[(size_t)j * t->nx + i] = x0 + i * step;
+            ys[(size_t)j * t->nx + i] = y0 + j * step;
+        }
+    /* nodes that do not unproject stay NaN: cells touching them use PROJ */
+    (void)geo_inverse(p, nn, xs, ys, lon, lat, NULL);
+    int polar = 0;
+    for (size_t q = 0; q < nn; q++) {
+        double *nd = t->node + 4 * q;
+        double a = isfinite(lon[q]) ? geo_grid_angle(p, lon[q], lat[q]) : NAN;
+        nd[0] = isfinite(a) ? remainder(lon[q] - t->lon0, 360.0) : NAN;
+        nd[1] = isfinite(a) ? lat[q] : NAN;
+        nd[2] = isfinite(a) ? cos(a) : NAN;
+        nd[3] = isfinite(a) ? sin(a) : NAN;
+        polar |= isfinite(a) && fabs(lat[q]) > 88.0;
+    }
+    free(xs);
+    free(ll);
+    if (polar) {
+        /* longitude is singular at the pole: no bilinear table there */
+        geo_plane_table_free(t);
+        sph_err_set(err, SPH_ERR_CONFIG,
+                    "projection tables: the domain reaches within 2 degrees of a pole, where "
+                    "longitude is singular (set domain.plane_tables false)");
+        return NULL;
+    }
+    return t;
+}
+
+void geo_plane_table_free(geo_plane_table *t)
+{
+    if (!t)
+        return;
+    free(t->node);
+    free(t);
+}
+
+int geo_plane_lookup(const geo_plane_table *t, size_t n, const double *x, const double *y,
+                     double *lon, double *lat, double *cs, double *sn, sph_error *err)
+{
+    size_t nout = 0;
+    for (size_t k = 0; k < n; k++) {
+        double fx = (x[k] - t->x0) * t->inv, fy = (y[k] - t->y0) * t->inv;
+        int ok = fx >= 0.0 && fy >= 0.0 && fx < t->nx - 1 && fy < t->ny - 1;
+        if (ok) {
+            int i = (int)fx, j = (int)fy;
+            double wx = fx - i, wy = fy - j;
+            const double *a = t->node + 4 * ((size_t)j * t->nx + i), *b = a + 4;
+            const double *c = a + 4 * (size_t)t->nx, *d = c + 4;
+            double w00 = (1 - wx) * (1 - wy), w10 = wx * (1 - wy), w01 = (1 - wx) * wy, w11 = wx * wy;
+            double v[4];
+            for (int f = 0; f < 4; f++)
+                v[f] = w00 * a[f] + w10 * b[f] + w01 * c[f] + w11 * d[f];
+            ok = isfinite(v[0]) && isfinite(v[2]);
+            if (ok) {
+                /* bilinear cos and sin: normalised back onto the circle */
+                double r = 1.0 / sqrt(v[2] * v[2] + v[3] * v[3]);
+                lon[k] = remainder(v[0] + t->lon0, 360.0);
+                lat[k] = v[1];
+                cs[k] = v[2] * r;
+                sn[k] = v[3] * r;
+            }
+        }
+        if (!ok) { /* outside the table: PROJ, as without it */
+            if (geo_inverse(t->proj, 1, x + k, y + k, lon + k, lat + k, NULL) != SPH_OK)
+                nout++;
+            double a = isfinite(lon[k]) ? geo_grid_angle(t->proj, lon[k], lat[k]) : NAN;
+            if (!isfinite(a))
+                a = 0.0;
+            cs[k] = cos(a);
+            sn[k] = sin(a);
+        }
+    }
+    if (nout)
+        return sph_err_set(err, SPH_ERR_PARAM, "projection %s: %zu of %zu points do not unproject",
+                           t->proj->definition, nout, n);
+    return SPH_OK;
+}
