@@ -31,8 +31,9 @@
  * Time stepping: central differences (leapfrog, the scheme of PFC and of
  * the seed's references): v(n+1/2) = v(n-1/2) + a(n) dt, x(n+1) = x(n) +
  * v(n+1/2) dt. The stable step of one spring is 2 sqrt(m/K);
- * dem_dt_critical() returns it for the stiffest spring and lightest
- * particle, and dem_step() refuses a step beyond dt_safety * dt_critical
+ * dem_dt_critical() bounds the stiffest mode of a sphere with 12 springs
+ * (translation and rotation, dashpots included, see dem.c), and dem_step()
+ * refuses a step beyond dt_safety * dt_critical
  * with SPH_FAULT_TIMESTEP.
  *
  * Determinism: each particle gathers its own contact forces (pairs are
@@ -148,7 +149,7 @@ long dem_add_bond(dem *d, long i, long j);
 /* Bonds every pair whose gap is below tol * (r_i + r_j); returns the count. */
 long dem_bond_touching(dem *d, double tol);
 
-/* The stable step 2 sqrt(m_min / K_max) over contact and bond springs. */
+/* The stable step (the 2 sqrt(m/K) of the stiffest mode, see dem.c). */
 double dem_dt_critical(const dem *d);
 
 /* Checks the parameters and the structure: 0, or SPH_STEP_FATAL with st. */
@@ -161,6 +162,15 @@ int dem_step(dem *d, double dt, sph_status *st);
 
 /* Sets the velocity of particle i (driven particles keep it when fixed). */
 void dem_set_velocity(dem *d, long i, double vx, double vy, double vz);
+
+/* A level sheet of nz close-packed (hcp, ABA...) layers of spheres of
+ * radius r: rows along x of nx spheres (spacing 2r), ny rows (spacing
+ * sqrt(3) r), layer spacing 2r sqrt(2/3), so thickness 2r + (nz - 1) 2r
+ * sqrt(2/3) (3 layers of 0.1 m spheres: 0.263 m). Floating at the level
+ * of its density (bottom at -draft); touching spheres bonded; all moving
+ * at (u, v). Returns the first index, or -1 if it does not fit. */
+long dem_add_sheet_hcp(dem *d, double x0, double y0, int nx, int ny, int nz, double r, double u,
+                       double v);
 
 /* A level sheet of bonded particles on a simple cubic lattice: nx * ny
  * columns of spacing 2r starting at (x0, y0), nz layers of spacing 2r
