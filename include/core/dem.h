@@ -90,7 +90,10 @@ typedef struct dem_structure {
 } dem_structure;
 
 /* Particle flags */
-enum { DEM_FIX_TRANSLATION = 1, DEM_FIX_ROTATION = 2 };
+/* DEM_FIX_TRANSLATION: the velocity is prescribed (kept); DEM_FIX_Z: only
+ * its vertical component (a roller support); DEM_FIX_ROTATION: the angular
+ * velocity is kept. */
+enum { DEM_FIX_TRANSLATION = 1, DEM_FIX_ROTATION = 2, DEM_FIX_Z = 4 };
 
 typedef struct dem_bond {
     int i, j;
