@@ -37,13 +37,12 @@ static double uniform(void)
 
 static double flexural(int s, double sigma0, double weibull_m, double *sigma_mean, double *crack)
 {
+    int nx = 12 * s, ny = 1, nz = 3 * s;
     dem_params p;
     dem_params_default(&p);
-    p.water_density = 0.0;
-    p.gravity = 0.0;
+    p.water_density = p.gravity = 0.0; /* a dry specimen in the press */
     p.local_damping = 0.7;
     double r = 0.05;
-    int nx = 12 * s, ny = 1, nz = 3 * s;
     size_t np = (size_t)nx * ny * nz;
     dem *d = dem_create(np, 3 * np, &p);
     dem_add_sheet(d, 0.0, 0.0, nx, ny, nz, r, 0.0, 0.0);

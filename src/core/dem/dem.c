@@ -263,15 +263,8 @@ double dem_dt_critical(const dem *d)
 static int status_set(sph_status *st, int code, sph_fault kind, long particle, const char *q,
                       double v, double lim, const char *what, long step)
 {
-    st->code = code;
-    st->kind = kind;
-    st->particle = particle;
-    st->quantity = q;
-    st->value = v;
-    st->limit = lim;
-    st->what = what;
     st->step = step;
-    return code;
+    return sph_status_set(st, code, kind, particle, q, v, lim, what);
 }
 
 int dem_check(const dem *d, sph_status *st)

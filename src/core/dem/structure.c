@@ -88,12 +88,7 @@ void dem_structure_advance(dem_structure *s, double dt)
 
 static int bad(sph_status *st, const char *q, double v, const char *what)
 {
-    st->code = SPH_STEP_FATAL;
-    st->kind = SPH_FAULT_INVALID;
-    st->quantity = q;
-    st->value = v;
-    st->what = what;
-    return -1;
+    return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_INVALID, -1, q, v, 0.0, what);
 }
 
 int dem_structure_check(const dem_structure *s, sph_status *st)
