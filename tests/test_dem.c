@@ -329,6 +329,45 @@ static void test_stability(void)
     dem_free(d);
 }
 
+/* A sphere driven along a meridian into a fixed upward-breaking cone
+ * slides up its surface: the load on the cone, per contact, is the normal
+ * force N and the friction mu N up the slope, so
+ *   H / V = (sin a + mu cos a) / (cos a - mu sin a)
+ * (the cone's friction factor, e.g. Croasdale's xi) once sliding. */
+static void test_cone_ratio(double alpha_deg, double mu)
+{
+    dem_params p;
+    dry_params(&p);
+    p.friction = mu;
+    dem *d = dem_create(1, 0, &p);
+    double a = alpha_deg * M_PI / 180.0, r = 0.05, gap = 1e-3, Rw = 2.0;
+    dem_add_particle(d, -(Rw + (r + gap) / sin(a)), 0.0, 0.0, r);
+    d->flags[0] = DEM_FIX_TRANSLATION | DEM_FIX_ROTATION;
+    dem_set_velocity(d, 0, 0.2, 0.0, 0.0);
+    d->s.kind = DEM_STRUCT_CONE;
+    d->s.diameter = 2 * Rw;
+    d->s.neck_diameter = 2.0;
+    d->s.cone_angle = alpha_deg;
+    d->s.z_waterline = 0.0;
+    d->s.mass = 0.0; /* fixed */
+    double dt = 0.5 * p.dt_safety * dem_dt_critical(d);
+    sph_status st;
+    int bad = 0;
+    /* 6 mm of horizontal travel past the first touch */
+    long steps = (long)((gap / sin(a) + 6e-3) / 0.2 / dt);
+    for (long k = 0; k < steps; k++)
+        bad |= dem_step(d, dt, &st) != SPH_STEP_OK;
+    CHECK(!bad, "steps ok");
+    double want = (sin(a) + mu * cos(a)) / (cos(a) - mu * sin(a));
+    double got = d->s.fx / -d->s.fz;
+    CHECK(d->s.fx > 0.0 && d->s.fz < 0.0, "pushed along the drift and down: %g %g", d->s.fx,
+          d->s.fz);
+    CHECK_CLOSE(got, want, 0.01, 0.0, "cone H/V");
+    CHECK(fabs(d->s.fy) < 1e-9 * fabs(d->s.fx), "no transverse load");
+    printf("cone %.0f deg, mu %.2f: H/V %.5f, analytic %.5f\n", alpha_deg, mu, got, want);
+    dem_free(d);
+}
+
 int main(void)
 {
     test_restitution(0.3);
@@ -339,6 +378,8 @@ int main(void)
     test_cantilever();
     test_bond_break();
     test_refused_step();
+    test_cone_ratio(45.0, 0.15);
+    test_cone_ratio(60.0, 0.3);
     test_stability();
     test_iso();
     test_threads();
