@@ -368,6 +368,31 @@ static void test_cone_ratio(double alpha_deg, double mu)
     dem_free(d);
 }
 
+/* The scene's choice: each threshold alone sends it to the cheap model,
+ * all together to the DEM; the forcing keys win; NaN is refused. */
+static void test_scene_choice(void)
+{
+    dem_scene_keys k = {0.5, 0.1, 0.1, DEM_CHOOSE_AUTO};
+    const char *why;
+    CHECK(dem_scene_choose(&k, 0.9, 0.3, 0.26, &why) == DEM_MODEL_DEM, "all above: %s", why);
+    CHECK(dem_scene_choose(&k, 0.3, 0.3, 0.26, &why) == DEM_MODEL_CHEAP &&
+              strstr(why, "concentration"), "loose ice: %s", why);
+    CHECK(dem_scene_choose(&k, 0.9, 0.05, 0.26, &why) == DEM_MODEL_CHEAP && strstr(why, "speed"),
+          "still ice: %s", why);
+    CHECK(dem_scene_choose(&k, 0.9, 0.3, 0.05, &why) == DEM_MODEL_CHEAP &&
+              strstr(why, "thickness"), "thin ice: %s", why);
+    k.force = DEM_CHOOSE_DEM;
+    CHECK(dem_scene_choose(&k, 0.0, 0.0, 0.0, &why) == DEM_MODEL_DEM && strstr(why, "forced"),
+          "forced DEM: %s", why);
+    k.force = DEM_CHOOSE_CHEAP;
+    CHECK(dem_scene_choose(&k, 0.9, 0.3, 0.26, &why) == DEM_MODEL_CHEAP && strstr(why, "forced"),
+          "forced cheap: %s", why);
+    k.force = DEM_CHOOSE_AUTO;
+    CHECK(dem_scene_choose(&k, NAN, 0.3, 0.26, &why) == -1, "NaN refused");
+    k.min_concentration = 1.5;
+    CHECK(dem_scene_choose(&k, 0.9, 0.3, 0.26, &why) == -1, "threshold out of range refused");
+}
+
 int main(void)
 {
     test_restitution(0.3);
@@ -382,6 +407,7 @@ int main(void)
     test_cone_ratio(60.0, 0.3);
     test_stability();
     test_iso();
+    test_scene_choice();
     test_threads();
     return check_summary("test_dem");
 }

@@ -29,6 +29,7 @@ typedef struct leg_case {
     int nx, ny, nz;
     double r, speed, duration, diameter, settle;
     int assert_mean; /* the full case: mean between the seed's / 4 and ISO */
+    double ramp;     /* > 0: the sheet starts at rest, its edges reach the speed in this time, s */
 } leg_case;
 
 static void run_leg(const leg_case *c)
@@ -39,7 +40,8 @@ static void run_leg(const leg_case *c)
     dem *d = dem_create(np, 8 * np, &p);
     CHECK(d != NULL, "created");
     double r = c->r;
-    long first = dem_add_sheet_hcp(d, 0.0, 0.0, c->nx, c->ny, c->nz, r, c->speed, 0.0);
+    double u0 = c->ramp > 0.0 ? 0.0 : c->speed;
+    long first = dem_add_sheet_hcp(d, 0.0, 0.0, c->nx, c->ny, c->nz, r, u0, 0.0);
     CHECK(first == 0, "sheet built");
     double width = sqrt(3.0) * r * (c->ny - 1) + 2 * r, front = 0.0;
     double ymax = sqrt(3.0) * r * (c->ny - 1) + r;
@@ -48,7 +50,7 @@ static void run_leg(const leg_case *c)
         /* the rear edge and the two side edges move with the far-field ice */
         if (d->x[i] < 4.0 * r || d->y[i] < 2.0 * r || d->y[i] > ymax - 2.0 * r) {
             d->flags[i] = DEM_FIX_TRANSLATION | DEM_FIX_ROTATION;
-            dem_set_velocity(d, (long)i, c->speed, 0.0, 0.0);
+            dem_set_velocity(d, (long)i, u0, 0.0, 0.0);
         }
     }
     d->s.kind = DEM_STRUCT_CYLINDER;
@@ -68,6 +70,12 @@ static void run_leg(const leg_case *c)
     long first_contact = -1, s0 = steps;
     double umax = 0.0, amax = 0.0, fall = 0.0;
     for (long s = 0; s < steps; s++) {
+        if (c->ramp > 0.0) {
+            double u = c->speed * fmin(1.0, (double)s * dt / c->ramp);
+            for (size_t i = 0; i < d->n; i++)
+                if (d->flags[i] & DEM_FIX_TRANSLATION)
+                    d->vx[i] = u;
+        }
         if (dem_step(d, dt, &st) != SPH_STEP_OK) {
             bad = 1;
             break;
@@ -141,15 +149,15 @@ static void run_leg(const leg_case *c)
 int main(void)
 {
     if (check_long()) {
-        leg_case full = {40, 60, 3, 0.05, 0.5, 3.0, 1.6, 0.3, 1};
+        leg_case full = {40, 60, 3, 0.05, 0.5, 3.0, 1.6, 0.3, 1, 0.0};
         const char *e = getenv("SPHICE_DEM_LEG"); /* "nx ny nz speed duration settle" */
         if (e)
-            sscanf(e, "%d %d %d %lf %lf %lf %d", &full.nx, &full.ny, &full.nz, &full.speed,
-                   &full.duration, &full.settle, &full.assert_mean);
+            sscanf(e, "%d %d %d %lf %lf %lf %d %lf", &full.nx, &full.ny, &full.nz, &full.speed,
+                   &full.duration, &full.settle, &full.assert_mean, &full.ramp);
         run_leg(&full);
     } else {
         /* reduced: the same ice and leg, a 2.6 m wide, 1.2 m long sheet */
-        leg_case quick = {6, 26, 3, 0.05, 0.5, 0.25, 1.6, 0.05, 0};
+        leg_case quick = {6, 26, 3, 0.05, 0.5, 0.25, 1.6, 0.05, 0, 0.0};
         run_leg(&quick);
     }
     return check_summary("test_dem_leg");

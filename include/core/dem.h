@@ -196,4 +196,25 @@ double dem_iso_pressure(double c_r, double h, double w);
 /* F = p_G w h, N. */
 double dem_iso_force(double c_r, double h, double w);
 
+/* "As much as the scene needs" (issue 25): which load model a station's
+ * scene calls for. The DEM runs only where ice is present (concentration
+ * >= min_concentration), moving (drift speed >= min_speed) and thick
+ * enough to matter (thickness >= min_thickness); elsewhere the cheap
+ * formula. force: DEM_CHOOSE_AUTO, or a key forcing either model. */
+enum { DEM_CHOOSE_AUTO = 0, DEM_CHOOSE_CHEAP = 1, DEM_CHOOSE_DEM = 2 };
+enum { DEM_MODEL_CHEAP = 1, DEM_MODEL_DEM = 2 };
+
+typedef struct dem_scene_keys {
+    double min_concentration; /* fraction, [0, 1] */
+    double min_speed;         /* m s-1 */
+    double min_thickness;     /* m */
+    int force;                /* DEM_CHOOSE_* */
+} dem_scene_keys;
+
+/* Returns DEM_MODEL_*; *why points at a static sentence saying why (the
+ * first threshold not reached, all reached, or the forcing key), or -1
+ * with *why naming the bad value (NaN input, a threshold out of range). */
+int dem_scene_choose(const dem_scene_keys *k, double concentration, double speed,
+                     double thickness, const char **why);
+
 #endif

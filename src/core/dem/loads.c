@@ -46,3 +46,39 @@ void dem_load_stats(const double *f, size_t n, double dt, double *mean, double *
     }
     *freq = fk;
 }
+
+int dem_scene_choose(const dem_scene_keys *k, double concentration, double speed,
+                     double thickness, const char **why)
+{
+    if (!(k->min_concentration >= 0.0 && k->min_concentration <= 1.0) || !(k->min_speed >= 0.0) ||
+        !(k->min_thickness >= 0.0) || k->force < DEM_CHOOSE_AUTO || k->force > DEM_CHOOSE_DEM) {
+        *why = "a scene threshold is out of range";
+        return -1;
+    }
+    if (k->force == DEM_CHOOSE_CHEAP) {
+        *why = "the cheap model is forced by the configuration";
+        return DEM_MODEL_CHEAP;
+    }
+    if (k->force == DEM_CHOOSE_DEM) {
+        *why = "the DEM is forced by the configuration";
+        return DEM_MODEL_DEM;
+    }
+    if (!isfinite(concentration) || !isfinite(speed) || !isfinite(thickness)) {
+        *why = "the scene's concentration, speed or thickness is not finite";
+        return -1;
+    }
+    if (concentration < k->min_concentration) {
+        *why = "concentration below the DEM threshold";
+        return DEM_MODEL_CHEAP;
+    }
+    if (speed < k->min_speed) {
+        *why = "drift speed below the DEM threshold";
+        return DEM_MODEL_CHEAP;
+    }
+    if (thickness < k->min_thickness) {
+        *why = "thickness below the DEM threshold";
+        return DEM_MODEL_CHEAP;
+    }
+    *why = "ice present, moving and thick: all DEM thresholds reached";
+    return DEM_MODEL_DEM;
+}
