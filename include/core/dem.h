@@ -132,6 +132,8 @@ typedef struct dem {
     dem_bond *bonds;
     int *b_start, *b_list;      /* [cap + 1], [2 cap_bonds] */
     int bonds_indexed;
+    double dt_crit;             /* cached dem_dt_critical for (dt_n, dt_nbonds) */
+    size_t dt_n, dt_nbonds;
     void *grid;                 /* the SPH core's cell grid (sph_nbr) */
     dem_structure s;
     long step;

@@ -452,7 +452,14 @@ int dem_step(dem *d, double dt, sph_status *st)
     sph_status_clear(st);
     if (dem_check(d, st) != 0)
         return st->code;
-    double dtc = dem_dt_critical(d), lim = d->p.dt_safety * dtc;
+    /* the bound depends on the particles and bonds only: cached (its
+     * serial loop over every bond would cost a second thread's gain) */
+    if (d->dt_crit <= 0.0 || d->dt_n != d->n || d->dt_nbonds != d->nbonds) {
+        d->dt_crit = dem_dt_critical(d);
+        d->dt_n = d->n;
+        d->dt_nbonds = d->nbonds;
+    }
+    double dtc = d->dt_crit, lim = d->p.dt_safety * dtc;
     if (!(dt > 0.0) || !(dt <= lim))
         return status_set(st, SPH_STEP_RECOVERABLE, SPH_FAULT_TIMESTEP, -1, "DEM step", dt, lim,
                           "is beyond the contact's stability limit", d->step);
