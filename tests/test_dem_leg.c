@@ -157,7 +157,7 @@ int main(void)
         run_leg(&full);
     } else {
         /* reduced: the same ice and leg, a 2.6 m wide, 1.2 m long sheet */
-        leg_case quick = {6, 26, 3, 0.05, 0.5, 0.25, 1.6, 0.05, 0, 0.0};
+        leg_case quick = {6, 26, 3, 0.05, 0.5, 0.15, 1.6, 0.05, 0, 0.0};
         run_leg(&quick);
     }
     return check_summary("test_dem_leg");
