@@ -156,7 +156,7 @@ int main(void)
                    &full.duration, &full.settle, &full.assert_mean, &full.ramp);
         run_leg(&full);
     } else {
-        /* reduced: the same ice and leg, a 2.6 m wide, 1.2 m long sheet */
+        /* reduced: the same ice and leg, a 2.27 m wide, 0.6 m long sheet, 0.15 s */
         leg_case quick = {6, 26, 3, 0.05, 0.5, 0.15, 1.6, 0.05, 0, 0.0};
         run_leg(&quick);
     }
