@@ -225,8 +225,9 @@ static double ghost_normal_force(const sph_model *m, size_t k, double nx, double
     double rx = P->uw[k] - P->u[k], ry = P->vw[k] - P->v[k], sw = hypot(rx, ry);
     double twx = p->rho_w * p->Cw * sw * (rx * m->cos_water - ry * m->sin_water);
     double twy = p->rho_w * p->Cw * sw * (rx * m->sin_water + ry * m->cos_water);
-    double fx = tax + twx - P->dens[k] * p->gravity * P->sshx[k];
-    double fy = tay + twy - P->dens[k] * p->gravity * P->sshy[k];
+    double dA = sph_drag_factor(m, k);
+    double fx = dA * (tax + twx) - P->dens[k] * p->gravity * P->sshx[k];
+    double fy = dA * (tay + twy) - P->dens[k] * p->gravity * P->sshy[k];
     return fx * nx + fy * ny;
 }
 

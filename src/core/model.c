@@ -501,6 +501,22 @@ static void regime_fractions(sph_model *m)
     m->stats.frac_multi_layer = (double)ml / n;
 }
 
+/* model.fixed_state (a comparison option): the momentum was solved on the
+ * ice state as it is; positions, concentration, thickness, mass per area
+ * and smoothing length stay, and there is no thermodynamics. The final
+ * strain rates are the output's. */
+static int fixed_state_end(sph_model *m, sph_status *st)
+{
+    sph_particles *P = m->P;
+    sph_ghost_velocity(m, P->u, P->v, 1);
+    sph_strain_pass(m, NULL, P->n);
+    m->time += m->prm.dt;
+    m->steps++;
+    regime_fractions(m);
+    update_budget(m);
+    return check_health(m, st);
+}
+
 int sph_model_step(sph_model *m, sph_status *st)
 {
     sph_particles *P = m->P;
@@ -511,6 +527,8 @@ int sph_model_step(sph_model *m, sph_status *st)
     m->stats.iterations = 0;
     m->stats.stalled = 0;
     m->stats.residual = 0.0;
+    m->stats.rel_residual = 0.0;
+    m->stats.unconverged = 0;
     int rc = prepare(m, st);
     if (rc != SPH_STEP_OK)
         return rc;
@@ -520,7 +538,9 @@ int sph_model_step(sph_model *m, sph_status *st)
         m->un[k] = P->u[k];
         m->vn[k] = P->v[k];
         P->ax[k] = P->ay[k] = 0.0;
-        m->fcor[k] = p->coriolis ? 2.0 * OMEGA_EARTH * sin(P->lat[k] * DEG2RAD) : 0.0;
+        m->fcor[k] = !p->coriolis ? 0.0
+                     : p->coriolis_f != 0.0 ? p->coriolis_f /* comparison option */
+                                            : 2.0 * OMEGA_EARTH * sin(P->lat[k] * DEG2RAD);
     }
     sph_free_drift_pass(m);
     if (m->nactive > 0) {
@@ -528,6 +548,8 @@ int sph_model_step(sph_model *m, sph_status *st)
         if (rc != SPH_STEP_OK)
             return rc;
     }
+    if (p->fixed_state)
+        return fixed_state_end(m, st);
     /* positions first: a move blocked by land zeroes the blocked velocity,
      * and only the realised motion may compress a parcel (a particle held
      * at a coast otherwise kept "converging" into land and ridged without

@@ -1,0 +1,104 @@
+/* CICE's box2001 side by side (issue 26): sphice's velocities against CICE
+ * 6.6.3's EVP solution at 6 h and 24 h, and the cost of the 10 days at
+ * 16 km against CICE's ~40 s of CPU (EVP, same machine kind; the issue's
+ * numbers). The case and the scores: tests/box2001.h.
+ *
+ * One run per invocation, configured by the environment (defaults: the
+ * test's configuration):
+ *   B01_DT        dynamic step, s (240)
+ *   B01_ITERS     evp.iterations (120)
+ *   B01_RELTOL    evp.rel_tol (0: off)
+ *   B01_TOL       evp.tol, m/s (1e-7)
+ *   B01_GC        model.gradient_correction (0)
+ *   B01_NOSLIP    model.coast_no_slip (1)
+ *   B01_RP        rheology.replacement_pressure (1)
+ *   B01_KERNEL    0 gaussian, 1 wendland_c2, 2 cubic_spline (0)
+ *   B01_SML       sml_factor (1)
+ *   B01_SOLVER    0 explicit, 1 mevp, 2 implicit (1)
+ *   B01_DAYS      run length after 24 h for the cost, days (0: stop at 24 h; 10 for the benchmark)
+ * Prints one CSV row per output time:
+ *   box2001,config,hours,cpu_s,mean_iterations,mean_rel_residual,rel_all,rel_packed,rel_loose,
+ *   rel_wall_band,dir_all,dir_packed,speed_ratio_packed,corr_div,corr_shear,rms_div_s,rms_div_c,
+ *   rms_shear_s,rms_shear_c */
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "bench_common.h"
+#include "core/model.h"
+#include "../tests/box2001.h"
+
+static double env(const char *k, double d)
+{
+    const char *s = getenv(k);
+    return s && *s ? atof(s) : d;
+}
+
+int main(void)
+{
+    sph_params p;
+    b01_params(&p, env("B01_DT", 240));
+    p.evp_iterations = (int)env("B01_ITERS", 120);
+    p.evp_rel_tol = env("B01_RELTOL", 0);
+    p.evp_tol = env("B01_TOL", 1e-7);
+    p.gradient_correction = (int)env("B01_GC", 0);
+    p.coast_no_slip = (int)env("B01_NOSLIP", 1);
+    p.replacement_pressure = (int)env("B01_RP", 1);
+    p.kernel = (sph_kernel_kind)(int)env("B01_KERNEL", 0);
+    if (p.kernel != SPH_KERNEL_GAUSSIAN)
+        p.kernel_radius = 2;
+    p.sml_factor = env("B01_SML", 1);
+    p.solver = (sph_solver_kind)(int)env("B01_SOLVER", 1);
+    double days = env("B01_DAYS", 0);
+    char cfg[256];
+    snprintf(cfg, sizeof cfg, "dt%g_it%d_rtol%g_gc%d_ns%d_rp%d_k%d_sml%g_s%d", p.dt, p.evp_iterations,
+             p.evp_rel_tol, p.gradient_correction, p.coast_no_slip, p.replacement_pressure, (int)p.kernel,
+             p.sml_factor, (int)p.solver);
+    b01_case c;
+    sph_status st;
+    if (b01_create(&c, &p) != 0 || sph_model_init(c.model, &st) != SPH_STEP_OK) {
+        fprintf(stderr, "bench_box2001: %s: model refused (%s %g > %g)\n", cfg,
+                st.quantity ? st.quantity : "create", st.value, st.limit);
+        return 1;
+    }
+    static b01_fields ref, got;
+    double c0 = bench_cpu(), iters = 0, res = 0;
+    long steps = 0;
+    const double hours[2] = {6, 24};
+    for (int it = 0; it < 2; it++) {
+        double t1 = hours[it] * 3600.0;
+        while (sph_model_time(c.model) < t1 - 1e-6 * p.dt) {
+            b01_forcing(c.model, sph_model_time(c.model));
+            if (sph_model_step(c.model, &st) != SPH_STEP_OK) {
+                fprintf(stderr, "bench_box2001: %s: step failed (%s %g)\n", cfg, st.quantity, st.value);
+                return 1;
+            }
+            iters += sph_model_stats(c.model)->iterations;
+            res += sph_model_stats(c.model)->rel_residual;
+            steps++;
+        }
+        if (b01_read_ref(B01_REF, it, &ref) != 0 || b01_grid(c.model, &got) != 0) {
+            fprintf(stderr, "bench_box2001: cannot read %s or grid the particles\n", B01_REF);
+            return 1;
+        }
+        b01_scores s;
+        b01_score(&got, &ref, &s);
+        printf("box2001,%s,%g,%.4g,%.1f,%.3g,%.4f,%.4f,%.4f,%.4f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3g,%.3g,%.3g,%.3g\n",
+               cfg, hours[it], bench_cpu() - c0, iters / steps, res / steps, s.rel_all, s.rel_packed,
+               s.rel_loose, s.rel_wall_band, s.dir_all, s.dir_packed, s.speed_ratio_packed, s.corr_div,
+               s.corr_shear, s.rms_div_s, s.rms_div_c, s.rms_shear_s, s.rms_shear_c);
+        fflush(stdout);
+    }
+    if (days > 1) {
+        double t1 = days * 86400.0;
+        while (sph_model_time(c.model) < t1 - 1e-6 * p.dt) {
+            b01_forcing(c.model, sph_model_time(c.model));
+            if (sph_model_step(c.model, &st) != SPH_STEP_OK)
+                return 1;
+            iters += sph_model_stats(c.model)->iterations;
+            steps++;
+        }
+        printf("box2001,%s,%g,%.4g,%.1f,,,,,,,,,,,,,,\n", cfg, days * 24, bench_cpu() - c0, iters / steps);
+    }
+    sph_model_free(c.model);
+    return 0;
+}
