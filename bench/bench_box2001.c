@@ -15,6 +15,8 @@
  *   B01_KERNEL    0 gaussian, 1 wendland_c2, 2 cubic_spline (0)
  *   B01_SML       sml_factor (1)
  *   B01_SOLVER    0 explicit, 1 mevp, 2 implicit (1)
+ *   B01_ONLY6     1: stop at 6 h (0)
+ *   B01_DUMP      path prefix: the gridded fields at each output time, PREFIX-6h.csv ...
  *   B01_DAYS      run length after 24 h for the cost, days (0: stop at 24 h; 10 for the benchmark)
  * Prints one CSV row per output time:
  *   box2001,config,hours,cpu_s,mean_iterations,mean_rel_residual,rel_all,rel_packed,rel_loose,
@@ -64,7 +66,8 @@ int main(void)
     double c0 = bench_cpu(), iters = 0, res = 0;
     long steps = 0;
     const double hours[2] = {6, 24};
-    for (int it = 0; it < 2; it++) {
+    int nout = env("B01_ONLY6", 0) ? 1 : 2; /* B01_ONLY6=1: stop at 6 h */
+    for (int it = 0; it < nout; it++) {
         double t1 = hours[it] * 3600.0;
         while (sph_model_time(c.model) < t1 - 1e-6 * p.dt) {
             b01_forcing(c.model, sph_model_time(c.model));
@@ -82,6 +85,17 @@ int main(void)
         }
         b01_scores s;
         b01_score(&got, &ref, &s);
+        const char *dump = getenv("B01_DUMP"); /* a,b,u_s,v_s,u_c,v_c,div_s,div_c per point */
+        if (dump && *dump) {
+            char fn[512];
+            snprintf(fn, sizeof fn, "%s-%gh.csv", dump, hours[it]);
+            FILE *f = fopen(fn, "w");
+            for (int q = 0; f && q < B01_N * B01_N; q++)
+                fprintf(f, "%d,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.4g\n", q % B01_N, q / B01_N, got.u[q], got.v[q],
+                        ref.u[q], ref.v[q], got.div[q], ref.div[q], ref.aice[q]);
+            if (f)
+                fclose(f);
+        }
         printf("box2001,%s,%g,%.4g,%.1f,%.3g,%.4f,%.4f,%.4f,%.4f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3g,%.3g,%.3g,%.3g\n",
                cfg, hours[it], bench_cpu() - c0, iters / steps, res / steps, s.rel_all, s.rel_packed,
                s.rel_loose, s.rel_wall_band, s.dir_all, s.dir_packed, s.speed_ratio_packed, s.corr_div,

@@ -179,6 +179,25 @@ static inline void sph_reflect_tensor(double nx, double ny, double *a, double *b
     *c = s22;
 }
 
+/* The stress a mirror ghost takes from its source (before the normal
+ * stress extrapolation of sph_ghost_stress): free slip, the mirror image
+ * R S R per wall, whose shear stress sigma_nt is odd, so the pair with its
+ * source carries no shear traction across the coast (a slip wall); no
+ * slip, the source's stress unreflected: the no-slip extension of the
+ * velocity (u -> -u) makes the wall shear strain d u_t / d n even across
+ * the coast, so sigma_nt is even and the coast takes the shear traction
+ * (docs/dynamics.md, "box2001": with R S R a no-slip coast raised the
+ * wall's shear strain but transmitted no shear stress, and packed ice slid
+ * along it). a, b, c = S11, S12, S22. */
+static inline void sph_ghost_stress_image(int no_slip, double n1x, double n1y, double n2x, double n2y,
+                                          double *a, double *b, double *c)
+{
+    if (no_slip)
+        return;
+    sph_reflect_tensor(n1x, n1y, a, b, c);
+    sph_reflect_tensor(n2x, n2y, a, b, c);
+}
+
 /* ------------------------------------------------------------------ */
 /* SPH passes (operators.c)                                            */
 

@@ -141,8 +141,7 @@ static void ghost_maps(sph_model *m, implicit_work *w)
         }
         for (int c = 0; c < 3; c++) {
             double a = c == 0, b2 = c == 2, cc = c == 1; /* (S11, S12, S22) */
-            sph_reflect_tensor(nx1, ny1, &a, &b2, &cc);
-            sph_reflect_tensor(nx2, ny2, &a, &b2, &cc);
+            sph_ghost_stress_image(m->prm.coast_no_slip, nx1, ny1, nx2, ny2, &a, &b2, &cc);
             Q[0 * 3 + c] = a;  /* S11 */
             Q[1 * 3 + c] = cc; /* S22 */
             Q[2 * 3 + c] = b2; /* S12 */
