@@ -18,7 +18,11 @@
  *   B01_ONLY6     1: stop at 6 h (0)
  *   B01_DUMP      path prefix: the gridded fields at each output time, PREFIX-6h.csv ...
  *   B01_DAYS      run length after 24 h for the cost, days (0: stop at 24 h; 10 for the benchmark)
- * Prints one CSV row per output time:
+ * Prints bench rows (bench/bench_common.h) on stdout: box2001_6h and
+ * box2001_24h with err = relative RMS vector difference over the box, in
+ * packed ice, and the mean direction difference; box2001_10d (B01_DAYS=10)
+ * with the CPU time against CICE's 40 s. The detail on stderr, one line per
+ * output time:
  *   box2001,config,hours,cpu_s,mean_iterations,mean_rel_residual,rel_all,rel_packed,rel_loose,
  *   rel_wall_band,dir_all,dir_packed,speed_ratio_packed,corr_div,corr_shear,rms_div_s,rms_div_c,
  *   rms_shear_s,rms_shear_c */
@@ -33,6 +37,18 @@ static double env(const char *k, double d)
 {
     const char *s = getenv(k);
     return s && *s ? atof(s) : d;
+}
+
+/* A row with the run's name, configuration and cost so far. */
+static void start_row(bench_row *row, const char *problem, const sph_params *p, const char *cfg, double c0,
+                      double w0)
+{
+    bench_row_init(row, problem);
+    snprintf(row->method, sizeof row->method, "%s", p->solver == SPH_SOLVER_MEVP ? "mevp" : "other");
+    snprintf(row->config, sizeof row->config, "%s", cfg);
+    row->cpu_s = bench_cpu() - c0;
+    row->wall_s = bench_wall() - w0;
+    row->rss_mb = bench_peak_rss_mb();
 }
 
 int main(void)
@@ -51,7 +67,7 @@ int main(void)
     p.sml_factor = env("B01_SML", 1);
     p.solver = (sph_solver_kind)(int)env("B01_SOLVER", 1);
     double days = env("B01_DAYS", 0);
-    char cfg[256];
+    char cfg[150];
     snprintf(cfg, sizeof cfg, "dt%g_it%d_rtol%g_gc%d_ns%d_rp%d_k%d_sml%g_s%d", p.dt, p.evp_iterations,
              p.evp_rel_tol, p.gradient_correction, p.coast_no_slip, p.replacement_pressure, (int)p.kernel,
              p.sml_factor, (int)p.solver);
@@ -63,7 +79,7 @@ int main(void)
         return 1;
     }
     static b01_fields ref, got;
-    double c0 = bench_cpu(), iters = 0, res = 0;
+    double c0 = bench_cpu(), w0 = bench_wall(), iters = 0, res = 0;
     long steps = 0;
     const double hours[2] = {6, 24};
     int nout = env("B01_ONLY6", 0) ? 1 : 2; /* B01_ONLY6=1: stop at 6 h */
@@ -96,11 +112,20 @@ int main(void)
             if (f)
                 fclose(f);
         }
-        printf("box2001,%s,%g,%.4g,%.1f,%.3g,%.4f,%.4f,%.4f,%.4f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3g,%.3g,%.3g,%.3g\n",
+        bench_row row;
+        start_row(&row, it == 0 ? "box2001_6h" : "box2001_24h", &p, cfg, c0, w0);
+        row.err_name[0] = "rel_rms_whole";
+        row.err[0] = s.rel_all;
+        row.err_name[1] = "rel_rms_packed";
+        row.err[1] = s.rel_packed;
+        row.err_name[2] = "direction_deg";
+        row.err[2] = s.dir_all;
+        bench_row_print(&row);
+        fprintf(stderr, "box2001,%s,%g,%.4g,%.1f,%.3g,%.4f,%.4f,%.4f,%.4f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3g,%.3g,%.3g,%.3g\n",
                cfg, hours[it], bench_cpu() - c0, iters / steps, res / steps, s.rel_all, s.rel_packed,
                s.rel_loose, s.rel_wall_band, s.dir_all, s.dir_packed, s.speed_ratio_packed, s.corr_div,
                s.corr_shear, s.rms_div_s, s.rms_div_c, s.rms_shear_s, s.rms_shear_c);
-        fflush(stdout);
+        fflush(stderr);
     }
     if (days > 1) {
         double t1 = days * 86400.0;
@@ -111,7 +136,15 @@ int main(void)
             iters += sph_model_stats(c.model)->iterations;
             steps++;
         }
-        printf("box2001,%s,%g,%.4g,%.1f,,,,,,,,,,,,,,\n", cfg, days * 24, bench_cpu() - c0, iters / steps);
+        bench_row row;
+        start_row(&row, "box2001_10d", &p, cfg, c0, w0);
+        row.err_name[0] = "mean_iterations";
+        row.err[0] = iters / steps;
+        row.err_name[1] = "cice_cpu_s";
+        row.err[1] = 40.0; /* the CICE EVP on this machine kind */
+        row.err_name[2] = "cpu_ratio_to_cice";
+        row.err[2] = row.cpu_s / 40.0;
+        bench_row_print(&row);
     }
     sph_model_free(c.model);
     return 0;

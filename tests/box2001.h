@@ -32,30 +32,27 @@
  * (fixed state, CICE's drag form, constant f). */
 static inline void b01_params(sph_params *p, double dt)
 {
+    /* by the configuration's model.* keys (core/params.h's table) */
+    static const struct {
+        const char *key;
+        double v;
+    } rows[] = {
+        {"physics", SPH_PHYSICS_FULL}, {"solver", SPH_SOLVER_MEVP}, {"rheology.kind", SPH_RHEOLOGY_VP},
+        {"rheology.pressure_form", SPH_PRESSURE_HIBLER}, {"rheology.P0", 2.75e4}, {"rheology.C", 20},
+        {"rheology.e", 2}, {"rheology.replacement_pressure", 1}, {"rheology.delta_min", 2e-9},
+        {"momentum.rho_ice", 950}, {"momentum.rho_air", 1.3}, {"momentum.Ca", 1.2e-3},
+        {"momentum.rho_water", 1026}, {"momentum.Cw", 5.36e-3}, {"momentum.turn_air", 0},
+        {"momentum.turn_water", 0}, {"coast_no_slip", 1}, {"thermo.dt", 0}, {"thermo.model", SPH_THERMO_OFF},
+        {"fixed_state", 1}, {"momentum.drag_scaling", SPH_DRAG_CONCENTRATION}, {"momentum.coriolis", 1},
+        {"momentum.coriolis_f", B01_F},
+    };
     sph_params_default(p);
     p->dt = dt;
-    p->physics = SPH_PHYSICS_FULL;
-    p->solver = SPH_SOLVER_MEVP;
-    p->rheology = SPH_RHEOLOGY_VP;
-    p->pressure_form = SPH_PRESSURE_HIBLER;
-    p->P0 = 2.75e4;
-    p->C = 20;
-    p->ecc = 2;
-    p->replacement_pressure = 1;
-    p->delta_min = 2e-9;
-    p->rho_i = 950;
-    p->rho_a = 1.3;
-    p->Ca = 1.2e-3;
-    p->rho_w = 1026;
-    p->Cw = 5.36e-3;
-    p->turn_air = p->turn_water = 0;
-    p->coast_no_slip = 1;
-    p->thermo_dt = 0;
-    p->thermo.model = SPH_THERMO_OFF;
-    p->fixed_state = 1;
-    p->drag_scaling = SPH_DRAG_CONCENTRATION;
-    p->coriolis = 1;
-    p->coriolis_f = B01_F;
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        const sph_param *r = sph_param_find(rows[i].key);
+        if (!r || sph_param_set(r, p, rows[i].v) != SPH_STEP_OK)
+            abort(); /* a key or value the table does not have: the case is wrong */
+    }
 }
 
 typedef struct b01_case {
