@@ -48,7 +48,8 @@ static void test_rows(void)
 {
     size_t n;
     const sph_param *t = sph_param_table(&n);
-    CHECK(n == 54, "54 rows (the configuration's model.* keys), got %zu", n);
+    /* 54 + issue 26: fixed_state, momentum.drag_scaling, momentum.coriolis_f, evp.rel_tol */
+    CHECK(n == 58, "58 rows (the configuration's model.* keys), got %zu", n);
     sph_params d;
     sph_params_default(&d);
     for (size_t i = 0; i < n; i++) {
