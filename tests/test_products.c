@@ -263,7 +263,8 @@ static int full_run(const char *stage, prod_summary *sum, int with_obs)
     prod_run_info ri = {.frac_free_drift = 0.6, .frac_rheology = 0.4, .frac_zero_layer = 1.0,
                          .frac_multi_layer = 0.0, .particles_start = 1000, .particles_end = 990,
                          .budget_residual = 1e-12, .dt = 150.0, .dt_auto = 1, .solver_iterations = 37.5,
-                         .solver_stalled = 0.25};
+                         .solver_stalled = 0.25, .solver_rel_tol_on = 1, .solver_residual = 2e-3,
+                         .solver_residual_max = 5e-3, .solver_unconverged = 0.5};
     products_set_run_info(p, &ri);
     if (rc == SPH_OK) {
         rc = products_close(p, sum, &err);
@@ -411,6 +412,13 @@ static void test_full(const char *root)
               nc_get_att_double(nc, NC_GLOBAL, "sphice_solver_stalled_fraction", &stl) == NC_NOERR &&
               stl == 0.25,
           "solver attributes %g %g", mit, stl);
+    double mres = 0, unc = 0;
+    size_t wl = 0;
+    CHECK(nc_get_att_double(nc, NC_GLOBAL, "sphice_solver_mean_relative_residual", &mres) == NC_NOERR &&
+              mres == 2e-3 &&
+              nc_get_att_double(nc, NC_GLOBAL, "sphice_solver_unconverged_fraction", &unc) == NC_NOERR &&
+              unc == 0.5 && nc_inq_attlen(nc, NC_GLOBAL, "sphice_solver_warning", &wl) == NC_NOERR && wl > 20,
+          "residual rule attributes %g %g, warning %zu", mres, unc, wl);
     double dtv = 0;
     char pol[16] = "";
     size_t pl = 0;

@@ -124,6 +124,10 @@ typedef struct sph_step_stats {
     int iterations;
     int stalled;        /* 1: the auto mode stopped the mEVP iteration at a stall */
     double residual;
+    double rel_residual; /* mEVP: relative momentum residual at the last iteration,
+                            RMS(beta |du|) / RMS(|u|) over the active set (0: no solve) */
+    int unconverged;    /* 1: the step's stress iteration ended above evp.rel_tol
+                           (only with evp.rel_tol > 0) */
     double frac_free_drift, frac_rheology;
     double frac_zero_layer, frac_multi_layer;
     double dt_limit_explicit;
@@ -140,6 +144,10 @@ typedef struct sph_run_stats {
     double solver_iterations;   /* mean stress-solver iterations per step: mEVP, or Picard
                                    for the implicit solver (0: no stress solve) */
     double solver_stalled;      /* fraction of steps the auto mode stopped at a stall */
+    double solver_residual;     /* mean relative mEVP residual per step (rel_residual) */
+    double solver_residual_max; /* largest relative mEVP residual of a step */
+    double solver_unconverged;  /* fraction of steps that ended above evp.rel_tol */
+    int solver_rel_tol_on;      /* 1: evp.rel_tol > 0 (the residual rule in force) */
     long particles_start, particles_end;
     double budget_residual;     /* relative mass budget residual (sph_budget_residual) */
     int ocean;                  /* 1: the mixed layer's budgets below were kept */

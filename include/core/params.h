@@ -20,6 +20,9 @@
 #include "core/thermo.h"
 #include "core/ocean.h"
 
+/* model.momentum.drag_scaling (index = value) */
+enum { SPH_DRAG_NONE = 0, SPH_DRAG_CONCENTRATION = 1 };
+
 typedef struct sph_params {
     /* numerics */
     double dt;                  /* dynamic step, s (seed: 60) */
@@ -72,6 +75,15 @@ typedef struct sph_params {
     double turn_air, turn_water;/* turning angles, degrees (+ to the right in the NH) */
     double gravity;             /* m/s^2 */
     int coriolis;               /* 0 disables (channel tests) */
+    /* comparison options (off by default; docs/dynamics.md "Comparison
+     * options"): like-for-like runs against grid models such as CICE */
+    int fixed_state;            /* 1: momentum solved on a fixed ice state (positions, A, h
+                                   and mass per area unchanged; no thermodynamics) */
+    int drag_scaling;           /* SPH_DRAG_NONE (Hibler 1979) or SPH_DRAG_CONCENTRATION
+                                   (CICE: air and water stress times A) */
+    double coriolis_f;          /* s-1: constant Coriolis parameter; 0 = 2 Omega sin(lat) */
+    double evp_rel_tol;         /* mEVP: stop when the relative momentum residual falls
+                                   below this; 0 = off (counts and stall window only) */
     int coast_no_slip;          /* 1: ghosts reverse velocity; 0: free slip */
     double sml_min_factor, sml_max_factor; /* h kept within [min, max] * h0 */
     /* health */

@@ -225,8 +225,9 @@ static double ghost_normal_force(const sph_model *m, size_t k, double nx, double
     double rx = P->uw[k] - P->u[k], ry = P->vw[k] - P->v[k], sw = hypot(rx, ry);
     double twx = p->rho_w * p->Cw * sw * (rx * m->cos_water - ry * m->sin_water);
     double twy = p->rho_w * p->Cw * sw * (rx * m->sin_water + ry * m->cos_water);
-    double fx = tax + twx - P->dens[k] * p->gravity * P->sshx[k];
-    double fy = tay + twy - P->dens[k] * p->gravity * P->sshy[k];
+    double dA = sph_drag_factor(m, k);
+    double fx = dA * (tax + twx) - P->dens[k] * p->gravity * P->sshx[k];
+    double fy = dA * (tay + twy) - P->dens[k] * p->gravity * P->sshy[k];
     return fx * nx + fy * ny;
 }
 
@@ -237,8 +238,8 @@ void sph_ghost_stress(sph_model *m)
     for (size_t g = 0; g < m->ng; g++) {
         size_t q = n + g, k = (size_t)m->ghost_src[g];
         double a = P->s11[k], b = P->s12[k], c = P->s22[k];
-        sph_reflect_tensor(m->ghost_nx[g], m->ghost_ny[g], &a, &b, &c);
-        sph_reflect_tensor(m->ghost_n2x[g], m->ghost_n2y[g], &a, &b, &c);
+        sph_ghost_stress_image(m->prm.coast_no_slip, m->ghost_nx[g], m->ghost_ny[g], m->ghost_n2x[g],
+                               m->ghost_n2y[g], &a, &b, &c);
         double nx = m->ghost_nx[g], ny = m->ghost_ny[g];
         if (m->ghost_n2x[g] == 0.0 && m->ghost_n2y[g] == 0.0) {
             double fn = ghost_normal_force(m, k, nx, ny);

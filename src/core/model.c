@@ -669,10 +669,27 @@ static void accumulate_ocean_stress(sph_model *m)
         if (!(P->dens[k] > 0.0))
             continue;
         double dux = P->uw[k] - P->u[k], duy = P->vw[k] - P->v[k];
-        double c = p->rho_w * p->Cw * sqrt(dux * dux + duy * duy) * (P->mass[k] / P->dens[k]) * dt;
+        double c = sph_drag_factor(m, k) * p->rho_w * p->Cw * sqrt(dux * dux + duy * duy) *
+                   (P->mass[k] / P->dens[k]) * dt;
         P->ofx_taux[k] -= c * (cw * dux - sw * duy);
         P->ofx_tauy[k] -= c * (sw * dux + cw * duy);
     }
+}
+
+/* model.fixed_state (a comparison option): the momentum was solved on the
+ * ice state as it is; positions, concentration, thickness, mass per area
+ * and smoothing length stay, and there is no thermodynamics. The final
+ * strain rates are the output's. */
+static int fixed_state_end(sph_model *m, sph_status *st)
+{
+    sph_particles *P = m->P;
+    sph_ghost_velocity(m, P->u, P->v, 1);
+    sph_strain_pass(m, NULL, P->n);
+    m->time += m->prm.dt;
+    m->steps++;
+    regime_fractions(m);
+    update_budget(m);
+    return check_health(m, st);
 }
 
 int sph_model_step(sph_model *m, sph_status *st)
@@ -685,6 +702,8 @@ int sph_model_step(sph_model *m, sph_status *st)
     m->stats.iterations = 0;
     m->stats.stalled = 0;
     m->stats.residual = 0.0;
+    m->stats.rel_residual = 0.0;
+    m->stats.unconverged = 0;
     const int parcels = parcels_mode(m);
     int rc = parcels ? (parcels_prepare(m), SPH_STEP_OK) : prepare(m, st);
     if (rc != SPH_STEP_OK)
@@ -695,7 +714,9 @@ int sph_model_step(sph_model *m, sph_status *st)
         m->un[k] = P->u[k];
         m->vn[k] = P->v[k];
         P->ax[k] = P->ay[k] = 0.0;
-        m->fcor[k] = p->coriolis ? 2.0 * OMEGA_EARTH * sin(P->lat[k] * DEG2RAD) : 0.0;
+        m->fcor[k] = !p->coriolis ? 0.0
+                     : p->coriolis_f != 0.0 ? p->coriolis_f /* comparison option */
+                                            : 2.0 * OMEGA_EARTH * sin(P->lat[k] * DEG2RAD);
     }
     if (parcels)
         sph_parcels_drift_pass(m);
@@ -708,6 +729,8 @@ int sph_model_step(sph_model *m, sph_status *st)
     }
     if (p->thermo.ocean_fluxes)
         accumulate_ocean_stress(m);
+    if (p->fixed_state)
+        return fixed_state_end(m, st);
     /* positions first: a move blocked by land zeroes the blocked velocity,
      * and only the realised motion may compress a parcel (a particle held
      * at a coast otherwise kept "converging" into land and ridged without

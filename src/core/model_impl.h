@@ -183,6 +183,25 @@ static inline void sph_reflect_tensor(double nx, double ny, double *a, double *b
     *c = s22;
 }
 
+/* The stress a mirror ghost takes from its source (before the normal
+ * stress extrapolation of sph_ghost_stress): free slip, the mirror image
+ * R S R per wall, whose shear stress sigma_nt is odd, so the pair with its
+ * source carries no shear traction across the coast (a slip wall); no
+ * slip, the source's stress unreflected: the no-slip extension of the
+ * velocity (u -> -u) makes the wall shear strain d u_t / d n even across
+ * the coast, so sigma_nt is even and the coast takes the shear traction
+ * (docs/dynamics.md, "box2001": with R S R a no-slip coast raised the
+ * wall's shear strain but transmitted no shear stress, and packed ice slid
+ * along it). a, b, c = S11, S12, S22. */
+static inline void sph_ghost_stress_image(int no_slip, double n1x, double n1y, double n2x, double n2y,
+                                          double *a, double *b, double *c)
+{
+    if (no_slip)
+        return;
+    sph_reflect_tensor(n1x, n1y, a, b, c);
+    sph_reflect_tensor(n2x, n2y, a, b, c);
+}
+
 /* ------------------------------------------------------------------ */
 /* the ocean mixed layer and new ice (ocean/new_ice.c)                 */
 
@@ -215,6 +234,14 @@ void sph_parcels_drift_pass(sph_model *m);
 void sph_continuity_pass(sph_model *m);
 void sph_update_sml(sph_model *m);
 
+/* The factor of the air and water stress of particle k: 1 (Hibler 1979,
+ * the default) or its concentration A (model.momentum.drag_scaling =
+ * concentration, CICE's form). */
+static inline double sph_drag_factor(const sph_model *m, size_t k)
+{
+    return m->prm.drag_scaling == SPH_DRAG_CONCENTRATION ? m->P->conc[k] : 1.0;
+}
+
 /* Momentum for particle k with implicit water drag (lagged speed) and
  * trapezoidal Coriolis, solved as a 2x2 system:
  *   (1+beta) u' = beta u_p + u_n + dt [a_int + tau_a/(rho h) - g grad xi
@@ -236,11 +263,14 @@ static inline void sph_momentum(const sph_model *m, size_t k, double beta, doubl
      * current speeds are far from overflow */
     double sa = sqrt(ua * ua + va * va);
     double ca = m->cos_air, sna = m->sin_air;
-    double tax = p->rho_a * p->Ca * sa * (ua * ca - va * sna);
-    double tay = p->rho_a * p->Ca * sa * (ua * sna + va * ca);
+    /* model.momentum.drag_scaling = concentration (a comparison option):
+     * CICE's air and water stress, both times A */
+    double dA = sph_drag_factor(m, k);
+    double tax = dA * p->rho_a * p->Ca * sa * (ua * ca - va * sna);
+    double tay = dA * p->rho_a * p->Ca * sa * (ua * sna + va * ca);
     double uw = P->uw[k], vw = P->vw[k];
     double dux = uw - up, duy = vw - vp;
-    double c = p->rho_w * p->Cw * sqrt(dux * dux + duy * duy) / rho_h;
+    double c = dA * p->rho_w * p->Cw * sqrt(dux * dux + duy * duy) / rho_h;
     double cw = m->cos_water, sw = m->sin_water;
     double f = m->fcor[k];
     double rx = beta * up + un +

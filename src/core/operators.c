@@ -278,12 +278,12 @@ void sph_parcels_drift_pass(sph_model *m)
     const double kair = p->rho_a * p->Ca, kw = p->rho_w * p->Cw, g = p->gravity;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
     for (size_t k = 0; k < n; k++) {
-        double M = P->dens[k], iM = 1.0 / M;
+        double M = P->dens[k], iM = 1.0 / M, dA = sph_drag_factor(m, k); /* drag_scaling */
         double ua = P->ua[k], va = P->va[k];
         double sa = sqrt(ua * ua + va * va);
-        double fx = P->ax[k] + kair * sa * (ua * ca - va * sna) * iM - g * P->sshx[k];
-        double fy = P->ay[k] + kair * sa * (ua * sna + va * ca) * iM - g * P->sshy[k];
-        double a = 0.5 * dt * m->fcor[k], b = dt * kw * iM;
+        double fx = P->ax[k] + dA * kair * sa * (ua * ca - va * sna) * iM - g * P->sshx[k];
+        double fy = P->ay[k] + dA * kair * sa * (ua * sna + va * ca) * iM - g * P->sshy[k];
+        double a = 0.5 * dt * m->fcor[k], b = dt * dA * kw * iM;
         double uw = P->uw[k], vw = P->vw[k], un = m->un[k], vn = m->vn[k];
         /* G = (1 + i a) Z_w - (1 - i a) z_n - dt F */
         double gr = (uw - a * vw) - (un + a * vn) - dt * fx;

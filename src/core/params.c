@@ -31,6 +31,7 @@ static const char *const rheology_names[] = {SPH_RHEOLOGIES(SPH_REGISTRY_NAME) N
 static const char *const pressure_names[] = {"seed", "hibler", NULL};
 static const char *const thermo_names[] = {"off", "zero_layer", "multi_layer", "auto", NULL};
 static const char *const freezing_names[] = {"linear", "unesco", NULL};
+static const char *const drag_names[] = {"none", "concentration", NULL};
 
 /* One row each, by type (as Redis's createBoolConfig ...): key, member,
  * default, bounds, units, description. Every row is reloadable (a reloaded
@@ -68,6 +69,7 @@ static const sph_param rows[] = {
     DBL("evp.alpha", evp_alpha, 300, 1, 1e6, "1", "Fixed mEVP alpha."),
     DBL("evp.beta", evp_beta, 300, 1, 1e6, "1", "Fixed mEVP beta."),
     DBL("evp.tol", evp_tol, 1e-7, 0, 1, "m/s", "mEVP: stop iterating when no particle's velocity changes by more than this, m/s."),
+    DBL("evp.rel_tol", evp_rel_tol, 0, 0, 1, "1", "mEVP: stop iterating when the relative momentum residual (RMS of beta times the velocity change over RMS speed of the active particles) is below this; 0: off (evp.tol, evp.iterations and the stall window only). With it on, a step that ends above it counts as unconverged in the run's statistics, status and products (docs/dynamics.md)."),
     INT("evp.stall_window", evp_stall_window, 40, 0, 100000, "1", "auto physics: stop the mEVP iteration when its RMS velocity change has reached no new minimum in this many iterations (a limit cycle; 0: off)."),
     INT("implicit.max_picard", implicit_max_picard, 30, 1, 1000, "1", "Implicit solver: Picard iterations."),
     DBL("implicit.tol", implicit_tol, 1e-6, 1e-14, 1, "1", "Implicit solver: relative residual."),
@@ -95,6 +97,9 @@ static const sph_param rows[] = {
     DBL("momentum.turn_water", turn_water, 0, -90, 90, "degree", "Water turning angle, degrees (25 typical in the Arctic)."),
     DBL("momentum.gravity", gravity, 9.81, 9, 10, "m/s^2", "Gravity, m/s^2."),
     BOOL("momentum.coriolis", coriolis, 1, "Coriolis force (off only for channel tests)."),
+    ENUM("momentum.drag_scaling", drag_scaling, drag_names, SPH_DRAG_NONE, "Comparison option: none (Hibler 1979: air and water stress on the whole parcel; the default) or concentration (CICE: both stresses times the concentration A), for like-for-like comparison with CICE (docs/dynamics.md)."),
+    DBL("momentum.coriolis_f", coriolis_f, 0, -2e-4, 2e-4, "s-1", "Comparison option: a constant Coriolis parameter f, s-1 (CICE's box2001 uses 1.46e-4); 0: 2 Omega sin(latitude) per particle (docs/dynamics.md)."),
+    BOOL("fixed_state", fixed_state, 0, "Comparison option: solve the momentum on a fixed ice state (positions, concentration, thickness and mass per area never change; no thermodynamics), as CICE's box2001 does (docs/dynamics.md)."),
     DBL("health.speed_limit", speed_limit, 10, 0.01, 1000, "m/s", "Ice speed above which the run is declared blown up, m/s."),
     DBL("health.thickness_limit", thickness_limit, 30, 0.1, 1000, "m", "Mean ice thickness (ice volume per area) of a parcel above which the run is declared blown up (a numerical pile-up), m."),
     DBL("health.mass_tolerance", mass_tolerance, 1e-10, 0, 1, "1", "Relative mass change per step no source explains before the run fails."),

@@ -10,6 +10,8 @@ void sph_run_stats_begin(sph_run_stats *r, sph_model *m, int dt_auto)
     r->particles_start = (long)sph_model_particles(m)->n;
     r->dt = sph_model_params(m)->dt;
     r->dt_auto = dt_auto;
+    const sph_params *p = sph_model_params(m);
+    r->solver_rel_tol_on = p->solver == SPH_SOLVER_MEVP && p->evp_rel_tol > 0.0;
 }
 
 /* Sums until sph_run_stats_end divides them, in the order of the steps. */
@@ -22,6 +24,10 @@ void sph_run_stats_add(sph_run_stats *r, const sph_model *m)
     r->frac_multi_layer += ss->frac_multi_layer;
     r->solver_iterations += ss->iterations;
     r->solver_stalled += ss->stalled;
+    r->solver_residual += ss->rel_residual;
+    if (ss->rel_residual > r->solver_residual_max)
+        r->solver_residual_max = ss->rel_residual;
+    r->solver_unconverged += ss->unconverged;
     r->steps++;
 }
 
@@ -35,6 +41,8 @@ void sph_run_stats_end(sph_run_stats *r, sph_model *m)
         r->frac_multi_layer /= n;
         r->solver_iterations /= n;
         r->solver_stalled /= n;
+        r->solver_residual /= n;
+        r->solver_unconverged /= n;
     }
     r->particles_end = (long)sph_model_particles(m)->n;
     r->budget_residual = sph_budget_residual(sph_model_budget(m));

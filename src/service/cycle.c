@@ -512,6 +512,11 @@ static cJSON *result_json(const forecast_result *r)
         cJSON *sv = cJSON_AddObjectToObject(o, "solver");
         cJSON_AddNumberToObject(sv, "mean_iterations", r->run.solver_iterations);
         cJSON_AddNumberToObject(sv, "stalled_fraction", r->run.solver_stalled);
+        if (r->run.solver_rel_tol_on) { /* model.evp.rel_tol > 0: the residual rule */
+            cJSON_AddNumberToObject(sv, "mean_relative_residual", r->run.solver_residual);
+            cJSON_AddNumberToObject(sv, "max_relative_residual", r->run.solver_residual_max);
+            cJSON_AddNumberToObject(sv, "unconverged_fraction", r->run.solver_unconverged);
+        }
     }
     cJSON *ens = ensemble_json(r);
     if (ens)
@@ -889,6 +894,15 @@ int cycle_run(const struct sph_config *cfg, const cycle_opts *o, forecast_progre
     stage[0] = 0;
     rep->result = CYCLE_OK;
     snprintf(rep->message, sizeof rep->message, "published %.900s%s", rep->product_dir, rep->stale ? " (stale forcing)" : "");
+    if (rep->res.run.solver_unconverged > 0.0) { /* evp.rel_tol: the status's last_run shows it */
+        size_t ml = strlen(rep->message);
+        snprintf(rep->message + ml, sizeof rep->message - ml,
+                 "; warning: %.3g %% of the steps ended unconverged (mEVP relative residual above model.evp.rel_tol, "
+                 "largest %.3g)", 100.0 * rep->res.run.solver_unconverged, rep->res.run.solver_residual_max);
+        log_warn("cycle %s: %.3g %% of the steps ended with the mEVP relative residual above model.evp.rel_tol "
+                 "(largest %.3g): raise model.evp.iterations", cname, 100.0 * rep->res.run.solver_unconverged,
+                 rep->res.run.solver_residual_max);
+    }
 
 done:
     rep->ended = time_now();

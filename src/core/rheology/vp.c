@@ -72,7 +72,10 @@ static void vp_project_memory(sph_model *m)
 
 static double vp_stable_dt(const sph_params *p, double spacing, const char **why)
 {
-    if (!p->replacement_pressure)
+    /* the bound was measured as the drift of a moving state (R300); a
+     * fixed state (model.fixed_state, a comparison option) has none:
+     * box2001 at 432-3200 s, docs/dynamics.md */
+    if (!p->replacement_pressure || p->fixed_state)
         return HUGE_VAL;
     double k = 0.5 * (1.0 + sqrt(1.0 + 1.0 / (p->ecc * p->ecc)));
     double cp = sqrt(k * p->P0 / p->rho_i);

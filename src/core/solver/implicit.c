@@ -141,8 +141,7 @@ static void ghost_maps(sph_model *m, implicit_work *w)
         }
         for (int c = 0; c < 3; c++) {
             double a = c == 0, b2 = c == 2, cc = c == 1; /* (S11, S12, S22) */
-            sph_reflect_tensor(nx1, ny1, &a, &b2, &cc);
-            sph_reflect_tensor(nx2, ny2, &a, &b2, &cc);
+            sph_ghost_stress_image(m->prm.coast_no_slip, nx1, ny1, nx2, ny2, &a, &b2, &cc);
             Q[0 * 3 + c] = a;  /* S11 */
             Q[1 * 3 + c] = cc; /* S22 */
             Q[2 * 3 + c] = b2; /* S12 */
@@ -253,10 +252,11 @@ static int implicit_solve(sph_model *m, void *ws, sph_status *st)
         for (size_t k = 0; k < n; k++) {
             double rho_h = P->dens[k];
             double ua = P->ua[k], va = P->va[k], sa = hypot(ua, va);
-            double tax = p->rho_a * p->Ca * sa * (ua * m->cos_air - va * m->sin_air);
-            double tay = p->rho_a * p->Ca * sa * (ua * m->sin_air + va * m->cos_air);
+            double dA = sph_drag_factor(m, k); /* model.momentum.drag_scaling */
+            double tax = dA * p->rho_a * p->Ca * sa * (ua * m->cos_air - va * m->sin_air);
+            double tay = dA * p->rho_a * p->Ca * sa * (ua * m->sin_air + va * m->cos_air);
             double uw = P->uw[k], vw = P->vw[k];
-            double c = p->rho_w * p->Cw * hypot(uw - P->u[k], vw - P->v[k]) / rho_h;
+            double c = dA * p->rho_w * p->Cw * hypot(uw - P->u[k], vw - P->v[k]) / rho_h;
             double f = m->fcor[k], un = m->un[k], vn = m->vn[k];
             coo_add(iw->Kt, 2 * k, 2 * k, 1.0 + dt * c * cw);
             coo_add(iw->Kt, 2 * k, 2 * k + 1, -dt * (c * sw + 0.5 * f));

@@ -19,9 +19,12 @@
 #define SPH_MEVP_FIXED_DT_MAX 300.0
 #define SPH_MEVP_FIXED_DT_FINE 60.0
 #define SPH_AEVP_DT_PER_M 0.2
+/* m/s: the relative residual's scale where the ice is (nearly) at rest */
+#define SPH_MEVP_SPEED_FLOOR 1e-4
 
 typedef struct mevp_work {
     double *t11, *t22, *t12; /* the rheology's target stress, per particle */
+    double *res2;            /* per particle: (beta |u' - u|)^2 of the last iteration */
 } mevp_work;
 
 static void mevp_free(void *ws)
@@ -32,6 +35,7 @@ static void mevp_free(void *ws)
     free(w->t11);
     free(w->t22);
     free(w->t12);
+    free(w->res2);
     free(w);
 }
 
@@ -45,7 +49,8 @@ static int mevp_create(const sph_model *m, void **ws)
     w->t11 = calloc(n, sizeof(double));
     w->t22 = calloc(n, sizeof(double));
     w->t12 = calloc(n, sizeof(double));
-    if (w->t11 && w->t22 && w->t12)
+    w->res2 = calloc(n, sizeof(double));
+    if (w->t11 && w->t22 && w->t12 && w->res2)
         return 0;
     mevp_free(w);
     *ws = NULL;
@@ -61,7 +66,7 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
     const int *act = m->active;
     size_t na = m->nactive;
     int it;
-    double resid = 0.0;
+    double resid = 0.0, rel = 0.0;
     /* auto: stall detection on the RMS velocity change (the maximum is
      * dominated by single particles and is no measure of progress): no new
      * minimum in win iterations */
@@ -107,20 +112,31 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
             double u, v;
             sph_momentum(m, k, beta, P->u[k], P->v[k], m->un[k], m->vn[k], dt, &u, &v);
             m->dvel[k] = fmax(fabs(u - P->u[k]), fabs(v - P->v[k]));
+            /* the momentum residual of the time-discrete equation at u':
+             * (I + dt D) u' - rhs = -beta (u' - u) */
+            double bu = beta * (u - P->u[k]), bv = beta * (v - P->v[k]);
+            w->res2[k] = bu * bu + bv * bv;
             P->u[k] = u;
             P->v[k] = v;
         }
-        double s2 = 0.0;
+        double s2 = 0.0, q2 = 0.0, u2 = 0.0;
         for (size_t i = 0; i < na; i++) {
-            double d = m->dvel[(size_t)act[i]];
+            size_t k = (size_t)act[i];
+            double d = m->dvel[k];
             r = fmax(r, d);
             s2 += d * d;
+            q2 += w->res2[k];
+            u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
         }
         resid = r;
+        /* relative to the RMS speed, floored at SPH_MEVP_SPEED_FLOOR (ice
+         * at rest has no scale of its own) */
+        double urms = sqrt(u2 / (double)na);
+        rel = sqrt(q2 / (double)na) / fmax(urms, SPH_MEVP_SPEED_FLOOR);
         if (!isfinite(r))
             return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_NONFINITE, -1, "mEVP residual", r, 0.0,
                                   "is not finite (the stress iteration diverged)");
-        if (r < p->evp_tol) {
+        if (r < p->evp_tol || (p->evp_rel_tol > 0.0 && rel < p->evp_rel_tol)) {
             it++;
             break;
         }
@@ -138,6 +154,8 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
     }
     m->stats.iterations = it;
     m->stats.residual = resid;
+    m->stats.rel_residual = rel;
+    m->stats.unconverged = p->evp_rel_tol > 0.0 && !(rel < p->evp_rel_tol) && !(resid < p->evp_tol);
     return SPH_STEP_OK;
 }
 

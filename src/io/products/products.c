@@ -898,6 +898,17 @@ static int fields_finish(prod_writer *p, sph_error *err)
             "write attribute to");
         NCT(put_double(nc, NC_GLOBAL, "sphice_solver_stalled_fraction", p->run.solver_stalled),
             "write attribute to");
+        if (p->run.solver_rel_tol_on) { /* model.evp.rel_tol > 0: the residual rule */
+            NCT(put_double(nc, NC_GLOBAL, "sphice_solver_mean_relative_residual", p->run.solver_residual),
+                "write attribute to");
+            NCT(put_double(nc, NC_GLOBAL, "sphice_solver_unconverged_fraction", p->run.solver_unconverged),
+                "write attribute to");
+            if (p->run.solver_unconverged > 0.0)
+                NCT(prod_put_text(nc, NC_GLOBAL, "sphice_solver_warning",
+                                  "some steps ended with the mEVP relative residual above model.evp.rel_tol "
+                                  "(sphice_solver_unconverged_fraction): the stress solution is not converged there"),
+                    "write attribute to");
+        }
         NCT(put_double(nc, NC_GLOBAL, "sphice_mass_budget_residual", p->run.budget_residual),
             "write attribute to");
         if (p->run.dt > 0.0) {
