@@ -142,7 +142,7 @@ static int write_nc(const ens_options *o, const char *path, size_t nt, size_t nl
     int nc = -1, st = nc_create(tmp, NC_NETCDF4 | NC_CLOBBER, &nc);
     if (st)
         return nc_fail(st, "create", tmp, err);
-    int dt, dy, dx, vt, vy, vx, vref, vf[5];
+    int dt = -1, dy = -1, dx = -1, vt = -1, vy = -1, vx = -1, vref = -1, vf[5] = {-1, -1, -1, -1, -1};
     if (!st) st = nc_def_dim(nc, "time", nt, &dt);
     if (!st) st = nc_def_dim(nc, "lat", nlat, &dy);
     if (!st) st = nc_def_dim(nc, "lon", nlon, &dx);
