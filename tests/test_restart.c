@@ -12,6 +12,7 @@
 #include "check.h"
 #include "engine_case.h"
 #include "core/model.h"
+#include "core/ocean.h"
 #include "io/products.h"
 #include "io/restart.h"
 #include "lattice.h"
@@ -208,6 +209,175 @@ static void module_level(void)
     sph_error_clear(&err);
     snprintf(other, sizeof other, "%s/missing.nc", dir);
     CHECK(restart_read_header(other, &r, &err) == SPH_ERR_IO, "missing file: %s", err.msg);
+    sph_model_free(a);
+    sph_model_free(c);
+}
+
+/* ------------------------------------------------- the mixed layer */
+
+/* The mixed layer under the ice of module_level's case and beside it: 5 x 5
+ * cells of 4 km on the lattice of 1 km, every cell at its freezing point
+ * under -12 C air, so the open water forms frazil, new particles
+ * (threshold 2 mm; the eastern column later, from 0.05 K above freezing)
+ * and merges thin ones. */
+static const sph_ocean_grid ml_grid = {5, 5, -2000.0, -2000.0, 4000.0, 4000.0, 0.0, 0.0, DX};
+#define ML_CAP 600
+
+static void ml_forcing(sph_model *m)
+{
+    set_forcing(sph_model_particles(m));
+    sph_ocean *o = sph_model_ocean(m);
+    for (size_t c = 0; c < o->ncell; c++) {
+        o->tair[c] = -12.0;
+        o->qair[c] = 1.0e-3;
+        o->ua[c] = 3.0;
+        o->va[c] = 12.0;
+        o->swdn[c] = 50.0;
+        o->lwdn[c] = 200.0;
+        o->lat[c] = 40.0;
+    }
+}
+
+static int ml_steps(sph_model *m, int n)
+{
+    sph_status st;
+    for (int s = 0; s < n; s++) {
+        ml_forcing(m);
+        if (sph_model_step(m, &st) != SPH_STEP_OK) {
+            fprintf(stderr, "step: %s %g %s\n", st.quantity, st.value, st.what);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+static sph_model *ml_fresh(const sph_params *p, const sph_landmask *mask)
+{
+    sph_model *m = sph_model_create(p, ML_CAP, mask);
+    if (!m || sph_model_ocean_create(m, &ml_grid) != SPH_STEP_OK) {
+        sph_model_free(m);
+        return NULL;
+    }
+    /* the eastern column of cells starts 0.05 K above freezing: it freezes later */
+    sph_ocean *o = sph_model_ocean(m);
+    for (size_t c = 4; c < o->ncell; c += 5)
+        sph_ocean_set_cell(o, c, o->depth[c], o->sal[c], o->temp[c] + 0.05);
+    sph_particles *P = sph_model_particles(m);
+    lattice_fill(P, p, NX, NY, 0.0, 0.0, DX, 0.4, 0.95, 40.0);
+    for (size_t k = 0; k < P->n; k++)
+        sph_thermo_init_particle(&p->thermo, P, k, -12.0);
+    ml_forcing(m);
+    sph_status st;
+    if (sph_model_init(m, &st) != SPH_STEP_OK) {
+        sph_model_free(m);
+        return NULL;
+    }
+    return m;
+}
+
+/* 2N steps equal N steps, a restart file with the mixed layer, N steps, to
+ * the bit (particles, the slab, its frazil and accumulators); a file
+ * without the mixed layer leaves it alone; another grid is refused. */
+static void mixed_layer_level(void)
+{
+    sph_params p;
+    setup_params(&p);
+    p.ocean.mixed_layer = 1;
+    p.ocean.create = 1;
+    p.ocean.merge = 1;
+    p.ocean.new_thickness = 0.002;
+    sph_landmask mask = make_mask();
+    const int total = 80, at = 30;
+    sph_model *a = ml_fresh(&p, &mask), *b = ml_fresh(&p, &mask);
+    CHECK(a && b, "models with the mixed layer");
+    if (!a || !b) {
+        sph_model_free(a);
+        sph_model_free(b);
+        return;
+    }
+    CHECK(ml_steps(a, total) == 0, "uninterrupted run");
+    CHECK(ml_steps(b, at) == 0, "first part");
+    long created_at = sph_model_budget(b)->created_particles, created = sph_model_budget(a)->created_particles;
+    printf("mixed layer restart: created %ld particles by step %d, %ld by %d; merged %ld; %zu particles\n",
+           created_at, at, created, total, sph_model_budget(a)->merged_particles, sph_model_particles(a)->n);
+    CHECK(created > created_at && created_at > 0, "new particles in both halves (%ld, %ld)", created_at,
+          created - created_at);
+    char path[1024], plain[1024];
+    snprintf(path, sizeof path, "%s/restart_ml.nc", dir);
+    snprintf(plain, sizeof plain, "%s/restart_plain.nc", dir);
+    restart_header h;
+    memset(&h, 0, sizeof h);
+    h.time = 1000.0 + at * p.dt;
+    h.cycle_time = 1000.0;
+    snprintf(h.projection, sizeof h.projection, "+proj=test");
+    sph_model_get_clock(b, &h.clock);
+    sph_error err;
+    sph_error_clear(&err);
+    CHECK(restart_write_ocean(path, sph_model_particles(b), &h, sph_model_ocean(b), &err) == SPH_OK, "write: %s",
+          err.msg);
+    CHECK(restart_write(plain, sph_model_particles(b), &h, &err) == SPH_OK, "write without: %s", err.msg);
+    double frazil_b = 0.0;
+    for (size_t c = 0; c < sph_model_ocean(b)->ncell; c++)
+        frazil_b += sph_model_ocean(b)->frazil[c];
+    sph_model_free(b);
+
+    restart_header r;
+    sph_model *c = sph_model_create(&p, ML_CAP, &mask);
+    int ok = c && sph_model_ocean_create(c, &ml_grid) == SPH_STEP_OK;
+    CHECK(ok, "model for the restart");
+    sph_status st;
+    int found = -1;
+    ok = ok && restart_read(path, "+proj=test", &r, sph_model_particles(c), &err) == SPH_OK &&
+         restart_read_ocean(path, sph_model_ocean(c), &found, &err) == SPH_OK;
+    CHECK(ok && found == 1, "read with the mixed layer: %s", err.msg);
+    ok = ok && sph_model_resume(c, &r.clock, &st) == SPH_STEP_OK;
+    CHECK(ok, "resume: %s", st.what);
+    CHECK(ok && ml_steps(c, total - at) == 0, "continued run");
+    const sph_particles *A = sph_model_particles(a), *B = sph_model_particles(c);
+    CHECK(A->n == B->n, "particles %zu vs %zu", A->n, B->n);
+    if (ok && A->n == B->n) {
+        size_t n = A->n;
+        SAME(x, n);
+        SAME(y, n);
+        SAME(u, n);
+        SAME(mass, n);
+        SAME(thick, n);
+        SAME(conc, n);
+        SAME(sml, n);
+        SAME(tsurf, n);
+        SAME(id, n);
+        SAME(enth, n * (size_t)A->nlayers);
+        SAME(ofx_water, n);
+    }
+    const sph_ocean *oa = sph_model_ocean(a), *oc = sph_model_ocean(c);
+    const double *const arr[2][10] = {
+        {oa->temp, oa->sal, oa->depth, oa->water, oa->salt, oa->frazil, oa->frazil_enth, oa->ofx_heat, oa->ofx_water,
+         oa->ofx_salt},
+        {oc->temp, oc->sal, oc->depth, oc->water, oc->salt, oc->frazil, oc->frazil_enth, oc->ofx_heat, oc->ofx_water,
+         oc->ofx_salt}};
+    static const char *const nm[10] = {"temp", "sal", "depth", "water", "salt", "frazil", "frazil_enth",
+                                       "ofx_heat", "ofx_water", "ofx_salt"};
+    for (int q = 0; q < 10; q++)
+        CHECK(memcmp(arr[0][q], arr[1][q], oa->ncell * sizeof(double)) == 0, "mixed layer %s identical after "
+              "the restart", nm[q]);
+    CHECK(frazil_b > 0.0, "the restart file holds waiting frazil (%g kg)", frazil_b);
+
+    /* a file without the mixed layer leaves it alone; another grid is refused */
+    sph_ocean *o = sph_model_ocean(c);
+    double t0 = o->temp[0];
+    found = -1;
+    CHECK(restart_read_ocean(plain, o, &found, &err) == SPH_OK && found == 0 && o->temp[0] == t0,
+          "a file without the mixed layer: found %d", found);
+    sph_ocean_grid g2 = ml_grid;
+    g2.dx = g2.dy = 5000.0;
+    g2.nx = g2.ny = 4;
+    sph_model *d = sph_model_create(&p, ML_CAP, &mask);
+    sph_error_clear(&err);
+    int rc = d && sph_model_ocean_create(d, &g2) == SPH_STEP_OK ? restart_read_ocean(path, sph_model_ocean(d), &found, &err)
+                                                                : -1;
+    CHECK(rc == SPH_ERR_CONFIG && strstr(err.msg, "model.ocean.cell") && strstr(err.msg, "restart_ml.nc"),
+          "another grid: %s", err.msg);
+    sph_model_free(d);
     sph_model_free(a);
     sph_model_free(c);
 }
@@ -591,6 +761,7 @@ int main(int argc, char **argv)
     CHECK(mkdtemp(dir) != NULL, "mkdtemp");
     ec_write_inputs(dir);
     module_level();
+    mixed_layer_level();
     every_field();
     malformed();
     engine_level();

@@ -279,7 +279,8 @@ int fc_write_restart(engine *e, double t, sph_error *err)
     h.cycle_time = e->t0;
     snprintf(h.projection, sizeof h.projection, "%s", geo_proj_definition(e->proj));
     sph_model_get_clock(e->m, &h.clock);
-    int rc = restart_write(e->restart_path, sph_model_particles(e->m), &h, err);
+    sph_ocean *o = e->prm.ocean.mixed_layer ? sph_model_ocean(e->m) : NULL; /* the mixed layer too */
+    int rc = restart_write_ocean(e->restart_path, sph_model_particles(e->m), &h, o, err);
     if (rc == SPH_OK)
         e->restart_written = 1;
     return rc;
