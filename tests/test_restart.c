@@ -706,10 +706,17 @@ static int forecast(const struct sph_config *cfg, const char *stage, double cycl
     return rc;
 }
 
-static void engine_level(void)
+/* mixed: with the mixed layer and new ice (2 cm of frazil, reached after
+ * the restart at +3 h: a layer started afresh there would not reach it by
+ * +6 h). */
+static void engine_level(int mixed)
 {
     char text[8192];
-    ec_config(text, sizeof text, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "");
+    ec_config_more(text, sizeof text, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "",
+                   mixed ? ", \"ocean\": {\"mixed_layer\": true}, \"new_ice\": {\"create\": true, "
+                           "\"thickness\": 0.02}"
+                         : "",
+                   "");
     char *e = strstr(text, "\"every_hours\": 6");
     CHECK(e != NULL, "config text");
     if (!e)
@@ -724,8 +731,8 @@ static void engine_level(void)
     char atm[1024], s1[1024], s2[1024], rs[1200], p1[1200], p2[1200];
     snprintf(atm, sizeof atm, "%s/atm.nc", dir);
     atm_files[0] = atm;
-    snprintf(s1, sizeof s1, "%s/long", dir);
-    snprintf(s2, sizeof s2, "%s/continued", dir);
+    snprintf(s1, sizeof s1, "%s/long%s", dir, mixed ? "-ml" : "");
+    snprintf(s2, sizeof s2, "%s/continued%s", dir, mixed ? "-ml" : "");
     forecast_result r1, r2;
     if (forecast(cfg, s1, EC_CYCLE, 6, NULL, &r1) == SPH_OK) {
         char rname[64];
@@ -744,6 +751,18 @@ static void engine_level(void)
                 int same = a.n == b.n && !memcmp(a.lon, b.lon, a.n * sizeof *a.lon) &&
                            !memcmp(a.lat, b.lat, a.n * sizeof *a.lat) && !memcmp(a.id, b.id, a.n * sizeof *a.id);
                 CHECK(same, "warm-started forecast ends on the uninterrupted one's positions, bit for bit");
+                same = a.n == b.n && !memcmp(a.mass, b.mass, a.n * sizeof *a.mass) &&
+                       !memcmp(a.thick, b.thick, a.n * sizeof *a.thick);
+                CHECK(same, "and on its masses and thicknesses%s", mixed ? " (mixed layer, new ice)" : "");
+                if (mixed) {
+                    prod_particles c3;
+                    int r3 = products_read_particles(p1, EC_CYCLE + 3 * 3600.0, &c3, &err);
+                    printf("engine, mixed layer: %zu particles at +3 h, %zu at +6 h\n", r3 ? 0 : c3.n, a.n);
+                    CHECK(r3 == SPH_OK && a.n > c3.n, "new particles after the restart: %zu at +3 h, %zu at +6 h",
+                          r3 ? 0 : c3.n, a.n);
+                    if (r3 == SPH_OK)
+                        prod_particles_free(&c3);
+                }
                 CHECK(r2.run.budget_residual < 1e-10, "residual %g", r2.run.budget_residual);
             }
             prod_particles_free(&a);
@@ -764,7 +783,8 @@ int main(int argc, char **argv)
     mixed_layer_level();
     every_field();
     malformed();
-    engine_level();
+    engine_level(0);
+    engine_level(1);
     if (check_failed_ == 0)
         cycle_remove_tree(dir);
     return check_summary("test_restart");
