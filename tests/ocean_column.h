@@ -8,6 +8,9 @@
 
 #include <math.h>
 
+#include "core/model.h"
+#include "core/ocean.h"
+
 #define OC_RHO_A 1.3
 #define OC_CP_A 1005.0
 #define OC_CH 1.3e-3
@@ -72,6 +75,24 @@ static inline double oc_slab_step(oc_slab *s, double F, double dt, int n)
     s->salt -= dm * bl_mean_salinity(n) / 1000.0;
     s->T = tf;
     return dm;
+}
+
+/* The same atmosphere (air temperature deg C, specific humidity, wind
+ * m/s, shortwave and longwave down W/m^2) and latitude over every particle
+ * and every cell of the mixed layer of m. */
+static inline void oc_fill_atm(sph_model *m, double ta, double q, double ua, double va, double sw, double lw,
+                               double lat)
+{
+    sph_particles *P = sph_model_particles(m);
+    sph_ocean *o = sph_model_ocean(m);
+    const double val[7] = {ta, q, ua, va, sw, lw, lat};
+    double *const dst[2][7] = {{P->tair, P->qair, P->ua, P->va, P->swdn, P->lwdn, P->lat},
+                               {o->tair, o->qair, o->ua, o->va, o->swdn, o->lwdn, o->lat}};
+    const size_t n[2] = {P->n, o->ncell};
+    for (int s = 0; s < 2; s++)
+        for (int k = 0; k < 7; k++)
+            for (size_t i = 0; i < n[s]; i++)
+                dst[s][k][i] = val[k];
 }
 
 #endif

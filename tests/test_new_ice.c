@@ -26,19 +26,7 @@ typedef struct {
 } atm;
 
 /* The same atmosphere over every particle and every cell of the mixed layer. */
-static void fill(sph_model *m, const atm *a)
-{
-    sph_particles *P = sph_model_particles(m);
-    sph_ocean *o = sph_model_ocean(m);
-    const double val[7] = {a->ta, a->q, a->ua, a->va, a->sw, a->lw, 40.0};
-    double *const dst[2][7] = {{P->tair, P->qair, P->ua, P->va, P->swdn, P->lwdn, P->lat},
-                               {o->tair, o->qair, o->ua, o->va, o->swdn, o->lwdn, o->lat}};
-    const size_t n[2] = {P->n, o->ncell};
-    for (int s = 0; s < 2; s++)
-        for (int q = 0; q < 7; q++)
-            for (size_t k = 0; k < n[s]; k++)
-                dst[s][q][k] = val[q];
-}
+static void fill(sph_model *m, const atm *a) { oc_fill_atm(m, a->ta, a->q, a->ua, a->va, a->sw, a->lw, 40.0); }
 
 static void base_params(sph_params *p)
 {

@@ -96,18 +96,28 @@ static double *get(int nc, const char *name, size_t n)
     return a;
 }
 
+/* Opens a fluxes file and reads its lat/lon sizes; -1 when it cannot. */
+static int open_lonlat(const char *path, int *nc, size_t *nx, size_t *ny)
+{
+    int d;
+    *nx = *ny = 0;
+    if (nc_open(path, NC_NOWRITE, nc) != NC_NOERR)
+        return -1;
+    nc_inq_dimid(*nc, "lat", &d);
+    nc_inq_dimlen(*nc, d, ny);
+    nc_inq_dimid(*nc, "lon", &d);
+    nc_inq_dimlen(*nc, d, nx);
+    return 0;
+}
+
 /* sum over the water cells of record r of var x area, and the count of fill cells */
 static double cell_sum(const char *path, const char *var, size_t r, size_t *nfill)
 {
-    int nc, d;
-    size_t ny = 0, nx = 0;
+    int nc;
+    size_t ny, nx;
     double s = NAN;
-    if (nc_open(path, NC_NOWRITE, &nc) != NC_NOERR)
+    if (open_lonlat(path, &nc, &nx, &ny))
         return NAN;
-    nc_inq_dimid(nc, "lat", &d);
-    nc_inq_dimlen(nc, d, &ny);
-    nc_inq_dimid(nc, "lon", &d);
-    nc_inq_dimlen(nc, d, &nx);
     size_t n = nx * ny;
     double *a = get(nc, "areacello", n), *v = malloc(n * sizeof *v);
     int id;
@@ -237,16 +247,12 @@ static void ocean_grid(void)
  * the count of nonzero ones. */
 static double west_water(const char *path, size_t r, double lon_max, size_t *nonzero)
 {
-    int nc, d, v;
-    size_t ny = 0, nx = 0;
+    int nc, v;
+    size_t ny, nx;
     double s = NAN;
     *nonzero = 0;
-    if (nc_open(path, NC_NOWRITE, &nc) != NC_NOERR)
+    if (open_lonlat(path, &nc, &nx, &ny))
         return NAN;
-    nc_inq_dimid(nc, "lat", &d);
-    nc_inq_dimlen(nc, d, &ny);
-    nc_inq_dimid(nc, "lon", &d);
-    nc_inq_dimlen(nc, d, &nx);
     double *a = get(nc, "areacello", nx * ny), *lon = get(nc, "lon", nx), *w = malloc(nx * ny * sizeof *w);
     size_t start[3] = {r, 0, 0}, count[3] = {1, ny, nx};
     if (a && lon && w && nc_inq_varid(nc, "siflfwbot", &v) == NC_NOERR &&

@@ -95,23 +95,7 @@ int main(void)
     for (size_t k = 0; k < P->n; k++)
         sph_thermo_init_particle(&p.thermo, P, k, -20.0);
     const double ta = -20.0, q = 6e-4, ua = 5.0, va = 5.0, lw = 180.0;
-    for (size_t c = 0; c < 3; c++) {
-        o->tair[c] = ta;
-        o->qair[c] = q;
-        o->ua[c] = ua;
-        o->va[c] = va;
-        o->swdn[c] = 0.0;
-        o->lwdn[c] = lw;
-        o->lat[c] = 40.0;
-    }
-    for (size_t k = 0; k < P->n; k++) {
-        P->tair[k] = ta;
-        P->qair[k] = q;
-        P->ua[k] = ua;
-        P->va[k] = va;
-        P->swdn[k] = 0.0;
-        P->lwdn[k] = lw;
-    }
+    oc_fill_atm(m, ta, q, ua, va, 0.0, lw, 40.0);
     sph_status st;
     CHECK(sph_model_init(m, &st) == SPH_STEP_OK, "init: %s", st.what);
     const double area = 1e8, H = SPH_OCEAN_RHO_WATER * SPH_OCEAN_CP_WATER * 20.0;
@@ -159,15 +143,13 @@ int main(void)
         xa[i] = (i + 0.5) * DXG;
     for (int j = 0; j < NYG; j++)
         ya[j] = (j + 0.5) * DXG;
-    for (int j = 0; j < NYG; j++)
-        for (int i = 0; i < NXG; i++) {
-            size_t c = (size_t)j * NXG + i;
-            cx[c] = xa[i];
-            cy[c] = ya[j];
-            ar[c] = DXG * DXG;
-            lon[c] = 121.0 + xa[i] / 85000.0;
-            lat[c] = 40.0 + ya[j] / 111000.0;
-        }
+    for (size_t c = 0; c < NXG * NYG; c++) { /* centres, areas; lon/lat only as attributes */
+        cx[c] = xa[c % NXG];
+        cy[c] = ya[c / NXG];
+        ar[c] = DXG * DXG;
+        lon[c] = 121.0 + cx[c] / 85000.0;
+        lat[c] = 40.0 + cy[c] / 111000.0;
+    }
     land[1 * NXG + 5] = 1;
     ofx_grid og = {.kind = OFX_GRID_PLANE, .nx = NXG, .ny = NYG, .xaxis = xa, .yaxis = ya, .lon = lon,
                    .lat = lat, .cx = cx, .cy = cy, .area = ar, .land = land, .projection = "+proj=test"};

@@ -16,6 +16,7 @@
 #include "io/products.h"
 #include "io/restart.h"
 #include "lattice.h"
+#include "ocean_column.h"
 #include "service/config.h"
 #include "service/cycle.h"
 #include "service/forecast.h"
@@ -106,6 +107,16 @@ static int steps(sph_model *m, int n)
         CHECK(same_, "%s identical after the restart", #field);                               \
     } while (0)
 
+/* The header of a restart file of model m valid at t (cycle 1000 s, plane "+proj=test"). */
+static void test_header(restart_header *h, const sph_model *m, double t)
+{
+    memset(h, 0, sizeof *h);
+    h->time = t;
+    h->cycle_time = 1000.0;
+    snprintf(h->projection, sizeof h->projection, "+proj=test");
+    sph_model_get_clock(m, &h->clock);
+}
+
 static void module_level(void)
 {
     sph_params p;
@@ -124,11 +135,7 @@ static void module_level(void)
     char path[1024];
     snprintf(path, sizeof path, "%s/restart.nc", dir);
     restart_header h;
-    memset(&h, 0, sizeof h);
-    h.time = 1000.0 + at * p.dt;
-    h.cycle_time = 1000.0;
-    snprintf(h.projection, sizeof h.projection, "+proj=test");
-    sph_model_get_clock(b, &h.clock);
+    test_header(&h, b, 1000.0 + at * p.dt);
     sph_error err;
     sph_error_clear(&err);
     CHECK(restart_write(path, sph_model_particles(b), &h, &err) == SPH_OK, "write: %s", err.msg);
@@ -226,16 +233,7 @@ static const sph_ocean_grid ml_grid = {5, 5, -2000.0, -2000.0, 4000.0, 4000.0, 0
 static void ml_forcing(sph_model *m)
 {
     set_forcing(sph_model_particles(m));
-    sph_ocean *o = sph_model_ocean(m);
-    for (size_t c = 0; c < o->ncell; c++) {
-        o->tair[c] = -12.0;
-        o->qair[c] = 1.0e-3;
-        o->ua[c] = 3.0;
-        o->va[c] = 12.0;
-        o->swdn[c] = 50.0;
-        o->lwdn[c] = 200.0;
-        o->lat[c] = 40.0;
-    }
+    oc_fill_atm(m, -12.0, 1.0e-3, 3.0, 12.0, 50.0, 200.0, 40.0); /* set_forcing's, the cells too */
 }
 
 static int ml_steps(sph_model *m, int n)
@@ -306,11 +304,7 @@ static void mixed_layer_level(void)
     snprintf(path, sizeof path, "%s/restart_ml.nc", dir);
     snprintf(plain, sizeof plain, "%s/restart_plain.nc", dir);
     restart_header h;
-    memset(&h, 0, sizeof h);
-    h.time = 1000.0 + at * p.dt;
-    h.cycle_time = 1000.0;
-    snprintf(h.projection, sizeof h.projection, "+proj=test");
-    sph_model_get_clock(b, &h.clock);
+    test_header(&h, b, 1000.0 + at * p.dt);
     sph_error err;
     sph_error_clear(&err);
     CHECK(restart_write_ocean(path, sph_model_particles(b), &h, sph_model_ocean(b), &err) == SPH_OK, "write: %s",
