@@ -125,6 +125,8 @@ int main(void)
         want_e[c] = H * (sl[c].T - T0[c]) * area;
         want_w[c] = -frz[c] * area;
         want_s[c] = -frz[c] * sb * area;
+    }
+    for (int c = 0; c < 2; c++) {
         NEAR(o->ofx_heat[c], H * area * o->temp[c] - E0[c], 1e-10 * fabs(E0[0] - H * area * o->temp[0]) + 1e-3, "cell %d heat = slab enthalpy change", c);
         NEAR(o->ofx_water[c], o->water[c] - W0[c], 1e-12 * W0[c], "cell %d water = slab water change", c);
         NEAR(o->ofx_salt[c], o->salt[c] - S0[c], 1e-12 * S0[c], "cell %d salt = slab salt change", c);
