@@ -693,6 +693,7 @@ static int forecast(const struct sph_config *cfg, const char *stage, double cycl
     req.warm_start = warm;
     req.forcing_files[0] = atm_files;
     forecast_progress prog;
+    memset((void *)&prog, 0, sizeof prog); /* cycle_set_phase reads it (valgrind) */
     sph_error err;
     sph_error_clear(&err);
     int rc = forecast_run(cfg, &req, &prog, NULL, res, &err);
