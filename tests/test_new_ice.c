@@ -17,58 +17,16 @@
 #include "check.h"
 #include "core/model.h"
 #include "core/ocean.h"
+#include "ocean_column.h"
 
 #include <string.h>
-
-#define RHO_A 1.3
-#define CP_A 1005.0
-#define CH 1.3e-3
-#define LV_W 2.501e6
-#define SIGMA 5.670374419e-8
-
-/* The open-water flux of docs/thermo.md written out: (1 - 0.06) SW + 0.97 LW
- * - 0.97 sigma T^4 + rho_a cp_a ch U (Ta - T) + rho_a Lv ce U (q - qsat(T)),
- * qsat from Magnus (WMO 2008) over water at 101325 Pa. */
-static double ow_flux(double T, double ta, double q, double U, double sw, double lw)
-{
-    double es = 611.2 * exp(17.62 * T / (243.12 + T));
-    double qs = 0.622 * es / (101325.0 - 0.378 * es);
-    double Tk = T + 273.15;
-    return 0.94 * sw + 0.97 * lw - 0.97 * SIGMA * Tk * Tk * Tk * Tk + RHO_A * CP_A * CH * U * (ta - T) +
-           RHO_A * LV_W * CH * U * (q - qs);
-}
-
-/* Bitz & Lipscomb (1999) new-ice enthalpy at Tf over n layers, written out. */
-static double q_new(int n, double Tf)
-{
-    double q = 0.0;
-    for (int i = 0; i < n; i++) {
-        double z = (i + 0.5) / n;
-        double S = 1.6 * (1.0 - cos(M_PI * pow(z, 0.407 / (z + 0.573))));
-        double Tm = -0.054 * S, T = Tf < Tm ? Tf : Tm;
-        q += S > 0 ? -900.0 * (2106.0 * (Tm - T) + 3.34e5 * (1.0 - Tm / T)) : -900.0 * (3.34e5 - 2106.0 * T);
-    }
-    return q / n;
-}
 
 typedef struct {
     double ta, q, ua, va, sw, lw;
 } atm;
 
 /* The same atmosphere over every particle and every cell of the mixed layer. */
-static void fill(sph_model *m, const atm *a)
-{
-    sph_particles *P = sph_model_particles(m);
-    sph_ocean *o = sph_model_ocean(m);
-    const double val[7] = {a->ta, a->q, a->ua, a->va, a->sw, a->lw, 40.0};
-    double *const dst[2][7] = {{P->tair, P->qair, P->ua, P->va, P->swdn, P->lwdn, P->lat},
-                               {o->tair, o->qair, o->ua, o->va, o->swdn, o->lwdn, o->lat}};
-    const size_t n[2] = {P->n, o->ncell};
-    for (int s = 0; s < 2; s++)
-        for (int q = 0; q < 7; q++)
-            for (size_t k = 0; k < n[s]; k++)
-                dst[s][q][k] = val[q];
-}
+static void fill(sph_model *m, const atm *a) { oc_fill_atm(m, a->ta, a->q, a->ua, a->va, a->sw, a->lw, 40.0); }
 
 static void base_params(sph_params *p)
 {
@@ -236,23 +194,10 @@ static void test_open_water_freeze(void)
     /* per m^2: each hour the open water loses F; below the freezing point
      * of the slab's salinity the deficit freezes at -q_new; the brine the
      * frazil leaves raises S, so the slab also cools to the lower Tf */
-    double W = 1026.0 * 20.0, salt = W * 32.0 / 1000.0, T = Tf, frz = 0.0, sbar = 0.0;
-    for (int i = 0; i < 7; i++) {
-        double z = (i + 0.5) / 7;
-        sbar += 1.6 * (1.0 - cos(M_PI * pow(z, 0.407 / (z + 0.573)))) / 7;
-    }
-    double H = 1026.0 * 3990.0 * 20.0;
-    for (int n = 0; n < created_step; n++) {
-        T += ow_flux(T, -20.0, 6e-4, hypot(5, 5), 0, 180.0) * 3600.0 / H;
-        double tf = -0.054 * 1000.0 * salt / W;
-        if (T < tf) {
-            double dm = 900.0 * H * (tf - T) / -q_new(7, tf);
-            frz += dm;
-            W -= dm;
-            salt -= dm * sbar / 1000.0;
-            T = tf;
-        }
-    }
+    oc_slab sl = {Tf, 1026.0 * 20.0, 1026.0 * 20.0 * 32.0 / 1000.0, 1026.0 * 3990.0 * 20.0};
+    double frz = 0.0;
+    for (int n = 0; n < created_step; n++)
+        frz += oc_slab_step(&sl, ow_flux(sl.T, -20.0, 6e-4, hypot(5, 5), 0, 180.0), 3600.0, 7);
     (void)F;
     CHECK_CLOSE(created_mass, frz * 1e8, 1e-9, 0, "created mass = the frazil of the open water");
     const sph_budget *b = sph_model_budget(m);

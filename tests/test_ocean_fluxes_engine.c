@@ -22,6 +22,8 @@
 
 static char dir[] = "/tmp/sphice-ofxe-XXXXXX";
 
+static const char *model_more = ""; /* more "model" members (the mixed layer) */
+
 static char last_error[1024]; /* run()'s error message, "" when it succeeded */
 
 /* Inserts `add` after the first `key` of text. */
@@ -43,7 +45,7 @@ static int run(int on, const char *grid, const char *ocean, const char *stage_na
                forecast_result *res)
 {
     char t2[10000], add[1200];
-    ec_config(t2, sizeof t2, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "");
+    ec_config_more(t2, sizeof t2, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "", model_more, "");
     snprintf(add, sizeof add, " \"ocean_fluxes\": %s, \"ocean_fluxes_grid\": \"%s\",", on ? "true" : "false", grid);
     if (insert(t2, sizeof t2, "\"interval_hours\": 1,", add))
         return -1;
@@ -94,18 +96,28 @@ static double *get(int nc, const char *name, size_t n)
     return a;
 }
 
+/* Opens a fluxes file and reads its lat/lon sizes; -1 when it cannot. */
+static int open_lonlat(const char *path, int *nc, size_t *nx, size_t *ny)
+{
+    int d;
+    *nx = *ny = 0;
+    if (nc_open(path, NC_NOWRITE, nc) != NC_NOERR)
+        return -1;
+    nc_inq_dimid(*nc, "lat", &d);
+    nc_inq_dimlen(*nc, d, ny);
+    nc_inq_dimid(*nc, "lon", &d);
+    nc_inq_dimlen(*nc, d, nx);
+    return 0;
+}
+
 /* sum over the water cells of record r of var x area, and the count of fill cells */
 static double cell_sum(const char *path, const char *var, size_t r, size_t *nfill)
 {
-    int nc, d;
-    size_t ny = 0, nx = 0;
+    int nc;
+    size_t ny, nx;
     double s = NAN;
-    if (nc_open(path, NC_NOWRITE, &nc) != NC_NOERR)
+    if (open_lonlat(path, &nc, &nx, &ny))
         return NAN;
-    nc_inq_dimid(nc, "lat", &d);
-    nc_inq_dimlen(nc, d, &ny);
-    nc_inq_dimid(nc, "lon", &d);
-    nc_inq_dimlen(nc, d, &nx);
     size_t n = nx * ny;
     double *a = get(nc, "areacello", n), *v = malloc(n * sizeof *v);
     int id;
@@ -231,6 +243,58 @@ static void ocean_grid(void)
     CHECK(ec_count_entries(stage) <= 0, "nothing written");
 }
 
+/* Sum of siflfwbot x area of record r over the cells west of lon_max, and
+ * the count of nonzero ones. */
+static double west_water(const char *path, size_t r, double lon_max, size_t *nonzero)
+{
+    int nc, v;
+    size_t ny, nx;
+    double s = NAN;
+    *nonzero = 0;
+    if (open_lonlat(path, &nc, &nx, &ny))
+        return NAN;
+    double *a = get(nc, "areacello", nx * ny), *lon = get(nc, "lon", nx), *w = malloc(nx * ny * sizeof *w);
+    size_t start[3] = {r, 0, 0}, count[3] = {1, ny, nx};
+    if (a && lon && w && nc_inq_varid(nc, "siflfwbot", &v) == NC_NOERR &&
+        nc_get_vara_double(nc, v, start, count, w) == NC_NOERR) {
+        s = 0.0;
+        for (size_t c = 0; c < nx * ny; c++)
+            if (lon[c % nx] < lon_max && w[c] < 1e19) {
+                s += w[c] * a[c];
+                *nonzero += w[c] != 0.0;
+            }
+    }
+    free(a);
+    free(lon);
+    free(w);
+    nc_close(nc);
+    return s;
+}
+
+/* With the mixed layer (no SST: the slab starts at its freezing point in
+ * -10 C air) the open water west of the ice (which starts at 121.2 E)
+ * forms frazil: it sends fresh water out of the ocean, through the few
+ * output cells that hold the centres of the 4-lattice-spacing cells of
+ * the mixed layer; without it, nothing there. */
+static void mixed_layer_open_water(const char *stage_off)
+{
+    char stage[1024], path[1200], poff[1200];
+    forecast_result res;
+    memset(&res, 0, sizeof res);
+    model_more = ", \"ocean\": {\"mixed_layer\": true}";
+    CHECK(run(1, "output", "", "mixed", stage, sizeof stage, &res) == 0, "forecast with the mixed layer: %s",
+          last_error);
+    model_more = "";
+    snprintf(path, sizeof path, "%s/sphice_ocean_fluxes.nc", stage);
+    snprintf(poff, sizeof poff, "%s/sphice_ocean_fluxes.nc", stage_off);
+    size_t nz = 0, nz_off = 0;
+    double w = west_water(path, 0, 121.15, &nz), w_off = west_water(poff, 0, 121.15, &nz_off);
+    printf("mixed layer: fresh water west of the ice %.6g kg/s in %zu cells (without: %g in %zu)\n", w, nz, w_off,
+           nz_off);
+    CHECK(w < 0.0 && nz > 0 && nz < 100, "the open water's frazil takes fresh water: %g kg/s in %zu cells", w, nz);
+    CHECK(w_off == 0.0 && nz_off == 0, "without the mixed layer no flux there: %g", w_off);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -319,6 +383,7 @@ int main(int argc, char **argv)
     free(tv);
     free(sx);
     free(sy);
+    mixed_layer_open_water(stage);
     ocean_grid();
     char cmd[256];
     snprintf(cmd, sizeof cmd, "rm -rf %s", dir);

@@ -12,9 +12,11 @@
 #include "check.h"
 #include "engine_case.h"
 #include "core/model.h"
+#include "core/ocean.h"
 #include "io/products.h"
 #include "io/restart.h"
 #include "lattice.h"
+#include "ocean_column.h"
 #include "service/config.h"
 #include "service/cycle.h"
 #include "service/forecast.h"
@@ -105,6 +107,16 @@ static int steps(sph_model *m, int n)
         CHECK(same_, "%s identical after the restart", #field);                               \
     } while (0)
 
+/* The header of a restart file of model m valid at t (cycle 1000 s, plane "+proj=test"). */
+static void test_header(restart_header *h, const sph_model *m, double t)
+{
+    memset(h, 0, sizeof *h);
+    h->time = t;
+    h->cycle_time = 1000.0;
+    snprintf(h->projection, sizeof h->projection, "+proj=test");
+    sph_model_get_clock(m, &h->clock);
+}
+
 static void module_level(void)
 {
     sph_params p;
@@ -123,11 +135,7 @@ static void module_level(void)
     char path[1024];
     snprintf(path, sizeof path, "%s/restart.nc", dir);
     restart_header h;
-    memset(&h, 0, sizeof h);
-    h.time = 1000.0 + at * p.dt;
-    h.cycle_time = 1000.0;
-    snprintf(h.projection, sizeof h.projection, "+proj=test");
-    sph_model_get_clock(b, &h.clock);
+    test_header(&h, b, 1000.0 + at * p.dt);
     sph_error err;
     sph_error_clear(&err);
     CHECK(restart_write(path, sph_model_particles(b), &h, &err) == SPH_OK, "write: %s", err.msg);
@@ -208,6 +216,162 @@ static void module_level(void)
     sph_error_clear(&err);
     snprintf(other, sizeof other, "%s/missing.nc", dir);
     CHECK(restart_read_header(other, &r, &err) == SPH_ERR_IO, "missing file: %s", err.msg);
+    sph_model_free(a);
+    sph_model_free(c);
+}
+
+/* ------------------------------------------------- the mixed layer */
+
+/* The mixed layer under the ice of module_level's case and beside it: 5 x 5
+ * cells of 4 km on the lattice of 1 km, every cell at its freezing point
+ * under -12 C air, so the open water forms frazil, new particles
+ * (threshold 2 mm; the eastern column later, from 0.05 K above freezing)
+ * and merges thin ones. */
+static const sph_ocean_grid ml_grid = {5, 5, -2000.0, -2000.0, 4000.0, 4000.0, 0.0, 0.0, DX};
+#define ML_CAP 600
+
+static void ml_forcing(sph_model *m)
+{
+    set_forcing(sph_model_particles(m));
+    oc_fill_atm(m, -12.0, 1.0e-3, 3.0, 12.0, 50.0, 200.0, 40.0); /* set_forcing's, the cells too */
+}
+
+static int ml_steps(sph_model *m, int n)
+{
+    sph_status st;
+    for (int s = 0; s < n; s++) {
+        ml_forcing(m);
+        if (sph_model_step(m, &st) != SPH_STEP_OK) {
+            fprintf(stderr, "step: %s %g %s\n", st.quantity, st.value, st.what);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+static sph_model *ml_fresh(const sph_params *p, const sph_landmask *mask)
+{
+    sph_model *m = sph_model_create(p, ML_CAP, mask);
+    if (!m || sph_model_ocean_create(m, &ml_grid) != SPH_STEP_OK) {
+        sph_model_free(m);
+        return NULL;
+    }
+    /* the eastern column of cells starts 0.05 K above freezing: it freezes later */
+    sph_ocean *o = sph_model_ocean(m);
+    for (size_t c = 4; c < o->ncell; c += 5)
+        sph_ocean_set_cell(o, c, o->depth[c], o->sal[c], o->temp[c] + 0.05);
+    sph_particles *P = sph_model_particles(m);
+    lattice_fill(P, p, NX, NY, 0.0, 0.0, DX, 0.4, 0.95, 40.0);
+    for (size_t k = 0; k < P->n; k++)
+        sph_thermo_init_particle(&p->thermo, P, k, -12.0);
+    ml_forcing(m);
+    sph_status st;
+    if (sph_model_init(m, &st) != SPH_STEP_OK) {
+        sph_model_free(m);
+        return NULL;
+    }
+    return m;
+}
+
+/* 2N steps equal N steps, a restart file with the mixed layer, N steps, to
+ * the bit (particles, the slab, its frazil and accumulators); a file
+ * without the mixed layer leaves it alone; another grid is refused. */
+static void mixed_layer_level(void)
+{
+    sph_params p;
+    setup_params(&p);
+    p.ocean.mixed_layer = 1;
+    p.ocean.create = 1;
+    p.ocean.merge = 1;
+    p.ocean.new_thickness = 0.002;
+    sph_landmask mask = make_mask();
+    const int total = 80, at = 30;
+    sph_model *a = ml_fresh(&p, &mask), *b = ml_fresh(&p, &mask);
+    CHECK(a && b, "models with the mixed layer");
+    if (!a || !b) {
+        sph_model_free(a);
+        sph_model_free(b);
+        return;
+    }
+    CHECK(ml_steps(a, total) == 0, "uninterrupted run");
+    CHECK(ml_steps(b, at) == 0, "first part");
+    long created_at = sph_model_budget(b)->created_particles, created = sph_model_budget(a)->created_particles;
+    printf("mixed layer restart: created %ld particles by step %d, %ld by %d; merged %ld; %zu particles\n",
+           created_at, at, created, total, sph_model_budget(a)->merged_particles, sph_model_particles(a)->n);
+    CHECK(created > created_at && created_at > 0, "new particles in both halves (%ld, %ld)", created_at,
+          created - created_at);
+    char path[1024], plain[1024];
+    snprintf(path, sizeof path, "%s/restart_ml.nc", dir);
+    snprintf(plain, sizeof plain, "%s/restart_plain.nc", dir);
+    restart_header h;
+    test_header(&h, b, 1000.0 + at * p.dt);
+    sph_error err;
+    sph_error_clear(&err);
+    CHECK(restart_write_ocean(path, sph_model_particles(b), &h, sph_model_ocean(b), &err) == SPH_OK, "write: %s",
+          err.msg);
+    CHECK(restart_write(plain, sph_model_particles(b), &h, &err) == SPH_OK, "write without: %s", err.msg);
+    double frazil_b = 0.0;
+    for (size_t c = 0; c < sph_model_ocean(b)->ncell; c++)
+        frazil_b += sph_model_ocean(b)->frazil[c];
+    sph_model_free(b);
+
+    restart_header r;
+    sph_model *c = sph_model_create(&p, ML_CAP, &mask);
+    int ok = c && sph_model_ocean_create(c, &ml_grid) == SPH_STEP_OK;
+    CHECK(ok, "model for the restart");
+    sph_status st;
+    int found = -1;
+    ok = ok && restart_read(path, "+proj=test", &r, sph_model_particles(c), &err) == SPH_OK &&
+         restart_read_ocean(path, sph_model_ocean(c), &found, &err) == SPH_OK;
+    CHECK(ok && found == 1, "read with the mixed layer: %s", err.msg);
+    ok = ok && sph_model_resume(c, &r.clock, &st) == SPH_STEP_OK;
+    CHECK(ok, "resume: %s", st.what);
+    CHECK(ok && ml_steps(c, total - at) == 0, "continued run");
+    const sph_particles *A = sph_model_particles(a), *B = sph_model_particles(c);
+    CHECK(A->n == B->n, "particles %zu vs %zu", A->n, B->n);
+    if (ok && A->n == B->n) {
+        size_t n = A->n;
+        SAME(x, n);
+        SAME(y, n);
+        SAME(u, n);
+        SAME(mass, n);
+        SAME(thick, n);
+        SAME(conc, n);
+        SAME(sml, n);
+        SAME(tsurf, n);
+        SAME(id, n);
+        SAME(enth, n * (size_t)A->nlayers);
+        SAME(ofx_water, n);
+    }
+    const sph_ocean *oa = sph_model_ocean(a), *oc = sph_model_ocean(c);
+    const double *const arr[2][10] = {
+        {oa->temp, oa->sal, oa->depth, oa->water, oa->salt, oa->frazil, oa->frazil_enth, oa->ofx_heat, oa->ofx_water,
+         oa->ofx_salt},
+        {oc->temp, oc->sal, oc->depth, oc->water, oc->salt, oc->frazil, oc->frazil_enth, oc->ofx_heat, oc->ofx_water,
+         oc->ofx_salt}};
+    static const char *const nm[10] = {"temp", "sal", "depth", "water", "salt", "frazil", "frazil_enth",
+                                       "ofx_heat", "ofx_water", "ofx_salt"};
+    for (int q = 0; q < 10; q++)
+        CHECK(memcmp(arr[0][q], arr[1][q], oa->ncell * sizeof(double)) == 0, "mixed layer %s identical after "
+              "the restart", nm[q]);
+    CHECK(frazil_b > 0.0, "the restart file holds waiting frazil (%g kg)", frazil_b);
+
+    /* a file without the mixed layer leaves it alone; another grid is refused */
+    sph_ocean *o = sph_model_ocean(c);
+    double t0 = o->temp[0];
+    found = -1;
+    CHECK(restart_read_ocean(plain, o, &found, &err) == SPH_OK && found == 0 && o->temp[0] == t0,
+          "a file without the mixed layer: found %d", found);
+    sph_ocean_grid g2 = ml_grid;
+    g2.dx = g2.dy = 5000.0;
+    g2.nx = g2.ny = 4;
+    sph_model *d = sph_model_create(&p, ML_CAP, &mask);
+    sph_error_clear(&err);
+    int rc = d && sph_model_ocean_create(d, &g2) == SPH_STEP_OK ? restart_read_ocean(path, sph_model_ocean(d), &found, &err)
+                                                                : -1;
+    CHECK(rc == SPH_ERR_CONFIG && strstr(err.msg, "model.ocean.cell") && strstr(err.msg, "restart_ml.nc"),
+          "another grid: %s", err.msg);
+    sph_model_free(d);
     sph_model_free(a);
     sph_model_free(c);
 }
@@ -529,6 +693,7 @@ static int forecast(const struct sph_config *cfg, const char *stage, double cycl
     req.warm_start = warm;
     req.forcing_files[0] = atm_files;
     forecast_progress prog;
+    memset((void *)&prog, 0, sizeof prog); /* cycle_set_phase reads it (valgrind) */
     sph_error err;
     sph_error_clear(&err);
     int rc = forecast_run(cfg, &req, &prog, NULL, res, &err);
@@ -536,10 +701,17 @@ static int forecast(const struct sph_config *cfg, const char *stage, double cycl
     return rc;
 }
 
-static void engine_level(void)
+/* mixed: with the mixed layer and new ice (2 cm of frazil, reached after
+ * the restart at +3 h: a layer started afresh there would not reach it by
+ * +6 h). */
+static void engine_level(int mixed)
 {
     char text[8192];
-    ec_config(text, sizeof text, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "");
+    ec_config_more(text, sizeof text, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "",
+                   mixed ? ", \"ocean\": {\"mixed_layer\": true}, \"new_ice\": {\"create\": true, "
+                           "\"thickness\": 0.02}"
+                         : "",
+                   "");
     char *e = strstr(text, "\"every_hours\": 6");
     CHECK(e != NULL, "config text");
     if (!e)
@@ -554,8 +726,8 @@ static void engine_level(void)
     char atm[1024], s1[1024], s2[1024], rs[1200], p1[1200], p2[1200];
     snprintf(atm, sizeof atm, "%s/atm.nc", dir);
     atm_files[0] = atm;
-    snprintf(s1, sizeof s1, "%s/long", dir);
-    snprintf(s2, sizeof s2, "%s/continued", dir);
+    snprintf(s1, sizeof s1, "%s/long%s", dir, mixed ? "-ml" : "");
+    snprintf(s2, sizeof s2, "%s/continued%s", dir, mixed ? "-ml" : "");
     forecast_result r1, r2;
     if (forecast(cfg, s1, EC_CYCLE, 6, NULL, &r1) == SPH_OK) {
         char rname[64];
@@ -574,6 +746,18 @@ static void engine_level(void)
                 int same = a.n == b.n && !memcmp(a.lon, b.lon, a.n * sizeof *a.lon) &&
                            !memcmp(a.lat, b.lat, a.n * sizeof *a.lat) && !memcmp(a.id, b.id, a.n * sizeof *a.id);
                 CHECK(same, "warm-started forecast ends on the uninterrupted one's positions, bit for bit");
+                same = a.n == b.n && !memcmp(a.mass, b.mass, a.n * sizeof *a.mass) &&
+                       !memcmp(a.thick, b.thick, a.n * sizeof *a.thick);
+                CHECK(same, "and on its masses and thicknesses%s", mixed ? " (mixed layer, new ice)" : "");
+                if (mixed) {
+                    prod_particles c3;
+                    int r3 = products_read_particles(p1, EC_CYCLE + 3 * 3600.0, &c3, &err);
+                    printf("engine, mixed layer: %zu particles at +3 h, %zu at +6 h\n", r3 ? 0 : c3.n, a.n);
+                    CHECK(r3 == SPH_OK && a.n > c3.n, "new particles after the restart: %zu at +3 h, %zu at +6 h",
+                          r3 ? 0 : c3.n, a.n);
+                    if (r3 == SPH_OK)
+                        prod_particles_free(&c3);
+                }
                 CHECK(r2.run.budget_residual < 1e-10, "residual %g", r2.run.budget_residual);
             }
             prod_particles_free(&a);
@@ -591,9 +775,11 @@ int main(int argc, char **argv)
     CHECK(mkdtemp(dir) != NULL, "mkdtemp");
     ec_write_inputs(dir);
     module_level();
+    mixed_layer_level();
     every_field();
     malformed();
-    engine_level();
+    engine_level(0);
+    engine_level(1);
     if (check_failed_ == 0)
         cycle_remove_tree(dir);
     return check_summary("test_restart");

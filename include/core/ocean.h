@@ -91,6 +91,14 @@ typedef struct sph_ocean {
     double *ow_heat;  /* W/m^2: net atmospheric heat into the ocean */
     double *ow_fresh; /* kg/m^2/s: fresh water into the ocean (negative: frazil formed) */
     double *ow_salt;  /* kg/m^2/s: salt into the ocean (negative: salt into frazil) */
+    /* the same open water, summed over the thermodynamic steps since the
+     * driver last zeroed them (sph_ocean_clear_fluxes; the fluxes file's
+     * record), extensive over the cell's open water and the steps: heat
+     * into the liquid ocean, J (the atmosphere, plus the latent heat of the
+     * frazil the cell formed, minus what melting frazil took: water at its
+     * freezing point that loses heat gives 0, as the particles' leads);
+     * fresh water and salt into it, kg (minus the frazil formed). */
+    double *ofx_heat, *ofx_water, *ofx_salt;
     /* workspace: particles binned by cell */
     size_t cap;
     int *bin_start; /* ncell + 1 */
@@ -129,5 +137,9 @@ void sph_ocean_set_cell(sph_ocean *o, size_t c, double depth, double S, double T
  * are the particles' own. Any pointer may be NULL. Returns ncell. */
 size_t sph_ocean_open_water_fluxes(const sph_ocean *o, const double **heat, const double **fresh,
                                    const double **salt);
+
+/* Zeroes the open water's accumulators (ofx_heat, ofx_water, ofx_salt):
+ * the driver, after each record of the fluxes file (not inside a step). */
+void sph_ocean_clear_fluxes(sph_ocean *o);
 
 #endif

@@ -97,6 +97,21 @@ int ofx_add_particles(ofx_writer *w, const ofx_particles *p, sph_error *err);
  * sistrxubot and the reverse). Non-finite values and land cells are
  * refused with one line. */
 int ofx_add_cells(ofx_writer *w, int k, const double *flux, sph_error *err);
+/* Regridding another grid's cells (the mixed layer's, on the model
+ * plane) by the cell containing their centre: the file's cell that holds
+ * (lon, lat) on a LONLAT grid, (x, y) on a PLANE grid (cells bounded by
+ * the midpoints between the axes' centres), when it is water; else the
+ * water cell whose plane centre is nearest (x, y) within reach m; -1 when
+ * none. Each source cell goes whole to one file cell, so what is placed
+ * is conserved exactly (docs/ocean-coupling.md). */
+long ofx_locate(const ofx_writer *w, double lon, double lat, double x, double y, double reach);
+/* Adds n source cells' extensive amounts of field k over the record's
+ * interval dt s (J for the heat fields, kg for water and salt) to the
+ * file's cells to[c] (from ofx_locate) as amount / (area dt), through
+ * ofx_add_cells. *lost (may be NULL): the sum of the amounts whose to[c]
+ * is -1. */
+int ofx_add_cell_amounts(ofx_writer *w, int k, size_t n, const long *to, const double *amount, double dt,
+                         double *lost, sph_error *err);
 /* Writes the current record: means over [t_start, t_end] (s since 1970,
  * t_end > t_start), time = t_end with bounds; then clears the record. */
 int ofx_write_record(ofx_writer *w, double t_start, double t_end, sph_error *err);

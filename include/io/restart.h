@@ -11,6 +11,8 @@
  *   thick (h_i, m), conc, sml, sml0 (m), dens, dens0 (kg/m^2), snow (m),
  *   tsurf (deg C), s11, s22, s12 (N/m), coastc, enth(particle, layer)
  *   (J/m^3), id (int64), regime (ubyte flags).
+ * Optional: the mixed layer's state (restart_write_ocean: ocean_* on the
+ * dimension ocean_cell, docs/ocean.md).
  * Global attributes: sphice_restart_format = "sphice-restart-1", valid
  * time (`time`, seconds since 1970 and `time_iso`), the forecast cycle that
  * wrote it, the PROJ definition of the plane (`projection`), nlayers, and
@@ -36,6 +38,7 @@
 
 #include <stddef.h>
 #include "core/model.h"
+#include "core/ocean.h"
 #include "core/particles.h"
 #include "util/err.h"
 
@@ -58,6 +61,19 @@ typedef struct restart_header {
 int restart_write(const char *path, const sph_particles *P, const restart_header *h,
                   sph_error *err);
 
+/* restart_write with the mixed layer's state (o not NULL): its temperature,
+ * salinity, depth, water, salt, waiting frazil and its enthalpy and the
+ * open water's flux accumulators, variables ocean_* on the dimension
+ * ocean_cell, and its grid (attributes ocean_x0, ocean_y0, ocean_dx,
+ * ocean_dy, ocean_nx, ocean_ny), so that a restart continues it bit for bit. */
+int restart_write_ocean(const char *path, const sph_particles *P, const restart_header *h, const sph_ocean *o,
+                        sph_error *err);
+/* Reads the mixed layer's state into o when the file has it (*found = 1);
+ * a file without the dimension ocean_cell leaves o alone (*found = 0,
+ * SPH_OK). A grid other than o's is refused (SPH_ERR_CONFIG, naming
+ * model.ocean.cell), so is a missing, misshapen or non-finite variable;
+ * every variable is checked before o changes. */
+int restart_read_ocean(const char *path, sph_ocean *o, int *found, sph_error *err);
 /* Reads the header only (to size the model before reading the particles). */
 int restart_read_header(const char *path, restart_header *h, sph_error *err);
 

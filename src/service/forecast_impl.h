@@ -61,6 +61,8 @@ typedef struct engine {
     double *ofx_buf, *ofx_area, *ofx_lon, *ofx_lat;
     unsigned char *ofx_land;  /* the ocean grid's land (ocean_fluxes_grid ocean) */
     char ofx_grid_from[4200]; /* "output grid" or "ocean forcing PATH" */
+    size_t ofx_ncell;         /* the file's cells */
+    long *ofx_to;             /* the mixed layer's cell -> the file's cell (ofx_locate), -1: none; NULL: no layer */
     char restart_path[4200];
     int restart_written;
     char start_mode[16];

@@ -449,8 +449,15 @@ int fc_warm_start(engine *e, sph_error *err)
     sph_particles *P = sph_model_particles(e->m);
     if ((rc = restart_read(path, geo_proj_definition(e->proj), &h, P, err)))
         return rc;
-    if ((rc = fc_ocean_setup(e, err))) /* the mixed layer starts afresh (docs/ocean.md) */
+    if ((rc = fc_ocean_setup(e, err)))
         return rc;
+    sph_ocean *o = sph_model_ocean(e->m);
+    int found = 0;
+    if (o && (rc = restart_read_ocean(path, o, &found, err)))
+        return rc;
+    if (o && !found) /* a file without the mixed layer: it starts afresh at its freezing point (docs/ocean.md) */
+        log_info("forecast %s: warm-start file %s has no mixed layer: it starts at its freezing point", e->cname,
+                 path);
     if (fabs(h.time - e->t0) > 1.0) {
         char a[32], b[32];
         iso(h.time, a, sizeof a);

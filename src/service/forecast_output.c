@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/ocean.h"
 #include "io/restart.h"
 #include "util/log.h"
 #include "util/version.h"
@@ -288,7 +289,8 @@ int fc_write_restart(engine *e, double t, sph_error *err)
     h.cycle_time = e->t0;
     snprintf(h.projection, sizeof h.projection, "%s", geo_proj_definition(e->proj));
     sph_model_get_clock(e->m, &h.clock);
-    int rc = restart_write(e->restart_path, sph_model_particles(e->m), &h, err);
+    sph_ocean *o = e->prm.ocean.mixed_layer ? sph_model_ocean(e->m) : NULL; /* the mixed layer too */
+    int rc = restart_write_ocean(e->restart_path, sph_model_particles(e->m), &h, o, err);
     if (rc == SPH_OK)
         e->restart_written = 1;
     return rc;
@@ -307,6 +309,8 @@ void fc_free_ocean_fluxes(engine *e)
     free(e->ofx_lon);
     free(e->ofx_lat);
     free(e->ofx_land);
+    free(e->ofx_to);
+    e->ofx_to = NULL;
     e->ofx_buf = e->ofx_area = e->ofx_lon = e->ofx_lat = NULL;
     e->ofx_land = NULL;
 }
@@ -437,6 +441,41 @@ static int ofx_ocean_grid(engine *e, const char *path, int *nx, int *ny, double 
     return SPH_OK;
 }
 
+/* The mixed layer's open water (model.ocean.mixed_layer): each of its
+ * cells goes whole to the file's cell containing its centre (ofx_locate),
+ * or the nearest water cell within its diagonal plus one file cell, so
+ * the file's integral is the cells' sum (docs/ocean-coupling.md). */
+static int ofx_map_mixed_layer(engine *e, sph_error *err)
+{
+    sph_ocean *o = sph_model_ocean(e->m);
+    if (!o || !e->ocean_pts || !e->prm.ocean.mixed_layer)
+        return SPH_OK;
+    sph_ocean_clear_fluxes(o);
+    int ok = 1;
+    size_t nc = o->ncell;
+    e->ofx_to = xcalloc(nc, sizeof(long), &ok);
+    double *lon = xcalloc(2 * nc, sizeof(double), &ok);
+    if (!ok) {
+        free(lon);
+        return sph_err_set(err, SPH_ERR_NOMEM, "output.ocean_fluxes: out of memory (mixed layer)");
+    }
+    double *lat = lon + nc, amax = 0.0;
+    sph_error local;
+    sph_error_clear(&local);
+    if (geo_inverse(e->proj, nc, e->ocean_pts->x, e->ocean_pts->y, lon, lat, &local) != SPH_OK)
+        for (size_t c = 0; c < nc; c++)
+            if (!isfinite(lon[c]) || !isfinite(lat[c]))
+                lon[c] = lat[c] = NAN;
+    size_t ncells = e->ofx_ncell;
+    for (size_t c = 0; c < ncells; c++)
+        amax = fmax(amax, e->ofx_area[c]);
+    double reach = hypot(o->g.dx, o->g.dy) + sqrt(amax);
+    for (size_t c = 0; c < nc; c++)
+        e->ofx_to[c] = ofx_locate(e->ofx, lon[c], lat[c], e->ocean_pts->x[c], e->ocean_pts->y[c], reach);
+    free(lon);
+    return SPH_OK;
+}
+
 int fc_open_ocean_fluxes(engine *e, sph_error *err)
 {
     const struct sph_config *cfg = e->cfg;
@@ -478,6 +517,7 @@ int fc_open_ocean_fluxes(engine *e, sph_error *err)
         land = e->lm ? e->g_land : NULL;
         snprintf(e->ofx_grid_from, sizeof e->ofx_grid_from, "output grid");
     }
+    e->ofx_ncell = (size_t)nx * (size_t)ny;
     ofx_grid og = {.kind = OFX_GRID_LONLAT, .nx = nx, .ny = ny, .xaxis = e->ofx_lon, .yaxis = e->ofx_lat,
                    .cx = cx, .cy = cy, .area = e->ofx_area, .land = land,
                    .projection = geo_proj_definition(e->proj), .grid_source = e->ofx_grid_from};
@@ -493,7 +533,7 @@ int fc_open_ocean_fluxes(engine *e, sph_error *err)
         return rc;
     ofx_zero(sph_model_particles(e->m));
     e->ofx_t0 = e->t0;
-    return SPH_OK;
+    return ofx_map_mixed_layer(e, err);
 }
 
 /* One record: the mean over [e->ofx_t0, t]. e->olon/olat hold the
@@ -525,10 +565,24 @@ static int ofx_record(engine *e, double t, sph_error *err)
                         .heat_lead = P->ofx_heat_lead, .water = P->ofx_water, .salt = P->ofx_salt,
                         .taux = tx, .tauy = ty, .swbase = P->ofx_swbase, .ice_area = ia, .ice_volume = iv};
     int rc = ofx_add_particles(e->ofx, &op, err);
+    sph_ocean *o = e->ofx_to ? sph_model_ocean(e->m) : NULL;
+    double lost[3] = {0.0, 0.0, 0.0};
+    if (!rc && o) { /* the mixed layer's open water with no particle */
+        const double *amt[3] = {o->ofx_heat, o->ofx_water, o->ofx_salt};
+        const int field[3] = {OFX_HFDS, OFX_SIFLFWBOT, OFX_SIFLSALTBOT};
+        for (int q = 0; q < 3 && !rc; q++)
+            rc = ofx_add_cell_amounts(e->ofx, field[q], o->ncell, e->ofx_to, amt[q], t - e->ofx_t0, &lost[q], err);
+    }
     if (!rc)
         rc = ofx_write_record(e->ofx, e->ofx_t0, t, err);
     if (rc)
         return rc;
+    if (lost[0] != 0.0 || lost[1] != 0.0 || lost[2] != 0.0)
+        log_warn("forecast %s: ocean fluxes: mixed-layer cells outside the ocean-fluxes grid's water gave %g J, "
+                 "%g kg of water and %g kg of salt that are not in the record ending %.0f s after the cycle",
+                 e->cname, lost[0], lost[1], lost[2], t - e->t0);
+    if (o)
+        sph_ocean_clear_fluxes(o);
     if (ofx_lost(e->ofx) > 0)
         log_warn("forecast %s: ocean fluxes: %zu particles lie outside the ocean-fluxes grid or far from its "
                  "water cells; their fluxes are not in the record ending %.0f s after the cycle (particles_lost)",

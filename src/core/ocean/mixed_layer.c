@@ -22,7 +22,7 @@ void sph_ocean_free(sph_ocean *o)
     double **d[] = {&o->temp, &o->sal, &o->depth, &o->water, &o->salt, &o->frazil, &o->frazil_enth,
                     &o->tair, &o->qair, &o->ua, &o->va, &o->swdn, &o->lwdn, &o->lat,
                     &o->sst_restore, &o->sss_restore, &o->ow_heat, &o->ow_fresh, &o->ow_salt,
-                    &o->pfoot, &o->penth, &o->pmass, &o->cfoot, &o->seafrac, &o->acc_e, &o->acc_w};
+                    &o->ofx_heat, &o->ofx_water, &o->ofx_salt, &o->pfoot, &o->penth, &o->pmass, &o->cfoot, &o->seafrac, &o->acc_e, &o->acc_w};
     for (size_t i = 0; i < sizeof d / sizeof d[0]; i++)
         free(*d[i]);
     free(o->bin_start);
@@ -46,7 +46,7 @@ sph_ocean *sph_ocean_create(const sph_ocean_grid *g, size_t cap, double depth, d
     double **cells[] = {&o->temp, &o->sal, &o->depth, &o->water, &o->salt, &o->frazil, &o->frazil_enth,
                         &o->tair, &o->qair, &o->ua, &o->va, &o->swdn, &o->lwdn, &o->lat,
                         &o->sst_restore, &o->sss_restore, &o->ow_heat, &o->ow_fresh, &o->ow_salt,
-                        &o->cfoot, &o->seafrac, &o->acc_e, &o->acc_w};
+                        &o->ofx_heat, &o->ofx_water, &o->ofx_salt, &o->cfoot, &o->seafrac, &o->acc_e, &o->acc_w};
     int ok = 1;
     for (size_t i = 0; i < sizeof cells / sizeof cells[0]; i++)
         ok &= (*cells[i] = calloc(nc, sizeof(double))) != NULL;
@@ -99,4 +99,12 @@ size_t sph_ocean_open_water_fluxes(const sph_ocean *o, const double **heat, cons
     if (salt)
         *salt = o->ow_salt;
     return o->ncell;
+}
+
+void sph_ocean_clear_fluxes(sph_ocean *o)
+{
+    if (!o)
+        return;
+    for (size_t c = 0; c < o->ncell; c++)
+        o->ofx_heat[c] = o->ofx_water[c] = o->ofx_salt[c] = 0.0;
 }

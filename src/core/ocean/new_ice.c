@@ -441,9 +441,10 @@ int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_stat
         o->salt[c] += o->acc_w[c] * sb;
         o->sal[c] = 1000.0 * o->salt[c] / o->water[c];
         double Tf = cell_tf(m, o, c);
-        double dmf = 0.0;
+        double dmf = 0.0, elat = 0.0; /* latent heat the frazil gave (> 0) or took the liquid */
         if (T < Tf) { /* frazil: the heat deficit freezes ice at Tf */
             double D = H * (Tf - T);
+            elat = D;
             double qn = new_ice_enthalpy(tp, nl, Tf);
             dmf = tp->rho_i * D / -qn;
             o->frazil[c] += dmf;
@@ -458,6 +459,7 @@ int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_stat
             if (use >= need)
                 o->frazil[c] = 0.0;
             T -= use / H;
+            elat = -use;
         }
         o->water[c] -= dmf;
         o->salt[c] -= dmf * sb;
@@ -466,6 +468,9 @@ int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_stat
         o->ow_heat[c] = e_ow / (area * dt);
         o->ow_fresh[c] = -dmf / (area * dt);
         o->ow_salt[c] = -dmf * sb / (area * dt);
+        o->ofx_heat[c] += e_ow + elat;
+        o->ofx_water[c] -= dmf;
+        o->ofx_salt[c] -= dmf * sb;
     }
     /* 3. particles whose ice melted away (their water is already in the cell) */
     for (size_t k = P->n; k-- > 0;)

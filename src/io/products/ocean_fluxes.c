@@ -67,6 +67,7 @@ struct ofx_writer {
     int nx, ny;
     size_t n;
     double *cx, *cy, *area;
+    double *xaxis, *yaxis;      /* copies of the grid's axes (ofx_locate) */
     unsigned char *land;
     double *acc[NACC];          /* extensive amounts of the current record */
     double *add[OFX_NFIELDS];   /* per-cell fluxes added by ofx_add_cells */
@@ -92,6 +93,8 @@ static void writer_free(ofx_writer *w)
     free(w->cx);
     free(w->cy);
     free(w->area);
+    free(w->xaxis);
+    free(w->yaxis);
     free(w->land);
     for (int k = 0; k < NACC; k++)
         free(w->acc[k]);
@@ -314,6 +317,8 @@ int ofx_open(ofx_writer **out, const ofx_grid *g, const ofx_meta *m, const char 
     ok &= (w->cy = malloc(bytes)) != NULL;
     ok &= (w->area = malloc(bytes)) != NULL;
     ok &= (w->out = malloc(bytes)) != NULL;
+    ok &= (w->xaxis = malloc((size_t)g->nx * sizeof(double))) != NULL;
+    ok &= (w->yaxis = malloc((size_t)g->ny * sizeof(double))) != NULL;
     for (int k = 0; k < NACC; k++)
         ok &= (w->acc[k] = calloc(w->n, sizeof(double))) != NULL;
     for (int k = 0; k < OFX_NFIELDS; k++)
@@ -327,6 +332,8 @@ int ofx_open(ofx_writer **out, const ofx_grid *g, const ofx_meta *m, const char 
     memcpy(w->cx, g->cx, bytes);
     memcpy(w->cy, g->cy, bytes);
     memcpy(w->area, g->area, bytes);
+    memcpy(w->xaxis, g->xaxis, (size_t)g->nx * sizeof(double));
+    memcpy(w->yaxis, g->yaxis, (size_t)g->ny * sizeof(double));
     if (g->land)
         memcpy(w->land, g->land, w->n);
     int rc = build_index(w, err);
@@ -496,6 +503,86 @@ int ofx_add_cells(ofx_writer *w, int k, const double *flux, sph_error *err)
         for (size_t c = 0; c < w->n; c++)
             w->add[OFX_HFDS][c] += flux[c];
     return SPH_OK;
+}
+
+/* Index of the axis cell (bounded by the midpoints between centres, half a
+ * spacing beyond the ends) holding v; -1 outside. */
+static long axis_cell(const double *a, int n, double v)
+{
+    if (!isfinite(v))
+        return -1;
+    if (n == 1)
+        return 0;
+    int up = a[n - 1] > a[0];
+    double lo = a[0] - 0.5 * (a[1] - a[0]), hi = a[n - 1] + 0.5 * (a[n - 1] - a[n - 2]);
+    if (up ? (v < lo || v >= hi) : (v > lo || v <= hi))
+        return -1;
+    long i = 0, j = n - 1; /* the last centre on v's lower side, then the nearer of it and the next */
+    while (j - i > 1) {
+        long mid = (i + j) / 2;
+        if (up ? a[mid] <= v : a[mid] >= v)
+            i = mid;
+        else
+            j = mid;
+    }
+    return fabs(v - a[i]) <= fabs(a[j] - v) ? i : j;
+}
+
+long ofx_locate(const ofx_writer *w, double lon, double lat, double x, double y, double reach)
+{
+    if (!w)
+        return -1;
+    double u = w->kind == OFX_GRID_LONLAT ? lon : x, v = w->kind == OFX_GRID_LONLAT ? lat : y;
+    if (w->kind == OFX_GRID_LONLAT && isfinite(u) && w->nx > 1 && w->xaxis[1] > w->xaxis[0]) {
+        /* the longitude on the axis' side of the seam: [first west edge, + 360) */
+        double west = w->xaxis[0] - 0.5 * (w->xaxis[1] - w->xaxis[0]);
+        u = west + fmod(fmod(u - west, 360.0) + 360.0, 360.0);
+    }
+    long i = axis_cell(w->xaxis, w->nx, u), j = axis_cell(w->yaxis, w->ny, v);
+    if (i >= 0 && j >= 0) {
+        size_t c = (size_t)j * (size_t)w->nx + (size_t)i;
+        if (water(w, c))
+            return (long)c;
+    }
+    if (!isfinite(x) || !isfinite(y) || !(reach > 0.0))
+        return -1;
+    long best = -1;
+    double bd = reach * reach;
+    for (size_t c = 0; c < w->n; c++) {
+        if (!water(w, c))
+            continue;
+        double dx = w->cx[c] - x, dy = w->cy[c] - y, d = dx * dx + dy * dy;
+        if (d <= bd) {
+            bd = d;
+            best = (long)c;
+        }
+    }
+    return best;
+}
+
+int ofx_add_cell_amounts(ofx_writer *w, int k, size_t n, const long *to, const double *amount, double dt,
+                         double *lost, sph_error *err)
+{
+    if (!w || (n > 0 && (!to || !amount)) || !(dt > 0.0))
+        return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes: no writer, cells or interval");
+    double *flux = calloc(w->n, sizeof(double));
+    if (!flux)
+        return sph_err_set(err, SPH_ERR_NOMEM, "ocean fluxes %s: out of memory", w->path);
+    double miss = 0.0;
+    for (size_t c = 0; c < n; c++) {
+        if (amount[c] == 0.0)
+            continue;
+        if (to[c] < 0 || (size_t)to[c] >= w->n) {
+            miss += amount[c];
+            continue;
+        }
+        flux[to[c]] += amount[c] / (w->area[to[c]] * dt);
+    }
+    int rc = ofx_add_cells(w, k, flux, err);
+    free(flux);
+    if (lost)
+        *lost = miss;
+    return rc;
 }
 
 /* Field k of the current record into w->out. */

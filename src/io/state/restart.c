@@ -7,6 +7,7 @@
 #include <netcdf.h>
 #include <stddef.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -102,10 +103,49 @@ static int rv_written(const sph_particles *P, int k)
     return 0;
 }
 
-static int write_body(int nc, const sph_particles *P, const restart_header *h, const char *path,
-                      sph_error *err)
+/* The mixed layer's state in the file (restart_write_ocean): variables
+ * on the dimension ocean_cell, in this order. */
+static const struct {
+    const char *name, *long_name, *units;
+    size_t offset;
+} ocean_vars[] = {
+    {"ocean_temp", "mixed-layer temperature", "degC", offsetof(sph_ocean, temp)},
+    {"ocean_sal", "mixed-layer salinity", "1e-3", offsetof(sph_ocean, sal)},
+    {"ocean_depth", "mixed-layer depth", "m", offsetof(sph_ocean, depth)},
+    {"ocean_water", "water in the cell", "kg", offsetof(sph_ocean, water)},
+    {"ocean_salt", "salt in the cell", "kg", offsetof(sph_ocean, salt)},
+    {"ocean_frazil", "frazil ice waiting to become particles", "kg", offsetof(sph_ocean, frazil)},
+    {"ocean_frazil_enth", "enthalpy of the waiting frazil", "J", offsetof(sph_ocean, frazil_enth)},
+    {"ocean_ofx_heat", "open water's heat into the ocean since the last fluxes record", "J",
+     offsetof(sph_ocean, ofx_heat)},
+    {"ocean_ofx_water", "open water's fresh water into the ocean since the last fluxes record", "kg",
+     offsetof(sph_ocean, ofx_water)},
+    {"ocean_ofx_salt", "open water's salt into the ocean since the last fluxes record", "kg",
+     offsetof(sph_ocean, ofx_salt)},
+};
+#define NOCEAN (sizeof ocean_vars / sizeof ocean_vars[0])
+static const char *const ocean_grid_atts[6] = {"ocean_x0", "ocean_y0", "ocean_dx", "ocean_dy", "ocean_nx",
+                                               "ocean_ny"};
+
+static double *ocean_array(const sph_ocean *o, size_t k)
 {
-    int st, d_p, d_l, v[SPH_PARTICLE_NFIELDS];
+    return *(double *const *)((const char *)o + ocean_vars[k].offset);
+}
+
+static void ocean_grid_values(const sph_ocean *o, double g[6])
+{
+    g[0] = o->g.x0;
+    g[1] = o->g.y0;
+    g[2] = o->g.dx;
+    g[3] = o->g.dy;
+    g[4] = o->g.nx;
+    g[5] = o->g.ny;
+}
+
+static int write_body(int nc, const sph_particles *P, const restart_header *h, const sph_ocean *o,
+                      const char *path, sph_error *err)
+{
+    int st, d_p, d_l, v[SPH_PARTICLE_NFIELDS], vo[NOCEAN];
     size_t n = P->n;
     int nl = P->nlayers;
 #define NC(call, what)                               \
@@ -152,7 +192,23 @@ static int write_body(int nc, const sph_particles *P, const restart_header *h, c
         NC(nc_put_att_double(nc, NC_GLOBAL, clock_atts[a].name, NC_DOUBLE, 1, val),
            "write attribute");
     }
+    if (o) { /* the mixed layer (optional: a file without it reads as before) */
+        int d_o;
+        double g[6];
+        ocean_grid_values(o, g);
+        NC(nc_def_dim(nc, "ocean_cell", o->ncell, &d_o), "define dimension");
+        for (int a = 0; a < 6; a++)
+            NC(nc_put_att_double(nc, NC_GLOBAL, ocean_grid_atts[a], NC_DOUBLE, 1, &g[a]), "write attribute");
+        for (size_t k = 0; k < NOCEAN; k++) {
+            NC(nc_def_var(nc, ocean_vars[k].name, NC_DOUBLE, 1, &d_o, &vo[k]), "define variable");
+            NC(put_text(nc, vo[k], "long_name", ocean_vars[k].long_name), "write attribute");
+            NC(put_text(nc, vo[k], "units", ocean_vars[k].units), "write attribute");
+        }
+    }
     NC(nc_enddef(nc), "end definitions");
+    if (o)
+        for (size_t k = 0; k < NOCEAN; k++)
+            NC(nc_put_var_double(nc, vo[k], ocean_array(o, k)), "write");
     if (n == 0)
         return SPH_OK;
     size_t start[2] = {0, 0}, count[2] = {n, (size_t)nl};
@@ -167,12 +223,18 @@ static int write_body(int nc, const sph_particles *P, const restart_header *h, c
 int restart_write(const char *path, const sph_particles *P, const restart_header *h,
                   sph_error *err)
 {
+    return restart_write_ocean(path, P, h, NULL, err);
+}
+
+int restart_write_ocean(const char *path, const sph_particles *P, const restart_header *h, const sph_ocean *o,
+                        sph_error *err)
+{
     char tmp[4200];
     atomic_tmp_name(path, tmp, sizeof tmp);
     int nc, st = nc_create(tmp, NC_NETCDF4 | NC_CLOBBER, &nc);
     if (st != NC_NOERR)
         return nc_fail(st, "create", tmp, err);
-    int rc = write_body(nc, P, h, path, err);
+    int rc = write_body(nc, P, h, o, path, err);
     st = ncfile_close(&nc);
     if (rc == SPH_OK && st != NC_NOERR)
         rc = nc_fail(st, "close", path, err);
@@ -462,6 +524,64 @@ int restart_read(const char *path, const char *expect_projection, restart_header
                          expect_projection);
     if (rc == SPH_OK)
         rc = read_body(nc, path, h, P, err);
+    nc_close(nc);
+    return rc;
+}
+
+int restart_read_ocean(const char *path, sph_ocean *o, int *found, sph_error *err)
+{
+    *found = 0;
+    int nc, d_o, rc = open_restart(path, &nc, err);
+    if (rc)
+        return rc;
+    if (nc_inq_dimid(nc, "ocean_cell", &d_o) != NC_NOERR) {
+        nc_close(nc);
+        return SPH_OK; /* written without the mixed layer */
+    }
+    size_t len = 0;
+    double g[6], want[6];
+    ocean_grid_values(o, want);
+    nc_inq_dimlen(nc, d_o, &len);
+    for (int a = 0; a < 6 && rc == SPH_OK; a++)
+        rc = get_double_att(nc, path, ocean_grid_atts[a], &g[a], err);
+    if (rc == SPH_OK && (len != o->ncell || memcmp(g, want, sizeof g) != 0))
+        rc = sph_err_set(err, SPH_ERR_CONFIG,
+                         "restart %s: the mixed layer was written on a %g x %g grid of %g x %g m cells from "
+                         "(%g, %g), the model's is %g x %g of %g x %g m from (%g, %g) (model.ocean.cell or "
+                         "the domain changed: start cold)", path, g[4], g[5], g[2], g[3], g[0], g[1], want[4],
+                         want[5], want[2], want[3], want[0], want[1]);
+    /* every variable checked before anything is read: a refusal changes nothing */
+    int v[NOCEAN];
+    for (size_t k = 0; k < NOCEAN && rc == SPH_OK; k++) {
+        nc_type t;
+        int nd, dim;
+        if (nc_inq_varid(nc, ocean_vars[k].name, &v[k]) != NC_NOERR)
+            rc = sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable %s: missing (the file has "
+                             "the dimension ocean_cell)", path, ocean_vars[k].name);
+        else if (nc_inq_vartype(nc, v[k], &t) || nc_inq_varndims(nc, v[k], &nd) || nd != 1 ||
+                 nc_inq_vardimid(nc, v[k], &dim) || dim != d_o || (t != NC_DOUBLE && t != NC_FLOAT))
+            rc = sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: variable %s: want double (ocean_cell)", path,
+                             ocean_vars[k].name);
+    }
+    double *tmp = rc == SPH_OK ? malloc(NOCEAN * o->ncell * sizeof(double)) : NULL;
+    if (rc == SPH_OK && !tmp)
+        rc = sph_err_set(err, SPH_ERR_NOMEM, "restart %s: out of memory (mixed layer)", path);
+    for (size_t k = 0; k < NOCEAN && rc == SPH_OK; k++) {
+        double *a = tmp + k * o->ncell;
+        if (nc_get_var_double(nc, v[k], a) != NC_NOERR)
+            rc = sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: variable %s: cannot be read", path,
+                             ocean_vars[k].name);
+        for (size_t c = 0; c < o->ncell && rc == SPH_OK; c++)
+            if (!isfinite(a[c]))
+                rc = sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: variable %s: cell %zu is not finite",
+                                 path, ocean_vars[k].name, c);
+    }
+    if (rc == SPH_OK) {
+        for (size_t k = 0; k < NOCEAN; k++)
+            memcpy(ocean_array(o, k), tmp + k * o->ncell, o->ncell * sizeof(double));
+        *found = 1;
+    }
+    free(tmp);
     nc_close(nc);
     return rc;
 }
