@@ -22,6 +22,8 @@
 #include "check.h"
 #include "core/particles.h"
 #include "io/cf.h"
+#include "io/ensemble.h"
+#include "io/ocean_fluxes.h"
 #include "io/products.h"
 #include "io/restart.h"
 #include "service/cycle.h"
@@ -133,7 +135,7 @@ static const prod_grid GRID = { NLON, NLAT, 121.0, 39.5, 0.25, 0.2 };
 static int write_products(const char *stage)
 {
     double conc[NLON * NLAT], hbar[NLON * NLAT], thick[NLON * NLAT], u[NLON * NLAT],
-        v[NLON * NLAT], p[NLON * NLAT], div[NLON * NLAT], shear[NLON * NLAT];
+        v[NLON * NLAT], p[NLON * NLAT], div[NLON * NLAT], shear[NLON * NLAT], snow[NLON * NLAT];
     unsigned char land[NLON * NLAT];
     for (int k = 0; k < NLON * NLAT; k++) {
         land[k] = k % NLON == 0;             /* the west column is land */
@@ -145,6 +147,7 @@ static int write_products(const char *stage)
         p[k] = 1500.0;
         div[k] = 1e-6;
         shear[k] = 2e-6;
+        snow[k] = 0.1;
     }
     prod_options o;
     products_options_default(&o);
@@ -153,6 +156,7 @@ static int write_products(const char *stage)
     o.stations = &st;
     o.nstations = 1;
     o.write_particles = 1;
+    o.write_snow = 1; /* sisnthick (surface_snow_thickness) checked too */
     prod_meta m;
     memset(&m, 0, sizeof m);
     m.cycle_time = CYCLE;
@@ -168,7 +172,7 @@ static int write_products(const char *stage)
            pv[2] = { 0, 0 }, pm[2] = { 1e5, 2e5 }, ph[2] = { 0.4, 0.4 }, pc[2] = { 0.8, 0.9 };
     long ids[2] = { 1, 2 };
     prod_particles_view pview = { 2, plon, plat, pu, pv, pm, ph, pc, ids, NULL };
-    prod_fields f = { conc, hbar, thick, u, v, p, div, shear, land, NULL };
+    prod_fields f = { conc, hbar, thick, u, v, p, div, shear, land, snow };
     for (int t = 0; t < NT && rc == SPH_OK; t++)
         rc = products_add_time(w, CYCLE + 3 * 3600.0 * t, &f, &pview, &err);
     CHECK(rc == SPH_OK, "add_time: %s", err.msg);
@@ -204,6 +208,72 @@ static int write_restart(const char *path)
     int rc = restart_write(path, P, &h, &err);
     CHECK(rc == SPH_OK, "restart_write: %s", err.msg);
     sph_particles_free(P);
+    return rc;
+}
+
+/* The ensemble file of two members, each the fields file written above
+ * (a real member file: same grid, times and variables). */
+static int write_ensemble(const char *stage, const char *fields)
+{
+    const char *members[2] = { fields, fields };
+    double levels[1] = { 0.5 };
+    ens_options o = { 0 };
+    o.stage = stage;
+    o.prefix = "sphice";
+    o.member_fields = members;
+    o.nmembers = 2;
+    o.threshold = 0.2;
+    o.levels = levels;
+    o.nlevels = 1;
+    o.seed = 7;
+    o.cycle_time = CYCLE;
+    ens_summary s;
+    sph_error err;
+    sph_error_clear(&err);
+    int rc = ens_products_write(&o, &s, &err);
+    CHECK(rc == SPH_OK, "ens_products_write: %s", err.msg);
+    return rc;
+}
+
+/* An ocean-fluxes file with one record on a 3 x 2 grid: lon/lat axes
+ * (plane = 0) or plane x/y axes with 2-D lat/lon (plane = 1). */
+static int write_ocean_fluxes(const char *path, int plane)
+{
+    enum { NX = 3, NY = 2, NC = NX * NY };
+    const double cell = 10e3;
+    double xa[NX], ya[NY], lon[NC], lat[NC], cx[NC], cy[NC], area[NC];
+    for (int i = 0; i < NX; i++)
+        xa[i] = plane ? i * cell : 121.0 + 0.1 * i;
+    for (int j = 0; j < NY; j++)
+        ya[j] = plane ? j * cell : 39.5 + 0.1 * j;
+    for (int c = 0; c < NC; c++) {
+        cx[c] = (c % NX) * cell;
+        cy[c] = (c / NX) * cell;
+        lon[c] = 121.0 + 0.1 * (c % NX);
+        lat[c] = 39.5 + 0.1 * (c / NX);
+        area[c] = cell * cell;
+    }
+    ofx_grid g = { .kind = plane ? OFX_GRID_PLANE : OFX_GRID_LONLAT, .nx = NX, .ny = NY, .xaxis = xa,
+                   .yaxis = ya, .lon = plane ? lon : NULL, .lat = plane ? lat : NULL, .cx = cx, .cy = cy,
+                   .area = area, .projection = "+proj=laea +lat_0=40 +lon_0=121" };
+    ofx_meta m = { .title = "test", .institution = "test", .model_version = "0", .git_revision = "0",
+                   .cycle_time = CYCLE };
+    double px = cell, py = 0.0, r = cell, heat = 1e9, water = 1e3, salt = 10.0, tx = 1e6, ty = -1e6, sw = 1e8,
+           ia = 5e7, iv = 2e7;
+    ofx_particles pa = { 1, &px, &py, &r, &heat, &heat, &water, &salt, &tx, &ty, &sw, &ia, &iv };
+    sph_error err;
+    sph_error_clear(&err);
+    ofx_writer *w = NULL;
+    int rc = ofx_open(&w, &g, &m, path, &err);
+    if (rc == SPH_OK)
+        rc = ofx_add_particles(w, &pa, &err);
+    if (rc == SPH_OK)
+        rc = ofx_write_record(w, CYCLE, CYCLE + 3600.0, &err);
+    if (rc == SPH_OK)
+        rc = ofx_close(w, &err);
+    else
+        ofx_abort(w);
+    CHECK(rc == SPH_OK, "ocean fluxes (%s): %s", plane ? "plane" : "lonlat", err.msg);
     return rc;
 }
 
@@ -249,7 +319,7 @@ static void check_bounds(const char *path)
 
 /* forecast_period(time) in hours = valid time minus the cycle; every
  * time-dependent data variable names it and forecast_reference_time. */
-static void check_forecast_period(const char *path)
+static void check_forecast_period(const char *path, const char *const *series, size_t nseries, int fields)
 {
     int nc, vp, vr, vs;
     if (nc_open(path, NC_NOWRITE, &nc) != NC_NOERR)
@@ -269,12 +339,15 @@ static void check_forecast_period(const char *path)
           "%s: forecast_period standard_name '%s'", path, sn);
     CHECK(nc_get_var_double(nc, vr, &ref) == NC_NOERR && ref == CYCLE, "%s: forecast_reference_time %g",
           path, ref);
-    static const char *const series[] = { "siconc", "sithick", "sishearvel", "siarea", "sivolume" };
-    for (size_t k = 0; k < sizeof series / sizeof series[0]; k++) {
+    for (size_t k = 0; k < nseries; k++) {
         char co[256] = "";
         CHECK(nc_inq_varid(nc, series[k], &vs) == NC_NOERR && att_text(nc, vs, "coordinates", co, sizeof co) &&
                   strstr(co, "forecast_period") && strstr(co, "forecast_reference_time"),
               "%s: %s coordinates '%s'", path, series[k], co);
+    }
+    if (!fields) {
+        nc_close(nc);
+        return;
     }
     /* sea_ice_extent with its threshold as a scalar coordinate (CF table) */
     char co[256] = "";
@@ -413,8 +486,8 @@ int main(void)
     snprintf(stage, sizeof stage, "%s/stage", dir);
     snprintf(restart, sizeof restart, "%s/restart-19990202T00Z.nc", stage);
     if (write_products(stage) == SPH_OK && write_restart(restart) == SPH_OK) {
-        char paths[4][800];
-        const char *list[4];
+        char paths[7][800];
+        const char *list[7];
         static const char *const files[] = { "sphice_fields.nc", "sphice_stations.nc", "sphice_particles.nc" };
         int total = 0;
         for (int k = 0; k < 3; k++) {
@@ -427,9 +500,30 @@ int main(void)
         check_file(restart);
         CHECK(total >= 20, "%d standard names checked", total);
         check_bounds(paths[0]);
-        check_forecast_period(paths[0]);
+        static const char *const series[] = { "siconc", "sithick", "sishearvel", "siarea", "sivolume",
+                                               "sisnthick" };
+        check_forecast_period(paths[0], series, sizeof series / sizeof series[0], 1);
         check_manifest_add(stage, "restart-19990202T00Z.nc");
-        run_cfchecks(list, 4);
+        /* the ensemble file (two members: the fields file above) */
+        snprintf(paths[4], sizeof paths[4], "%s/sphice_ensemble.nc", stage);
+        list[4] = paths[4];
+        if (write_ensemble(stage, paths[0]) == SPH_OK) {
+            CHECK(check_file(paths[4]) >= 6, "ensemble: standard names checked");
+            check_bounds(paths[4]);
+            static const char *const eseries[] = { "siconc_mean", "siconc_spread", "sivol_mean",
+                                                   "sivol_spread", "siconc_prob" };
+            check_forecast_period(paths[4], eseries, sizeof eseries / sizeof eseries[0], 0);
+        }
+        /* the ocean-fluxes file on both grid kinds */
+        snprintf(paths[5], sizeof paths[5], "%s/sphice_ocean_fluxes.nc", dir);
+        snprintf(paths[6], sizeof paths[6], "%s/sphice_ocean_fluxes_plane.nc", dir);
+        list[5] = paths[5];
+        list[6] = paths[6];
+        if (write_ocean_fluxes(paths[5], 0) == SPH_OK)
+            CHECK(check_file(paths[5]) >= 15, "ocean fluxes (lon/lat): standard names checked");
+        if (write_ocean_fluxes(paths[6], 1) == SPH_OK)
+            CHECK(check_file(paths[6]) >= 17, "ocean fluxes (plane): standard names checked");
+        run_cfchecks(list, 7);
     }
     cf_units_free(U);
     if (!check_failed_)

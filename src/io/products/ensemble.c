@@ -11,6 +11,7 @@
 
 #include "io/edge.h"
 #include "io/ncfile.h"
+#include "products_impl.h"
 #include "io/verify.h"
 #include "util/fileio.h"
 #include "util/timeutil.h"
@@ -128,12 +129,12 @@ static int def_field(int nc, const int *dims, const char *name, const char *std,
     put_att_text(nc, *v, "units", units, &st);
     if (cell_methods)
         put_att_text(nc, *v, "cell_methods", cell_methods, &st);
-    put_att_text(nc, *v, "coordinates", "forecast_reference_time", &st);
+    put_att_text(nc, *v, "coordinates", "forecast_period forecast_reference_time", &st);
     return st;
 }
 
-static int write_nc(const ens_options *o, const char *path, size_t nt, size_t nlat, size_t nlon,
-                    const double *time, const double *lat, const double *lon, const acc *a, int n,
+static int write_nc(const ens_options *o, const char *path, const prod_grid *g, size_t nt, size_t nlat,
+                    size_t nlon, const double *time, const double *lat, const double *lon, const acc *a, int n,
                     sph_error *err)
 {
     char tmp[4200];
@@ -142,10 +143,12 @@ static int write_nc(const ens_options *o, const char *path, size_t nt, size_t nl
     int nc = -1, st = nc_create(tmp, NC_NETCDF4 | NC_CLOBBER, &nc);
     if (st)
         return nc_fail(st, "create", tmp, err);
-    int dt = -1, dy = -1, dx = -1, vt = -1, vy = -1, vx = -1, vref = -1, vf[5] = {-1, -1, -1, -1, -1};
+    int dt = -1, dy = -1, dx = -1, db = -1, vt = -1, vy = -1, vx = -1, vyb = -1, vxb = -1, vref = -1, vper = -1;
+    int vf[5] = {-1, -1, -1, -1, -1};
     if (!st) st = nc_def_dim(nc, "time", nt, &dt);
     if (!st) st = nc_def_dim(nc, "lat", nlat, &dy);
     if (!st) st = nc_def_dim(nc, "lon", nlon, &dx);
+    if (!st) st = nc_def_dim(nc, "bnds", 2, &db);
     if (!st) st = nc_def_var(nc, "time", NC_DOUBLE, 1, &dt, &vt);
     put_att_text(nc, vt, "standard_name", "time", &st);
     put_att_text(nc, vt, "units", "seconds since 1970-01-01 00:00:00", &st);
@@ -155,14 +158,8 @@ static int write_nc(const ens_options *o, const char *path, size_t nt, size_t nl
     put_att_text(nc, vref, "standard_name", "forecast_reference_time", &st);
     put_att_text(nc, vref, "units", "seconds since 1970-01-01 00:00:00", &st);
     put_att_text(nc, vref, "calendar", "standard", &st);
-    if (!st) st = nc_def_var(nc, "lat", NC_DOUBLE, 1, &dy, &vy);
-    put_att_text(nc, vy, "standard_name", "latitude", &st);
-    put_att_text(nc, vy, "units", "degrees_north", &st);
-    put_att_text(nc, vy, "axis", "Y", &st);
-    if (!st) st = nc_def_var(nc, "lon", NC_DOUBLE, 1, &dx, &vx);
-    put_att_text(nc, vx, "standard_name", "longitude", &st);
-    put_att_text(nc, vx, "units", "degrees_east", &st);
-    put_att_text(nc, vx, "axis", "X", &st);
+    if (!st) st = prod_def_forecast_period(nc, dt, &vper);
+    if (!st) st = prod_def_lonlat_axes(nc, dy, dx, db, &vy, &vx, &vyb, &vxb);
     int dims[3] = {dt, dy, dx};
     char prob_ln[160];
     snprintf(prob_ln, sizeof prob_ln,
@@ -193,6 +190,11 @@ static int write_nc(const ens_options *o, const char *path, size_t nt, size_t nl
     if (!st) st = nc_put_var_double(nc, vref, &o->cycle_time);
     if (!st) st = nc_put_var_double(nc, vy, lat);
     if (!st) st = nc_put_var_double(nc, vx, lon);
+    if (!st) st = prod_put_lonlat_bnds(nc, g, vyb, vxb);
+    for (size_t t = 0; t < nt && !st; t++) {
+        double lead_h = (time[t] - o->cycle_time) / 3600.0;
+        st = nc_put_var1_double(nc, vper, &t, &lead_h);
+    }
     size_t ncell = nlat * nlon, ntot = nt * ncell;
     float *buf = st ? NULL : malloc(ntot * sizeof *buf);
     if (!st && !buf) {
@@ -384,7 +386,7 @@ int ens_products_write(const ens_options *o, ens_summary *s, sph_error *err)
     char path[4200];
     snprintf(s->products[0], sizeof s->products[0], "%s_ensemble.nc", o->prefix);
     snprintf(path, sizeof path, "%s/%s", o->stage, s->products[0]);
-    if ((rc = write_nc(o, path, nt, nlat, nlon, time, lat, lon, &a, n, err)))
+    if ((rc = write_nc(o, path, &g, nt, nlat, nlon, time, lat, lon, &a, n, err)))
         goto done;
     snprintf(s->products[1], sizeof s->products[1], "%s_ensemble_edge.geojson", o->prefix);
     snprintf(path, sizeof path, "%s/%s", o->stage, s->products[1]);

@@ -75,6 +75,58 @@ int prod_def_lonlat(int ncid, const char *name, int ndims, const int *dims, char
     return prod_put_text(ncid, *varid, "axis", ax);
 }
 
+/* lead time as operational centres write it (Met Office, ECMWF's
+ * "step"): hours from forecast_reference_time to the valid time */
+int prod_def_forecast_period(int ncid, int dim_t, int *varid)
+{
+    int rc;
+    if ((rc = nc_def_var(ncid, "forecast_period", NC_DOUBLE, 1, &dim_t, varid)) ||
+        (rc = prod_put_text(ncid, *varid, "standard_name", "forecast_period")) ||
+        (rc = prod_put_text(ncid, *varid, "long_name", "lead time: valid time minus forecast_reference_time")))
+        return rc;
+    return prod_put_text(ncid, *varid, "units", "hours");
+}
+
+int prod_def_lonlat_axes(int ncid, int d_lat, int d_lon, int d_bnds, int *v_lat, int *v_lon, int *v_latb,
+                         int *v_lonb)
+{
+    int rc;
+    if ((rc = prod_def_lonlat(ncid, "lat", 1, &d_lat, 'Y', "latitude of the cell centre", v_lat)) ||
+        (rc = prod_put_text(ncid, *v_lat, "bounds", "lat_bnds")) ||
+        (rc = prod_def_lonlat(ncid, "lon", 1, &d_lon, 'X', "longitude of the cell centre", v_lon)) ||
+        (rc = prod_put_text(ncid, *v_lon, "bounds", "lon_bnds")))
+        return rc;
+    /* CF 7.1 cell boundaries: the centre -+ half a grid step */
+    int db_lat[2] = { d_lat, d_bnds }, db_lon[2] = { d_lon, d_bnds };
+    if ((rc = nc_def_var(ncid, "lat_bnds", NC_DOUBLE, 2, db_lat, v_latb)) ||
+        (rc = prod_put_text(ncid, *v_latb, "long_name", "latitude of the cell edges")) ||
+        (rc = prod_put_text(ncid, *v_latb, "units", "degrees_north")) ||
+        (rc = nc_def_var(ncid, "lon_bnds", NC_DOUBLE, 2, db_lon, v_lonb)) ||
+        (rc = prod_put_text(ncid, *v_lonb, "long_name", "longitude of the cell edges")))
+        return rc;
+    return prod_put_text(ncid, *v_lonb, "units", "degrees_east");
+}
+
+int prod_put_lonlat_bnds(int ncid, const prod_grid *g, int v_latb, int v_lonb)
+{
+    double *buf = malloc(2 * sizeof(double) * (size_t)(g->nlat > g->nlon ? g->nlat : g->nlon));
+    if (!buf)
+        return NC_ENOMEM;
+    for (int j = 0; j < g->nlat; j++) {
+        buf[2 * j] = g->lat0 + (j - 0.5) * g->dlat;
+        buf[2 * j + 1] = g->lat0 + (j + 0.5) * g->dlat;
+    }
+    int st = nc_put_var_double(ncid, v_latb, buf);
+    for (int i = 0; i < g->nlon; i++) {
+        buf[2 * i] = g->lon0 + (i - 0.5) * g->dlon;
+        buf[2 * i + 1] = g->lon0 + (i + 0.5) * g->dlon;
+    }
+    if (st == NC_NOERR)
+        st = nc_put_var_double(ncid, v_lonb, buf);
+    free(buf);
+    return st;
+}
+
 static int put_double(int ncid, int varid, const char *name, double v)
 {
     return nc_put_att_double(ncid, varid, name, NC_DOUBLE, 1, &v);
@@ -257,27 +309,10 @@ static int fields_define(prod_writer *p, sph_error *err)
     NCT(prod_put_text(nc, v_ref, "units", TIME_UNITS), "write attribute in");
     NCT(prod_put_text(nc, v_ref, "calendar", "standard"), "write attribute in");
 
-    /* lead time as operational centres write it (Met Office, ECMWF's
-     * "step"): hours from forecast_reference_time to the valid time */
-    NCT(nc_def_var(nc, "forecast_period", NC_DOUBLE, 1, &d_t, &p->v_period), "define variable in");
-    NCT(prod_put_text(nc, p->v_period, "standard_name", "forecast_period"), "write attribute in");
-    NCT(prod_put_text(nc, p->v_period, "long_name", "lead time: valid time minus forecast_reference_time"),
-        "write attribute in");
-    NCT(prod_put_text(nc, p->v_period, "units", "hours"), "write attribute in");
+    NCT(prod_def_forecast_period(nc, d_t, &p->v_period), "define variable in");
 
     int v_lat, v_lon, v_latb, v_lonb;
-    NCT(prod_def_lonlat(nc, "lat", 1, &d_lat, 'Y', "latitude of the cell centre", &v_lat), "define variable in");
-    NCT(prod_put_text(nc, v_lat, "bounds", "lat_bnds"), "write attribute in");
-    NCT(prod_def_lonlat(nc, "lon", 1, &d_lon, 'X', "longitude of the cell centre", &v_lon), "define variable in");
-    NCT(prod_put_text(nc, v_lon, "bounds", "lon_bnds"), "write attribute in");
-    /* CF 7.1 cell boundaries: the centre -+ half a grid step */
-    int db_lat[2] = { d_lat, d_bnds }, db_lon[2] = { d_lon, d_bnds };
-    NCT(nc_def_var(nc, "lat_bnds", NC_DOUBLE, 2, db_lat, &v_latb), "define variable in");
-    NCT(prod_put_text(nc, v_latb, "long_name", "latitude of the cell edges"), "write attribute in");
-    NCT(prod_put_text(nc, v_latb, "units", "degrees_north"), "write attribute in");
-    NCT(nc_def_var(nc, "lon_bnds", NC_DOUBLE, 2, db_lon, &v_lonb), "define variable in");
-    NCT(prod_put_text(nc, v_lonb, "long_name", "longitude of the cell edges"), "write attribute in");
-    NCT(prod_put_text(nc, v_lonb, "units", "degrees_east"), "write attribute in");
+    NCT(prod_def_lonlat_axes(nc, d_lat, d_lon, d_bnds, &v_lat, &v_lon, &v_latb, &v_lonb), "define variable in");
 
     int dims2[2] = { d_lat, d_lon }, v_area, v_land;
     NCT(nc_def_var(nc, "cell_area", NC_DOUBLE, 2, dims2, &v_area), "define variable in");
@@ -401,19 +436,9 @@ static int fields_define(prod_writer *p, sph_error *err)
         buf[i] = g->lon0 + i * g->dlon;
     if (st == NC_NOERR)
         st = nc_put_var_double(nc, v_lon, buf);
-    for (int j = 0; j < g->nlat; j++) {
-        buf[2 * j] = g->lat0 + (j - 0.5) * g->dlat;
-        buf[2 * j + 1] = g->lat0 + (j + 0.5) * g->dlat;
-    }
-    if (st == NC_NOERR)
-        st = nc_put_var_double(nc, v_latb, buf);
-    for (int i = 0; i < g->nlon; i++) {
-        buf[2 * i] = g->lon0 + (i - 0.5) * g->dlon;
-        buf[2 * i + 1] = g->lon0 + (i + 0.5) * g->dlon;
-    }
-    if (st == NC_NOERR)
-        st = nc_put_var_double(nc, v_lonb, buf);
     free(buf);
+    if (st == NC_NOERR)
+        st = prod_put_lonlat_bnds(nc, g, v_latb, v_lonb);
     NCT(st, "write coordinates to");
     size_t nn = (size_t)g->nlat * g->nlon;
     double *area = malloc(nn * sizeof *area);

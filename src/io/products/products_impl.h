@@ -107,6 +107,14 @@ int prod_write_json(const char *path, struct cJSON *doc, sph_error *err);
  * doubles over dims: standard_name, long_name, units, axis. */
 int prod_def_lonlat(int ncid, const char *name, int ndims, const int *dims, char axis,
                     const char *long_name, int *varid);
+/* Defines forecast_period(time) in hours (CF standard name forecast_period). */
+int prod_def_forecast_period(int ncid, int dim_t, int *varid);
+/* Defines the 1-D lat/lon axes with CF 7.1 bounds attributes and their
+ * lat_bnds/lon_bnds over d_bnds (size 2); netCDF status. */
+int prod_def_lonlat_axes(int ncid, int d_lat, int d_lon, int d_bnds, int *v_lat, int *v_lon, int *v_latb,
+                         int *v_lonb);
+/* Writes lat_bnds/lon_bnds of g: each centre -+ half a grid step; netCDF status. */
+int prod_put_lonlat_bnds(int ncid, const prod_grid *g, int v_latb, int v_lonb);
 
 /* products_stations.c */
 int prod_stations_open(prod_writer *p, sph_error *err);
