@@ -16,7 +16,8 @@
  * every ice cell lies over water shallower than the sea's median depth
  * and the mean depth under the ice is below the sea's mean; later, the
  * ice reaches deeper water; the energy, water and salt budgets of ice plus
- * ocean close to 1e-10 relative. SPHICE_LONG=1: the same for 30 days, the
+ * ocean close to 1e-10 relative; maps at map_times 0 and 48 h are drawn
+ * 48 h apart (not daily). SPHICE_LONG=1: the same for 30 days, the
  * sea then almost covered (at least 90 % of the sea cells), particle count
  * at most the lattice's sea points (merging on).
  */
@@ -109,6 +110,16 @@ int main(int argc, char **argv)
     cfg->output.interval_hours = lng ? 24 : 3;
     cfg->output.products.particles = 0;
     cfg->output.products.geojson = 0;
+    /* maps at 0 and 48 h (the scene draws them 120 h apart): a gap of map_times longer than a
+     * day draws maps at that gap, not daily (src/service/forecast_output.c) */
+    cfg->output.products.maps = !lng;
+    free(cfg->output.map_times.v);
+    cfg->output.map_times.v = malloc(2 * sizeof(double));
+    if (!cfg->output.map_times.v)
+        return 2;
+    cfg->output.map_times.v[0] = 0.0;
+    cfg->output.map_times.v[1] = 48.0;
+    cfg->output.map_times.n = 2;
 
     char atm[1024], ocn[1024], stage[1200];
     snprintf(atm, sizeof atm, "%s/atm.nc", dir);
@@ -211,6 +222,19 @@ int main(int argc, char **argv)
                    k * (double)cfg->output.interval_hours, n, nsea, mx, res.run.particles_start,
                    res.run.particles_end,
                    res.run.energy_residual, res.run.water_residual, res.run.salt_residual);
+        }
+    }
+    if (!lng) { /* cycle 1999-02-08 06Z: maps at 0 and 48 h, and the last time (66 h) */
+        static const char *const want[] = {"19990208T0600Z", "19990210T0600Z", "19990211T0000Z"};
+        static const char *const not_want[] = {"19990209T0600Z", "19990208T0900Z"};
+        char q[1400];
+        for (int w = 0; w < 3; w++) {
+            snprintf(q, sizeof q, "%s/sphice_quicklook_%s.png", stage, want[w]);
+            CHECK(access(q, F_OK) == 0, "map at %s drawn", want[w]);
+        }
+        for (int w = 0; w < 2; w++) {
+            snprintf(q, sizeof q, "%s/sphice_quicklook_%s.png", stage, not_want[w]);
+            CHECK(access(q, F_OK) != 0, "no map at %s (maps 48 h apart)", not_want[w]);
         }
     }
     CHECK(cells0 == 0, "no ice at t0 (%zu cells)", cells0);
