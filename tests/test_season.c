@@ -68,17 +68,8 @@ static void write_inputs(double hours)
     snprintf(p, sizeof p, "%s/ice0.nc", dir); /* open water: no ice anywhere */
     ec_write_ice_at(p, 31, 21, 121.2, 40.1, 0.02, 0.02, 0.0, 0.0, -1);
     tgrid g;
-    memset(&g, 0, sizeof g);
-    g.nx = 25;
-    g.ny = 17;
-    g.lon0 = 120.9;
-    g.dlon = 0.05;
-    g.lat0 = 39.9;
-    g.dlat = 0.05;
-    g.time_units = "hours since 1999-02-08 00:00:00";
-    g.calendar = "standard";
-    g.tv0 = 3.0;
-    g.dtv = 24.0;
+    ec_ocean_grid(&g); /* 0.05 deg over the case, from 3 h before the cycle */
+    g.dtv = 24.0;   /* daily: the fields are constant */
     tvar v[2];
     v[0] = (tvar){"tos", "sea_surface_temperature", "degC", NC_FLOAT, 0, 0, 1, -999.0, 0, ocn_fn, 0};
     v[1] = (tvar){"deptho", "sea_floor_depth_below_sea_surface", "m", NC_FLOAT, 0, 0, 1, -999.0, 0, ocn_fn, 1};

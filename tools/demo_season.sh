@@ -13,18 +13,17 @@
 set -eu
 : "${OMP_WAIT_POLICY:=passive}"
 export OMP_WAIT_POLICY
-HOURS="${SEASON_HOURS:-720}"
-OUT="${SEASON_OUT:-output/liaodong-season}"
-BUILD="${BUILD:-build}"
-CYCLE="2000-12-01T00:00Z"
-STAMP="20001201T00Z"
-
 die() { echo "demo-season: $*" >&2; exit 1; }
 cd "$(dirname "$0")/.."
+HOURS="${SEASON_HOURS:-720}"
 case "$HOURS" in
     ''|*[!0-9]*) die "SEASON_HOURS=\"$HOURS\": expected whole hours (1 to 720)" ;;
 esac
 [ "$HOURS" -ge 1 ] && [ "$HOURS" -le 720 ] || die "SEASON_HOURS=$HOURS: the scene's forcing covers 720 hours"
+OUT="${SEASON_OUT:-output/liaodong-season}"
+BUILD="${BUILD:-build}"
+CYCLE="2000-12-01T00:00Z" # the run's cycle and its products' folder name
+STAMP="20001201T00Z"
 command -v gnuplot >/dev/null || die "gnuplot not found (sh tools/install-deps.sh installs gnuplot-nox)"
 
 "$BUILD/tools/gen_season" "$BUILD/liaodong-season" forcing/liaodong-1999/landmask_liaodong.nc 30 ||
