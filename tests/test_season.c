@@ -189,7 +189,7 @@ int main(int argc, char **argv)
         for (size_t j = 0; j < ny; j++)
             for (size_t i = 0; i < nx; i++) {
                 float ck = c[(k * ny + j) * nx + i];
-                if (land[j * nx + i] || !(ck > 0.0f))
+                if (land[j * nx + i] || lon[i] >= EC_LAND_LON || !(ck > 0.0f))
                     continue;
                 n++;
                 s += depth_at(lon[i]);

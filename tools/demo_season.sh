@@ -56,6 +56,6 @@ plot "$OUT/season.dat" using (\$1/24):2 with lines lw 2 title "ice area (km^2)",
 GP
 echo "demo-season: $HOURS h in $((t1 - t0)) s; products in $RUN"
 grep '^#' "$OUT/season.dat" | sed 's/^# /demo-season: /'
-tail -n 1 "$OUT/season.dat" | awk '{printf "demo-season: at %g h: area %g km2, volume %g km3, %d particles\n", $1, $2, $3, $4}'
+grep -v '^#' "$OUT/season.dat" | tail -n 1 | awk '{printf "demo-season: at %g h: area %g km2, volume %g km3, %d particles\n", $1, $2, $3, $4}'
 grep -E '"(energy|water|salt)_budget_residual"|"particles_(start|end)"' "$RUN/cycle.json" | tr -d '\t,"' | sed 's/^/demo-season: /' || true
 echo "demo-season: chart $OUT/season-area-volume.png; maps $RUN/sphice_quicklook_*.png"
