@@ -77,6 +77,50 @@ static void write_inputs(double hours)
     tnc_write(p, &g, v, 2, 0, (size_t)(hours / 24.0) + 3, NC_NETCDF4);
 }
 
+/* SPHICE_LONG: the bundled scene itself (sh tools/demo_season.sh into dir/scene): the ice under
+ * the first new particles lies over shallower water than the sea's mean and than the last
+ * period's new ice; the budgets close to 1e-10. Its numbers: docs/season.md. */
+static double dat_value(const char *text, const char *key)
+{
+    const char *q = strstr(text, key);
+    return q ? strtod(q + strlen(key), NULL) : NAN;
+}
+
+static void bundled_scene(void)
+{
+    char cmd[1600], p[1300];
+    snprintf(cmd, sizeof cmd, "SEASON_OUT=%s/scene sh tools/demo_season.sh > %s/scene.log 2>&1", dir, dir);
+    int rc = system(cmd);
+    CHECK(rc == 0, "the bundled scene ran (%s; log %s/scene.log)", cmd, dir);
+    if (rc != 0)
+        return;
+    static char text[65536];
+    snprintf(p, sizeof p, "%s/scene/season.dat", dir);
+    FILE *f = fopen(p, "r");
+    size_t n = f ? fread(text, 1, sizeof text - 1, f) : 0;
+    if (f)
+        fclose(f);
+    text[n] = '\0';
+    double d05 = dat_value(text, "days 0-5: "), d2030 = dat_value(text, "days 20-30: ");
+    const char *m05 = strstr(text, "days 0-5: "), *m2030 = strstr(text, "days 20-30: ");
+    double z05 = m05 ? dat_value(m05, "mean depth under them ") : NAN;
+    double z2030 = m2030 ? dat_value(m2030, "mean depth under them ") : NAN;
+    double sea = dat_value(text, "(deeper than the 2 m shore): ");
+    printf("bundled scene: new particles days 0-5 %g at %.2f m, days 20-30 %g at %.2f m; sea %.2f m\n", d05, z05,
+           d2030, z2030, sea);
+    CHECK(d05 > 0 && z05 < 0.5 * sea && z05 < z2030, "first ice over shallow water: %.2f m (sea %.2f, last %.2f)",
+          z05, sea, z2030);
+    snprintf(p, sizeof p, "%s/scene/run/20001201T00Z/cycle.json", dir);
+    f = fopen(p, "r");
+    n = f ? fread(text, 1, sizeof text - 1, f) : 0;
+    if (f)
+        fclose(f);
+    text[n] = '\0';
+    double er = dat_value(text, "\"energy_budget_residual\":"), wr = dat_value(text, "\"water_budget_residual\":");
+    double sr = dat_value(text, "\"salt_budget_residual\":");
+    CHECK(er < 1e-10 && wr < 1e-10 && sr < 1e-10, "bundled scene budgets: energy %g water %g salt %g", er, wr, sr);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -239,6 +283,7 @@ int main(int argc, char **argv)
         CHECK(ice_last >= 0.9 * (double)nsea, "after 30 days ice covers the sea: %zu of %zu cells", ice_last, nsea);
         /* the lattice's sea points: 0.02 deg spacing over the box; merging keeps the count below them */
         CHECK(res.run.particles_end <= 51 * 31, "particle count bounded: %ld", res.run.particles_end);
+        bundled_scene();
     }
     free(c);
     free(lon);
