@@ -46,7 +46,7 @@ TOOL_SRC := $(wildcard tools/*.c)
 TOOL_BIN := $(TOOL_SRC:tools/%.c=$(BUILD)/tools/%)
 
 .SECONDARY:
-.PHONY: all deps check check-long sanitize valgrind layers demo demo-forcing bench clean install tests tools
+.PHONY: all deps check check-long sanitize valgrind layers demo demo-season demo-forcing bench clean install tests tools
 .PHONY: fuzz fuzz-build fuzz-bins fuzz-smoke-build soak
 all: $(BUILD)/sphice tools
 
@@ -155,6 +155,10 @@ demo: all
 # Regenerates the synthetic Liaodong Bay 1999 scene (committed files).
 demo-forcing: $(BUILD)/tools/gen_liaodong
 	$(BUILD)/tools/gen_liaodong forcing/liaodong-1999
+
+# The freeze-up scene (docs/season.md): 30 days from open water, forcing generated into build/.
+demo-season: all $(BUILD)/tools/gen_season $(BUILD)/tools/season_summary
+	BUILD=$(BUILD) sh tools/demo_season.sh
 
 bench: all $(BENCH_BIN)
 	sh bench/run.sh

@@ -99,13 +99,16 @@ int fc_open_products(engine *e, prod_station *stations, sph_error *err)
     o.write_particles = cfg->output.products.particles;
     o.write_snow = fc_snow_possible(cfg);
     if (cfg->output.products.maps) {
-        /* maps every k output times: k from the smallest gap of map_times */
-        double gap = 24.0;
+        /* maps every k output times: k from the smallest gap of map_times (daily with fewer than two;
+         * a gap longer than a day only from two or more times, as the 30-day season scene has) */
+        double gap = cfg->output.map_times.n >= 2 ? HUGE_VAL : 24.0;
         for (size_t k = 1; k < cfg->output.map_times.n; k++) {
             double d = cfg->output.map_times.v[k] - cfg->output.map_times.v[k - 1];
             if (d > 0 && d < gap)
                 gap = d;
         }
+        if (!isfinite(gap))
+            gap = 24.0;
         int every = (int)lround(gap / cfg->output.interval_hours);
         o.quicklook_every = every > 0 ? every : 1;
         o.quicklook_drift = cfg->output.map_drift;
