@@ -16,7 +16,6 @@
 #include <unistd.h>
 
 #include "io/ncfile.h"
-#include "io/gis.h"
 #include "io/quicklook.h"
 #include "service/check.h"
 #include "service/config.h"
@@ -351,7 +350,10 @@ int main(int argc, char **argv)
     }
     atexit(ens_mpi_finalize);
     atexit(quicklook_release_caches);
-    atexit(gis_release_caches);
+    /* GDAL's driver manager is left to the process's end: destroying it from
+     * an exit handler after a failed run crashed in GDAL's thread-local data
+     * (valgrind: GDALDestroyDriverManager after its TLS was freed), which
+     * would replace the documented exit status by an abort */
     if (ens_mpi_size() > 1 && (argc < 2 || strcmp(argv[1], "run"))) {
         if (ens_mpi_rank() == 0)
             fprintf(stderr, "sphice: under mpirun only `sphice run` is supported (ensemble members over ranks)\n");
