@@ -41,6 +41,12 @@ typedef struct prod_station {
     double lon, lat;   /* degrees; must lie inside the output grid */
 } prod_station;
 
+/* A station's structure for the ice-load product (products_loads.c). */
+typedef struct prod_structure {
+    double w;   /* vertical structure's waterline diameter, m; 0 = none (no load) */
+    double c_r; /* its ISO 19906 C_R, Pa */
+} prod_structure;
+
 typedef struct prod_options {
     const char *prefix;         /* file-name prefix; NULL or "" -> "sphice" */
     double edge_threshold;      /* ice edge / extent threshold, fraction (0.15) */
@@ -49,6 +55,7 @@ typedef struct prod_options {
     const char *ref_name;       /* e.g. "head of Liaodong Bay"; may be NULL */
     const prod_station *stations;
     int nstations;
+    const prod_structure *structures; /* NULL (none) or nstations entries */
     int write_particles;        /* trajectory file <prefix>_particles.nc */
     int quicklook_every;        /* PNG for output times 0, k, 2k, ... and the
                                    last one; 0 = none */

@@ -72,6 +72,7 @@ static const char *const engine_names[] = {"forecast", "test-double", NULL};
 static const char *const level_names[] = {"error", "warn", "info", "debug", NULL};
 static const char *const vectors_names[] = {"auto", "earth", "grid", NULL};
 static const char *const accumulation_names[] = {"interval", "running", NULL};
+static const char *const structure_kind_names[] = {"none", "vertical", NULL};
 
 static const cfg_key forcing_keys[] = {
     K(cfg_forcing_source, "name", CT_STRING, name, NULL, 1, SPHICE_MAX_NAME, 0, NULL,
@@ -104,6 +105,9 @@ static const cfg_key station_keys[] = {
     K(cfg_station, "name", CT_STRING, name, NULL, 1, SPHICE_MAX_NAME, 0, NULL, "Station name."),
     K(cfg_station, "lon", CT_DOUBLE, lon, NULL, -180, 360, 0, NULL, "Longitude, degrees east."),
     K(cfg_station, "lat", CT_DOUBLE, lat, NULL, -90, 90, 0, NULL, "Latitude, degrees north."),
+    K(cfg_station, "structure.kind", CT_ENUM, structure_kind, "\"none\"", 0, 0, 0, structure_kind_names, "Offshore structure at the station: none, or vertical (a vertical leg: the ice-load product sphice_loads.nc and .csv with ISO 19906 global crushing load, docs/dem.md)."),
+    K(cfg_station, "structure.diameter", CT_DOUBLE, structure_diameter, "1.6", 0.01, 1000, 0, NULL, "The vertical structure's waterline diameter w, m (ISO 19906 valid for w/h > 2)."),
+    K(cfg_station, "structure.c_r", CT_DOUBLE, structure_c_r, "1.8", 0.01, 100, 0, NULL, "ISO 19906 ice strength coefficient C_R, MPa (1.8 sub-Arctic, including the Bohai; 2.8 Arctic)."),
 };
 static const cfg_table station_table = {station_keys, sizeof station_keys / sizeof station_keys[0],
                                         sizeof(cfg_station)};
@@ -857,6 +861,16 @@ static int cross_check(const struct sph_config *c, const char *origin, sph_error
         for (size_t j = 0; j < s->urls.n; j++)
             if (!s->urls.v[j][0])
                 return sph_err_set(err, SPH_ERR_CONFIG, "config %s: forcing[%zu].urls[%zu]: empty", origin, i, j);
+    }
+    for (size_t i = 0; i < c->nstations; i++) {
+        const cfg_station *s = &c->stations[i];
+        if (s->structure_kind && !(s->lon >= c->domain.lon_min && s->lon <= c->domain.lon_max &&
+                                   s->lat >= c->domain.lat_min && s->lat <= c->domain.lat_max))
+            return sph_err_set(err, SPH_ERR_CONFIG,
+                               "config %s: stations[%zu].structure.kind: station \"%s\" (%g, %g) lies outside "
+                               "the domain [%g, %g] x [%g, %g]: no ice load can be forecast there",
+                               origin, i, s->name, s->lon, s->lat, c->domain.lon_min, c->domain.lon_max,
+                               c->domain.lat_min, c->domain.lat_max);
     }
     if (c->schedule.every_hours <= 0 && c->schedule.every_seconds <= 0 && c->schedule.cycles.n == 0)
         return sph_err_set(err, SPH_ERR_CONFIG,

@@ -87,15 +87,24 @@ int fc_open_products(engine *e, prod_station *stations, sph_error *err)
         o.ref_name = cfg->output.edge_reference.name;
     }
     int ns = 0;
+    /* the ice-load product's structures (products_loads.c; copied by products_open) */
+    prod_structure *structures = calloc(cfg->nstations ? cfg->nstations : 1, sizeof *structures);
+    if (!structures)
+        return sph_err_set(err, SPH_ERR_NOMEM, "products: out of memory");
     if (cfg->output.products.stations)
         for (size_t s = 0; s < cfg->nstations; s++) {
             snprintf(stations[ns].name, sizeof stations[ns].name, "%s", cfg->stations[s].name);
             stations[ns].lon = cfg->stations[s].lon;
             stations[ns].lat = cfg->stations[s].lat;
+            if (cfg->stations[s].structure_kind) {
+                structures[ns].w = cfg->stations[s].structure_diameter;
+                structures[ns].c_r = cfg->stations[s].structure_c_r * 1e6;
+            }
             ns++;
         }
     o.stations = ns ? stations : NULL;
     o.nstations = ns;
+    o.structures = ns ? structures : NULL;
     o.write_particles = cfg->output.products.particles;
     o.write_snow = fc_snow_possible(cfg);
     if (cfg->output.products.maps) {
@@ -129,6 +138,7 @@ int fc_open_products(engine *e, prod_station *stations, sph_error *err)
     meta.stale_forcing = e->req->stale;
     meta.start_mode = e->start_mode;
     int rc = products_open(&e->pw, &o, &e->grid, &meta, e->req->stage_dir, err);
+    free(structures);
     if (rc)
         e->pw = NULL;
     return rc;

@@ -56,6 +56,11 @@ struct prod_writer {
     int st_ncid;
     int st_v_time, st_v[8];
     FILE *csv;
+    /* ice loads at stations with a structure (products_loads.c) */
+    prod_file ld_nc, ld_csv;
+    int ld_on, ld_ncid, ld_v_time, ld_v[6];
+    prod_structure *ld_st;     /* copy of opts.structures */
+    FILE *ld_f;
 
     /* particles */
     prod_file pt;
@@ -132,5 +137,32 @@ int prod_particles_open(prod_writer *p, sph_error *err);
 int prod_particles_add(prod_writer *p, double t, const prod_particles_view *v, sph_error *err);
 int prod_particles_close(prod_writer *p, sph_error *err);
 void prod_particles_abort(prod_writer *p);
+
+/* products_stations.c: a CF timeSeries file and its CSV, opened */
+typedef struct prod_series {
+    prod_file *nc, *csv;
+    FILE **f;
+    int *ncid, *v_time;
+    int d_st, d_t, v_name, v_lon, v_lat; /* out */
+} prod_series;
+int prod_series_create(prod_writer *p, prod_series *q, const char *base, const char *header, int ns,
+                       sph_error *err);
+int prod_series_close(prod_writer *p, prod_series *q, sph_error *err);
+void prod_series_abort(prod_series *q);
+void prod_csv_station(FILE *f, const prod_station *st, const char *iso);
+/* a NetCDF call's failure as the products' error, naming the file */
+#define PROD_NC_TRY(call, what, file)                                    \
+    do {                                                                  \
+        int st_ = (call);                                                 \
+        if (st_ != NC_NOERR)                                              \
+            return prod_nc_check(st_, what, file, err);                   \
+    } while (0)
+
+/* products_loads.c: the ice-load product, fed by the station sampling */
+int prod_loads_open(prod_writer *p, sph_error *err);
+int prod_loads_add(prod_writer *p, size_t ti, double t, int s, double conc, double thick, double speed,
+                   sph_error *err);
+int prod_loads_close(prod_writer *p, sph_error *err);
+void prod_loads_abort(prod_writer *p);
 
 #endif

@@ -70,43 +70,82 @@ static double sample(const prod_writer *p, const double *f, double lon, double l
     return wsum > 1e-12 ? sum / wsum : NAN;
 }
 
+#define NCQ(call, what) PROD_NC_TRY(call, what, q->nc->tmp)
+
+/* The part a station series and the load series share (products_loads.c):
+ * the two temporary files, the CSV's header, the NetCDF file's station and
+ * time dimensions, station_name, lon, lat and time, left in define mode. */
+int prod_series_create(prod_writer *p, prod_series *q, const char *base, const char *header, int ns,
+                       sph_error *err)
+{
+    char suffix[64];
+    int rc;
+    snprintf(suffix, sizeof suffix, "%s.nc", base);
+    if ((rc = prod_file_init(p, q->nc, suffix, err)) != SPH_OK)
+        return rc;
+    snprintf(suffix, sizeof suffix, "%s.csv", base);
+    if ((rc = prod_file_init(p, q->csv, suffix, err)) != SPH_OK)
+        return rc;
+    *q->f = fopen(q->csv->tmp, "w");
+    if (!*q->f)
+        return sph_err_set(err, SPH_ERR_IO, "create %s: %s", q->csv->tmp, strerror(errno));
+    fputs(header, *q->f);
+
+    int st = nc_create(q->nc->tmp, NC_NETCDF4 | NC_CLOBBER, q->ncid);
+    if (st != NC_NOERR) {
+        *q->ncid = -1;
+        return prod_nc_check(st, "create", q->nc->tmp, err);
+    }
+    int nc = *q->ncid, d_len;
+    NCQ(nc_def_dim(nc, "station", (size_t)ns, &q->d_st), "define dimension in");
+    NCQ(nc_def_dim(nc, "time", NC_UNLIMITED, &q->d_t), "define dimension in");
+    NCQ(nc_def_dim(nc, "name_strlen", NAME_LEN, &d_len), "define dimension in");
+    int dn[2] = { q->d_st, d_len };
+    NCQ(nc_def_var(nc, "station_name", NC_CHAR, 2, dn, &q->v_name), "define variable in");
+    NCQ(prod_put_text(nc, q->v_name, "cf_role", "timeseries_id"), "write attribute in");
+    NCQ(prod_put_text(nc, q->v_name, "long_name", "station name"), "write attribute in");
+    NCQ(prod_def_lonlat(nc, "lon", 1, &q->d_st, 'X', "station longitude", &q->v_lon), "define variable in");
+    NCQ(prod_def_lonlat(nc, "lat", 1, &q->d_st, 'Y', "station latitude", &q->v_lat), "define variable in");
+    NCQ(nc_def_var(nc, "time", NC_DOUBLE, 1, &q->d_t, q->v_time), "define variable in");
+    NCQ(prod_put_text(nc, *q->v_time, "standard_name", "time"), "write attribute in");
+    NCQ(prod_put_text(nc, *q->v_time, "long_name", "valid time"), "write attribute in");
+    NCQ(prod_put_text(nc, *q->v_time, "units", "seconds since 1970-01-01 00:00:00"),
+        "write attribute in");
+    NCQ(prod_put_text(nc, *q->v_time, "calendar", "standard"), "write attribute in");
+    NCQ(prod_put_text(nc, *q->v_time, "axis", "T"), "write attribute in");
+    return SPH_OK;
+}
+
+/* Closes both files of a series and commits them (atomically, listed). */
+int prod_series_close(prod_writer *p, prod_series *q, sph_error *err)
+{
+    NCQ(ncfile_close(q->ncid), "close");
+    FILE *f = *q->f;
+    *q->f = NULL;
+    int bad = fflush(f) != 0 || ferror(f);
+    int e = errno;
+    if (fclose(f) != 0)
+        bad = 1;
+    if (bad)
+        return sph_err_set(err, SPH_ERR_IO, "write %s: %s", q->csv->tmp, strerror(e));
+    int rc = prod_file_commit(p, q->nc, err);
+    if (rc == SPH_OK)
+        rc = prod_file_commit(p, q->csv, err);
+    return rc;
+}
+
 int prod_stations_open(prod_writer *p, sph_error *err)
 {
     int ns = p->opts.nstations;
     if (ns <= 0)
         return SPH_OK;
-    int rc;
-    if ((rc = prod_file_init(p, &p->st_nc, "stations.nc", err)) != SPH_OK ||
-        (rc = prod_file_init(p, &p->st_csv, "stations.csv", err)) != SPH_OK)
+    prod_series q = { &p->st_nc, &p->st_csv, &p->csv, &p->st_ncid, &p->st_v_time, 0, 0, 0, 0, 0 };
+    int rc = prod_series_create(p, &q, "stations",
+                                "station,lon,lat,valid_time,siconc,sithick_m,sivol_m,drift_speed_m_s,"
+                                "drift_direction_deg_towards,siu_m_s,siv_m_s,sicompstren_N_m\n", ns, err);
+    if (rc != SPH_OK)
         return rc;
-    p->csv = fopen(p->st_csv.tmp, "w");
-    if (!p->csv)
-        return sph_err_set(err, SPH_ERR_IO, "create %s: %s", p->st_csv.tmp, strerror(errno));
-    fprintf(p->csv, "station,lon,lat,valid_time,siconc,sithick_m,sivol_m,drift_speed_m_s,"
-                    "drift_direction_deg_towards,siu_m_s,siv_m_s,sicompstren_N_m\n");
-
-    int st = nc_create(p->st_nc.tmp, NC_NETCDF4 | NC_CLOBBER, &p->st_ncid);
-    if (st != NC_NOERR) {
-        p->st_ncid = -1;
-        return prod_nc_check(st, "create", p->st_nc.tmp, err);
-    }
-    int nc = p->st_ncid, d_st, d_t, d_len, v_name, v_lon, v_lat;
-    NCS(nc_def_dim(nc, "station", (size_t)ns, &d_st), "define dimension in");
-    NCS(nc_def_dim(nc, "time", NC_UNLIMITED, &d_t), "define dimension in");
-    NCS(nc_def_dim(nc, "name_strlen", NAME_LEN, &d_len), "define dimension in");
-    int dn[2] = { d_st, d_len };
-    NCS(nc_def_var(nc, "station_name", NC_CHAR, 2, dn, &v_name), "define variable in");
-    NCS(prod_put_text(nc, v_name, "cf_role", "timeseries_id"), "write attribute in");
-    NCS(prod_put_text(nc, v_name, "long_name", "station name"), "write attribute in");
-    NCS(prod_def_lonlat(nc, "lon", 1, &d_st, 'X', "station longitude", &v_lon), "define variable in");
-    NCS(prod_def_lonlat(nc, "lat", 1, &d_st, 'Y', "station latitude", &v_lat), "define variable in");
-    NCS(nc_def_var(nc, "time", NC_DOUBLE, 1, &d_t, &p->st_v_time), "define variable in");
-    NCS(prod_put_text(nc, p->st_v_time, "standard_name", "time"), "write attribute in");
-    NCS(prod_put_text(nc, p->st_v_time, "long_name", "valid time"), "write attribute in");
-    NCS(prod_put_text(nc, p->st_v_time, "units", "seconds since 1970-01-01 00:00:00"),
-        "write attribute in");
-    NCS(prod_put_text(nc, p->st_v_time, "calendar", "standard"), "write attribute in");
-    NCS(prod_put_text(nc, p->st_v_time, "axis", "T"), "write attribute in");
+    int nc = p->st_ncid, d_st = q.d_st, d_t = q.d_t, v_name = q.v_name, v_lon = q.v_lon, v_lat = q.v_lat;
     int dd[2] = { d_st, d_t };
     float fill = PROD_FILL_FLOAT;
     for (int k = 0; k < ST_NVARS; k++) {
@@ -147,7 +186,7 @@ int prod_stations_open(prod_writer *p, sph_error *err)
         NCS(nc_put_var1_double(nc, v_lon, &idx, &p->stations[s].lon), "write station lon to");
         NCS(nc_put_var1_double(nc, v_lat, &idx, &p->stations[s].lat), "write station lat to");
     }
-    return SPH_OK;
+    return prod_loads_open(p, err);
 }
 
 /* the series kept for the plots: conc, thick, hbar, speed per (station, time) */
@@ -215,6 +254,19 @@ static int write_plots(prod_writer *p, sph_error *err)
     return rc;
 }
 
+/* A CSV row's start: the name quoted (embedded quotes doubled), lon, lat,
+ * the valid time; the values follow, empty = missing. */
+void prod_csv_station(FILE *f, const prod_station *st, const char *iso)
+{
+    fputc('"', f);
+    for (const char *c = st->name; *c; c++) {
+        if (*c == '"')
+            fputc('"', f);
+        fputc(*c, f);
+    }
+    fprintf(f, "\",%.6f,%.6f,%s", st->lon, st->lat, iso);
+}
+
 static void csv_num(FILE *f, double v, int decimals)
 {
     fputc(',', f);
@@ -244,19 +296,15 @@ int prod_stations_add(prod_writer *p, double t, sph_error *err)
         v[ST_DIR] = products_drift_direction_deg(v[ST_U], v[ST_V]);
         if (keep_series(p, ti, t, s, v))
             return sph_err_set(err, SPH_ERR_NOMEM, "stations: out of memory");
+        int lrc = prod_loads_add(p, ti, t, s, v[ST_CONC], v[ST_THICK], v[ST_SPEED], err);
+        if (lrc != SPH_OK)
+            return lrc;
         for (int k = 0; k < ST_NVARS; k++) {
             float x = isnan(v[k]) ? PROD_FILL_FLOAT : (float)v[k];
             size_t idx[2] = { (size_t)s, ti };
             NCS(nc_put_var1_float(p->st_ncid, p->st_v[k], idx, &x), "write station data to");
         }
-        /* CSV: the name quoted (embedded quotes doubled), empty = missing */
-        fputc('"', p->csv);
-        for (const char *c = st->name; *c; c++) {
-            if (*c == '"')
-                fputc('"', p->csv);
-            fputc(*c, p->csv);
-        }
-        fprintf(p->csv, "\",%.6f,%.6f,%s", st->lon, st->lat, iso);
+        prod_csv_station(p->csv, st, iso);
         csv_num(p->csv, v[ST_CONC], 4);
         csv_num(p->csv, v[ST_THICK], 4);
         csv_num(p->csv, v[ST_HBAR], 4);
@@ -276,29 +324,28 @@ int prod_stations_close(prod_writer *p, sph_error *err)
 {
     if (p->opts.nstations <= 0)
         return SPH_OK;
-    NCS(ncfile_close(&p->st_ncid), "close");
-    FILE *f = p->csv;
-    p->csv = NULL;
-    int bad = fflush(f) != 0 || ferror(f);
-    int e = errno;
-    if (fclose(f) != 0)
-        bad = 1;
-    if (bad)
-        return sph_err_set(err, SPH_ERR_IO, "write %s: %s", p->st_csv.tmp, strerror(e));
-    int rc = prod_file_commit(p, &p->st_nc, err);
+    prod_series q = { &p->st_nc, &p->st_csv, &p->csv, &p->st_ncid, &p->st_v_time, 0, 0, 0, 0, 0 };
+    int rc = prod_series_close(p, &q, err);
     if (rc == SPH_OK)
-        rc = prod_file_commit(p, &p->st_csv, err);
+        rc = prod_loads_close(p, err);
     if (rc == SPH_OK && p->ntimes > 0)
         rc = write_plots(p, err);
     return rc;
 }
 
+void prod_series_abort(prod_series *q)
+{
+    (void)ncfile_close(q->ncid);
+    if (*q->f)
+        fclose(*q->f);
+    *q->f = NULL;
+    prod_file_discard(q->nc);
+    prod_file_discard(q->csv);
+}
+
 void prod_stations_abort(prod_writer *p)
 {
-    (void)ncfile_close(&p->st_ncid);
-    if (p->csv)
-        fclose(p->csv);
-    p->csv = NULL;
-    prod_file_discard(&p->st_nc);
-    prod_file_discard(&p->st_csv);
+    prod_series q = { &p->st_nc, &p->st_csv, &p->csv, &p->st_ncid, &p->st_v_time, 0, 0, 0, 0, 0 };
+    prod_series_abort(&q);
+    prod_loads_abort(p);
 }
