@@ -38,6 +38,25 @@ static inline void rp_ps_forward(double a, double b, double latc, double lon0, d
     *y = -rho * cos((lon - lon0) * RP_DEG);
     *k = rho / (a * rp_ps_m(phi, e));
 }
+/* its inverse (Snyder eq. 21-39 for t, 7-9 iterated for phi, 20-16 for lon) */
+static inline void rp_ps_inverse(double a, double b, double latc, double lon0, double x, double y,
+                                 double *lon, double *lat)
+{
+    double e = sqrt(1 - b * b / (a * a)), pc = latc * RP_DEG;
+    double rho = hypot(x, y), t = rho * rp_ps_t(pc, e) / (a * rp_ps_m(pc, e));
+    double phi = M_PI / 2 - 2 * atan(t);
+    for (int it = 0; it < 100; it++) {
+        double s = sin(phi);
+        double next = M_PI / 2 - 2 * atan(t * pow((1 - e * s) / (1 + e * s), e / 2));
+        if (fabs(next - phi) < 1e-15) {
+            phi = next;
+            break;
+        }
+        phi = next;
+    }
+    *lat = phi / RP_DEG;
+    *lon = remainder(lon0 + atan2(x, -y) / RP_DEG, 360.0);
+}
 /* polar Lambert azimuthal equal-area north, ellipsoid (a, 1/rf) (eq. 3-12, 21-18/19, 24-...) */
 static inline double rp_q(double phi, double e)
 {

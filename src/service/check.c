@@ -100,6 +100,7 @@ static int check_raster(const struct sph_config *cfg, double t, int json, FILE *
     ice_raster_options_default(&o);
     o.default_thickness = cfg->initial.default_thickness;
     o.thickness_kind = cfg->initial.thickness_kind;
+    fc_raster_options(cfg, &o);
     if (cfg->initial.format == CFG_INIT_ESRI) {
         o.valid_time = t;
         if (cfg->initial.thick_var && cfg->initial.thick_var[0] &&

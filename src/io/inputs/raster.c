@@ -17,6 +17,9 @@ void ice_raster_options_default(ice_raster_options *o)
     memset(o, 0, sizeof *o);
     o->default_thickness = 0.1;
     o->valid_time = NAN;
+    o->ims_ice_conc = o->ims_ice_thick = NAN;
+    for (int k = 0; k < 4; k++)
+        o->bbox[k] = NAN;
 }
 
 void ice_raster_free(ice_raster *r)
@@ -168,7 +171,7 @@ int ice_raster_read(const char *path, const ice_raster_options *opt, ice_raster 
         if (drivers[i]->probe(head, got))
             return drivers[i]->read(path, opt, out, err);
     return sph_err_set(err, SPH_ERR_BAD_DATA,
-                       "ice raster %s: neither NetCDF nor an ESRI ASCII grid (%zu bytes)", path,
+                       "ice raster %s: neither NetCDF nor an ESRI ASCII grid, IMS ASCII or GeoTIFF (%zu bytes)", path,
                        got < 8 ? got : (size_t)8);
 }
 
