@@ -5,6 +5,7 @@
 
 #include <math.h>
 #include <netcdf.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "io/raster.h"
@@ -70,6 +71,32 @@ static inline void rp_laea_forward(double a, double rf, double lon0, double lon,
     double rho = a * sqrt(rp_q(M_PI / 2, e) - rp_q(lat * RP_DEG, e));
     *x = rho * sin((lon - lon0) * RP_DEG);
     *y = -rho * cos((lon - lon0) * RP_DEG);
+}
+
+/* Reads path with o (NULL: defaults), checked to succeed; NULL on failure. */
+static inline ice_raster *rp_read(const char *what, const char *path, const ice_raster_options *o)
+{
+    ice_raster *r = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    CHECK(ice_raster_read(path, o, &r, &err) == SPH_OK && r, "%s: %s", what, err.msg);
+    return r;
+}
+
+/* Reading path with o must fail with one line naming the file and needle,
+ * and give no raster. */
+static inline void rp_refused(const char *what, const char *path, const ice_raster_options *o,
+                              const char *needle)
+{
+    ice_raster *r = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    int rc = ice_raster_read(path, o, &r, &err);
+    CHECK(rc != SPH_OK && !r && strstr(err.msg, path) && strstr(err.msg, needle) &&
+              !strchr(err.msg, '\n'),
+          "%s: rc %d, \"%s\" (want one line naming the file and \"%s\")", what, rc, err.msg, needle);
+    printf("refused as wanted (%s): %s\n", what, err.msg);
+    ice_raster_free(r);
 }
 
 /* Seeds r per cell and compares the seeded ice area and volume with

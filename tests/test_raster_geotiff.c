@@ -104,12 +104,7 @@ static void write_tif(const char *path, tif_opts t)
 
 static void check_good(const char *path)
 {
-    ice_raster_options o;
-    ice_raster_options_default(&o);
-    ice_raster *r = NULL;
-    sph_error err;
-    sph_error_clear(&err);
-    CHECK(ice_raster_read(path, &o, &r, &err) == SPH_OK && r, "GeoTIFF: %s", err.msg);
+    ice_raster *r = rp_read("GeoTIFF", path, NULL);
     if (!r)
         return;
     CHECK(r->kind == ICE_RASTER_PROJECTED && r->nlon == NX && r->nlat == NY, "kind %d, %d x %d",
@@ -154,33 +149,14 @@ static void check_good(const char *path)
     ice_raster_free(r);
 }
 
-static void expect_refusal(const char *what, const char *path, const ice_raster_options *o,
-                           const char *needle)
+static void rp_ok(const char *what, const char *path, const ice_raster_options *o)
 {
-    ice_raster *r = NULL;
-    sph_error err;
-    sph_error_clear(&err);
-    int rc = ice_raster_read(path, o, &r, &err);
-    CHECK(rc != SPH_OK && !r && strstr(err.msg, path) && strstr(err.msg, needle) &&
-              !strchr(err.msg, '\n'),
-          "%s: rc %d, \"%s\" (want one line naming the file and \"%s\")", what, rc, err.msg, needle);
-    printf("refused as wanted (%s): %s\n", what, err.msg);
-    ice_raster_free(r);
+    ice_raster_free(rp_read(what, path, o));
 }
 
-static void expect_ok(const char *what, const char *path, const ice_raster_options *o)
+/* the cases, in a file of dir */
+static void run(const char *dir)
 {
-    ice_raster *r = NULL;
-    sph_error err;
-    sph_error_clear(&err);
-    CHECK(ice_raster_read(path, o, &r, &err) == SPH_OK && r, "%s: %s", what, err.msg);
-    ice_raster_free(r);
-}
-
-int main(void)
-{
-    char dir[] = "/tmp/sphice-test-raster-geotiff-XXXXXX";
-    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
     char path[512];
     snprintf(path, sizeof path, "%s/sic_sit_3413.tif", dir);
     write_tif(path, (tif_opts){2, 1, 0, 1, 0, 1, 0});
@@ -190,39 +166,36 @@ int main(void)
     ice_raster_options_default(&o);
     /* band 2 without metadata: its role is unknown */
     write_tif(path, (tif_opts){2, 1, 0, 0, 0, 1, 0});
-    expect_refusal("unknown band role", path, &o, "band 2 (\"\") has a role");
-    expect_refusal("unknown band role (key)", path, &o, "initial.gdal.thick_band");
+    rp_refused("unknown band role", path, &o, "band 2 (\"\") has a role");
+    rp_refused("unknown band role (key)", path, &o, "initial.gdal.thick_band");
     o.gdal_thick_band = -1;
-    expect_ok("band 2 declared none", path, &o);
+    rp_ok("band 2 declared none", path, &o);
     o.gdal_thick_band = 0;
     /* a thickness band named, but nothing says per ice area or cell mean */
     write_tif(path, (tif_opts){2, 1, 0, 1, 1, 1, 0});
-    expect_refusal("thickness kind", path, &o, "initial.thickness_kind");
+    rp_refused("thickness kind", path, &o, "initial.thickness_kind");
     o.thickness_kind = ICE_THICK_CELL_MEAN;
-    expect_ok("thickness kind from the key", path, &o);
+    rp_ok("thickness kind from the key", path, &o);
     o.thickness_kind = ICE_THICK_AUTO;
     /* no CRS; a CRS not on the earth */
     write_tif(path, (tif_opts){1, 0, 0, 0, 0, 1, 0});
-    expect_refusal("no CRS", path, &o, "no CRS");
+    rp_refused("no CRS", path, &o, "no CRS");
     write_tif(path, (tif_opts){1, 1, 1, 0, 0, 1, 0});
-    expect_refusal("local CRS", path, &o, "neither geographic nor projected");
+    rp_refused("local CRS", path, &o, "neither geographic nor projected");
     /* one band without metadata: the keys say which band and which unit */
     write_tif(path, (tif_opts){1, 1, 0, 0, 0, 0, 0});
-    expect_refusal("no concentration band", path, &o, "initial.gdal.conc_band");
+    rp_refused("no concentration band", path, &o, "initial.gdal.conc_band");
     o.gdal_conc_band = 1;
-    expect_refusal("no concentration unit", path, &o, "initial.gdal.conc_units");
+    rp_refused("no concentration unit", path, &o, "initial.gdal.conc_units");
     o.gdal_conc_band = 2;
-    expect_refusal("band beyond the file", path, &o, "initial.gdal.conc_band 2 does not exist");
+    rp_refused("band beyond the file", path, &o, "initial.gdal.conc_band 2 does not exist");
     o.gdal_conc_band = 1;
     o.gdal_conc_units = ICE_CONC_UNITS_PERCENT;
-    expect_ok("band and unit from the keys", path, &o);
+    rp_ok("band and unit from the keys", path, &o);
     ice_raster_options_default(&o);
     /* on longitude/latitude (EPSG:4326): a regular lon/lat raster */
     write_tif(path, (tif_opts){1, 1, 0, 0, 0, 1, 1});
-    ice_raster *r = NULL;
-    sph_error err;
-    sph_error_clear(&err);
-    CHECK(ice_raster_read(path, &o, &r, &err) == SPH_OK && r, "EPSG:4326: %s", err.msg);
+    ice_raster *r = rp_read("EPSG:4326", path, &o);
     if (r) {
         int i = 28, rt = 20, j = NY - 1 - rt;
         CHECK(r->kind == ICE_RASTER_LONLAT && fabs(r->lon[0] - 10.25) < 1e-12 &&
@@ -238,8 +211,15 @@ int main(void)
     long len = ftell(f);
     fclose(f);
     CHECK(truncate(path, len / 2) == 0, "truncate");
-    expect_refusal("truncated GeoTIFF", path, &o, "truncated or corrupt");
+    rp_refused("truncated GeoTIFF", path, &o, "truncated or corrupt");
     unlink(path);
+}
+
+int main(void)
+{
+    char dir[] = "/tmp/sphice-test-raster-geotiff-XXXXXX";
+    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
+    run(dir);
     rmdir(dir);
     return check_summary("test_raster_geotiff");
 }

@@ -124,10 +124,7 @@ static void check_raster(const char *what, const char *path, const grid *g, cons
     if (bbox)
         for (int k = 0; k < 4; k++)
             o.bbox[k] = bbox[k];
-    ice_raster *r = NULL;
-    sph_error err;
-    sph_error_clear(&err);
-    CHECK(ice_raster_read(path, &o, &r, &err) == SPH_OK && r, "%s: %s", what, err.msg);
+    ice_raster *r = rp_read(what, path, &o);
     if (!r)
         return;
     CHECK(r->kind == ICE_RASTER_PROJECTED, "%s: kind %d", what, r->kind);
@@ -201,15 +198,7 @@ static void expect_refusal(const char *what, const char *path, double conc, doub
     ice_raster_options_default(&o);
     o.ims_ice_conc = conc;
     o.ims_ice_thick = thick;
-    ice_raster *r = NULL;
-    sph_error err;
-    sph_error_clear(&err);
-    int rc = ice_raster_read(path, &o, &r, &err);
-    CHECK(rc != SPH_OK && !r && strstr(err.msg, path) && strstr(err.msg, needle) &&
-              !strchr(err.msg, '\n'),
-          "%s: rc %d, \"%s\" (want one line naming the file and \"%s\")", what, rc, err.msg, needle);
-    printf("refused as wanted (%s): %s\n", what, err.msg);
-    ice_raster_free(r);
+    rp_refused(what, path, &o, needle);
 }
 
 int main(void)

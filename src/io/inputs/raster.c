@@ -63,6 +63,15 @@ ice_raster *raster_alloc(const char *path, int nlon, int nlat, sph_error *err)
     return r;
 }
 
+int raster_hand_over(ice_raster *r, int rc, ice_raster **out)
+{
+    if (rc == SPH_OK)
+        *out = r;
+    else
+        ice_raster_free(r);
+    return rc;
+}
+
 double ice_raster_cell_area(const ice_raster *r, int j)
 {
     const double deg = M_PI / 180.0, R = ICE_RASTER_EARTH_RADIUS;

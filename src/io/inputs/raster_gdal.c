@@ -258,28 +258,22 @@ static int read_gdal(const char *path, const ice_raster_options *o, ice_raster *
                          conc > nb ? conc : thick);
         goto done;
     }
+    /* bands the metadata name, where the key leaves it to them */
+    int *slot[3] = {NULL, &conc, &thick};
+    const int keyed[3] = {1, o->gdal_conc_band != 0, o->gdal_thick_band != 0};
+    static const char *const what[3] = {"", "concentration", "thickness"};
+    static const char *const key[3] = {"", "conc_band", "thick_band"};
     for (int b = 1; b <= nb; b++) {
-        GDALRasterBandH h = GDALGetRasterBand(ds, b);
-        int role = band_role(h);
-        if (b == conc || b == thick)
+        int role = band_role(GDALGetRasterBand(ds, b));
+        if (b == conc || b == thick || keyed[role])
             continue;
-        if (role == ROLE_CONC && o->gdal_conc_band == 0) {
-            if (conc > 0) {
-                rc = sph_err_set(err, SPH_ERR_CONFIG, "ice raster %s: bands %d and %d both say "
-                                 "they are the concentration: set initial.gdal.conc_band", path,
-                                 conc, b);
-                goto done;
-            }
-            conc = b;
-        } else if (role == ROLE_THICK && o->gdal_thick_band == 0) {
-            if (thick > 0) {
-                rc = sph_err_set(err, SPH_ERR_CONFIG, "ice raster %s: bands %d and %d both say "
-                                 "they are the thickness: set initial.gdal.thick_band", path,
-                                 thick, b);
-                goto done;
-            }
-            thick = b;
+        if (*slot[role] > 0) {
+            rc = sph_err_set(err, SPH_ERR_CONFIG, "ice raster %s: bands %d and %d both say they "
+                             "are the %s: set initial.gdal.%s", path, *slot[role], b, what[role],
+                             key[role]);
+            goto done;
         }
+        *slot[role] = b;
     }
     if (conc == 0 && (ims = ims_grid(ds, gt)) != NULL) {
         if ((rc = raster_ims_check_keys(path, o, err)))
@@ -404,25 +398,10 @@ static int read_gdal(const char *path, const ice_raster_options *o, ice_raster *
                 r->conc[k] = NAN;
     }
     if (projected) {
-        free(r->lon);
-        free(r->lat);
-        r->lon = r->lat = NULL;
-        r->kind = ICE_RASTER_PROJECTED;
-        r->x = malloc(sizeof(double) * nx);
-        r->y = malloc(sizeof(double) * ny);
-        if (!r->x || !r->y) {
-            rc = sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
-            goto done;
-        }
-        for (int i = 0; i < nx; i++)
-            r->x[i] = x0 + (win[0] + i) * dx;
-        for (int j = 0; j < ny; j++)
-            r->y[j] = y0 + (win[2] + j) * dy;
-        r->dx = dx;
-        r->dy = dy;
         char label[64];
         snprintf(label, sizeof label, "band %d", ims ? 1 : conc);
-        if ((rc = raster_set_projected(r, wkt, label, NULL, err)))
+        if ((rc = raster_set_regular_projected(r, wkt, label, x0 + win[0] * dx, dx,
+                                               y0 + win[2] * dy, dy, err)))
             goto done;
     } else {
         for (int i = 0; i < nx; i++)
@@ -454,12 +433,7 @@ done:
     free(tmp);
     free(flags);
     free(cls);
-    if (rc != SPH_OK) {
-        ice_raster_free(r);
-        return rc;
-    }
-    *out = r;
-    return SPH_OK;
+    return raster_hand_over(r, rc, out);
 }
 
 static int probe_gdal(const unsigned char *head, size_t got)

@@ -178,6 +178,26 @@ int raster_set_projected(ice_raster *r, const char *def, const char *var,
     return SPH_OK;
 }
 
+int raster_set_regular_projected(ice_raster *r, const char *def, const char *var, double x0,
+                                 double dx, double y0, double dy, sph_error *err)
+{
+    free(r->lon);
+    free(r->lat);
+    r->lon = r->lat = NULL;
+    r->kind = ICE_RASTER_PROJECTED;
+    r->x = malloc(sizeof(double) * (size_t)r->nlon);
+    r->y = malloc(sizeof(double) * (size_t)r->nlat);
+    if (!r->x || !r->y)
+        return sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", r->path);
+    for (int i = 0; i < r->nlon; i++)
+        r->x[i] = x0 + i * dx;
+    for (int j = 0; j < r->nlat; j++)
+        r->y[j] = y0 + j * dy;
+    r->dx = dx;
+    r->dy = dy;
+    return raster_set_projected(r, def, var, NULL, err);
+}
+
 int raster_window(const char *path, const char *def, double x0, double dx, int nx, double y0,
                   double dy, int ny, const ice_raster_options *o, int margin, int win[4],
                   sph_error *err)

@@ -36,6 +36,8 @@ RASTER_DRIVERS(RASTER_DRIVER_DECLARE)
 /* A raster of nlon x nlat cells for path (NULL and err set when out of
  * memory); valid_time NaN. */
 ice_raster *raster_alloc(const char *path, int nlon, int nlat, sph_error *err);
+/* A driver's end: *out = r on SPH_OK, else r freed; returns rc. */
+int raster_hand_over(ice_raster *r, int rc, ice_raster **out);
 /* Concentration to fraction and the checks every format shares. `percent`
  * < 0 means decide from the values. Thickness NaN where ice = default. */
 int raster_finish(ice_raster *r, int percent, const ice_raster_options *o, sph_error *err);
@@ -49,6 +51,10 @@ int raster_set_projected(ice_raster *r, const char *def, const char *var,
                          const double *cell_area, sph_error *err);
 int raster_set_curvilinear(ice_raster *r, const char *var, const double *cell_area,
                            sph_error *err);
+/* A regular projected grid of r's nlon x nlat cells, centres x0 + i dx,
+ * y0 + j dy (m): sets the kind and x/y, then raster_set_projected. */
+int raster_set_regular_projected(ice_raster *r, const char *def, const char *var, double x0,
+                                 double dx, double y0, double dy, sph_error *err);
 /* lon/lat (degrees, the CRS's geodetic datum) -> x/y (m); 0 when it does
  * not project. */
 int raster_crs_forward(const struct raster_crs *c, double lon, double lat, double *x, double *y);

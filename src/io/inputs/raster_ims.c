@@ -191,26 +191,12 @@ static int read_ims(const char *path, const ice_raster_options *o, ice_raster **
     if (rc == SPH_OK && !(r = raster_alloc(path, nx, ny, err)))
         rc = err->code;
     if (rc == SPH_OK) {
-        free(r->lon);
-        free(r->lat);
-        r->lon = r->lat = NULL;
-        r->kind = ICE_RASTER_PROJECTED;
-        r->x = malloc(sizeof(double) * nx);
-        r->y = malloc(sizeof(double) * ny);
-        if (!r->x || !r->y)
-            rc = sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
-    }
-    if (rc == SPH_OK) {
-        for (int i = 0; i < nx; i++)
-            r->x[i] = x0 + (win[0] + i) * g->cell;
-        for (int j = 0; j < ny; j++)
-            r->y[j] = y0 + (win[2] + j) * g->cell;
-        r->dx = r->dy = g->cell;
         r->valid_time = o->valid_time;
         rc = raster_ims_fill(r, cls, o, err);
     }
     if (rc == SPH_OK)
-        rc = raster_set_projected(r, raster_ims_proj, "IMS classes", NULL, err);
+        rc = raster_set_regular_projected(r, raster_ims_proj, "IMS classes", x0 + win[0] * g->cell,
+                                          g->cell, y0 + win[2] * g->cell, g->cell, err);
     if (rc == SPH_OK) {
         snprintf(r->grid, sizeof r->grid,
                  "projected, IMS %s ASCII (columns %d..%d, rows %d..%d of %d), %g x %g km cells, "
@@ -220,12 +206,7 @@ static int read_ims(const char *path, const ice_raster_options *o, ice_raster **
         rc = raster_finish(r, 0, o, err);
     }
     free(cls);
-    if (rc != SPH_OK) {
-        ice_raster_free(r);
-        return rc;
-    }
-    *out = r;
-    return SPH_OK;
+    return raster_hand_over(r, rc, out);
 }
 
 /* Text whose header names the product (an ESRI grid starts with
