@@ -101,6 +101,9 @@ typedef struct ice_raster {
     double valid_time;     /* seconds since 1970Z; NaN if the file has none */
     int thickness_kind;    /* ICE_THICK_ICE or _CELL_MEAN as read (thick is per ice area either way) */
     char thickness_why[160]; /* what decided it */
+    /* what the reader took from configuration instead of the file (IMS's
+     * ice cell, a GeoTIFF's band roles or unit); "" none */
+    char assumed[256];
     char path[4096];
 } ice_raster;
 

@@ -325,6 +325,7 @@ static int seed_gate(engine *e, const seed_options *so, const seed_totals *st, c
         e->res->raster_ice_volume_km3 = rv / 1e9;
         e->res->seeded_ice_area_km2 = sa / 1e6;
         e->res->seeded_ice_volume_km3 = sv / 1e9;
+        snprintf(e->res->raster_assumed, sizeof e->res->raster_assumed, "%s", e->raster->assumed);
     }
     char msg[sizeof e->raster_path + 400];
     if (!(ra > 0)) {

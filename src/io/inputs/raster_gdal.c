@@ -423,6 +423,13 @@ static int read_gdal(const char *path, const ice_raster_options *o, ice_raster *
     else
         snprintf(r->grid, sizeof r->grid, "regular lon/lat, GeoTIFF band %d, %g x %g degrees",
                  conc, r->dlon, r->dlat);
+    if (!ims && (o->gdal_conc_band || o->gdal_thick_band || o->gdal_conc_units))
+        snprintf(r->assumed, sizeof r->assumed, "GeoTIFF concentration band %d%s, thickness "
+                 "band %d%s, concentration in %s%s", conc,
+                 o->gdal_conc_band ? " (initial.gdal.conc_band)" : "", thick > 0 ? thick : 0,
+                 o->gdal_thick_band ? " (initial.gdal.thick_band)" : "",
+                 percent ? "percent" : "fraction",
+                 o->gdal_conc_units ? " (initial.gdal.conc_units)" : "");
     rc = raster_finish(r, percent, o, err);
 done:
     if (ds)

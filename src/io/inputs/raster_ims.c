@@ -83,6 +83,9 @@ int raster_ims_fill(ice_raster *r, const unsigned char *cls, const ice_raster_op
     }
     r->thickness_kind = ICE_THICK_ICE;
     snprintf(r->thickness_why, sizeof r->thickness_why, "initial.ims.ice_thickness (IMS classes)");
+    snprintf(r->assumed, sizeof r->assumed, "IMS ice cells (class 3): concentration %g "
+             "(initial.ims.ice_concentration), thickness %g m (initial.ims.ice_thickness)",
+             o->ims_ice_conc, o->ims_ice_thick);
     log_info("ice raster %s: IMS classes: %zu ice cells take concentration %g "
              "(initial.ims.ice_concentration) and thickness %g m (initial.ims.ice_thickness); "
              "%zu land, %zu outside the hemisphere", r->path, nice, o->ims_ice_conc,
