@@ -24,16 +24,12 @@
 #include <stdlib.h>
 #include <unistd.h>
 
-#include "raster_provider.h"
+#include "ims_file.h"
 
-static const double IA = 6378137.0, IB = 6356257.0;
 static const char *IMS_PROJ = "+proj=stere +lat_0=90 +lat_ts=60 +lon_0=-80 +k=1 +x_0=0 +y_0=0 "
                               "+a=6378137 +b=6356257 +units=m +no_defs";
 static const double ICE_A = 0.9, ICE_H = 1.2;
-
-typedef struct { int n; double xll, yll, cell; } grid;
-static const grid G24 = {1024, -12126597.0, -12126480.0, 23684.977};
-static const grid G4 = {6144, -12288000.0, -12288000.0, 4000.0};
+typedef ims_grid grid;
 
 static double rho_equator(void)
 {
@@ -57,32 +53,15 @@ static int scene(double x, double y, double rho_eq)
     return 1;
 }
 
-static double cx(const grid *g, int i) { return g->xll + (i + 0.5) * g->cell; }
-static double cy(const grid *g, int j) { return g->yll + (j + 0.5) * g->cell; }
+static int scene_cls(double x, double y, const void *ctx)
+{
+    return scene(x, y, *(const double *)ctx);
+}
 
 static void write_ascii(const char *path, const grid *g, int rows)
 {
-    FILE *f = fopen(path, "w");
-    CHECK(f != NULL, "create %s", path);
-    if (!f)
-        return;
-    /* 30 lines of header text (its wording is not specified further) */
-    fprintf(f, "Interactive Multisensor Snow and Ice Mapping System (IMS) Daily Northern "
-               "Hemisphere Snow and Ice Analysis\n");
-    fprintf(f, "%d x %d polar stereographic grid, true at 60 N, oriented 80 W\n", g->n, g->n);
-    fprintf(f, "Values: 0 outside Northern Hemisphere, 1 sea, 2 land, 3 sea ice, 4 snow\n");
-    for (int l = 3; l < 30; l++)
-        fprintf(f, "header line %d\n", l + 1);
     double re = rho_equator();
-    char *row = malloc((size_t)g->n + 2);
-    for (int j = 0; j < rows; j++) { /* from the bottom row up */
-        for (int i = 0; i < g->n; i++)
-            row[i] = (char)('0' + scene(cx(g, i), cy(g, j), re));
-        row[g->n] = '\n';
-        fwrite(row, 1, (size_t)g->n + 1, f);
-    }
-    free(row);
-    fclose(f);
+    ims_write_ascii(path, g, rows, scene_cls, &re);
 }
 
 static void write_geotiff(const char *path, const grid *g)
