@@ -51,22 +51,17 @@ static struct sph_config *config(const char *ims_keys)
     return cfg;
 }
 
+/* A 2 h forecast of cfg into dir/name (stage) on the case's atmosphere. */
 static int cycle(const struct sph_config *cfg, const char *name, forecast_result *res,
                  sph_error *err, char *stage, size_t len)
 {
-    static const char *atm[2];
     static char atm_path[1100];
+    static const char *atm[2] = {atm_path, NULL};
     snprintf(atm_path, sizeof atm_path, "%s/atm.nc", dir);
-    atm[0] = atm_path;
     snprintf(stage, len, "%s/%s", dir, name);
-    forecast_request req;
-    memset(&req, 0, sizeof req);
-    req.cycle_time = EC_CYCLE;
-    req.hours = 2;
-    req.stage_dir = stage;
-    req.forcing_files[0] = atm;
-    forecast_progress prog;
-    memset((void *)&prog, 0, sizeof prog);
+    forecast_request req = {.cycle_time = EC_CYCLE, .hours = 2, .stage_dir = stage,
+                            .forcing_files = {atm}};
+    forecast_progress prog = {0};
     sph_error_clear(err);
     return forecast_run(cfg, &req, &prog, NULL, res, err);
 }
