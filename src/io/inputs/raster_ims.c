@@ -224,9 +224,13 @@ static int probe_ims(const unsigned char *head, size_t got)
         text[k] = (char)tolower(head[k]);
     }
     text[n] = '\0';
+    const char *t = text + strspn(text, " \t\r\n");
+    if (strncmp(t, "ncols", 5) == 0 || strncmp(t, "nrows", 5) == 0)
+        return 0;
+    /* the product's name, or the "Dim Units" lines of its header */
     return strstr(text, "interactive multisensor snow") != NULL ||
-           (strstr(text, "ims") != NULL && strstr(text, "snow and ice") != NULL &&
-            strncmp(text, "ncols", 5) != 0 && strncmp(text, "nrows", 5) != 0);
+           (strstr(text, "ims") != NULL && strstr(text, "snow and ice") != NULL) ||
+           strstr(text, "dim units") != NULL;
 }
 
 const raster_driver raster_driver_ims = {"ims-ascii", probe_ims, read_ims};
