@@ -5,6 +5,7 @@
 
 #include <math.h>
 #include <netcdf.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "io/raster.h"
@@ -38,6 +39,25 @@ static inline void rp_ps_forward(double a, double b, double latc, double lon0, d
     *y = -rho * cos((lon - lon0) * RP_DEG);
     *k = rho / (a * rp_ps_m(phi, e));
 }
+/* its inverse (Snyder eq. 21-39 for t, 7-9 iterated for phi, 20-16 for lon) */
+static inline void rp_ps_inverse(double a, double b, double latc, double lon0, double x, double y,
+                                 double *lon, double *lat)
+{
+    double e = sqrt(1 - b * b / (a * a)), pc = latc * RP_DEG;
+    double rho = hypot(x, y), t = rho * rp_ps_t(pc, e) / (a * rp_ps_m(pc, e));
+    double phi = M_PI / 2 - 2 * atan(t);
+    for (int it = 0; it < 100; it++) {
+        double s = sin(phi);
+        double next = M_PI / 2 - 2 * atan(t * pow((1 - e * s) / (1 + e * s), e / 2));
+        if (fabs(next - phi) < 1e-15) {
+            phi = next;
+            break;
+        }
+        phi = next;
+    }
+    *lat = phi / RP_DEG;
+    *lon = remainder(lon0 + atan2(x, -y) / RP_DEG, 360.0);
+}
 /* polar Lambert azimuthal equal-area north, ellipsoid (a, 1/rf) (eq. 3-12, 21-18/19, 24-...) */
 static inline double rp_q(double phi, double e)
 {
@@ -51,6 +71,32 @@ static inline void rp_laea_forward(double a, double rf, double lon0, double lon,
     double rho = a * sqrt(rp_q(M_PI / 2, e) - rp_q(lat * RP_DEG, e));
     *x = rho * sin((lon - lon0) * RP_DEG);
     *y = -rho * cos((lon - lon0) * RP_DEG);
+}
+
+/* Reads path with o (NULL: defaults), checked to succeed; NULL on failure. */
+static inline ice_raster *rp_read(const char *what, const char *path, const ice_raster_options *o)
+{
+    ice_raster *r = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    CHECK(ice_raster_read(path, o, &r, &err) == SPH_OK && r, "%s: %s", what, err.msg);
+    return r;
+}
+
+/* Reading path with o must fail with one line naming the file and needle,
+ * and give no raster. */
+static inline void rp_refused(const char *what, const char *path, const ice_raster_options *o,
+                              const char *needle)
+{
+    ice_raster *r = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    int rc = ice_raster_read(path, o, &r, &err);
+    CHECK(rc != SPH_OK && !r && strstr(err.msg, path) && strstr(err.msg, needle) &&
+              !strchr(err.msg, '\n'),
+          "%s: rc %d, \"%s\" (want one line naming the file and \"%s\")", what, rc, err.msg, needle);
+    printf("refused as wanted (%s): %s\n", what, err.msg);
+    ice_raster_free(r);
 }
 
 /* Seeds r per cell and compares the seeded ice area and volume with

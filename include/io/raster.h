@@ -20,6 +20,16 @@
  *    scale_factor/add_offset/_FillValue/missing_value honoured. If a
  *    `time` coordinate with CF units "<unit> since <date>" exists, its
  *    first value is the valid time.
+ *  - NOAA IMS daily snow and ice analysis (NSIDC G02156) ASCII, 24, 4 or
+ *    1 km: its text header, then one character per cell, rows from the
+ *    grid's bottom (y = yll) up; classes 0 outside the hemisphere (no
+ *    information), 1 open water, 2 land, 3 sea or lake ice, 4 snow-covered
+ *    land (land). Ice cells take options.ims_ice_conc / ims_ice_thick
+ *    (required: the product says ice or no ice only).
+ *  - GeoTIFF through GDAL: the CRS, geotransform, nodata, scale/offset and
+ *    band metadata of the file; band roles, concentration unit and thickness
+ *    kind from the metadata, else options.gdal_*; an IMS GeoTIFF (a byte
+ *    band on one of the IMS grids) as IMS classes.
  *  - ESRI ASCII grid: header keys ncols, nrows, xllcorner|xllcenter,
  *    yllcorner|yllcenter, cellsize, NODATA_value (any order, any case),
  *    then nrows rows from north to south. One file holds concentration;
@@ -91,6 +101,9 @@ typedef struct ice_raster {
     double valid_time;     /* seconds since 1970Z; NaN if the file has none */
     int thickness_kind;    /* ICE_THICK_ICE or _CELL_MEAN as read (thick is per ice area either way) */
     char thickness_why[160]; /* what decided it */
+    /* what the reader took from configuration instead of the file (IMS's
+     * ice cell, a GeoTIFF's band roles or unit); "" none */
+    char assumed[256];
     char path[4096];
 } ice_raster;
 
@@ -101,11 +114,24 @@ typedef struct ice_raster_options {
     double default_thickness;     /* m, where thickness is missing (default 0.1) */
     double valid_time;            /* for ESRI grids (NaN: unknown) */
     int thickness_kind;           /* ICE_THICK_* (default AUTO) */
+    /* IMS classes: concentration (0..1] and thickness (m) of an ice cell;
+     * NaN (default): unset, an IMS raster is refused naming the key */
+    double ims_ice_conc, ims_ice_thick;
+    /* GDAL: 1-based band of concentration and of thickness; 0 (default):
+     * from the band metadata; gdal_thick_band -1: no thickness band */
+    int gdal_conc_band, gdal_thick_band;
+    int gdal_conc_units;          /* ICE_CONC_UNITS_* (default AUTO: from the metadata) */
+    /* lon_min, lon_max, lat_min, lat_max, degrees: the IMS and GDAL drivers
+     * read only the cells covering it (and a margin); NaN (default): all */
+    double bbox[4];
 } ice_raster_options;
+
+/* Concentration unit of a GDAL band (initial.gdal.conc_units). */
+enum { ICE_CONC_UNITS_AUTO = 0, ICE_CONC_UNITS_FRACTION, ICE_CONC_UNITS_PERCENT };
 
 void ice_raster_options_default(ice_raster_options *o);
 
-/* Reads `path` (NetCDF or ESRI ASCII). opt may be NULL (defaults). */
+/* Reads `path` (NetCDF, IMS ASCII, GeoTIFF or ESRI ASCII). opt may be NULL (defaults). */
 int ice_raster_read(const char *path, const ice_raster_options *opt, ice_raster **out,
                     sph_error *err);
 void ice_raster_free(ice_raster *r); /* NULL does nothing */

@@ -93,6 +93,9 @@ struct sph_config {
         int reinit;             /* CFG_REINIT_* */
         int thickness_kind;     /* CFG_THICK_* */
         int gate;               /* CFG_GATE_* */
+        double ims_ice_conc, ims_ice_thick; /* IMS ice cells; 0: unset */
+        int gdal_conc_band, gdal_thick_band; /* GeoTIFF bands; 0: from metadata */
+        int gdal_conc_units;    /* ICE_CONC_UNITS_* */
     } initial;
 
     struct {

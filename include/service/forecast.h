@@ -67,6 +67,7 @@ typedef struct forecast_result {
     double land_fraction;
     int open_water;              /* cold start from a raster without ice in the domain */
     char quality_flag[256];
+    char raster_assumed[256];    /* the raster's values taken from configuration (IMS ice cell) */
     int nproducts;
     char products[FC_MAX_PRODUCTS][512]; /* file names relative to stage_dir */
     struct {                     /* service/ensemble.h; members 0: a single run */

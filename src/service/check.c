@@ -100,6 +100,7 @@ static int check_raster(const struct sph_config *cfg, double t, int json, FILE *
     ice_raster_options_default(&o);
     o.default_thickness = cfg->initial.default_thickness;
     o.thickness_kind = cfg->initial.thickness_kind;
+    fc_raster_options(cfg, &o);
     if (cfg->initial.format == CFG_INIT_ESRI) {
         o.valid_time = t;
         if (cfg->initial.thick_var && cfg->initial.thick_var[0] &&
@@ -141,6 +142,8 @@ static int check_raster(const struct sph_config *cfg, double t, int json, FILE *
                      : r->thickness_kind == ICE_THICK_CELL_MEAN ? "cell_mean" : "ice";
     cJSON_AddStringToObject(j, "thickness_kind", tk);
     cJSON_AddStringToObject(j, "thickness_kind_from", r->thickness_why);
+    if (r->assumed[0])
+        cJSON_AddStringToObject(j, "assumed", r->assumed);
     cJSON_AddNumberToObject(j, "land_cells", (double)r->nland);
     cJSON_AddNumberToObject(j, "no_information_cells", (double)r->nnoinfo);
     cJSON_AddNumberToObject(j, "ice_area_km2", area / 1e6);
@@ -149,6 +152,8 @@ static int check_raster(const struct sph_config *cfg, double t, int json, FILE *
         fprintf(out, "raster       initial        %s: %d x %d cells, %s\n", p, r->nlon, r->nlat, r->grid);
         fprintf(out, "raster       initial        thickness %s%s%s; flagged land %zu, no information %zu cells\n",
                 tk, r->thickness_why[0] ? " from " : "", r->thickness_why, r->nland, r->nnoinfo);
+        if (r->assumed[0])
+            fprintf(out, "raster       initial        assumed from the configuration: %s\n", r->assumed);
         if (area > 0)
             fprintf(out, "raster       initial        ice in the domain: area %.6g km2, volume %.6g km3\n",
                     area / 1e6, vol / 1e9);

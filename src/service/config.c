@@ -60,6 +60,7 @@ static const char *const fkind_names[] = {"atmosphere", "ocean", "tide", NULL};
 static const char *const init_format_names[] = {"netcdf", "esri", NULL};
 static const char *const reinit_names[] = {"warm", "cold", "newer_raster", NULL};
 static const char *const thick_kind_names[] = {"auto", "ice", "cell_mean", NULL};
+static const char *const conc_units_names[] = {"auto", "fraction", "percent", NULL}; /* ICE_CONC_UNITS_* */
 static const char *const gate_names[] = {"fail", "flag", NULL};
 static const char *const land_names[] = {"none", "gshhg", "netcdf", "forcing", NULL};
 static const char *const landres_names[] = {"crude", "low", "intermediate", "high", "full", NULL};
@@ -161,6 +162,17 @@ static const cfg_key tail_keys[] = {
        "What the raster's thickness is: ice (per ice-covered area), cell_mean (volume per cell area, divided by the concentration), auto (from the variable's cell_methods, long_name, name or standard_name; an error where they do not say)."),
     C_("initial.gate", CT_ENUM, initial.gate, "\"fail\"", 0, 0, R, gate_names,
        "Sanity gates: a cold start whose raster has ice in the domain but seeds none, or whose seeded ice area or volume differs from the raster's (domain's sea cells) by more than 5 %, or a run ending with more than 1 % of its particles on land: fail (the cycle fails with one line, nothing published) or flag (published with sphice_quality_flag and cycle.json quality_flag)."),
+
+    C_("initial.ims.ice_concentration", CT_DOUBLE, initial.ims_ice_conc, "0", 0, 1, R, NULL,
+       "IMS snow and ice analysis (ASCII or GeoTIFF): the concentration given to a sea-ice cell (class 3), 0 < A <= 1; the product says only ice or no ice. 0: unset, an IMS raster is then refused naming this key."),
+    C_("initial.ims.ice_thickness", CT_DOUBLE, initial.ims_ice_thick, "0", 0, 100, R, NULL,
+       "IMS snow and ice analysis: the ice thickness given to a sea-ice cell, m (per ice area). 0: unset, an IMS raster is then refused naming this key."),
+    C_("initial.gdal.conc_band", CT_INT, initial.gdal_conc_band, "0", 0, 100000, R, NULL,
+       "GeoTIFF: the band (from 1) that holds the sea-ice concentration; 0: the band whose metadata says so (standard_name sea_ice_area_fraction, or a description such as siconc), else the file is refused naming this key."),
+    C_("initial.gdal.thick_band", CT_INT, initial.gdal_thick_band, "0", -1, 100000, R, NULL,
+       "GeoTIFF: the band (from 1) that holds the ice thickness; -1: none (initial.default_thickness); 0: the band whose metadata says so (standard_name sea_ice_thickness, or a description such as sithick), and a band whose role the metadata does not give is refused naming this key."),
+    C_("initial.gdal.conc_units", CT_ENUM, initial.gdal_conc_units, "\"auto\"", 0, 0, R, conc_units_names,
+       "GeoTIFF: the concentration band's unit: fraction (0..1), percent, or auto (the band's unit type or units metadata: %, percent, 1, fraction; where it says nothing the file is refused naming this key)."),
 
     C_("landmask.source", CT_ENUM, landmask.source, "\"none\"", 0, 0, R, land_names,
        "none, gshhg (shoreline polygons), netcdf (mask variable), forcing (ocean model's land)."),

@@ -497,6 +497,8 @@ static cJSON *result_json(const forecast_result *r)
     NUM("seeded_ice_area_km2", r->seeded_ice_area_km2);
     NUM("seeded_ice_volume_km3", r->seeded_ice_volume_km3);
     NUM("particles_on_land_fraction", r->land_fraction);
+    if (r->raster_assumed[0]) /* only where configuration stood in for the file */
+        cJSON_AddStringToObject(o, "initial_raster_assumed", r->raster_assumed);
     if (r->quality_flag[0])
         cJSON_AddStringToObject(o, "quality_flag", r->quality_flag);
     else

@@ -116,6 +116,10 @@ int fc_build_landmask(engine *e, double xmin, double xmax, double ymin, double y
                       sph_error *err);
 int fc_read_raster(engine *e, const char *tmpl, int format, const char *conc_var, double valid_time,
                    ice_raster **out, char *path, size_t plen, const char *what, sph_error *err);
+/* The IMS and GeoTIFF keys (initial.ims.*, initial.gdal.*) and the domain
+ * box, widened by a quarter of its span each way (at least 1 degree), for
+ * the drivers that read only what covers it. */
+void fc_raster_options(const struct sph_config *cfg, ice_raster_options *o);
 double fc_spacing_m(const engine *e);
 int fc_cold_start(engine *e, sph_error *err);
 int fc_warm_start(engine *e, sph_error *err);

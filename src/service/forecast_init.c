@@ -197,6 +197,28 @@ int fc_plane_box(engine *e, double *xmin, double *xmax, double *ymin, double *ym
 
 /* ---------------------------------------------------- initial particles */
 
+void fc_raster_options(const struct sph_config *cfg, ice_raster_options *o)
+{
+    if (cfg->initial.ims_ice_conc > 0)
+        o->ims_ice_conc = cfg->initial.ims_ice_conc;
+    if (cfg->initial.ims_ice_thick > 0)
+        o->ims_ice_thick = cfg->initial.ims_ice_thick;
+    o->gdal_conc_band = cfg->initial.gdal_conc_band;
+    o->gdal_thick_band = cfg->initial.gdal_thick_band;
+    o->gdal_conc_units = cfg->initial.gdal_conc_units;
+    double wl = fmax(1, (cfg->domain.lon_max - cfg->domain.lon_min) / 4);
+    double wp = fmax(1, (cfg->domain.lat_max - cfg->domain.lat_min) / 4);
+    if (cfg->domain.lon_max - cfg->domain.lon_min + 2 * wl < 360) {
+        o->bbox[0] = cfg->domain.lon_min - wl;
+        o->bbox[1] = cfg->domain.lon_max + wl;
+    } else {
+        o->bbox[0] = -180;
+        o->bbox[1] = 180;
+    }
+    o->bbox[2] = fmax(-90, cfg->domain.lat_min - wp);
+    o->bbox[3] = fmin(90, cfg->domain.lat_max + wp);
+}
+
 int fc_read_raster(engine *e, const char *tmpl, int format, const char *conc_var, double valid_time,
                        ice_raster **out, char *path, size_t plen, const char *what, sph_error *err)
 {
@@ -208,6 +230,7 @@ int fc_read_raster(engine *e, const char *tmpl, int format, const char *conc_var
     ice_raster_options_default(&o);
     o.default_thickness = cfg->initial.default_thickness;
     o.thickness_kind = cfg->initial.thickness_kind;
+    fc_raster_options(cfg, &o);
     char thick_path[4096] = "";
     if (format == CFG_INIT_ESRI) {
         /* ESRI: initial.thick_var names the thickness grid file (a template) */
@@ -302,6 +325,7 @@ static int seed_gate(engine *e, const seed_options *so, const seed_totals *st, c
         e->res->raster_ice_volume_km3 = rv / 1e9;
         e->res->seeded_ice_area_km2 = sa / 1e6;
         e->res->seeded_ice_volume_km3 = sv / 1e9;
+        snprintf(e->res->raster_assumed, sizeof e->res->raster_assumed, "%s", e->raster->assumed);
     }
     char msg[sizeof e->raster_path + 400];
     if (!(ra > 0)) {

@@ -17,6 +17,9 @@ void ice_raster_options_default(ice_raster_options *o)
     memset(o, 0, sizeof *o);
     o->default_thickness = 0.1;
     o->valid_time = NAN;
+    o->ims_ice_conc = o->ims_ice_thick = NAN;
+    for (int k = 0; k < 4; k++)
+        o->bbox[k] = NAN;
 }
 
 void ice_raster_free(ice_raster *r)
@@ -58,6 +61,15 @@ ice_raster *raster_alloc(const char *path, int nlon, int nlat, sph_error *err)
     r->valid_time = NAN;
     snprintf(r->path, sizeof r->path, "%s", path);
     return r;
+}
+
+int raster_hand_over(ice_raster *r, int rc, ice_raster **out)
+{
+    if (rc == SPH_OK)
+        *out = r;
+    else
+        ice_raster_free(r);
+    return rc;
 }
 
 double ice_raster_cell_area(const ice_raster *r, int j)
@@ -168,7 +180,7 @@ int ice_raster_read(const char *path, const ice_raster_options *opt, ice_raster 
         if (drivers[i]->probe(head, got))
             return drivers[i]->read(path, opt, out, err);
     return sph_err_set(err, SPH_ERR_BAD_DATA,
-                       "ice raster %s: neither NetCDF nor an ESRI ASCII grid (%zu bytes)", path,
+                       "ice raster %s: neither NetCDF nor an ESRI ASCII grid, IMS ASCII or GeoTIFF (%zu bytes)", path,
                        got < 8 ? got : (size_t)8);
 }
 

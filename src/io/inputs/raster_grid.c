@@ -33,7 +33,7 @@ void raster_crs_free(struct raster_crs *c)
     free(c);
 }
 
-static int crs_fail(struct raster_crs *c, ice_raster *r, const char *var, const char *def,
+static int crs_fail(struct raster_crs *c, const char *path, const char *var, const char *def,
                     const char *what, sph_error *err)
 {
     int e = c->ctx ? proj_context_errno(c->ctx) : 0;
@@ -42,21 +42,21 @@ static int crs_fail(struct raster_crs *c, ice_raster *r, const char *var, const 
              e ? proj_context_errno_string(c->ctx, e) : "");
     raster_crs_free(c);
     return sph_err_set(err, SPH_ERR_BAD_DATA,
-                       "ice raster %s: variable %s: projection \"%.300s\": %s", r->path, var, def,
+                       "ice raster %s: variable %s: projection \"%.300s\": %s", path, var, def,
                        why);
 }
 
-static struct raster_crs *crs_build(ice_raster *r, const char *var, const char *def,
+static struct raster_crs *crs_build(const char *path, const char *var, const char *def,
                                     sph_error *err)
 {
     struct raster_crs *c = calloc(1, sizeof *c);
     if (!c) {
-        sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", r->path);
+        sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", path);
         return NULL;
     }
     c->ctx = proj_context_create();
     if (!c->ctx) {
-        crs_fail(c, r, var, def, "PROJ context not created", err);
+        crs_fail(c, path, var, def, "PROJ context not created", err);
         return NULL;
     }
     proj_log_level(c->ctx, PJ_LOG_NONE);
@@ -68,7 +68,7 @@ static struct raster_crs *crs_build(ice_raster *r, const char *var, const char *
         snprintf(buf, sizeof buf, "%s", def);
     c->crs = proj_create(c->ctx, buf);
     if (!c->crs) {
-        crs_fail(c, r, var, def, "PROJ cannot build it", err);
+        crs_fail(c, path, var, def, "PROJ cannot build it", err);
         return NULL;
     }
     if (proj_get_type(c->crs) == PJ_TYPE_BOUND_CRS) {
@@ -77,7 +77,7 @@ static struct raster_crs *crs_build(ice_raster *r, const char *var, const char *
         c->crs = base;
     }
     if (!c->crs || proj_get_type(c->crs) != PJ_TYPE_PROJECTED_CRS) {
-        crs_fail(c, r, var, def, "not a projected CRS", err);
+        crs_fail(c, path, var, def, "not a projected CRS", err);
         return NULL;
     }
     PJ *cs = proj_crs_get_coordinate_system(c->ctx, c->crs);
@@ -85,7 +85,7 @@ static struct raster_crs *crs_build(ice_raster *r, const char *var, const char *
     if (!cs || !proj_cs_get_axis_info(c->ctx, cs, 0, NULL, NULL, NULL, &f, NULL, NULL, NULL) ||
         !(f > 0)) {
         proj_destroy(cs);
-        crs_fail(c, r, var, def, "no linear unit on its axes", err);
+        crs_fail(c, path, var, def, "no linear unit on its axes", err);
         return NULL;
     }
     proj_destroy(cs);
@@ -107,11 +107,11 @@ static struct raster_crs *crs_build(ice_raster *r, const char *var, const char *
         c->fac = proj_create(c->ctx, pbuf);
     }
     if (!c->fac) {
-        crs_fail(c, r, var, def, "not expressible as a PROJ projection (cell areas)", err);
+        crs_fail(c, path, var, def, "not expressible as a PROJ projection (cell areas)", err);
         return NULL;
     }
     if (!c->fwd) {
-        crs_fail(c, r, var, def, "no conversion from its geodetic CRS", err);
+        crs_fail(c, path, var, def, "no conversion from its geodetic CRS", err);
         return NULL;
     }
     return c;
@@ -134,7 +134,7 @@ int raster_crs_forward(const struct raster_crs *c, double lon, double lat, doubl
 int raster_set_projected(ice_raster *r, const char *def, const char *var,
                          const double *cell_area, sph_error *err)
 {
-    struct raster_crs *c = crs_build(r, var, def, err);
+    struct raster_crs *c = crs_build(r->path, var, def, err);
     if (!c)
         return err->code ? err->code : SPH_ERR_BAD_DATA;
     size_t n = (size_t)r->nlon * r->nlat;
@@ -175,6 +175,78 @@ int raster_set_projected(ice_raster *r, const char *def, const char *var,
                            "ice raster %s: variable %s: %zu of %zu cells have no position or "
                            "area in projection \"%.300s\" (first: x %g m, y %g m)", r->path, var,
                            bad, n, def, r->x[first % r->nlon], r->y[first / r->nlon]);
+    return SPH_OK;
+}
+
+int raster_set_regular_projected(ice_raster *r, const char *def, const char *var, double x0,
+                                 double dx, double y0, double dy, sph_error *err)
+{
+    free(r->lon);
+    free(r->lat);
+    r->lon = r->lat = NULL;
+    r->kind = ICE_RASTER_PROJECTED;
+    r->x = malloc(sizeof(double) * (size_t)r->nlon);
+    r->y = malloc(sizeof(double) * (size_t)r->nlat);
+    if (!r->x || !r->y)
+        return sph_err_set(err, SPH_ERR_NOMEM, "ice raster %s: out of memory", r->path);
+    for (int i = 0; i < r->nlon; i++)
+        r->x[i] = x0 + i * dx;
+    for (int j = 0; j < r->nlat; j++)
+        r->y[j] = y0 + j * dy;
+    r->dx = dx;
+    r->dy = dy;
+    return raster_set_projected(r, def, var, NULL, err);
+}
+
+int raster_window(const char *path, const char *def, double x0, double dx, int nx, double y0,
+                  double dy, int ny, const ice_raster_options *o, int margin, int win[4],
+                  sph_error *err)
+{
+    win[0] = 0, win[1] = nx - 1, win[2] = 0, win[3] = ny - 1;
+    const double *b = o->bbox;
+    if (isnan(b[0]) || isnan(b[1]) || isnan(b[2]) || isnan(b[3]))
+        return SPH_OK;
+    struct raster_crs *c = crs_build(path, "grid", def, err);
+    if (!c)
+        return err->code ? err->code : SPH_ERR_BAD_DATA;
+    /* the box's extent in x/y from a lattice over it (the extremes of a
+     * polar projection may lie inside the box, at the pole); the margin
+     * covers what falls between the lattice's points */
+    enum { N = 128 };
+    double xmin = HUGE_VAL, xmax = -HUGE_VAL, ymin = HUGE_VAL, ymax = -HUGE_VAL;
+    double la0 = fmax(-90, b[2]), la1 = fmin(90, b[3]);
+    for (int q = 0; q <= N; q++)
+        for (int p = 0; p <= N; p++) {
+            double x, y, lon = b[0] + (b[1] - b[0]) * p / N, lat = la0 + (la1 - la0) * q / N;
+            if (!raster_crs_forward(c, lon, lat, &x, &y))
+                continue;
+            xmin = fmin(xmin, x), xmax = fmax(xmax, x);
+            ymin = fmin(ymin, y), ymax = fmax(ymax, y);
+        }
+    raster_crs_free(c);
+    double i0 = floor((xmin - x0) / dx) - margin, i1 = ceil((xmax - x0) / dx) + margin;
+    double j0 = floor((ymin - y0) / dy) - margin, j1 = ceil((ymax - y0) / dy) + margin;
+    if (!(xmin <= xmax) || i1 < 0 || j1 < 0 || i0 > nx - 1 || j0 > ny - 1)
+        return sph_err_set(err, SPH_ERR_BAD_DATA,
+                           "ice raster %s: the domain (%g..%g E, %g..%g N) covers no cell of the "
+                           "raster", path, b[0], b[1], b[2], b[3]);
+    win[0] = i0 < 0 ? 0 : (int)i0;
+    win[1] = i1 > nx - 1 ? nx - 1 : (int)i1;
+    win[2] = j0 < 0 ? 0 : (int)j0;
+    win[3] = j1 > ny - 1 ? ny - 1 : (int)j1;
+    /* two cells each way at least (sampling is bilinear) */
+    if (win[1] == win[0]) {
+        if (win[1] < nx - 1)
+            win[1]++;
+        else
+            win[0]--;
+    }
+    if (win[3] == win[2]) {
+        if (win[3] < ny - 1)
+            win[3]++;
+        else
+            win[2]--;
+    }
     return SPH_OK;
 }
 

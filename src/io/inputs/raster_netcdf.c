@@ -59,7 +59,6 @@ static int att_num(int ncid, int varid, const char *att, double *v, size_t *n, s
  * naming land, coast or lake), 2 for "no information" (pole hole,
  * missing, anything else). Returns the count, or -1 (err set) for flag
  * values without meanings. */
-#define RASTER_MAX_FLAGS 64
 static int read_flags(int ncid, int varid, const char *path, const char *label, const char *att,
                       double *values, int *kind, sph_error *err)
 {
@@ -70,18 +69,7 @@ static int read_flags(int ncid, int varid, const char *path, const char *label, 
     if (!att_text(ncid, varid, "flag_meanings", meanings, sizeof meanings))
         return sph_err_set(err, SPH_ERR_BAD_DATA, "ice raster %s: %s has %s but no flag_meanings",
                            path, label, att), -1;
-    size_t k = 0;
-    for (char *tok = strtok(meanings, " \t"); tok; tok = strtok(NULL, " \t"), k++) {
-        for (char *c = tok; *c; c++)
-            *c = (char)tolower((unsigned char)*c);
-        if (k < n)
-            kind[k] = strstr(tok, "land") || strstr(tok, "coast") || strstr(tok, "lake") ? 1 : 2;
-    }
-    if (k != n)
-        return sph_err_set(err, SPH_ERR_BAD_DATA,
-                           "ice raster %s: %s has %zu %s but %zu flag_meanings", path, label, n,
-                           att, k), -1;
-    return (int)n;
+    return raster_flag_meanings(path, label, att, n, meanings, kind, err);
 }
 
 /* The 2-D slab (leading dimensions at index 0) of varid as raw doubles;
@@ -570,10 +558,6 @@ static int read_cell_area(int ncid, int vc, const char *path, const char *vname,
     return SPH_OK;
 }
 
-static const char *const conc_names[] = {"siconc", "ice_conc", "sic", "aice", "SIC", "conc",
-                                         "cdr_seaice_conc", "fice", NULL};
-static const char *const thick_names[] = {"sithick", "hi", "sit", "ice_thickness", "thick", "hice",
-                                          NULL};
 
 /* A projected or curvilinear raster's coordinates, cell centres and areas
  * (xs/ys: the 1-D x/y in m as in the file; tmp: nlon * nlat scratch). */
@@ -677,73 +661,14 @@ static int read_status_land(int ncid, int vc, const char *path, size_t ny, size_
 static int thickness_kind(int ncid, int vt, int want, const char *path, int *kind, char *why,
                           size_t wlen, sph_error *err)
 {
-    char name[NC_MAX_NAME + 1], buf[512];
+    char name[NC_MAX_NAME + 1], label[NC_MAX_NAME + 32], cm[512], ln[512], sn[512];
     nc_inq_varname(ncid, vt, name);
-    if (want != ICE_THICK_AUTO) {
-        *kind = want;
-        snprintf(why, wlen, "initial.thickness_kind");
-        return SPH_OK;
-    }
-    if (att_text(ncid, vt, "cell_methods", buf, sizeof buf)) {
-        char *a = strstr(buf, "area:");
-        if (a) {
-            a += 5;
-            a += strspn(a, " ");
-            if (strncmp(a, "mean where sea_ice", 18) == 0) {
-                *kind = ICE_THICK_ICE;
-                snprintf(why, wlen, "%.64s cell_methods \"area: mean where sea_ice\"", name);
-                return SPH_OK;
-            }
-            /* "area: mean" over the cell, or over its sea part */
-            int plain = strncmp(a, "mean", 4) == 0 && strncmp(a + 4, " where", 6) != 0;
-            int sea = strncmp(a, "mean where sea", 14) == 0 && a[14] != '_';
-            if (plain || sea) {
-                *kind = ICE_THICK_CELL_MEAN;
-                snprintf(why, wlen, "%.64s cell_methods \"area: mean\" (over the cell)", name);
-                return SPH_OK;
-            }
-        }
-    }
-    if (att_text(ncid, vt, "long_name", buf, sizeof buf)) {
-        for (char *c = buf; *c; c++)
-            *c = (char)tolower((unsigned char)*c);
-        static const char *const mean_words[] = {"in cell", "cell mean", "grid cell mean",
-                                                 "grid-cell mean", "per unit area", "volume per",
-                                                 "per grid cell area", NULL};
-        static const char *const ice_words[] = {"ice-covered", "ice covered", "floe", "actual",
-                                                "over the ice", NULL};
-        for (const char *const *w = mean_words; *w; w++)
-            if (strstr(buf, *w)) {
-                *kind = ICE_THICK_CELL_MEAN;
-                snprintf(why, wlen, "%.64s long_name (\"%.32s\")", name, *w);
-                return SPH_OK;
-            }
-        for (const char *const *w = ice_words; *w; w++)
-            if (strstr(buf, *w)) {
-                *kind = ICE_THICK_ICE;
-                snprintf(why, wlen, "%.64s long_name (\"%.32s\")", name, *w);
-                return SPH_OK;
-            }
-    }
-    if (strcmp(name, "sivol") == 0 || strcmp(name, "vice") == 0) {
-        *kind = ICE_THICK_CELL_MEAN;
-        snprintf(why, wlen, "variable name %.64s (volume per cell area)", name);
-        return SPH_OK;
-    }
-    if (strcmp(name, "sithick") == 0) {
-        *kind = ICE_THICK_ICE;
-        snprintf(why, wlen, "variable name sithick (per ice area)");
-        return SPH_OK;
-    }
-    if (att_text(ncid, vt, "standard_name", buf, sizeof buf) && strcmp(buf, "sea_ice_thickness") == 0) {
-        *kind = ICE_THICK_ICE;
-        snprintf(why, wlen, "%.64s standard_name sea_ice_thickness", name);
-        return SPH_OK;
-    }
-    return sph_err_set(err, SPH_ERR_CONFIG,
-                       "ice raster %s: thickness variable %s: no cell_methods, long_name or "
-                       "standard_name says whether it is per ice area or a cell mean: set "
-                       "initial.thickness_kind to \"ice\" or \"cell_mean\"", path, name);
+    snprintf(label, sizeof label, "thickness variable %s", name);
+    int has_cm = att_text(ncid, vt, "cell_methods", cm, sizeof cm);
+    int has_ln = att_text(ncid, vt, "long_name", ln, sizeof ln);
+    int has_sn = att_text(ncid, vt, "standard_name", sn, sizeof sn);
+    return raster_thickness_kind(path, label, name, has_cm ? cm : NULL, has_ln ? ln : NULL,
+                                 has_sn ? sn : NULL, want, kind, why, wlen, err);
 }
 
 static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster **out,
@@ -764,8 +689,8 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
     double *lon = NULL, *lat = NULL, *tmp = NULL;
     size_t nlon = 0, nlat = 0;
     int rc = SPH_OK;
-    int vc = find_var(ncid, o->conc_variable, "sea_ice_area_fraction", conc_names);
-    int vt = find_var(ncid, o->thick_variable, "sea_ice_thickness", thick_names);
+    int vc = find_var(ncid, o->conc_variable, "sea_ice_area_fraction", raster_conc_names);
+    int vt = find_var(ncid, o->thick_variable, "sea_ice_thickness", raster_thick_names);
     int ndims = 0, dims[NC_MAX_VAR_DIMS];
     if (vc < 0)
         rc = sph_err_set(err, SPH_ERR_MISSING_VAR,
