@@ -24,6 +24,8 @@
 
 #include <string.h>
 
+#include "mu71_forcing.h"
+
 #define AREA 1.0e6 /* footprint, m^2 */
 
 static void set_particle(const sph_thermo_params *p, sph_particles *P, size_t k, double h, double A,
@@ -253,7 +255,8 @@ static void check_snow_heat_capacity(void)
     sph_thermo_params_default(&p);
     p.snow_heat_capacity = 1;
     sph_column_solver *s = sph_column_solver_create();
-    /* a year: snowfall in autumn and winter, a cold winter, a melting summer */
+    /* a year of MU71's forcing (tests/mu71_forcing.h): snowfall, a cold
+     * winter, a melting summer */
     sph_column c;
     sph_column_init(&p, &c, 2.0, 0.2, -15.0);
     CHECK(c.tsnow < 0.0, "a cold snow layer starts below 0 C (%.2f C)", c.tsnow);
@@ -263,14 +266,14 @@ static void check_snow_heat_capacity(void)
     double worst = 0.0, tmin = 0.0, melt = 0.0;
     int steps = check_quick() ? 24 * 90 : 24 * 365;
     for (int i = 0; i < steps; i++) {
-        double day = i / 24.0, ph = 2 * M_PI * day / 365.0;
-        f.swdn = fmax(0.0, 150.0 - 170.0 * cos(ph)) * fmax(0.0, sin(2 * M_PI * i / 24.0) + 0.3);
-        f.lwdn = 230.0 - 60.0 * cos(ph);
-        f.fsens = 10.0 * cos(ph);
-        f.flat = -5.0 + 4.0 * cos(ph);
-        f.albedo = c.snow > 0.0 ? 0.8 : 0.6;
+        double day = fmod(270.0 + i / 24.0, 365.0); /* from late September: snow, winter, melt */
+        f.swdn = monthly(SW, day);
+        f.lwdn = monthly(LW, day);
+        f.fsens = monthly(SENS, day);
+        f.flat = monthly(LAT, day);
+        f.albedo = monthly(ALB, day);
         f.fw = 2.0;
-        f.snowfall = (day < 120.0 || day > 230.0) ? 0.4 / (255 * 86400.0) : 0.0;
+        f.snowfall = snowfall(day);
         double E0 = column_energy_here(&p, &c);
         sph_column_result r;
         int rc = sph_column_step_multi_layer(&p, &c, &f, dt, s, &r);
