@@ -185,6 +185,7 @@ static void module_level(void)
         SAME(ofx_taux, n);
         SAME(ofx_tauy, n);
         SAME(ofx_swbase, n);
+        SAME(tsnow, n);
         double acc = 0.0;
         for (size_t k = 0; k < n; k++)
             acc += fabs(A->ofx_taux[k]) + fabs(A->ofx_water[k]) + fabs(A->ofx_heat_ice[k]);
@@ -506,6 +507,23 @@ static void every_field(void)
     CHECK(restart_read(path, NULL, &r, R, &err) == SPH_OK, "read without ofx_water: %s", err.msg);
     CHECK(zeroed(R->ofx_water, N * sizeof *R->ofx_water) && !memcmp(R->ofx_salt, W->ofx_salt, N * sizeof *R->ofx_salt),
           "ofx_water absent: zero; ofx_salt restored");
+
+    /* the snow temperature (a state field, class NZ) is zero everywhere
+     * without thermo.snow_heat_capacity: left out, so such runs write the
+     * files they wrote before the field existed; it reads back as zero */
+    memset(W->tsnow, 0, N * sizeof *W->tsnow);
+    sph_error_clear(&err);
+    CHECK(restart_write(path, W, &h, &err) == SPH_OK, "write: %s", err.msg);
+    if (nc_open(path, NC_NOWRITE, &nc) == NC_NOERR) {
+        int v;
+        CHECK(nc_inq_varid(nc, "tsnow", &v) != NC_NOERR && nc_inq_varid(nc, "coastc", &v) == NC_NOERR,
+              "an all-zero tsnow is left out, coastc (OPT state) written");
+        nc_close(nc);
+    }
+    fill_all(R, N, 2);
+    CHECK(restart_read(path, NULL, &r, R, &err) == SPH_OK, "read without tsnow: %s", err.msg);
+    CHECK(zeroed(R->tsnow, N * sizeof *R->tsnow) && !memcmp(R->snow, W->snow, N * sizeof *R->snow),
+          "tsnow absent: zero; snow restored");
 done:
     sph_particles_free(W);
     sph_particles_free(R);
