@@ -185,6 +185,7 @@ static void module_level(void)
         SAME(ofx_taux, n);
         SAME(ofx_tauy, n);
         SAME(ofx_swbase, n);
+        SAME(tsnow, n);
         double acc = 0.0;
         for (size_t k = 0; k < n; k++)
             acc += fabs(A->ofx_taux[k]) + fabs(A->ofx_water[k]) + fabs(A->ofx_heat_ice[k]);
@@ -489,23 +490,32 @@ static void every_field(void)
         CHECK(!memcmp(R->s12, W->s12, N * sizeof *R->s12), "the rest restored");
     }
 
-    /* a diagnostic optional field that is zero everywhere (an ocean-flux
-     * accumulator while output.ocean_fluxes is off) is left out of the
-     * file, which is then the file written before it existed; it reads
-     * back as zero */
-    memset(W->ofx_water, 0, N * sizeof *W->ofx_water);
-    sph_error_clear(&err);
-    CHECK(restart_write(path, W, &h, &err) == SPH_OK, "write: %s", err.msg);
-    if (nc_open(path, NC_NOWRITE, &nc) == NC_NOERR) {
-        int v;
-        CHECK(nc_inq_varid(nc, "ofx_water", &v) != NC_NOERR && nc_inq_varid(nc, "ofx_salt", &v) == NC_NOERR,
-              "an all-zero accumulator is left out, a nonzero one written");
-        nc_close(nc);
+    /* a field that is zero everywhere is left out of the file, which is
+     * then the file written before the field existed, and reads back as
+     * zero: a diagnostic optional one (an ocean-flux accumulator while
+     * output.ocean_fluxes is off) and the snow temperature (state, class
+     * NZ) without thermo.snow_heat_capacity; a nonzero one beside it is
+     * written and restored */
+    const int left_out[2][2] = {{SPH_PF_ofx_water, SPH_PF_ofx_salt}, {SPH_PF_tsnow, SPH_PF_coastc}};
+    for (int i = 0; i < 2; i++) {
+        int z = left_out[i][0], kept = left_out[i][1];
+        const char *zn = sph_particle_fields[z].name, *kn = sph_particle_fields[kept].name;
+        size_t bytes = N * sizeof(double);
+        memset(sph_particles_field(W, z), 0, bytes);
+        sph_error_clear(&err);
+        CHECK(restart_write(path, W, &h, &err) == SPH_OK, "write: %s", err.msg);
+        if (nc_open(path, NC_NOWRITE, &nc) == NC_NOERR) {
+            int v;
+            CHECK(nc_inq_varid(nc, zn, &v) != NC_NOERR && nc_inq_varid(nc, kn, &v) == NC_NOERR,
+                  "an all-zero %s is left out, a nonzero %s written", zn, kn);
+            nc_close(nc);
+        }
+        fill_all(R, N, 2);
+        CHECK(restart_read(path, NULL, &r, R, &err) == SPH_OK, "read without %s: %s", zn, err.msg);
+        CHECK(zeroed(sph_particles_field(R, z), bytes) &&
+                  !memcmp(sph_particles_field(R, kept), sph_particles_field(W, kept), bytes),
+              "%s absent: zero; %s restored", zn, kn);
     }
-    fill_all(R, N, 2);
-    CHECK(restart_read(path, NULL, &r, R, &err) == SPH_OK, "read without ofx_water: %s", err.msg);
-    CHECK(zeroed(R->ofx_water, N * sizeof *R->ofx_water) && !memcmp(R->ofx_salt, W->ofx_salt, N * sizeof *R->ofx_salt),
-          "ofx_water absent: zero; ofx_salt restored");
 done:
     sph_particles_free(W);
     sph_particles_free(R);

@@ -10,11 +10,21 @@
  *    found here by bisection on Archimedes' balance, not by the formula;
  *  - budgets: with snowfall, flooding, melt and lateral melt on a set of
  *    particles, the ice mass budget (with the snow-ice source) and the
- *    snow budget close to round-off. */
+ *    snow budget close to round-off;
+ *  - snow heat capacity (thermo.snow_heat_capacity, Bitz & Lipscomb 1999):
+ *    the multi-layer column's energy, snow enthalpy -rho_s (L0 - c0 T_s)
+ *    computed here, changes by the boundary fluxes times dt to round-off
+ *    over a year of snowfall, cold and melt; under a fixed surface
+ *    temperature on fresh ice held at equilibrium by the ocean flux, the
+ *    snow layer's temperature is the series-conduction value
+ *    Ts + F hs / (2 k_s) with F = (Tf - Ts) / (hs / k_s + h / k0); without
+ *    the option the snow stays at 0 C (latent heat only, as before). */
 #include "check.h"
 #include "core/thermo.h"
 
 #include <string.h>
+
+#include "mu71_forcing.h"
 
 #define AREA 1.0e6 /* footprint, m^2 */
 
@@ -226,6 +236,109 @@ static void check_budgets(const sph_thermo_params *p)
     sph_particles_free(P);
 }
 
+#define SIGMA 5.670374419e-8
+
+/* Snow enthalpy per volume, from its definition (not the code's). */
+static double q_snow(const sph_thermo_params *p, double T) { return -p->rho_s * (p->L0 - p->c0 * fmin(T, 0.0)); }
+
+static double column_energy_here(const sph_thermo_params *p, const sph_column *c)
+{
+    double e = 0.0;
+    for (int k = 0; k < c->nlayers; k++)
+        e += c->enth[k] * c->thick / c->nlayers;
+    return e + q_snow(p, c->tsnow) * c->snow;
+}
+
+static void check_snow_heat_capacity(void)
+{
+    sph_thermo_params p;
+    sph_thermo_params_default(&p);
+    p.snow_heat_capacity = 1;
+    sph_column_solver *s = sph_column_solver_create();
+    /* a year of MU71's forcing (tests/mu71_forcing.h): snowfall, a cold
+     * winter, a melting summer */
+    sph_column c;
+    sph_column_init(&p, &c, 2.0, 0.2, -15.0);
+    CHECK(c.tsnow < 0.0, "a cold snow layer starts below 0 C (%.2f C)", c.tsnow);
+    sph_column_forcing f;
+    sph_column_forcing_default(&f);
+    const double dt = 3600.0, eps = p.emissivity;
+    double worst = 0.0, tmin = 0.0, melt = 0.0;
+    int steps = check_quick() ? 24 * 90 : 24 * 365;
+    for (int i = 0; i < steps; i++) {
+        double day = fmod(270.0 + i / 24.0, 365.0); /* from late September: snow, winter, melt */
+        f.swdn = monthly(SW, day);
+        f.lwdn = monthly(LW, day);
+        f.fsens = monthly(SENS, day);
+        f.flat = monthly(LAT, day);
+        f.albedo = monthly(ALB, day);
+        f.fw = 2.0;
+        f.snowfall = snowfall(day);
+        double E0 = column_energy_here(&p, &c);
+        sph_column_result r;
+        int rc = sph_column_step_multi_layer(&p, &c, &f, dt, s, &r);
+        if (rc != SPH_STEP_OK) {
+            CHECK(0, "step %d: rc %d", i, rc);
+            break;
+        }
+        double E1 = column_energy_here(&p, &c);
+        double Tk = c.tsurf + 273.15;
+        double fatm = (1 - f.albedo) * f.swdn + p.lw_absorptivity * f.lwdn - eps * SIGMA * Tk * Tk * Tk * Tk +
+                      f.fsens + f.flat;
+        /* new snow arrives at 0 C: -rho_s L0 per m^3 */
+        double in = (fatm + f.fw) * dt + q_snow(&p, 0.0) * f.snowfall * dt - r.energy_to_ocean;
+        double scale = (fabs(fatm) + fabs(f.fw)) * dt + p.rho_s * p.L0 * f.snowfall * dt;
+        worst = fmax(worst, fabs((E1 - E0) - in) / scale);
+        tmin = fmin(tmin, c.tsnow);
+        melt += r.snow_melt;
+    }
+    printf("snow heat capacity: worst |dE - F dt| / (|F| dt) over %d steps = %.3e (coldest snow %.2f C, "
+           "snow melted %.3f m)\n", steps, worst, tmin, melt);
+    CHECK(worst < 1e-9, "energy with the snow's enthalpy changes by the fluxes x dt: %.3g", worst);
+    CHECK(tmin < -10.0, "the snow layer cooled (%.2f C)", tmin);
+    if (!check_quick())
+        CHECK(melt > 0.05, "and melted in summer (%.3f m)", melt);
+
+    /* steady series conduction: fresh ice (K = k0), Ts fixed, F_w = F */
+    sph_thermo_params q = p;
+    q.salinity_max = 0.0;
+    const double h = 1.5, hs = 0.25, Ts = -30.0, Tf = sph_freezing_point(&q);
+    const double F = (Tf - Ts) / (hs / q.k_s + h / q.k0);
+    sph_column_init(&q, &c, h, hs, Ts);
+    c.tsnow = -2.0; /* the snow far from its steady temperature: it relaxes in days */
+    sph_column_forcing_default(&f);
+    f.tsurf_prescribed = Ts;
+    f.fw = F;
+    for (int i = 0; i < 24 * 60; i++) {
+        sph_column_result r;
+        sph_column_step_multi_layer(&q, &c, &f, dt, s, &r);
+    }
+    /* the released heat thinned the ice a little, which regrows slowly: the
+     * series value at the current thickness (quasi-steady) */
+    double Fc = (Tf - Ts) / (hs / q.k_s + c.thick / q.k0), want = Ts + Fc * 0.5 * hs / q.k_s;
+    printf("steady snow layer: %.6f C (series conduction %.6f C), h %.6f m\n", c.tsnow, want, c.thick);
+    CHECK(fabs(c.tsnow - want) < 1e-3, "steady snow temperature %.5f C = Ts + F hs / (2 k_s) = %.5f C", c.tsnow,
+          want);
+    CHECK(fabs(c.thick - h) < 5e-3, "held near equilibrium by F_w (h %.5f m)", c.thick);
+
+    /* without the option: latent heat only, the snow stays at 0 C */
+    p.snow_heat_capacity = 0;
+    sph_column_init(&p, &c, 2.0, 0.2, -15.0);
+    CHECK(c.tsnow == 0.0, "option off: snow at 0 C");
+    sph_column_forcing_default(&f);
+    f.lwdn = 150.0;
+    f.fsens = 0.0;
+    f.flat = 0.0;
+    f.fw = 2.0;
+    f.snowfall = 1e-7;
+    for (int i = 0; i < 24 * 30; i++) {
+        sph_column_result r;
+        sph_column_step_multi_layer(&p, &c, &f, dt, s, &r);
+    }
+    CHECK(c.tsnow == 0.0 && c.tsurf < -20.0, "option off: still 0 C after a cold month (surface %.1f C)", c.tsurf);
+    sph_column_solver_free(s);
+}
+
 int main(void)
 {
     sph_thermo_params p;
@@ -233,6 +346,11 @@ int main(void)
     check_accumulation(&p, SPH_THERMO_ZERO_LAYER);
     check_accumulation(&p, SPH_THERMO_MULTI_LAYER);
     check_split(&p);
+    check_snow_ice(&p);
+    check_budgets(&p);
+    check_snow_heat_capacity();
+    /* the same snow-ice and budget checks with the snow's heat capacity */
+    p.snow_heat_capacity = 1;
     check_snow_ice(&p);
     check_budgets(&p);
     return check_summary("test_snow");

@@ -3,31 +3,34 @@
  *
  * Forcing: tests/mu71_forcing.h (MU71 Table 1, prescribed monthly albedo,
  * snowfall 30 cm over 20 Aug - 30 Oct, 5 cm over Nov - Apr, 5 cm in May,
- * F_w = 2 W/m^2), MU71's radiation form (all LW absorbed, emissivity
- * 0.99), i0 = 0.17, 30 years at 1 h from 3 m; the last year is measured.
+ * 0.40 m in all, F_w = 2 W/m^2), MU71's radiation form (all LW absorbed,
+ * emissivity 0.99), i0 = 0.17 on bare ice only (0 under snow), extinction
+ * 1.5 /m, 10 layers, k_s = 0.31, rho_s = 330, S(z) of MU71 with
+ * Tm = -0.054 S; 30 years at 1 h from 3 m; the last year is measured.
+ * The multi-layer column is run as Bitz & Lipscomb (1999) run it, with
+ * the snow's heat capacity (thermo.snow_heat_capacity); the same column
+ * without it is printed beside it.
  *
- * Published values used (annual mean ice thickness of the equilibrium
- * cycle), as quoted in the issue's brief (not re-read from the papers in
- * this session):
- *   Semtner (1976) zero-layer model: 2.6 - 3.0 m;
- *   Semtner (1976) three-layer model: about 2.92 m;
- *   Bitz & Lipscomb (1999): 2.8 - 3.1 m;
- *   MU71 themselves: about 3 m (PHYSICS.md section 8: 2.5 - 3.5 m).
- * Asserted: the zero-layer column within Semtner's zero-layer range; the
- * multi-layer column within MU71's 2.5 - 3.5 m (it is above BL99's range:
- * a known discrepancy, docs/thermo.md, printed here beside the range);
- * the snow never exceeds the 0.40 m that fell, nearly all of it stays
- * until the June melt, and it is gone by late July; the
- * snow insulates: without it the same run grows thicker winter ice
- * (a larger maximum), as MU71 found for snow depths up to 0.7 m.
- * Numbers: build/tests/test_snow_mu71 prints them. */
+ * Published values (as quoted in the issue's brief; the papers were not
+ * available to re-read in this session):
+ *   Semtner (1976) zero-layer model, annual mean: 2.6 - 3.0 m;
+ *   Bitz & Lipscomb (1999), annual mean: 2.8 - 3.1 m;
+ *   MU71's annual cycle: about 3.5 m at most, 2.9 m at least.
+ * Asserted in every run: the zero-layer mean in Semtner's range; the
+ * cycle has converged (< 1 cm/yr); the snow never exceeds the 0.40 m that
+ * fell, nearly all of it stays until the June melt, and it is gone by late
+ * July; the snow insulates (without it the winter maximum is larger).
+ * Asserted under SPHICE_LONG (make check-long): the multi-layer mean in
+ * BL99's range and its cycle within MU71's maximum and minimum. Measured
+ * (docs/thermo.md): the multi-layer mean is 3.40 m, above BL99's range;
+ * without SPHICE_LONG the gap is printed as a KNOWN GAP line instead. */
 #include "check.h"
 #include "core/thermo.h"
 
 #include "mu71_forcing.h"
 
 typedef struct {
-    double mean, hmax, hmin, snow_max, snow_min_summer;
+    double mean, prev_mean, hmax, hmin, snow_max, snow_min_summer;
 } cycle;
 
 static cycle run(const sph_thermo_params *p, int multi, int with_snow, int years, double dt)
@@ -41,7 +44,7 @@ static cycle run(const sph_thermo_params *p, int multi, int with_snow, int years
     cycle y = {0};
     int steps = (int)(365 * 86400.0 / dt);
     for (int yr = 0; yr < years; yr++) {
-        y = (cycle){0.0, -1e30, 1e30, 0.0, 1e30};
+        y = (cycle){0.0, y.mean, -1e30, 1e30, 0.0, 1e30};
         for (int i = 0; i < steps; i++) {
             double day = (i + 0.5) * dt / 86400.0;
             mu71_step(p, &c, &f, multi, with_snow, day, dt, s);
@@ -57,25 +60,46 @@ static cycle run(const sph_thermo_params *p, int multi, int with_snow, int years
     return y;
 }
 
+/* A published range check: a CHECK under SPHICE_LONG, else a KNOWN GAP line. */
+static void range(int hard, double v, double lo, double hi, const char *what, const char *published)
+{
+    int in = v >= lo && v <= hi;
+    if (hard)
+        CHECK(in, "%s %.3f m within %s", what, v, published);
+    else if (!in)
+        printf("  KNOWN GAP (issue 20): %s %.3f m, not within %s: %+.3f m (asserted under SPHICE_LONG; "
+               "docs/thermo.md)\n", what, v, published, v > hi ? v - hi : v - lo);
+}
+
 int main(void)
 {
-    sph_thermo_params p;
+    sph_thermo_params p, pc;
     mu71_params(&p);
+    pc = p;
+    pc.snow_heat_capacity = 1; /* BL99: snow with enthalpy */
     const int quick = check_quick();
     const int years = quick ? 4 : 30;
     const double dt = quick ? 6 * 3600.0 : 3600.0;
-    cycle z = run(&p, 0, 1, years, dt), m = run(&p, 1, 1, years, dt);
-    cycle z0 = run(&p, 0, 0, years, dt), m0 = run(&p, 1, 0, years, dt);
-    printf("MU71 with snow, %d years at %.0f h (published annual means: Semtner 1976 zero-layer "
-           "2.6-3.0 m, three-layer 2.92 m; BL99 2.8-3.1 m; MU71 about 3 m)\n",
+    const int hard = check_long();
+    cycle z = run(&p, 0, 1, years, dt), m = run(&pc, 1, 1, years, dt);
+    cycle z0 = run(&p, 0, 0, years, dt), m0 = run(&pc, 1, 0, years, dt);
+    cycle m1 = hard ? run(&p, 1, 1, years, dt) : m; /* without the snow's heat capacity: long runs only */
+    printf("MU71 with snow, %d years at %.0f h (published: Semtner 1976 zero-layer mean 2.6-3.0 m; BL99 "
+           "mean 2.8-3.1 m; MU71 cycle about 3.5 m max, 2.9 m min)\n",
            years, dt / 3600.0);
-    const cycle *all[4] = {&z, &m, &z0, &m0};
-    const char *name[4] = {"zero-layer, snow ", "multi-layer, snow", "zero-layer, none ", "multi-layer, none"};
-    for (int k = 0; k < 4; k++)
-        printf("  %s: mean %.3f m, max %.3f, min %.3f, range %.3f m, snow max %.3f m\n", name[k],
-               all[k]->mean, all[k]->hmax, all[k]->hmin, all[k]->hmax - all[k]->hmin,
-               all[k]->snow_max);
-    for (int k = 0; k < 2; k++) {
+    const cycle *all[5] = {&z, &m, &m1, &z0, &m0};
+    const int nrun = hard ? 5 : 4, order[5] = {0, 1, 3, 4, 2};
+    const char *name[5] = {"zero-layer, snow           ", "multi-layer, snow (BL99)   ",
+                           "multi-layer, snow, no c_s  ", "zero-layer, no snow        ",
+                           "multi-layer, no snow       "};
+    for (int i = 0; i < nrun; i++) {
+        int k = order[i];
+        printf("  %s: mean %.3f m, max %.3f, min %.3f, range %.3f m, snow max %.3f m, last-year change "
+               "%+.4f m\n",
+               name[k], all[k]->mean, all[k]->hmax, all[k]->hmin, all[k]->hmax - all[k]->hmin,
+               all[k]->snow_max, all[k]->mean - all[k]->prev_mean);
+    }
+    for (int k = 0; k < (hard ? 3 : 2); k++) {
         /* at most what fell (0.30 + 0.05 + 0.05 m); melt in late August
          * and late May takes a little (the exact accumulation: test_snow) */
         CHECK(all[k]->snow_max <= 0.40 + 1e-9 && all[k]->snow_max > 0.39,
@@ -83,11 +107,13 @@ int main(void)
         CHECK(all[k]->snow_min_summer == 0.0, "%s: the snow has melted by late July", name[k]);
     }
     if (!quick) {
+        for (int k = 0; k < 2; k++)
+            CHECK(fabs(all[k]->mean - all[k]->prev_mean) < 0.01, "%s: the cycle repeats (%+.4f m/yr)", name[k],
+                  all[k]->mean - all[k]->prev_mean);
         CHECK(z.mean >= 2.6 && z.mean <= 3.0, "zero-layer annual mean %.3f m in Semtner's 2.6-3.0 m", z.mean);
-        CHECK(m.mean >= 2.5 && m.mean <= 3.5, "multi-layer annual mean %.3f m in MU71's 2.5-3.5 m", m.mean);
-        if (!(m.mean >= 2.8 && m.mean <= 3.1))
-            printf("  known discrepancy: multi-layer mean %.3f m is outside BL99's 2.8-3.1 m "
-                   "(docs/thermo.md)\n", m.mean);
+        range(hard, m.mean, 2.8, 3.1, "multi-layer annual mean", "BL99's 2.8-3.1 m");
+        range(hard, m.hmax, 0.0, 3.5, "multi-layer annual maximum", "MU71's maximum of about 3.5 m");
+        range(hard, m.hmin, 2.9, 1e9, "multi-layer annual minimum", "MU71's minimum of about 2.9 m");
         CHECK(z0.hmax > z.hmax && m0.hmax > m.hmax, "snow insulates: winter maximum without snow "
               "%.3f / %.3f m above %.3f / %.3f m with", z0.hmax, m0.hmax, z.hmax, m.hmax);
     }

@@ -39,7 +39,8 @@ enum {
  *          (filled by the driver before a step)
  * restart  YES: a variable of the restart file, named `name`, required on
  *          reading; OPT: the same, but a file written before it existed
- *          reads it as zero; NO: not in the restart file (diagnosed fields
+ *          reads it as zero; NZ: as OPT, written only when not zero on
+ *          every particle; NO: not in the restart file (diagnosed fields
  *          that are not are zeroed when reading one, forcing is left alone)
  * units    UDUNITS, as written to files; NULL: none (ids, flags)
  *
@@ -110,7 +111,9 @@ enum {
     X(ofx_tauy, double, ONE, DIAGNOSTIC, OPT, "N s",                                             \
       "stress of the ice on the ocean x area x time, plane y, summed over the output interval") \
     X(ofx_swbase, double, ONE, DIAGNOSTIC, OPT, "J",                                             \
-      "shortwave reaching the ice base, summed over the output interval")
+      "shortwave reaching the ice base, summed over the output interval")                      \
+    X(tsnow, double, ONE, STATE, NZ, "degC",                                                     \
+      "snow layer temperature (thermo.snow_heat_capacity)") /* 0 without it */
 
 /* The particle trajectory product's data variables after its coordinates
  * time, lon, lat, in file order (io products_particles.c):
@@ -135,7 +138,9 @@ enum { SPH_PARTICLE_NPRODUCT_FIELDS = 0 SPH_PARTICLE_PRODUCT_FIELDS(SPH_PF_ONE_)
 #undef SPH_PF_ONE_
 
 enum { SPH_FIELD_STATE, SPH_FIELD_DIAGNOSTIC, SPH_FIELD_FORCING };     /* tag */
-enum { SPH_RESTART_NO, SPH_RESTART_YES, SPH_RESTART_OPT };             /* restart */
+/* NZ: optional like OPT, and written only when some particle's value is
+ * non-zero (a state that stays zero unless a model option is on). */
+enum { SPH_RESTART_NO, SPH_RESTART_YES, SPH_RESTART_OPT, SPH_RESTART_NZ }; /* restart */
 enum { SPH_FIELD_DOUBLE, SPH_FIELD_LONG, SPH_FIELD_UCHAR };            /* C type */
 /* Entries per particle of a list entry's count, for a particle set p. */
 #define SPH_FIELD_COUNT(p, count) (SPH_FIELD_LAYERED_##count ? (size_t)(p)->nlayers : (size_t)1)

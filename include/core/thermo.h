@@ -49,9 +49,13 @@ typedef struct sph_thermo_params {
     double salinity_a;   /* 0.407 */
     double salinity_b;   /* 0.573 */
 
-    /* snow: conductive, no heat capacity, enthalpy -rho_s L0 per m^3 */
+    /* snow: conductive; enthalpy q_s(T) = -rho_s (L0 - c0 T) per m^3 at its
+     * layer temperature T <= 0 (sph_snow_enthalpy). Without
+     * snow_heat_capacity the snow stays at T = 0 (latent heat only). */
     double rho_s; /* kg/m^3 (330) */
     double k_s;   /* W/m/K (0.31) */
+    int snow_heat_capacity; /* 1: the multi-layer column solves a snow layer with heat capacity
+                               rho_s c0 (Bitz & Lipscomb 1999) once the snow is SPH_SNOW_LAYER_MIN deep */
     double rho_w; /* sea water, kg/m^3 (1026; the model sets momentum.rho_water): freeboard */
     int snow_ice; /* 1: snow pushed below the waterline floods and becomes ice (sph_column_snow_ice) */
     /* Rain/snow split of precipitation by the 2 m air temperature
@@ -164,7 +168,16 @@ typedef struct sph_column {
     double tsurf;    /* surface temperature (snow or ice top), deg C */
     int nlayers;     /* layers of enth (multi-layer; the zero-layer keeps its linear profile there) */
     double enth[SPH_MAX_LAYERS]; /* layer enthalpy, J/m^3, top first */
+    double tsnow;    /* snow layer temperature, deg C (<= 0; 0 unless snow_heat_capacity) */
 } sph_column;
+
+/* Snow thinner than this is a conductance only (its temperature and
+ * enthalpy are kept, not solved), m; Bitz & Lipscomb's column: 1 cm. */
+#define SPH_SNOW_LAYER_MIN 0.01
+
+/* Snow enthalpy per volume at temperature T (capped at 0), J/m^3:
+ * -rho_s (L0 - c0 T); -rho_s L0 at 0 deg C. */
+double sph_snow_enthalpy(const sph_thermo_params *p, double T);
 
 typedef struct sph_column_forcing {
     double tair;     /* 2 m air temperature, deg C */

@@ -26,6 +26,7 @@ void sph_thermo_params_default(sph_thermo_params *p)
     p->k_s = 0.31;
     p->rho_w = 1026.0;
     p->snow_ice = 1;
+    p->snow_heat_capacity = 0;
     p->snow_t_snow = 0.0;
     p->snow_t_rain = 2.0;
     p->ocean_salinity = 32.0;
@@ -82,6 +83,7 @@ int sph_thermo_params_check(const sph_thermo_params *p, const char **name, doubl
         {"k_s", p->k_s, 0.01, 2.0},
         {"rho_w", p->rho_w, p->rho_i, 1100.0}, /* ice floats */
         {"snow_ice", p->snow_ice, 0, 1},
+        {"snow_heat_capacity", p->snow_heat_capacity, 0, 1},
         {"snow_t_snow", p->snow_t_snow, -20.0, 10.0},
         {"snow_t_rain", p->snow_t_rain, p->snow_t_snow, 10.0},
         /* The base must be colder than the melting point of the bottom ice
@@ -195,6 +197,7 @@ static void column_from_particle(const sph_particles *P, size_t k, sph_column *c
     c->thick = P->thick[k];
     c->snow = P->snow[k] > 0.0 ? P->snow[k] : 0.0;
     c->tsurf = P->tsurf[k];
+    c->tsnow = P->tsnow[k] < 0.0 && c->snow > 0.0 ? P->tsnow[k] : 0.0;
     c->nlayers = P->nlayers;
     for (int i = 0; i < P->nlayers; i++)
         c->enth[i] = q[i];
@@ -206,6 +209,7 @@ static void column_to_particle(const sph_column *c, sph_particles *P, size_t k)
     P->thick[k] = c->thick;
     P->snow[k] = c->snow;
     P->tsurf[k] = c->tsurf;
+    P->tsnow[k] = c->tsnow;
     for (int i = 0; i < P->nlayers; i++)
         q[i] = c->enth[i];
 }
@@ -434,7 +438,8 @@ static void particle_column_step(const sph_thermo_params *p, sph_particles *P, s
                 o->lateral_melt = rho * area * A * h;
                 o->snow_to_ocean += p->rho_s * P->snow[k] * area * A;
                 /* what the melt did not use, and the snow, to the water */
-                oh->lead = area * (Fow * (1.0 - A) * dt - A * h * qmelt - A * P->snow[k] * p->rho_s * p->L0);
+                oh->lead = area * (Fow * (1.0 - A) * dt - A * h * qmelt +
+                                   A * P->snow[k] * sph_snow_enthalpy(p, P->tsnow[k]));
                 mark_melted(P, k);
                 return;
             }
@@ -451,7 +456,7 @@ static void particle_column_step(const sph_thermo_params *p, sph_particles *P, s
         double e = 0.0;
         for (int i = 0; i < P->nlayers; i++)
             e += q[i] * h / P->nlayers;
-        oh->lead += area * A * (e - P->snow[k] * p->rho_s * p->L0);
+        oh->lead += area * A * (e + P->snow[k] * sph_snow_enthalpy(p, P->tsnow[k]));
         mark_melted(P, k);
         return;
     }

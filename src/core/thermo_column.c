@@ -12,13 +12,20 @@
 #define SPH_STEFAN_BOLTZMANN 5.670374419e-8
 #define SPH_KELVIN 273.15
 
-/* Surface melt energy Em (J/m^2) spent on the snow of depth *hs first:
- * sets the snow melted (m) and returns the energy left for the ice. */
-static double melt_snow(const sph_thermo_params *p, double Em, double *hs, double *snow_melt)
+double sph_snow_enthalpy(const sph_thermo_params *p, double T)
 {
-    double Esnow = p->rho_s * p->L0 * *hs;
+    return -p->rho_s * (p->L0 - p->c0 * (T < 0.0 ? T : 0.0));
+}
+
+/* Surface melt energy Em (J/m^2) spent on the snow of depth *hs and
+ * temperature Tsnow first (each metre needs -q_s(Tsnow)): sets the snow
+ * melted (m) and returns the energy left for the ice. */
+static double melt_snow(const sph_thermo_params *p, double Em, double Tsnow, double *hs, double *snow_melt)
+{
+    double need = -sph_snow_enthalpy(p, Tsnow);
+    double Esnow = need * *hs;
     if (Em <= Esnow) {
-        *snow_melt = Em / (p->rho_s * p->L0);
+        *snow_melt = Em / need;
         *hs -= *snow_melt;
         return 0.0;
     }
@@ -286,6 +293,9 @@ static void set_linear_profile(const sph_thermo_params *p, sph_column *c, double
             T = Tm;
         c->enth[k] = sph_bl_enthalpy(p, S, T);
     }
+    /* the snow's mid-depth temperature where it holds heat, else 0 */
+    double Tsn = 0.5 * (tsurf + Ttop);
+    c->tsnow = p->snow_heat_capacity && c->snow > 0.0 && Tsn < 0.0 ? Tsn : 0.0;
 }
 
 void sph_column_init(const sph_thermo_params *p, sph_column *c, double thick, double snow, double tsurf)
@@ -304,7 +314,7 @@ double sph_column_energy(const sph_thermo_params *p, const sph_column *c)
     double e = 0.0, dz = c->thick / c->nlayers;
     for (int k = 0; k < c->nlayers; k++)
         e += c->enth[k] * dz;
-    return e - p->rho_s * p->L0 * c->snow;
+    return e + sph_snow_enthalpy(p, c->tsnow) * c->snow;
 }
 
 static void result_clear(sph_column_result *r)
@@ -339,6 +349,7 @@ int sph_column_step_zero_layer(const sph_thermo_params *p, sph_column *c, const 
     double Tmelt = 0.0; /* snow and the (fresh) ice surface */
     double h = c->thick, hs = c->snow + (f->snowfall > 0.0 ? f->snowfall * dt : 0.0);
     double Lb = -sph_bl_enthalpy(p, p->salinity_max, Tf) / p->rho_i; /* new ice at the base */
+    c->tsnow = 0.0; /* no heat capacity: the snow holds its latent heat only */
     double Ltop = p->L0;                                             /* surface ice is fresh */
     double Fw = ocean_flux(p, f);
     int rc = SPH_STEP_OK;
@@ -361,7 +372,7 @@ int sph_column_step_zero_layer(const sph_thermo_params *p, sph_column *c, const 
     /* Surface melt: snow first, then ice. */
     double Em = fmelt * dt;
     if (Em > 0.0) {
-        Em = melt_snow(p, Em, &hs, &r->snow_melt);
+        Em = melt_snow(p, Em, 0.0, &hs, &r->snow_melt);
         double dh = Em / (p->rho_i * Ltop);
         if (dh >= h) {
             r->melt_top = h;
@@ -482,16 +493,24 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
     const double Tf = sph_freezing_point(p);
     const double Tmelt = 0.0;
     const double h = c->thick;
-    double hs = c->snow + (f->snowfall > 0.0 ? f->snowfall * dt : 0.0);
+    const double hs0 = c->snow > 0.0 ? c->snow : 0.0;
+    double hs = hs0 + (f->snowfall > 0.0 ? f->snowfall * dt : 0.0);
     const double dz = h / n;
+    /* Snow enthalpy: new snow arrives at 0 deg C (q_s linear in T, so the
+     * mixture's temperature is the depth-weighted mean); without
+     * snow_heat_capacity it stays at 0 (latent heat only). */
+    double Tsn = p->snow_heat_capacity && hs > 0.0 && c->tsnow < 0.0 ? c->tsnow * hs0 / hs : 0.0;
+    const int sl = p->snow_heat_capacity && hs >= SPH_SNOW_LAYER_MIN; /* snow layer solved */
+    const int N = n + sl; /* unknowns: [snow,] ice layers */
     const double Fw = ocean_flux(p, f);
     int rc = SPH_STEP_OK;
 
     double S[SPH_MAX_LAYERS], Tm[SPH_MAX_LAYERS], Told[SPH_MAX_LAYERS], T[SPH_MAX_LAYERS];
     double qold[SPH_MAX_LAYERS], I[SPH_MAX_LAYERS];
-    double Cap[SPH_MAX_LAYERS], Kl[SPH_MAX_LAYERS], Gint[SPH_MAX_LAYERS + 1];
-    double sub[SPH_MAX_LAYERS], dia[SPH_MAX_LAYERS], sup[SPH_MAX_LAYERS];
-    double rhs[SPH_MAX_LAYERS], Tp[SPH_MAX_LAYERS], Th[SPH_MAX_LAYERS];
+    double Cap[SPH_MAX_LAYERS], Kl[SPH_MAX_LAYERS], Gint[SPH_MAX_LAYERS + 2];
+    double sub[SPH_MAX_LAYERS + 1], dia[SPH_MAX_LAYERS + 1], sup[SPH_MAX_LAYERS + 1];
+    double rhs[SPH_MAX_LAYERS + 1], Tp[SPH_MAX_LAYERS + 1], Th[SPH_MAX_LAYERS + 1];
+    double X[SPH_MAX_LAYERS + 1]; /* the unknowns: X[0] the snow when sl, then T */
 
     for (int k = 0; k < n; k++) {
         S[k] = layer_salinity(p, k, n);
@@ -500,6 +519,11 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
         Told[k] = sph_bl_temperature(p, S[k], qold[k]);
         T[k] = Told[k];
     }
+    const double qsold = sph_snow_enthalpy(p, Tsn);
+    if (sl)
+        X[0] = Tsn;
+    for (int k = 0; k < n; k++)
+        X[k + sl] = T[k];
 
     /* Shortwave: a fraction i0 of the absorbed SW penetrates bare ice and
      * decays as exp(-gamma z); what reaches the base is absorbed there. */
@@ -531,25 +555,32 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
                 Cap[k] = p->rho_i * sph_bl_heat_capacity(p, S[k], Told[k]);
             Kl[k] = sph_bl_conductivity(p, S[k], Te);
         }
-        /* Gint[k]: conductance above layer k (k = 0: surface incl. snow in series);
-         * Gint[n]: between the last layer centre and the base at Tf. */
-        Gint[0] = 1.0 / (hs / p->k_s + 0.5 * dz / Kl[0]);
+        /* Gint[j]: conductance above unknown j (j = 0: from the surface; the
+         * snow in series with half the first layer when it is not solved);
+         * Gint[N]: between the last layer centre and the base at Tf. */
+        if (sl) {
+            Gint[0] = 2.0 * p->k_s / hs;
+            Gint[1] = 1.0 / (0.5 * hs / p->k_s + 0.5 * dz / Kl[0]);
+        } else {
+            Gint[0] = 1.0 / (hs / p->k_s + 0.5 * dz / Kl[0]);
+        }
         for (int k = 1; k < n; k++)
-            Gint[k] = 1.0 / (0.5 * dz / Kl[k - 1] + 0.5 * dz / Kl[k]);
-        Gint[n] = 2.0 * Kl[n - 1] / dz;
-        for (int k = 0; k < n; k++) {
-            double m = Cap[k] * dz / dt;
-            sub[k] = -Gint[k];
-            sup[k] = -Gint[k + 1];
-            dia[k] = m + Gint[k] + Gint[k + 1];
-            rhs[k] = m * Told[k] + I[k] + (k == n - 1 ? Gint[n] * Tf : 0.0);
+            Gint[k + sl] = 1.0 / (0.5 * dz / Kl[k - 1] + 0.5 * dz / Kl[k]);
+        Gint[N] = 2.0 * Kl[n - 1] / dz;
+        for (int j = 0; j < N; j++) {
+            int k = j - sl; /* ice layer, or -1 for the snow */
+            double m = k < 0 ? p->rho_s * p->c0 * hs / dt : Cap[k] * dz / dt;
+            sub[j] = -Gint[j];
+            sup[j] = -Gint[j + 1];
+            dia[j] = m + Gint[j] + Gint[j + 1];
+            rhs[j] = (k < 0 ? m * Tsn : m * Told[k] + I[k]) + (j == N - 1 ? Gint[N] * Tf : 0.0);
         }
         sub[0] = 0.0; /* the surface enters through Ts, affinely */
-        if (sph_tridiag_solve(n, sub, dia, sup, rhs, Tp) != 0)
+        if (sph_tridiag_solve(N, sub, dia, sup, rhs, Tp) != 0)
             return SPH_STEP_FATAL;
-        for (int k = 0; k < n; k++)
-            rhs[k] = k == 0 ? Gint[0] : 0.0;
-        if (sph_tridiag_solve(n, sub, dia, sup, rhs, Th) != 0)
+        for (int j = 0; j < N; j++)
+            rhs[j] = j == 0 ? Gint[0] : 0.0;
+        if (sph_tridiag_solve(N, sub, dia, sup, rhs, Th) != 0)
             return SPH_STEP_FATAL;
         /* T = Tp + Ts Th; top conduction G0 (Ts - T0) = a0 + a1 Ts. */
         if (!prescribed) {
@@ -558,13 +589,15 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
             rc = solve_surface(p, &b, Tmelt, Ts, s, &Ts, &fmelt);
         }
         double dmax = 0.0;
-        for (int k = 0; k < n; k++) {
-            double Tn = Tp[k] + Ts * Th[k];
-            double d = fabs(Tn - T[k]);
+        for (int j = 0; j < N; j++) {
+            double Tn = Tp[j] + Ts * Th[j];
+            double d = fabs(Tn - X[j]);
             if (d > dmax)
                 dmax = d;
-            T[k] = Tn;
+            X[j] = Tn;
         }
+        for (int k = 0; k < n; k++)
+            T[k] = X[k + sl];
         if (dmax < p->picard_tolerance || it + 1 >= p->picard_max_iter)
             break;
     }
@@ -572,15 +605,25 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
 
     /* Flux-form enthalpy update with the conductances and temperatures of
      * the last solve: the sum telescopes, so sum dE = (Ftop + sum I - Fbot) dt. */
-    double Fc[SPH_MAX_LAYERS + 1];
-    Fc[0] = Gint[0] * (Ts - T[0]);
-    for (int k = 1; k < n; k++)
-        Fc[k] = Gint[k] * (T[k - 1] - T[k]);
-    Fc[n] = Gint[n] * (T[n - 1] - Tf);
+    double Fc[SPH_MAX_LAYERS + 2];
+    Fc[0] = Gint[0] * (Ts - X[0]);
+    for (int j = 1; j < N; j++)
+        Fc[j] = Gint[j] * (X[j - 1] - X[j]);
+    Fc[N] = Gint[N] * (X[N - 1] - Tf);
     double qnew[SPH_MAX_LAYERS];
-    double Eexcess = 0.0; /* energy above brine (q > 0) melts the surface */
+    double Eexcess = 0.0; /* energy above brine (q > 0) or above melting snow melts the surface */
+    if (sl) {
+        double qs = qsold + dt * (Fc[0] - Fc[1]) / hs, qs0 = sph_snow_enthalpy(p, 0.0);
+        if (qs > qs0) {
+            Eexcess += (qs - qs0) * hs;
+            qs = qs0;
+        }
+        Tsn = (qs / p->rho_s + p->L0) / p->c0;
+        if (Tsn > 0.0) /* round-off */
+            Tsn = 0.0;
+    }
     for (int k = 0; k < n; k++) {
-        qnew[k] = qold[k] + dt * (Fc[k] - Fc[k + 1] + I[k]) / dz;
+        qnew[k] = qold[k] + dt * (Fc[k + sl] - Fc[k + sl + 1] + I[k]) / dz;
         if (qnew[k] > 0.0) {
             Eexcess += qnew[k] * dz;
             qnew[k] = 0.0;
@@ -590,7 +633,7 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
     r->fatm = sph_surface_flux(p, f, albedo, 1.0 - i0, p->lw_absorptivity, p->emissivity, p->Lv_ice, 0, Ts) + Ipen;
     r->fmelt = fmelt;
     r->fcond_top = Fc[0];
-    r->fcond_bottom = Fc[n];
+    r->fcond_bottom = Fc[N];
     r->focean = Fw;
     r->sw_base = Ibase;
 
@@ -604,7 +647,7 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
     int top = 0; /* first segment with ice left */
 
     /* Base: ocean flux plus SW reaching the base plus conduction from above. */
-    double Eb = (Fw + Ibase + Fc[n]) * dt;
+    double Eb = (Fw + Ibase + Fc[N]) * dt;
     if (Eb < 0.0) {
         double qb = sph_bl_enthalpy(p, p->salinity_max, Tf);
         seg[nseg].dz = Eb / qb;
@@ -621,7 +664,7 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
     /* Surface: melt flux (and any internal excess) on snow, then ice. */
     double Em = fmelt * dt + Eexcess;
     if (Em > 0.0) {
-        Em = melt_snow(p, Em, &hs, &r->snow_melt);
+        Em = melt_snow(p, Em, Tsn, &hs, &r->snow_melt);
         for (int k = 0; k < nseg && Em > 0.0; k++)
             if (seg[k].dz > 0.0)
                 Em = melt_segment(&seg[k], Em, &r->melt_top);
@@ -637,11 +680,12 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
         double e = 0.0;
         for (int k = 0; k < nseg; k++)
             e += seg[k].dz * seg[k].q;
-        r->energy_to_ocean += e - p->rho_s * p->L0 * hs;
+        r->energy_to_ocean += e + sph_snow_enthalpy(p, Tsn) * hs;
         r->melt_bottom += hnew;
         r->melted_out = 1;
         c->thick = 0.0;
         c->snow = 0.0;
+        c->tsnow = 0.0;
         c->tsurf = Tf;
         for (int k = 0; k < n; k++)
             c->enth[k] = 0.0;
@@ -650,6 +694,7 @@ int sph_column_step_multi_layer(const sph_thermo_params *p, sph_column *c, const
     remap_layers(nseg, seg, hnew, n, c->enth);
     c->thick = hnew;
     c->snow = hs;
+    c->tsnow = hs > 0.0 ? Tsn : 0.0;
     if (p->snow_ice)
         sph_column_snow_ice(p, c, r);
     return rc;
@@ -683,11 +728,11 @@ int sph_column_snow_ice(const sph_thermo_params *p, sph_column *c, sph_column_re
         dh = p->rho_s * ds / p->rho_i;
     }
     /* The zero-layer keeps the linear profile; the multi-layer column
-     * gains a top segment of q = -rho_s L0 ds / dh, remapped. */
+     * gains a top segment of q = q_s(tsnow) ds / dh, remapped. */
     int n = c->nlayers;
     segment seg[SPH_MAX_LAYERS + 1];
     seg[0].dz = dh;
-    seg[0].q = -p->rho_s * p->L0 * ds / dh;
+    seg[0].q = sph_snow_enthalpy(p, c->tsnow) * ds / dh;
     for (int k = 0; k < n; k++) {
         seg[k + 1].dz = h / n;
         seg[k + 1].q = c->enth[k];
@@ -695,6 +740,8 @@ int sph_column_snow_ice(const sph_thermo_params *p, sph_column *c, sph_column_re
     remap_layers(n + 1, seg, h + dh, n, c->enth);
     c->thick = h + dh;
     c->snow = hs - ds;
+    if (!(c->snow > 0.0))
+        c->tsnow = 0.0;
     if (r) {
         r->snow_to_ice += ds;
         r->snow_ice += dh;

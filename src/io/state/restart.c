@@ -86,14 +86,16 @@ static int put_text(int nc, int var, const char *name, const char *text)
 
 /* Field k goes into the file unless it is a diagnostic optional field
  * that is zero on every particle (the ocean-flux accumulators while
- * output.ocean_fluxes is off): reading it back as absent gives the same
- * zeros, and files stay as they were before such fields existed. */
+ * output.ocean_fluxes is off), or an NZ field that is (the snow
+ * temperature without thermo.snow_heat_capacity): reading it back as
+ * absent gives the same zeros, and files stay as they were before such
+ * fields existed. */
 static int rv_written(const sph_particles *P, int k)
 {
     const sph_particle_field *f = &sph_particle_fields[k];
     if (f->restart == SPH_RESTART_NO)
         return 0;
-    if (f->restart != SPH_RESTART_OPT || f->tag != SPH_FIELD_DIAGNOSTIC)
+    if (f->restart == SPH_RESTART_YES || (f->restart == SPH_RESTART_OPT && f->tag != SPH_FIELD_DIAGNOSTIC))
         return 1;
     const unsigned char *a = sph_particles_field(P, k);
     size_t bytes = P->n * sph_particles_field_count(P, k) * f->size;
@@ -428,7 +430,7 @@ static int check_var(int nc, const char *path, const sph_particle_field *f, int 
     *var = -1;
     if (nc_inq_varid(nc, f->name, var) != NC_NOERR) {
         *var = -1;
-        if (f->restart == SPH_RESTART_OPT)
+        if (f->restart == SPH_RESTART_OPT || f->restart == SPH_RESTART_NZ)
             return SPH_OK;
         return sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable %s: missing", path,
                            f->name);
