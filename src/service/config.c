@@ -61,7 +61,7 @@ static const char *const init_format_names[] = {"netcdf", "esri", NULL};
 static const char *const reinit_names[] = {"warm", "cold", "newer_raster", NULL};
 static const char *const thick_kind_names[] = {"auto", "ice", "cell_mean", NULL};
 static const char *const gate_names[] = {"fail", "flag", NULL};
-static const char *const land_names[] = {"none", "gshhg", "netcdf", "forcing", NULL};
+static const char *const land_names[] = {"none", "gshhg", "netcdf", "forcing", "raster", NULL};
 static const char *const landres_names[] = {"crude", "low", "intermediate", "high", "full", NULL};
 static const char *const landfrom_names[] = {"auto", "mask", "fill", NULL};
 static const char *const landpol_names[] = {"auto", "land_is_1", "water_is_1", NULL};
@@ -155,6 +155,8 @@ static const cfg_key tail_keys[] = {
        "Concentration below which no particle is placed."),
     C_("initial.spacing", CT_DOUBLE, initial.spacing_deg, "0.02", 0, 5, R, NULL,
        "Initial particle spacing, degrees (a lattice on the model plane); 0: one particle per raster cell, at its centre with the cell's true area."),
+    C_("initial.cell_particles", CT_INT, initial.cell_particles, "0", 0, 10, R, NULL,
+       "n > 0: seed n x n particles per raster cell (at its sub-cells' centres, each with the cell's concentration and thickness and 1/n^2 of its true area), whatever initial.spacing says; 0: initial.spacing decides (a lattice, or one per cell)."),
     C_("initial.reinit", CT_ENUM, initial.reinit, "\"newer_raster\"", 0, 0, R, reinit_names,
        "warm: warm start from the previous cycle's particles when they exist; cold: always from the raster; newer_raster: warm unless the raster is newer than the previous cycle."),
     C_("initial.thickness_kind", CT_ENUM, initial.thickness_kind, "\"auto\"", 0, 0, R, thick_kind_names,
@@ -163,8 +165,10 @@ static const cfg_key tail_keys[] = {
        "Sanity gates: a cold start whose raster has ice in the domain but seeds none, or whose seeded ice area or volume differs from the raster's (domain's sea cells) by more than 5 %, or a run ending with more than 1 % of its particles on land: fail (the cycle fails with one line, nothing published) or flag (published with sphice_quality_flag and cycle.json quality_flag)."),
 
     C_("landmask.source", CT_ENUM, landmask.source, "\"none\"", 0, 0, R, land_names,
-       "none, gshhg (shoreline polygons), netcdf (mask variable), forcing (ocean model's land)."),
+       "none, gshhg (shoreline polygons), netcdf (mask variable), forcing (ocean model's land), raster (the initial raster's own land, coast and lake flags)."),
     C_("landmask.path", CT_STRING, landmask.path, "\"\"", 0, 4095, R, NULL, "Land mask file."),
+    C_("landmask.raster_land", CT_BOOL, landmask.raster_land, "false", 0, 0, R, NULL,
+       "true: the initial raster's own land, coast and lake flags are land as well (in union with landmask.source); the raster must then be readable at every cycle."),
     C_("landmask.variable", CT_STRING, landmask.variable, "\"\"", 0, 63, R, NULL,
        "Mask variable, or (from fill) the variable whose fill marks land; empty: found in the file (a land/sea mask by standard name, flag meanings or ROMS mask_rho; for source forcing else a current's fill)."),
     C_("landmask.resolution", CT_ENUM, landmask.resolution, "\"intermediate\"", 0, 0, R, landres_names,

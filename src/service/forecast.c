@@ -264,8 +264,10 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     if ((rc = coupling_open(&e->cpl, cfg, req, e->t0, e->t_end, e->cname, er)))
         goto fail;
 
-    /* the raster is read first on a cold start: the mask cell size may depend on it */
-    if (!req->warm_start && cfg->initial.spacing_deg <= 0 && cfg->initial.path && cfg->initial.path[0] &&
+    /* the raster is read first on a cold start: the mask cell size may depend on it;
+     * on any start when the land mask takes the raster's own land */
+    if (((!req->warm_start && (cfg->initial.spacing_deg <= 0 || cfg->initial.cell_particles > 0)) ||
+         fc_raster_land(cfg)) && cfg->initial.path && cfg->initial.path[0] &&
         (rc = fc_read_raster(e, cfg->initial.path, cfg->initial.format, cfg->initial.conc_var, e->t0, &e->raster,
                           e->raster_path, sizeof e->raster_path, "initial field", er)))
         goto fail;

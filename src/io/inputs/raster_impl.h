@@ -50,6 +50,9 @@ int raster_set_curvilinear(ice_raster *r, const char *var, const double *cell_ar
 /* lon/lat (degrees, the CRS's geodetic datum) -> x/y (m); 0 when it does
  * not project. */
 int raster_crs_forward(const struct raster_crs *c, double lon, double lat, double *x, double *y);
+/* x/y (m) -> lon/lat (degrees, the CRS's geodetic datum); 0 when it does
+ * not unproject. */
+int raster_crs_inverse(const struct raster_crs *c, double x, double y, double *lon, double *lat);
 void raster_crs_free(struct raster_crs *c);
 
 #endif

@@ -1,0 +1,521 @@
+/* Per-cell seeding of n x n particles per raster cell (issue 19 item 4)
+ * and the raster's own land flags (item 6).
+ *
+ * The test writes two CF rasters with the netCDF API: a regular lon/lat
+ * one over Liaodong Bay and a polar-stereographic one north of Svalbard
+ * (CF grid_mapping polar_stereographic, WGS84, true scale at 70 N,
+ * straight vertical longitude -45 E, x/y in km), each with a sharp patch
+ * (A = 0.9, h = 0.7 m) in open water and a smooth Gaussian field. Their
+ * ice area sum(A dA) and volume sum(A h dA) are computed here: dA on the
+ * sphere R^2 dlon (sin(lat_n) - sin(lat_s)) for lon/lat, and dx dy / k^2
+ * for the projection (k: Snyder's polar-stereographic scale, eq. 21-32,
+ * at the cell's centre, whose position is checked against his forward
+ * formula). For n = 1, 2, 3 every cell with ice gets exactly n^2
+ * particles at the centres of its n x n sub-cells, each with the cell's
+ * thickness (0.7 m in the patch: no open-water zero mixed in), and the
+ * seeded area and volume equal the raster's within 1 %. With a land mask
+ * cutting through cells, no particle is on land and the seeded ice equals
+ * the raster's over the sea sub-cells (counted here).
+ *
+ * Raster flags: an NSIDC-CDR-shaped file (cdr_seaice_conc ubyte, scale
+ * 0.01, flag_values 251..255 "pole_hole_mask lakes coastal land_mask
+ * missing_data", crs polar_stereographic Hughes 1980, xgrid/ygrid in
+ * metres, rows north to south; NSIDC G02202 user guide) with a land and
+ * coast strip where a separate land mask has its coastline elsewhere:
+ * landmask_from_raster is land exactly at the flagged cells, the union
+ * with the other mask is land where either is, and neither the lattice
+ * nor per-cell seeding places a particle in a flagged cell (the lattice
+ * used to: its bilinear sample leaves the flagged corners out and seeded
+ * the coast cell next to ice). */
+#include <stdlib.h>
+#include <unistd.h>
+
+#include "io/landmask.h"
+#include "raster_provider.h"
+
+static char dir[] = "/tmp/sphice-seedcells-XXXXXX";
+static const double RHO = 900.0, PATCH_C = 0.9, PATCH_H = 0.7;
+
+/* ------------------------------------------------------------ fields */
+
+enum { NI = 30, NJ = 24 };
+static int in_patch(int i, int j) { return i >= 8 && i < 20 && j >= 6 && j < 16; }
+static double conc_of(int smooth, int i, int j)
+{
+    if (!smooth)
+        return in_patch(i, j) ? PATCH_C : 0.0;
+    double v = exp(-pow((i - 14.5) / 7.0, 2) - pow((j - 11.5) / 5.0, 2));
+    return v < 0.02 ? 0.0 : v;
+}
+static double thick_of(int smooth, int i, int j)
+{
+    if (!smooth)
+        return in_patch(i, j) ? PATCH_H : 0.0;
+    return conc_of(1, i, j) > 0 ? 0.2 + 0.6 * conc_of(1, i, j) : 0.0;
+}
+
+/* ------------------------------------------------------------ lon/lat */
+
+static const double LL_LON0 = 120.81, LL_LAT0 = 39.91, LL_D = 0.02;
+
+static void write_lonlat(const char *path, int smooth)
+{
+    int nc, d[2], vlat, vlon, vc, vh;
+    CHECK(nc_create(path, NC_CLOBBER, &nc) == NC_NOERR, "create %s", path);
+    nc_def_dim(nc, "lat", NJ, &d[0]);
+    nc_def_dim(nc, "lon", NI, &d[1]);
+    nc_def_var(nc, "lat", NC_DOUBLE, 1, &d[0], &vlat);
+    rp_text(nc, vlat, "units", "degrees_north");
+    rp_text(nc, vlat, "standard_name", "latitude");
+    nc_def_var(nc, "lon", NC_DOUBLE, 1, &d[1], &vlon);
+    rp_text(nc, vlon, "units", "degrees_east");
+    rp_text(nc, vlon, "standard_name", "longitude");
+    nc_def_var(nc, "siconc", NC_DOUBLE, 2, d, &vc);
+    rp_text(nc, vc, "standard_name", "sea_ice_area_fraction");
+    rp_text(nc, vc, "units", "1");
+    nc_def_var(nc, "sithick", NC_DOUBLE, 2, d, &vh);
+    rp_text(nc, vh, "standard_name", "sea_ice_thickness");
+    rp_text(nc, vh, "units", "m");
+    rp_text(nc, vh, "cell_methods", "area: mean where sea_ice");
+    nc_enddef(nc);
+    double lat[NJ], lon[NI];
+    static double c[NJ * NI], h[NJ * NI];
+    for (int j = 0; j < NJ; j++)
+        lat[j] = LL_LAT0 + j * LL_D;
+    for (int i = 0; i < NI; i++)
+        lon[i] = LL_LON0 + i * LL_D;
+    for (int j = 0; j < NJ; j++)
+        for (int i = 0; i < NI; i++) {
+            c[j * NI + i] = conc_of(smooth, i, j);
+            h[j * NI + i] = thick_of(smooth, i, j);
+        }
+    nc_put_var_double(nc, vlat, lat);
+    nc_put_var_double(nc, vlon, lon);
+    nc_put_var_double(nc, vc, c);
+    nc_put_var_double(nc, vh, h);
+    nc_close(nc);
+}
+
+static double lonlat_area(int j)
+{
+    const double R = 6371000.0, lat = LL_LAT0 + j * LL_D;
+    return R * R * LL_D * RP_DEG * (sin((lat + LL_D / 2) * RP_DEG) - sin((lat - LL_D / 2) * RP_DEG));
+}
+
+/* ------------------------------------------------------------ polar stereographic */
+
+static const double PA = 6378137.0, PRF = 298.257223563, PD = 10000.0; /* m */
+static double px0, py0; /* first centre, m */
+static double pb(void) { return PA * (1 - 1 / PRF); }
+
+static void write_stereo(const char *path, int smooth)
+{
+    double cx, cy, k;
+    rp_ps_forward(PA, pb(), 70, -45, 15.0, 80.5, &cx, &cy, &k);
+    px0 = round(cx / PD) * PD - (NI / 2) * PD;
+    py0 = round(cy / PD) * PD - (NJ / 2) * PD;
+    int nc, d[2], vx, vy, vc, vh, crs;
+    CHECK(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc) == NC_NOERR, "create %s", path);
+    nc_def_dim(nc, "y", NJ, &d[0]);
+    nc_def_dim(nc, "x", NI, &d[1]);
+    nc_def_var(nc, "x", NC_DOUBLE, 1, &d[1], &vx);
+    rp_text(nc, vx, "standard_name", "projection_x_coordinate");
+    rp_text(nc, vx, "units", "km");
+    nc_def_var(nc, "y", NC_DOUBLE, 1, &d[0], &vy);
+    rp_text(nc, vy, "standard_name", "projection_y_coordinate");
+    rp_text(nc, vy, "units", "km");
+    nc_def_var(nc, "polar_stereographic", NC_INT, 0, NULL, &crs);
+    rp_text(nc, crs, "grid_mapping_name", "polar_stereographic");
+    rp_num(nc, crs, "straight_vertical_longitude_from_pole", -45);
+    rp_num(nc, crs, "latitude_of_projection_origin", 90);
+    rp_num(nc, crs, "standard_parallel", 70);
+    rp_num(nc, crs, "false_easting", 0);
+    rp_num(nc, crs, "false_northing", 0);
+    rp_num(nc, crs, "semi_major_axis", PA);
+    rp_num(nc, crs, "inverse_flattening", PRF);
+    nc_def_var(nc, "aice", NC_DOUBLE, 2, d, &vc);
+    rp_text(nc, vc, "standard_name", "sea_ice_area_fraction");
+    rp_text(nc, vc, "units", "1");
+    rp_text(nc, vc, "grid_mapping", "polar_stereographic");
+    nc_def_var(nc, "hi", NC_DOUBLE, 2, d, &vh);
+    rp_text(nc, vh, "standard_name", "sea_ice_thickness");
+    rp_text(nc, vh, "units", "m");
+    rp_text(nc, vh, "cell_methods", "area: mean where sea_ice");
+    rp_text(nc, vh, "grid_mapping", "polar_stereographic");
+    nc_enddef(nc);
+    double xs[NI], ys[NJ];
+    static double c[NJ * NI], h[NJ * NI];
+    for (int i = 0; i < NI; i++)
+        xs[i] = (px0 + i * PD) / 1000;
+    for (int j = 0; j < NJ; j++)
+        ys[j] = (py0 + j * PD) / 1000;
+    for (int j = 0; j < NJ; j++)
+        for (int i = 0; i < NI; i++) {
+            c[j * NI + i] = conc_of(smooth, i, j);
+            h[j * NI + i] = thick_of(smooth, i, j);
+        }
+    nc_put_var_double(nc, vx, xs);
+    nc_put_var_double(nc, vy, ys);
+    nc_put_var_double(nc, vc, c);
+    nc_put_var_double(nc, vh, h);
+    nc_close(nc);
+}
+
+/* ------------------------------------------------------------ checks */
+
+/* The raster's area of cell (i, j), computed here; for the projection
+ * also how far the reader's centre is from Snyder's (m). */
+static double cell_area(const ice_raster *r, int stereo, int i, int j, double *off)
+{
+    *off = 0;
+    if (!stereo)
+        return lonlat_area(j);
+    double lon, lat, x, y, k;
+    ice_raster_cell_lonlat(r, i, j, &lon, &lat);
+    rp_ps_forward(PA, pb(), 70, -45, lon, lat, &x, &y, &k);
+    *off = fmax(fabs(x - (px0 + i * PD)), fabs(y - (py0 + j * PD)));
+    return PD * PD / (k * k);
+}
+
+/* Where a seeded particle lies in the raster's own coordinates: cell
+ * (i, j), sub-cell (a, b) of n, and its distance from that sub-cell's
+ * centre (degrees for lon/lat, m for the projection). */
+static double locate(const geo_proj *p, int stereo, int n, double px, double py, int *ci, int *cj, int *sub)
+{
+    double lon, lat;
+    geo_inverse(p, 1, &px, &py, &lon, &lat, NULL);
+    double u, v, d;
+    if (stereo) {
+        double x, y, k;
+        rp_ps_forward(PA, pb(), 70, -45, lon, lat, &x, &y, &k);
+        u = (x - px0) / PD, v = (y - py0) / PD, d = PD;
+    } else {
+        u = (lon - LL_LON0) / LL_D, v = (lat - LL_LAT0) / LL_D, d = LL_D;
+    }
+    *ci = (int)floor(u + 0.5), *cj = (int)floor(v + 0.5);
+    double fu = u - *ci + 0.5, fv = v - *cj + 0.5; /* 0..1 across the cell */
+    int a = (int)floor(fu * n), b = (int)floor(fv * n);
+    a = a < 0 ? 0 : a >= n ? n - 1 : a;
+    b = b < 0 ? 0 : b >= n ? n - 1 : b;
+    *sub = b * n + a;
+    return hypot(fu - (a + 0.5) / n, fv - (b + 0.5) / n) * d;
+}
+
+/* land east of this longitude (lon/lat case): through the patch's cells,
+ * on an edge of the mask's 0.002 degree cells */
+static const double CUT_LON = 120.7 + 187 * 0.002;
+
+static void seed_case(const char *path, int stereo, int smooth, int n, const landmask *mask)
+{
+    char what[160];
+    snprintf(what, sizeof what, "%s, %s, %d x %d per cell%s", stereo ? "polar stereographic" : "lon/lat",
+             smooth ? "smooth field" : "sharp 0.7 m patch", n, n, mask ? ", land cutting cells" : "");
+    sph_error err;
+    sph_error_clear(&err);
+    ice_raster *r = NULL;
+    CHECK(ice_raster_read(path, NULL, &r, &err) == SPH_OK && r, "%s: read: %s", what, err.msg);
+    if (!r)
+        return;
+    geo_proj *p = stereo ? geo_proj_create("auto", 15.0, 80.5, &err)
+                         : geo_proj_create("auto", LL_LON0 + NI / 2 * LL_D, LL_LAT0 + NJ / 2 * LL_D, &err);
+    seed_options so;
+    seed_options_default(&so);
+    so.threshold = 0;
+    so.rho_ice = RHO;
+    so.cell_n = n;
+    /* the raster's ice, computed here, over the sea sub-cells */
+    double want_a = 0, want_v = 0, worst_pos = 0;
+    size_t want_n = 0;
+    for (int j = 0; j < NJ; j++)
+        for (int i = 0; i < NI; i++) {
+            double off, a = cell_area(r, stereo, i, j, &off), c = conc_of(smooth, i, j);
+            worst_pos = fmax(worst_pos, off);
+            if (!(c > 0))
+                continue;
+            int sea = 0;
+            for (int q = 0; q < n; q++) /* sub-cell centres west of the cut */
+                sea += !mask || LL_LON0 + (i - 0.5 + (q + 0.5) / n) * LL_D < CUT_LON;
+            sea *= n;
+            want_n += (size_t)sea;
+            want_a += c * a * sea / (n * n);
+            want_v += c * thick_of(smooth, i, j) * a * sea / (n * n);
+        }
+    if (stereo)
+        CHECK(worst_pos < 0.01, "%s: cell centres within 0.01 m of Snyder's formula (%g m)", what, worst_pos);
+    size_t cnt = 0;
+    CHECK(seed_count(r, p, mask, &so, &cnt, &err) == SPH_OK, "%s: count: %s", what, err.msg);
+    CHECK(cnt == want_n, "%s: %zu particles, want %zu (n^2 per cell with ice, sea sub-cells)", what, cnt,
+          want_n);
+    sph_particles *P = sph_particles_create(cnt ? cnt : 1, 1);
+    seed_totals t;
+    CHECK(seed_from_raster_totals(r, p, mask, &so, P, &t, &err) == SPH_OK && P->n == cnt, "%s: seed: %s", what,
+          err.msg);
+    double area = 0, vol = 0, worst_sub = 0, worst_h = 0;
+    static int seen[NJ * NI * 9];
+    memset(seen, 0, sizeof seen);
+    size_t bad_cell = 0, twice = 0, on_land = 0;
+    for (size_t k = 0; k < P->n; k++) {
+        vol += P->mass[k] / RHO;
+        area += P->mass[k] / (RHO * P->thick[k]);
+        int ci, cj, sub;
+        worst_sub = fmax(worst_sub, locate(p, stereo, n, P->x[k], P->y[k], &ci, &cj, &sub));
+        if (ci < 0 || cj < 0 || ci >= NI || cj >= NJ || !(conc_of(smooth, ci, cj) > 0)) {
+            bad_cell++;
+            continue;
+        }
+        if (seen[(cj * NI + ci) * 9 + sub]++)
+            twice++;
+        /* the cell's own thickness and concentration */
+        worst_h = fmax(worst_h, fabs(P->thick[k] - thick_of(smooth, ci, cj)) + fabs(P->conc[k] - conc_of(smooth, ci, cj)));
+        double lon, lat;
+        geo_inverse(p, 1, &P->x[k], &P->y[k], &lon, &lat, NULL);
+        on_land += mask && landmask_is_land(mask, lon, lat) == 1;
+    }
+    printf("%s: raster %.6g km2 %.6g km3; seeded %zu particles %.6g km2 (%+.2e) %.6g km3 (%+.2e); "
+           "sub-cell centres within %.3g %s\n", what, want_a / 1e6, want_v / 1e9, P->n, area / 1e6,
+           area / want_a - 1, vol / 1e9, vol / want_v - 1, worst_sub, stereo ? "m" : "deg");
+    CHECK(fabs(area / want_a - 1) <= 0.01, "%s: seeded ice area within 1 %% of the raster's", what);
+    CHECK(fabs(vol / want_v - 1) <= 0.01, "%s: seeded ice volume within 1 %% of the raster's", what);
+    CHECK(fabs(t.raster_area_m2 / want_a - 1) <= 1e-3, "%s: totals: the raster's area %g", what, t.raster_area_m2);
+    CHECK(fabs(t.raster_volume_m3 / want_v - 1) <= 1e-3, "%s: totals: the raster's volume %g", what,
+          t.raster_volume_m3);
+    CHECK(!t.rescaled, "%s: per cell is not rescaled", what);
+    CHECK(bad_cell == 0 && twice == 0, "%s: every particle in a cell with ice, one per sub-cell (%zu outside, "
+          "%zu twice)", what, bad_cell, twice);
+    CHECK(worst_sub < (stereo ? 0.5 : 1e-6), "%s: at the sub-cells' centres (%g)", what, worst_sub);
+    CHECK(worst_h < 1e-12, "%s: each particle has its cell's thickness and concentration (%g)", what, worst_h);
+    CHECK(on_land == 0, "%s: %zu particles on land", what, on_land);
+    sph_particles_free(P);
+    geo_proj_free(p);
+    ice_raster_free(r);
+}
+
+/* ------------------------------------------------------------ NSIDC CDR flags */
+
+/* 2 km cells (the CDR's shape, a finer grid) over the engine test case's
+ * Liaodong box; rows stored north to south as the CDR does. */
+enum { CX = 40, CY = 34 };
+static const double HA = 6378273.0, HB = 6356889.449, CD = 2000.0;
+static double cx0, cytop; /* first column's x, first (northern) row's y, m */
+
+/* raw byte at (i, jn), jn from the north: a land strip and its coast in
+ * the west, a lake, ice 0.8 next to the coast */
+static int cdr_raw(int i, int jn)
+{
+    if (i < 4)
+        return 254;                     /* land_mask */
+    if (i == 4)
+        return 253;                     /* coastal */
+    if (i == 20 && jn == 17)
+        return 252;                     /* lakes */
+    if (jn == 2 && i == 30)
+        return 255;                     /* missing_data */
+    return i < 28 ? 80 : 0;
+}
+
+static void write_cdr(const char *path)
+{
+    double x, y, k;
+    rp_ps_forward(HA, HB, 70, -45, 121.5, 40.3, &x, &y, &k);
+    cx0 = round(x / CD) * CD - CX / 2 * CD;
+    cytop = round(y / CD) * CD + CY / 2 * CD;
+    int nc, d[3], vx, vy, vt, vc, crs;
+    CHECK(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc) == NC_NOERR, "create %s", path);
+    nc_def_dim(nc, "tdim", 1, &d[0]);
+    nc_def_dim(nc, "y", CY, &d[1]);
+    nc_def_dim(nc, "x", CX, &d[2]);
+    nc_def_var(nc, "time", NC_DOUBLE, 1, &d[0], &vt);
+    rp_text(nc, vt, "units", "days since 1601-01-01 00:00:00");
+    rp_text(nc, vt, "calendar", "gregorian");
+    nc_def_var(nc, "xgrid", NC_DOUBLE, 1, &d[2], &vx);
+    rp_text(nc, vx, "standard_name", "projection_x_coordinate");
+    rp_text(nc, vx, "units", "meters");
+    rp_text(nc, vx, "axis", "X");
+    nc_def_var(nc, "ygrid", NC_DOUBLE, 1, &d[1], &vy);
+    rp_text(nc, vy, "standard_name", "projection_y_coordinate");
+    rp_text(nc, vy, "units", "meters");
+    rp_text(nc, vy, "axis", "Y");
+    nc_def_var(nc, "crs", NC_INT, 0, NULL, &crs);
+    rp_text(nc, crs, "grid_mapping_name", "polar_stereographic");
+    rp_num(nc, crs, "straight_vertical_longitude_from_pole", -45);
+    rp_num(nc, crs, "latitude_of_projection_origin", 90);
+    rp_num(nc, crs, "standard_parallel", 70);
+    rp_num(nc, crs, "false_easting", 0);
+    rp_num(nc, crs, "false_northing", 0);
+    rp_num(nc, crs, "semi_major_axis", HA);
+    rp_num(nc, crs, "semi_minor_axis", HB);
+    nc_def_var(nc, "cdr_seaice_conc", NC_UBYTE, 3, d, &vc);
+    rp_text(nc, vc, "standard_name", "sea_ice_area_fraction");
+    rp_text(nc, vc, "units", "1");
+    rp_text(nc, vc, "grid_mapping", "crs");
+    rp_num(nc, vc, "scale_factor", 0.01);
+    unsigned char fill = 255, vr[2] = {0, 100}, fv[5] = {251, 252, 253, 254, 255};
+    nc_put_att_uchar(nc, vc, "_FillValue", NC_UBYTE, 1, &fill);
+    nc_put_att_uchar(nc, vc, "valid_range", NC_UBYTE, 2, vr);
+    nc_put_att_uchar(nc, vc, "flag_values", NC_UBYTE, 5, fv);
+    rp_text(nc, vc, "flag_meanings", "pole_hole_mask lakes coastal land_mask missing_data");
+    nc_enddef(nc);
+    double t = 145000, xs[CX], ys[CY];
+    static unsigned char c[CY * CX];
+    for (int i = 0; i < CX; i++)
+        xs[i] = cx0 + i * CD;
+    for (int jn = 0; jn < CY; jn++)
+        ys[jn] = cytop - jn * CD;
+    for (int jn = 0; jn < CY; jn++)
+        for (int i = 0; i < CX; i++)
+            c[jn * CX + i] = (unsigned char)cdr_raw(i, jn);
+    nc_put_var_double(nc, vt, &t);
+    nc_put_var_double(nc, vx, xs);
+    nc_put_var_double(nc, vy, ys);
+    nc_put_var_uchar(nc, vc, c);
+    nc_close(nc);
+}
+
+/* The CDR cell (i, jn) of a lon/lat point, from Snyder's forward formula. */
+static void cdr_cell(double lon, double lat, int *i, int *jn)
+{
+    double x, y, k;
+    rp_ps_forward(HA, HB, 70, -45, lon, lat, &x, &y, &k);
+    *i = (int)floor((x - cx0) / CD + 0.5);
+    *jn = (int)floor((cytop - y) / CD + 0.5);
+}
+
+static void flags_case(const char *path)
+{
+    ice_raster_options o;
+    ice_raster_options_default(&o);
+    o.default_thickness = 0.5;
+    ice_raster *r = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    CHECK(ice_raster_read(path, &o, &r, &err) == SPH_OK && r, "CDR: read: %s", err.msg);
+    if (!r)
+        return;
+    landmask *fl = landmask_from_raster(r, "landmask.source raster", &err);
+    CHECK(fl != NULL, "CDR: land from its flags: %s", err.msg);
+    /* a coastline elsewhere: land north of 40.45 N on a 0.01 deg grid */
+    static unsigned char coast[120 * 100];
+    for (int j = 0; j < 100; j++)
+        for (int i = 0; i < 120; i++)
+            coast[j * 120 + i] = 40.0 + (j + 0.5) * 0.01 > 40.45;
+    landmask *un = landmask_create_array(120, 100, 120.9, 40.0, 0.01, 0.01, coast, &err);
+    size_t wrong = 0, nflag = 0, wrong_union = 0;
+    for (int j = 0; fl && j < CY; j++)
+        for (int i = 0; i < CX; i++) {
+            double lon, lat;
+            ice_raster_cell_lonlat(r, i, j, &lon, &lat);
+            int ii, jn, raw;
+            cdr_cell(lon, lat, &ii, &jn);
+            raw = cdr_raw(ii, jn);
+            int want = raw == 254 || raw == 253 || raw == 252; /* land, coast, lake; not missing */
+            nflag += want;
+            wrong += landmask_is_land(fl, lon, lat) != want;
+        }
+    CHECK(nflag > 0 && wrong == 0, "CDR: landmask_from_raster land exactly at the %zu land/coast/lake cells "
+          "(%zu wrong)", nflag, wrong);
+    if (fl && un) {
+        landmask_add(un, fl);
+        fl = NULL; /* owned by un */
+        for (int j = 0; j < CY; j++)
+            for (int i = 0; i < CX; i++) {
+                double lon, lat;
+                ice_raster_cell_lonlat(r, i, j, &lon, &lat);
+                int ii, jn, raw;
+                cdr_cell(lon, lat, &ii, &jn);
+                raw = cdr_raw(ii, jn);
+                int want = raw == 254 || raw == 253 || raw == 252 || (lat > 40.45 && lon < 122.1);
+                wrong_union += landmask_is_land(un, lon, lat) != want;
+            }
+        CHECK(wrong_union == 0, "CDR: the union with a coastline mask is land where either is (%zu wrong)",
+              wrong_union);
+    }
+    /* seeding: never in a flagged cell, with no mask at all, the lattice and per cell */
+    geo_proj *p = geo_proj_create("auto", 121.5, 40.3, &err);
+    for (int mode = 0; p && mode < 3; mode++) {
+        seed_options so;
+        seed_options_default(&so);
+        so.threshold = 0.15;
+        so.spacing_m = mode == 0 ? 700.0 : 0.0; /* a lattice finer than the cells: points in every cell */
+        so.cell_n = mode;
+        const landmask *m = mode == 2 ? un : NULL;
+        size_t n = 0, in_flag = 0, on_mask = 0;
+        CHECK(seed_count(r, p, m, &so, &n, &err) == SPH_OK && n > 0, "CDR mode %d: count: %s", mode, err.msg);
+        sph_particles *P = sph_particles_create(n ? n : 1, 1);
+        CHECK(seed_from_raster(r, p, m, &so, P, &err) == SPH_OK, "CDR mode %d: seed: %s", mode, err.msg);
+        for (size_t k = 0; k < P->n; k++) {
+            double lon, lat;
+            geo_inverse(p, 1, &P->x[k], &P->y[k], &lon, &lat, NULL);
+            int ii, jn;
+            cdr_cell(lon, lat, &ii, &jn);
+            int raw = ii >= 0 && jn >= 0 && ii < CX && jn < CY ? cdr_raw(ii, jn) : 0;
+            in_flag += raw > 250;
+            on_mask += m && landmask_is_land(m, lon, lat) == 1;
+        }
+        printf("CDR, %s: %zu particles, %zu in flagged cells, %zu on the union's land\n",
+               mode == 0 ? "lattice 700 m" : mode == 1 ? "per cell" : "2 x 2 per cell with the union mask", P->n,
+               in_flag, on_mask);
+        CHECK(in_flag == 0, "CDR mode %d: no particle in a cell the raster flags (%zu)", mode, in_flag);
+        CHECK(on_mask == 0, "CDR mode %d: no particle on the union's land (%zu)", mode, on_mask);
+        sph_particles_free(P);
+    }
+    geo_proj_free(p);
+    landmask_free(fl);
+    landmask_free(un);
+    /* a raster without flags: refused in one line naming the key */
+    ice_raster_free(r);
+}
+
+static void no_flags_case(const char *path)
+{
+    ice_raster *r = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    CHECK(ice_raster_read(path, NULL, &r, &err) == SPH_OK && r, "read: %s", err.msg);
+    if (!r)
+        return;
+    sph_error_clear(&err);
+    landmask *m = landmask_from_raster(r, "landmask.raster_land", &err);
+    CHECK(m == NULL && strstr(err.msg, "landmask.raster_land") && strstr(err.msg, path) && !strchr(err.msg, '\n'),
+          "a raster without flags: one line naming the key and the file: %s", err.msg);
+    printf("  no flags -> %s\n", err.msg);
+    landmask_free(m);
+    ice_raster_free(r);
+}
+
+int main(void)
+{
+    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
+    char ll[2][600], ps[2][600], cdr[600];
+    sph_error err;
+    sph_error_clear(&err);
+    for (int s = 0; s < 2; s++) {
+        snprintf(ll[s], sizeof ll[s], "%s/lonlat%d.nc", dir, s);
+        snprintf(ps[s], sizeof ps[s], "%s/stereo%d.nc", dir, s);
+        write_lonlat(ll[s], s);
+        write_stereo(ps[s], s);
+    }
+    static unsigned char cut[400 * 100]; /* 120.7-121.5 E, 39.85-40.85 N */
+    for (int j = 0; j < 100; j++)
+        for (int i = 0; i < 400; i++)
+            cut[j * 400 + i] = 120.7 + (i + 0.5) * 0.002 > CUT_LON;
+    landmask *mask = landmask_create_array(400, 100, 120.7, 39.85, 0.002, 0.01, cut, &err);
+    CHECK(mask != NULL, "mask: %s", err.msg);
+    for (int n = 1; n <= 3; n++)
+        for (int s = 0; s < 2; s++) {
+            seed_case(ll[s], 0, s, n, NULL);
+            seed_case(ps[s], 1, s, n, NULL);
+            seed_case(ll[s], 0, s, n, mask);
+        }
+    landmask_free(mask);
+    snprintf(cdr, sizeof cdr, "%s/cdr.nc", dir);
+    write_cdr(cdr);
+    flags_case(cdr);
+    no_flags_case(ll[0]);
+    for (int s = 0; s < 2; s++) {
+        unlink(ll[s]);
+        unlink(ps[s]);
+    }
+    unlink(cdr);
+    rmdir(dir);
+    return check_summary("test_seed_cells");
+}
