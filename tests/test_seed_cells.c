@@ -32,6 +32,7 @@
 
 #include "io/landmask.h"
 #include "raster_provider.h"
+#include "seed_cdr.h"
 
 static char dir[] = "/tmp/sphice-seedcells-XXXXXX";
 static const double RHO = 900.0, PATCH_C = 0.9, PATCH_H = 0.7;
@@ -291,94 +292,6 @@ static void seed_case(const char *path, int stereo, int smooth, int n, const lan
 }
 
 /* ------------------------------------------------------------ NSIDC CDR flags */
-
-/* 2 km cells (the CDR's shape, a finer grid) over the engine test case's
- * Liaodong box; rows stored north to south as the CDR does. */
-enum { CX = 40, CY = 34 };
-static const double HA = 6378273.0, HB = 6356889.449, CD = 2000.0;
-static double cx0, cytop; /* first column's x, first (northern) row's y, m */
-
-/* raw byte at (i, jn), jn from the north: a land strip and its coast in
- * the west, a lake, ice 0.8 next to the coast */
-static int cdr_raw(int i, int jn)
-{
-    if (i < 4)
-        return 254;                     /* land_mask */
-    if (i == 4)
-        return 253;                     /* coastal */
-    if (i == 20 && jn == 17)
-        return 252;                     /* lakes */
-    if (jn == 2 && i == 30)
-        return 255;                     /* missing_data */
-    return i < 28 ? 80 : 0;
-}
-
-static void write_cdr(const char *path)
-{
-    double x, y, k;
-    rp_ps_forward(HA, HB, 70, -45, 121.5, 40.3, &x, &y, &k);
-    cx0 = round(x / CD) * CD - CX / 2 * CD;
-    cytop = round(y / CD) * CD + CY / 2 * CD;
-    int nc, d[3], vx, vy, vt, vc, crs;
-    CHECK(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc) == NC_NOERR, "create %s", path);
-    nc_def_dim(nc, "tdim", 1, &d[0]);
-    nc_def_dim(nc, "y", CY, &d[1]);
-    nc_def_dim(nc, "x", CX, &d[2]);
-    nc_def_var(nc, "time", NC_DOUBLE, 1, &d[0], &vt);
-    rp_text(nc, vt, "units", "days since 1601-01-01 00:00:00");
-    rp_text(nc, vt, "calendar", "gregorian");
-    nc_def_var(nc, "xgrid", NC_DOUBLE, 1, &d[2], &vx);
-    rp_text(nc, vx, "standard_name", "projection_x_coordinate");
-    rp_text(nc, vx, "units", "meters");
-    rp_text(nc, vx, "axis", "X");
-    nc_def_var(nc, "ygrid", NC_DOUBLE, 1, &d[1], &vy);
-    rp_text(nc, vy, "standard_name", "projection_y_coordinate");
-    rp_text(nc, vy, "units", "meters");
-    rp_text(nc, vy, "axis", "Y");
-    nc_def_var(nc, "crs", NC_INT, 0, NULL, &crs);
-    rp_text(nc, crs, "grid_mapping_name", "polar_stereographic");
-    rp_num(nc, crs, "straight_vertical_longitude_from_pole", -45);
-    rp_num(nc, crs, "latitude_of_projection_origin", 90);
-    rp_num(nc, crs, "standard_parallel", 70);
-    rp_num(nc, crs, "false_easting", 0);
-    rp_num(nc, crs, "false_northing", 0);
-    rp_num(nc, crs, "semi_major_axis", HA);
-    rp_num(nc, crs, "semi_minor_axis", HB);
-    nc_def_var(nc, "cdr_seaice_conc", NC_UBYTE, 3, d, &vc);
-    rp_text(nc, vc, "standard_name", "sea_ice_area_fraction");
-    rp_text(nc, vc, "units", "1");
-    rp_text(nc, vc, "grid_mapping", "crs");
-    rp_num(nc, vc, "scale_factor", 0.01);
-    unsigned char fill = 255, vr[2] = {0, 100}, fv[5] = {251, 252, 253, 254, 255};
-    nc_put_att_uchar(nc, vc, "_FillValue", NC_UBYTE, 1, &fill);
-    nc_put_att_uchar(nc, vc, "valid_range", NC_UBYTE, 2, vr);
-    nc_put_att_uchar(nc, vc, "flag_values", NC_UBYTE, 5, fv);
-    rp_text(nc, vc, "flag_meanings", "pole_hole_mask lakes coastal land_mask missing_data");
-    nc_enddef(nc);
-    double t = 145000, xs[CX], ys[CY];
-    static unsigned char c[CY * CX];
-    for (int i = 0; i < CX; i++)
-        xs[i] = cx0 + i * CD;
-    for (int jn = 0; jn < CY; jn++)
-        ys[jn] = cytop - jn * CD;
-    for (int jn = 0; jn < CY; jn++)
-        for (int i = 0; i < CX; i++)
-            c[jn * CX + i] = (unsigned char)cdr_raw(i, jn);
-    nc_put_var_double(nc, vt, &t);
-    nc_put_var_double(nc, vx, xs);
-    nc_put_var_double(nc, vy, ys);
-    nc_put_var_uchar(nc, vc, c);
-    nc_close(nc);
-}
-
-/* The CDR cell (i, jn) of a lon/lat point, from Snyder's forward formula. */
-static void cdr_cell(double lon, double lat, int *i, int *jn)
-{
-    double x, y, k;
-    rp_ps_forward(HA, HB, 70, -45, lon, lat, &x, &y, &k);
-    *i = (int)floor((x - cx0) / CD + 0.5);
-    *jn = (int)floor((cytop - y) / CD + 0.5);
-}
 
 static void flags_case(const char *path)
 {

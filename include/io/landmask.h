@@ -84,7 +84,7 @@ landmask *landmask_read_model(const char *path, const landmask_read_opts *opts, 
  * landmask_get_grid gives nx, ny and NAN origin and steps. */
 int landmask_is_native(const landmask *m);
 /* A native mask's mean distance between neighbouring cell centres, m
- * (NAN for a regular mask). */
+ * (NAN for a regular mask); of a union (landmask_add) the smallest. */
 double landmask_native_spacing_m(const landmask *m);
 
 /* A mask from an array (copied), e.g. for tests or a model grid. */

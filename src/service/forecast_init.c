@@ -157,7 +157,7 @@ int fc_build_landmask(engine *e, double xmin, double xmax, double ymin, double y
     }
     /* plane grid over the projected domain box; on a native model grid in
      * cells of at most a third of the model's, so that its coast is kept */
-    if (e->lm && landmask_is_native(e->lm) && landmask_native_spacing_m(e->lm) / 3 < cell)
+    if (e->lm && landmask_native_spacing_m(e->lm) / 3 < cell) /* NaN: no native grid */
         cell = landmask_native_spacing_m(e->lm) / 3;
     int nx = (int)ceil((xmax - xmin) / cell), ny = (int)ceil((ymax - ymin) / cell);
     while ((double)nx * ny > (double)MAX_PLANE_CELLS) {

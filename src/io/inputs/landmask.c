@@ -183,7 +183,8 @@ int landmask_is_native(const landmask *m) { return m && m->native; }
 
 double landmask_native_spacing_m(const landmask *m)
 {
-    return m && m->native ? m->spacing * 6371000.0 : NAN;
+    double s = m && m->native ? m->spacing * 6371000.0 : NAN, a = m && m->also ? landmask_native_spacing_m(m->also) : NAN;
+    return isnan(s) || a < s ? a : s;
 }
 
 /* ---------------------------------------------------------------- GSHHG */
