@@ -408,6 +408,9 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     log_info("forecast %s: %ld steps, %d output times, %ld -> %ld particles, budget residual %.3g, %.1f s",
              e->cname, nsteps, nout, res->run.particles_start, res->run.particles_end, res->run.budget_residual,
              res->wall_seconds);
+    if (sph_model_ghosts_merging(e->m))
+        log_info("forecast %s: a coast curved tighter than the kernel support piled its mirror ghosts up beyond "
+                 "model.max_neighbours: crowded ghosts were merged (docs/engine.md)", e->cname);
     if (b->ocean)
         log_info("forecast %s: ice and ocean budgets: energy residual %.3g, water %.3g, salt %.3g; %ld particles "
                  "created, %ld merged", e->cname, res->run.energy_residual, res->run.water_residual,
