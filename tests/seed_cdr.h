@@ -13,6 +13,33 @@
 
 /* 2 km cells (the CDR's shape, a finer grid) over the engine test case's
  * Liaodong box; rows stored north to south as the CDR does. */
+/* A 1-D coordinate variable with its standard name and units. */
+static inline int sc_axis(int nc, const char *name, int dim, const char *standard_name, const char *units)
+{
+    int v;
+    nc_def_var(nc, name, NC_DOUBLE, 1, &dim, &v);
+    rp_text(nc, v, "standard_name", standard_name);
+    rp_text(nc, v, "units", units);
+    return v;
+}
+
+/* A CF polar_stereographic grid mapping north (true scale at 70 N, -45 E)
+ * on the ellipsoid of semi-major axis a and minor_att (semi_minor_axis or
+ * inverse_flattening) = minor. */
+static inline void sc_ps_crs(int nc, const char *name, double a, const char *minor_att, double minor)
+{
+    int crs;
+    nc_def_var(nc, name, NC_INT, 0, NULL, &crs);
+    rp_text(nc, crs, "grid_mapping_name", "polar_stereographic");
+    rp_num(nc, crs, "straight_vertical_longitude_from_pole", -45);
+    rp_num(nc, crs, "latitude_of_projection_origin", 90);
+    rp_num(nc, crs, "standard_parallel", 70);
+    rp_num(nc, crs, "false_easting", 0);
+    rp_num(nc, crs, "false_northing", 0);
+    rp_num(nc, crs, "semi_major_axis", a);
+    rp_num(nc, crs, minor_att, minor);
+}
+
 enum { CX = 40, CY = 34 };
 static const double HA = 6378273.0, HB = 6356889.449, CD = 2000.0;
 static double cx0, cytop; /* first column's x, first (northern) row's y, m */
@@ -38,7 +65,7 @@ static inline void write_cdr(const char *path)
     rp_ps_forward(HA, HB, 70, -45, 121.5, 40.3, &x, &y, &k);
     cx0 = round(x / CD) * CD - CX / 2 * CD;
     cytop = round(y / CD) * CD + CY / 2 * CD;
-    int nc, d[3], vx, vy, vt, vc, crs;
+    int nc, d[3], vx, vy, vt, vc;
     CHECK(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc) == NC_NOERR, "create %s", path);
     nc_def_dim(nc, "tdim", 1, &d[0]);
     nc_def_dim(nc, "y", CY, &d[1]);
@@ -46,23 +73,11 @@ static inline void write_cdr(const char *path)
     nc_def_var(nc, "time", NC_DOUBLE, 1, &d[0], &vt);
     rp_text(nc, vt, "units", "days since 1601-01-01 00:00:00");
     rp_text(nc, vt, "calendar", "gregorian");
-    nc_def_var(nc, "xgrid", NC_DOUBLE, 1, &d[2], &vx);
-    rp_text(nc, vx, "standard_name", "projection_x_coordinate");
-    rp_text(nc, vx, "units", "meters");
+    vx = sc_axis(nc, "xgrid", d[2], "projection_x_coordinate", "meters");
     rp_text(nc, vx, "axis", "X");
-    nc_def_var(nc, "ygrid", NC_DOUBLE, 1, &d[1], &vy);
-    rp_text(nc, vy, "standard_name", "projection_y_coordinate");
-    rp_text(nc, vy, "units", "meters");
+    vy = sc_axis(nc, "ygrid", d[1], "projection_y_coordinate", "meters");
     rp_text(nc, vy, "axis", "Y");
-    nc_def_var(nc, "crs", NC_INT, 0, NULL, &crs);
-    rp_text(nc, crs, "grid_mapping_name", "polar_stereographic");
-    rp_num(nc, crs, "straight_vertical_longitude_from_pole", -45);
-    rp_num(nc, crs, "latitude_of_projection_origin", 90);
-    rp_num(nc, crs, "standard_parallel", 70);
-    rp_num(nc, crs, "false_easting", 0);
-    rp_num(nc, crs, "false_northing", 0);
-    rp_num(nc, crs, "semi_major_axis", HA);
-    rp_num(nc, crs, "semi_minor_axis", HB);
+    sc_ps_crs(nc, "crs", HA, "semi_minor_axis", HB);
     nc_def_var(nc, "cdr_seaice_conc", NC_UBYTE, 3, d, &vc);
     rp_text(nc, vc, "standard_name", "sea_ice_area_fraction");
     rp_text(nc, vc, "units", "1");

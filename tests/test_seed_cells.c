@@ -59,44 +59,6 @@ static double thick_of(int smooth, int i, int j)
 
 static const double LL_LON0 = 120.81, LL_LAT0 = 39.91, LL_D = 0.02;
 
-static void write_lonlat(const char *path, int smooth)
-{
-    int nc, d[2], vlat, vlon, vc, vh;
-    CHECK(nc_create(path, NC_CLOBBER, &nc) == NC_NOERR, "create %s", path);
-    nc_def_dim(nc, "lat", NJ, &d[0]);
-    nc_def_dim(nc, "lon", NI, &d[1]);
-    nc_def_var(nc, "lat", NC_DOUBLE, 1, &d[0], &vlat);
-    rp_text(nc, vlat, "units", "degrees_north");
-    rp_text(nc, vlat, "standard_name", "latitude");
-    nc_def_var(nc, "lon", NC_DOUBLE, 1, &d[1], &vlon);
-    rp_text(nc, vlon, "units", "degrees_east");
-    rp_text(nc, vlon, "standard_name", "longitude");
-    nc_def_var(nc, "siconc", NC_DOUBLE, 2, d, &vc);
-    rp_text(nc, vc, "standard_name", "sea_ice_area_fraction");
-    rp_text(nc, vc, "units", "1");
-    nc_def_var(nc, "sithick", NC_DOUBLE, 2, d, &vh);
-    rp_text(nc, vh, "standard_name", "sea_ice_thickness");
-    rp_text(nc, vh, "units", "m");
-    rp_text(nc, vh, "cell_methods", "area: mean where sea_ice");
-    nc_enddef(nc);
-    double lat[NJ], lon[NI];
-    static double c[NJ * NI], h[NJ * NI];
-    for (int j = 0; j < NJ; j++)
-        lat[j] = LL_LAT0 + j * LL_D;
-    for (int i = 0; i < NI; i++)
-        lon[i] = LL_LON0 + i * LL_D;
-    for (int j = 0; j < NJ; j++)
-        for (int i = 0; i < NI; i++) {
-            c[j * NI + i] = conc_of(smooth, i, j);
-            h[j * NI + i] = thick_of(smooth, i, j);
-        }
-    nc_put_var_double(nc, vlat, lat);
-    nc_put_var_double(nc, vlon, lon);
-    nc_put_var_double(nc, vc, c);
-    nc_put_var_double(nc, vh, h);
-    nc_close(nc);
-}
-
 static double lonlat_area(int j)
 {
     const double R = 6371000.0, lat = LL_LAT0 + j * LL_D;
@@ -109,52 +71,48 @@ static const double PA = 6378137.0, PRF = 298.257223563, PD = 10000.0; /* m */
 static double px0, py0; /* first centre, m */
 static double pb(void) { return PA * (1 - 1 / PRF); }
 
-static void write_stereo(const char *path, int smooth)
+/* The field on the lon/lat grid (siconc, sithick) or the polar
+ * stereographic one (aice, hi, x/y in km, grid_mapping). */
+static void write_raster(const char *path, int stereo, int smooth)
 {
     double cx, cy, k;
     rp_ps_forward(PA, pb(), 70, -45, 15.0, 80.5, &cx, &cy, &k);
     px0 = round(cx / PD) * PD - (NI / 2) * PD;
     py0 = round(cy / PD) * PD - (NJ / 2) * PD;
-    int nc, d[2], vx, vy, vc, vh, crs;
+    int nc, d[2], vx, vy, vc, vh;
     CHECK(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc) == NC_NOERR, "create %s", path);
-    nc_def_dim(nc, "y", NJ, &d[0]);
-    nc_def_dim(nc, "x", NI, &d[1]);
-    nc_def_var(nc, "x", NC_DOUBLE, 1, &d[1], &vx);
-    rp_text(nc, vx, "standard_name", "projection_x_coordinate");
-    rp_text(nc, vx, "units", "km");
-    nc_def_var(nc, "y", NC_DOUBLE, 1, &d[0], &vy);
-    rp_text(nc, vy, "standard_name", "projection_y_coordinate");
-    rp_text(nc, vy, "units", "km");
-    nc_def_var(nc, "polar_stereographic", NC_INT, 0, NULL, &crs);
-    rp_text(nc, crs, "grid_mapping_name", "polar_stereographic");
-    rp_num(nc, crs, "straight_vertical_longitude_from_pole", -45);
-    rp_num(nc, crs, "latitude_of_projection_origin", 90);
-    rp_num(nc, crs, "standard_parallel", 70);
-    rp_num(nc, crs, "false_easting", 0);
-    rp_num(nc, crs, "false_northing", 0);
-    rp_num(nc, crs, "semi_major_axis", PA);
-    rp_num(nc, crs, "inverse_flattening", PRF);
-    nc_def_var(nc, "aice", NC_DOUBLE, 2, d, &vc);
+    nc_def_dim(nc, stereo ? "y" : "lat", NJ, &d[0]);
+    nc_def_dim(nc, stereo ? "x" : "lon", NI, &d[1]);
+    if (stereo) {
+        vx = sc_axis(nc, "x", d[1], "projection_x_coordinate", "km");
+        vy = sc_axis(nc, "y", d[0], "projection_y_coordinate", "km");
+        sc_ps_crs(nc, "polar_stereographic", PA, "inverse_flattening", PRF);
+    } else {
+        vy = sc_axis(nc, "lat", d[0], "latitude", "degrees_north");
+        vx = sc_axis(nc, "lon", d[1], "longitude", "degrees_east");
+    }
+    nc_def_var(nc, stereo ? "aice" : "siconc", NC_DOUBLE, 2, d, &vc);
     rp_text(nc, vc, "standard_name", "sea_ice_area_fraction");
     rp_text(nc, vc, "units", "1");
-    rp_text(nc, vc, "grid_mapping", "polar_stereographic");
-    nc_def_var(nc, "hi", NC_DOUBLE, 2, d, &vh);
+    nc_def_var(nc, stereo ? "hi" : "sithick", NC_DOUBLE, 2, d, &vh);
     rp_text(nc, vh, "standard_name", "sea_ice_thickness");
     rp_text(nc, vh, "units", "m");
     rp_text(nc, vh, "cell_methods", "area: mean where sea_ice");
-    rp_text(nc, vh, "grid_mapping", "polar_stereographic");
+    if (stereo) {
+        rp_text(nc, vc, "grid_mapping", "polar_stereographic");
+        rp_text(nc, vh, "grid_mapping", "polar_stereographic");
+    }
     nc_enddef(nc);
     double xs[NI], ys[NJ];
     static double c[NJ * NI], h[NJ * NI];
     for (int i = 0; i < NI; i++)
-        xs[i] = (px0 + i * PD) / 1000;
+        xs[i] = stereo ? (px0 + i * PD) / 1000 : LL_LON0 + i * LL_D;
     for (int j = 0; j < NJ; j++)
-        ys[j] = (py0 + j * PD) / 1000;
-    for (int j = 0; j < NJ; j++)
-        for (int i = 0; i < NI; i++) {
-            c[j * NI + i] = conc_of(smooth, i, j);
-            h[j * NI + i] = thick_of(smooth, i, j);
-        }
+        ys[j] = stereo ? (py0 + j * PD) / 1000 : LL_LAT0 + j * LL_D;
+    for (int q = 0; q < NJ * NI; q++) {
+        c[q] = conc_of(smooth, q % NI, q / NI);
+        h[q] = thick_of(smooth, q % NI, q / NI);
+    }
     nc_put_var_double(nc, vx, xs);
     nc_put_var_double(nc, vy, ys);
     nc_put_var_double(nc, vc, c);
@@ -293,6 +251,26 @@ static void seed_case(const char *path, int stereo, int smooth, int n, const lan
 
 /* ------------------------------------------------------------ NSIDC CDR flags */
 
+/* Cells of r where m's land is not the CDR's land, coast and lake (not
+ * missing) or, with_coast, also north of the coastline mask's 40.45 N;
+ * *nflag: the CDR's flagged land cells. */
+static size_t wrong_land(const ice_raster *r, const landmask *m, int with_coast, size_t *nflag)
+{
+    size_t wrong = 0;
+    *nflag = 0;
+    for (int j = 0; j < r->nlat; j++)
+        for (int i = 0; i < r->nlon; i++) {
+            double lon, lat;
+            ice_raster_cell_lonlat(r, i, j, &lon, &lat);
+            int ii, jn;
+            cdr_cell(lon, lat, &ii, &jn);
+            int raw = cdr_raw(ii, jn), flag = raw == 254 || raw == 253 || raw == 252;
+            *nflag += flag;
+            wrong += landmask_is_land(m, lon, lat) != (flag || (with_coast && lat > 40.45 && lon < 122.1));
+        }
+    return wrong;
+}
+
 static void flags_case(const char *path)
 {
     ice_raster_options o;
@@ -312,33 +290,13 @@ static void flags_case(const char *path)
         for (int i = 0; i < 120; i++)
             coast[j * 120 + i] = 40.0 + (j + 0.5) * 0.01 > 40.45;
     landmask *un = landmask_create_array(120, 100, 120.9, 40.0, 0.01, 0.01, coast, &err);
-    size_t wrong = 0, nflag = 0, wrong_union = 0;
-    for (int j = 0; fl && j < CY; j++)
-        for (int i = 0; i < CX; i++) {
-            double lon, lat;
-            ice_raster_cell_lonlat(r, i, j, &lon, &lat);
-            int ii, jn, raw;
-            cdr_cell(lon, lat, &ii, &jn);
-            raw = cdr_raw(ii, jn);
-            int want = raw == 254 || raw == 253 || raw == 252; /* land, coast, lake; not missing */
-            nflag += want;
-            wrong += landmask_is_land(fl, lon, lat) != want;
-        }
+    size_t nflag = 0, wrong = fl ? wrong_land(r, fl, 0, &nflag) : 1, wrong_union = 1;
     CHECK(nflag > 0 && wrong == 0, "CDR: landmask_from_raster land exactly at the %zu land/coast/lake cells "
           "(%zu wrong)", nflag, wrong);
     if (fl && un) {
         landmask_add(un, fl);
         fl = NULL; /* owned by un */
-        for (int j = 0; j < CY; j++)
-            for (int i = 0; i < CX; i++) {
-                double lon, lat;
-                ice_raster_cell_lonlat(r, i, j, &lon, &lat);
-                int ii, jn, raw;
-                cdr_cell(lon, lat, &ii, &jn);
-                raw = cdr_raw(ii, jn);
-                int want = raw == 254 || raw == 253 || raw == 252 || (lat > 40.45 && lon < 122.1);
-                wrong_union += landmask_is_land(un, lon, lat) != want;
-            }
+        wrong_union = wrong_land(r, un, 1, &nflag);
         CHECK(wrong_union == 0, "CDR: the union with a coastline mask is land where either is (%zu wrong)",
               wrong_union);
     }
@@ -404,8 +362,8 @@ int main(void)
     for (int s = 0; s < 2; s++) {
         snprintf(ll[s], sizeof ll[s], "%s/lonlat%d.nc", dir, s);
         snprintf(ps[s], sizeof ps[s], "%s/stereo%d.nc", dir, s);
-        write_lonlat(ll[s], s);
-        write_stereo(ps[s], s);
+        write_raster(ll[s], 0, s);
+        write_raster(ps[s], 1, s);
     }
     static unsigned char cut[400 * 100]; /* 120.7-121.5 E, 39.85-40.85 N */
     for (int j = 0; j < 100; j++)

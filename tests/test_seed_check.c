@@ -32,22 +32,17 @@
 static char dir[] = "/tmp/sphice-seedcheck-XXXXXX";
 static const char *atm_files[2];
 
-/* the case's configuration with `from` replaced by `to` (twice at most) */
+/* the case's configuration (time step case_dt) with `from` replaced by
+ * `to` (twice at most) */
 static double case_dt = 300;
 static struct sph_config *load(const char *ice, const char *from, const char *to, const char *from2,
                                const char *to2)
 {
-    char text[8192], out[8192];
+    char text[8192];
     ec_config(text, sizeof text, dir, case_dt, "[\"wind\", \"tair\"]", ice, "");
-    const char *f[2] = {from, from2}, *t[2] = {to, to2};
-    for (int q = 0; q < 2; q++) {
-        char *at = f[q] ? strstr(text, f[q]) : NULL;
-        CHECK(!f[q] || at, "the case's configuration has %s", f[q]);
-        if (!at)
-            continue;
-        snprintf(out, sizeof out, "%.*s%s%s", (int)(at - text), text, t[q], at + strlen(f[q]));
-        memcpy(text, out, sizeof text);
-    }
+    CHECK(ec_config_replace(text, sizeof text, from, to), "the case's configuration has %s", from);
+    if (from2)
+        CHECK(ec_config_replace(text, sizeof text, from2, to2), "the case's configuration has %s", from2);
     struct sph_config *cfg = NULL;
     sph_error err;
     sph_error_clear(&err);
@@ -141,10 +136,7 @@ static void first_particles(const char *stage, size_t *n, size_t *flagged, size_
 int main(int argc, char **argv)
 {
     (void)argc;
-    ec_passive_openmp(argv);
-    sph_log_level = LOG_LVL_WARN;
-    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
-    ec_write_inputs(dir);
+    CHECK(ec_start(argv, dir) == 0, "mkdtemp %s", dir);
     char atm[1024], p[1024], stage[1100];
     snprintf(atm, sizeof atm, "%s/atm.nc", dir);
     atm_files[0] = atm;
