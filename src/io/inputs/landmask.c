@@ -1344,7 +1344,7 @@ int landmask_to_plane(const landmask *m, const geo_proj *p, double x0, double y0
     free(x);
     /* a native land cell is never lost between plane centres: the plane
      * cell that contains its centre is land as well */
-    for (; m; m = m->also)
+    for (; m; m = m->also) /* every mask of a union (landmask_add) */
     for (size_t k = 0; m->native && k < (size_t)m->nlon * (size_t)m->nlat; k++) {
         if (!m->land[k] || isnan(m->xyz[3 * k]))
             continue;
