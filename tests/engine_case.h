@@ -260,6 +260,19 @@ static inline void ec_config(char *buf, size_t len, const char *dir, double dt, 
     ec_config_more(buf, len, dir, dt, required, ice, extra, "", "");
 }
 
+/* Replaces the first `from` in the configuration text (len bytes) by
+ * `to`; 0 when `from` is not there. */
+static inline int ec_config_replace(char *text, size_t len, const char *from, const char *to)
+{
+    char *at = strstr(text, from), *out = at ? malloc(len) : NULL;
+    if (!out)
+        return 0;
+    snprintf(out, len, "%.*s%s%s", (int)(at - text), text, to, at + strlen(from));
+    memcpy(text, out, len);
+    free(out);
+    return 1;
+}
+
 /* Writes every input file of the case into dir. */
 static inline void ec_write_inputs(const char *dir)
 {

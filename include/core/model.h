@@ -66,6 +66,10 @@ const sph_params *sph_model_params(const sph_model *m);
 size_t sph_model_capacity(const sph_model *m); /* live particles it can hold */
 /* Mirror ghosts of the last step, stored after the live particles. */
 size_t sph_model_ghosts(const sph_model *m);
+/* 1 once the model merges crowded mirror ghosts: a coast curved tighter
+ * than the kernel support (an island, a headland, stair-step corners)
+ * piled its ghosts up beyond max_neighbours (core/coast.c). */
+int sph_model_ghosts_merging(const sph_model *m);
 /* Smallest initial particle spacing of the placed particles, m:
  * min over particles of sml0 (sml before sph_model_init) / sml_factor. */
 double sph_model_spacing(const sph_model *m);

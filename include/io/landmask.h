@@ -84,13 +84,24 @@ landmask *landmask_read_model(const char *path, const landmask_read_opts *opts, 
  * landmask_get_grid gives nx, ny and NAN origin and steps. */
 int landmask_is_native(const landmask *m);
 /* A native mask's mean distance between neighbouring cell centres, m
- * (NAN for a regular mask). */
+ * (NAN for a regular mask); of a union (landmask_add) the smallest. */
 double landmask_native_spacing_m(const landmask *m);
 
 /* A mask from an array (copied), e.g. for tests or a model grid. */
 landmask *landmask_create_array(int nlon, int nlat, double lon0, double lat0, double dlon,
                                 double dlat, const unsigned char *land, sph_error *err);
 void landmask_free(landmask *m); /* NULL does nothing */
+
+/* The land an initial raster flags itself (ice_raster.land 1: land, coast,
+ * lake): on its lon/lat grid, or native (nearest centre) for a projected
+ * or curvilinear one. NULL and one error line naming `key` and the raster
+ * when it flags no land. */
+struct ice_raster;
+landmask *landmask_from_raster(const struct ice_raster *r, const char *key, sph_error *err);
+/* m is land where it says so or `also` says so (also is owned by m from
+ * now on, freed with it); a point is outside (-1) only when outside both.
+ * landmask_get_grid, _data, _is_native describe m alone. */
+void landmask_add(landmask *m, landmask *also);
 
 /* 1 land, 0 sea, -1 outside the mask's grid (caller decides). Longitudes
  * are taken modulo 360 into the grid's range. */

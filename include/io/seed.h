@@ -1,12 +1,18 @@
 /* Particle seeding from the initial ice raster (PHYSICS.md sections 1, 4).
  *
  * Two layouts:
- *  - spacing_m == 0: one particle at the centre of every raster cell with
- *    concentration > threshold whose centre is sea. mass = rho_i * conc *
- *    thick * cell_area with the cell's area on the sphere of radius
- *    6371 km (ice_raster_cell_area), so the seeded mass is exactly the
- *    raster's ice mass over those cells. Footprint side (for the smoothing
- *    length) = sqrt(cell_area).
+ *  - spacing_m == 0: per cell. cell_n x cell_n particles (cell_n 0 or 1:
+ *    one, at the centre) in every raster cell with concentration >
+ *    threshold, at the centres of its n x n sub-cells in the raster's own
+ *    coordinates (lon/lat, or projected x/y unprojected by PROJ; on a
+ *    curvilinear grid interpolated between the surrounding centres); a
+ *    sub-cell whose centre is land is left out. Each takes its cell's
+ *    concentration and thickness (never a neighbour's: a patch next to
+ *    open water keeps its thickness) and 1 / n^2 of its true area
+ *    (ice_raster_area: the sphere for lon/lat, the projection's own for
+ *    projected grids): mass = rho_i * conc * thick * cell_area / n^2, so the
+ *    seeded area and mass are exactly the raster's over those sub-cells.
+ *    Footprint side (for the smoothing length) = sqrt(cell_area) / n.
  *  - spacing_m > 0: particles on a square lattice of that spacing on the
  *    projected plane (aligned to the plane origin), with conc/thick sampled
  *    bilinearly from the raster: conc = bilinear A, thick = bilinear (A h)
@@ -25,7 +31,9 @@
  * first_id + running index. Seeding fills x, y, lat, mass, thick, conc,
  * sml, u, v, id only; snow, surface temperature and enthalpy are the
  * caller's (thermodynamic initialisation). No particle is placed where the land mask says land (a point
- * outside the mask's grid counts as sea).
+ * outside the mask's grid counts as sea), nor in a cell the raster itself
+ * flags as land (ice_raster.land; per cell such cells have no
+ * concentration, the lattice skips its points in them).
  *
  * Threshold: default 0.05 (5 %): below that satellite concentration is
  * mostly retrieval noise (weather, land spill-over) and such parcels carry
@@ -42,12 +50,15 @@
 #include "io/raster.h"
 #include "util/err.h"
 
+#define SEED_MAX_CELL_N 10 /* at most 10 x 10 particles per raster cell */
+
 typedef struct seed_options {
     double threshold;    /* seed where conc > threshold (0..1), default 0.05 */
     double spacing_m;    /* 0: raster cells; > 0: plane lattice spacing, m */
     double sml_factor;   /* h0 = sml_factor * spacing (default 1.0, the seed's h0 = spacing) */
     double rho_ice;      /* kg/m^3, default 900 */
     long first_id;       /* id of the first particle seeded (default 0) */
+    int cell_n;          /* spacing_m == 0: cell_n x cell_n particles per cell (0, 1: one) */
     /* plane-lattice bounds (spacing_m > 0): the raster's projected
      * bounding box when all four are 0 */
     double xmin, xmax, ymin, ymax;
@@ -58,7 +69,10 @@ void seed_options_default(seed_options *o);
 /* Ice area (sum conc * cell area, m^2) and volume (sum conc * thick *
  * cell area, m^3) of the raster over the cells seeding takes: conc >
  * threshold, thick > 0, centre sea by mask, and (box not NULL) centre
- * projected with p inside [box[0], box[1]) x [box[2], box[3]). */
+ * projected with p inside [box[0], box[1]) x [box[2], box[3]). Per cell
+ * with cell_n > 1 the tests are made at the sub-cells' centres and a cell
+ * counts by the fraction of its sub-cells that pass (what walk_cells
+ * seeds). */
 int seed_raster_totals(const ice_raster *r, const geo_proj *p, const landmask *mask,
                        const seed_options *o, const double box[4], double *area,
                        double *volume, sph_error *err);

@@ -57,7 +57,7 @@ enum { CFG_INIT_NETCDF = 0, CFG_INIT_ESRI };
 enum { CFG_REINIT_WARM = 0, CFG_REINIT_COLD, CFG_REINIT_NEWER_RASTER };
 enum { CFG_THICK_AUTO = 0, CFG_THICK_ICE, CFG_THICK_CELL_MEAN }; /* = ICE_THICK_* */
 enum { CFG_GATE_FAIL = 0, CFG_GATE_FLAG };
-enum { CFG_LAND_NONE = 0, CFG_LAND_GSHHG, CFG_LAND_NETCDF, CFG_LAND_FORCING };
+enum { CFG_LAND_NONE = 0, CFG_LAND_GSHHG, CFG_LAND_NETCDF, CFG_LAND_FORCING, CFG_LAND_RASTER };
 enum { CFG_LAND_RES_CRUDE = 0, CFG_LAND_RES_LOW, CFG_LAND_RES_INTERMEDIATE, CFG_LAND_RES_HIGH,
        CFG_LAND_RES_FULL };
 enum { CFG_GRID_REGULAR = 0, CFG_GRID_RASTER };
@@ -96,6 +96,7 @@ struct sph_config {
         double ims_ice_conc, ims_ice_thick; /* IMS ice cells; 0: unset */
         int gdal_conc_band, gdal_thick_band; /* GeoTIFF bands; 0: from metadata */
         int gdal_conc_units;    /* ICE_CONC_UNITS_* */
+        int cell_particles;     /* n > 0: n x n particles per raster cell */
     } initial;
 
     struct {
@@ -105,6 +106,7 @@ struct sph_config {
         int from;               /* landmask_from: auto, mask, fill */
         int polarity;           /* landmask_polarity: auto, land_is_1, water_is_1 */
         char *land_value;       /* "" or a number: the value that is land */
+        int raster_land;        /* the initial raster's flagged land too */
     } landmask;
 
     struct {

@@ -114,7 +114,63 @@ static int nearest_coast(const sph_model *m, double x, double y, double radius, 
  * also reflected across that one, and across both. Ghosts carry the
  * source's mass, density, thickness and strength, mirrored velocity (free
  * slip: normal component reversed; no slip: whole velocity reversed) and
- * mirrored stress R S R, R = I - 2 n n^T (applied per wall). */
+ * mirrored stress R S R, R = I - 2 n n^T (applied per wall).
+ *
+ * A reflection across a straight coast keeps distances: the ghosts are as
+ * dense as their sources. Across a coast curved tighter than the kernel
+ * support (an island or headland a few smoothing lengths across, a
+ * stair-step corner) the reflections of sources around it converge: their
+ * ghosts pile up inside it, several times denser than the ice, and a
+ * particle next to it gets more neighbours than max_neighbours (a 7 km
+ * island with 10 km of support: 19 real neighbours and 84 ghosts). So a
+ * ghost is left out when an earlier ghost lies within GHOST_MIN_SEP of its
+ * source's smoothing length while their sources lie more than
+ * GHOST_CONTRACTION times as far apart: the mirror has contracted them, and
+ * the earlier ghost takes its volume (mass / density), so that the land's
+ * share of every kernel sum stays what the reflections give, on fewer
+ * particles. Ghosts of a straight or gently
+ * curved coast (contraction below the factor) are all kept. Merging starts
+ * only when a neighbour list first overflows max_neighbours (model.c,
+ * prepare_lists) and stays on for the model's life: below that the
+ * reflections are kept one for one (a stair-step coast at the grid scale
+ * has such pairs everywhere, harmless while the lists hold them). */
+#define GHOST_MIN_SEP 0.5
+#define GHOST_CONTRACTION 2.0
+
+static size_t gh_bucket(const sph_model *m, double x, double y, long *ix, long *iy)
+{
+    *ix = (long)floor(x / m->gh_cell);
+    *iy = (long)floor(y / m->gh_cell);
+    unsigned long long h = (unsigned long long)*ix * 0x9E3779B97F4A7C15ull ^
+                           (unsigned long long)*iy * 0xC2B2AE3D27D4EB4Full;
+    return (size_t)(h >> 20) & (m->gh_size - 1);
+}
+
+/* An earlier ghost within GHOST_MIN_SEP * sml of (gx, gy) whose source
+ * lies more than GHOST_CONTRACTION times as far from k as the ghosts are
+ * from each other (its index after the live particles), or -1. */
+static long ghost_crowded(const sph_model *m, size_t k, double gx, double gy)
+{
+    const sph_particles *P = m->P;
+    double r = GHOST_MIN_SEP * P->sml[k];
+    if (!(r > 0.0) || !(m->gh_cell > 0.0) || !isfinite(gx) || !isfinite(gy))
+        return -1;
+    long cx, cy;
+    gh_bucket(m, gx, gy, &cx, &cy);
+    for (long by = cy - 1; by <= cy + 1; by++)
+        for (long bx = cx - 1; bx <= cx + 1; bx++) {
+            long ix, iy;
+            size_t b = gh_bucket(m, (bx + 0.5) * m->gh_cell, (by + 0.5) * m->gh_cell, &ix, &iy);
+            for (int g = m->gh_head[b]; g >= 0; g = m->gh_next[g]) {
+                size_t q = P->n + (size_t)g, s = (size_t)m->ghost_src[g];
+                double d = hypot(P->x[q] - gx, P->y[q] - gy);
+                if (d < r && hypot(P->x[s] - P->x[k], P->y[s] - P->y[k]) > GHOST_CONTRACTION * d)
+                    return (long)q;
+            }
+        }
+    return -1;
+}
+
 static int add_ghost(sph_model *m, size_t k, double gx, double gy, double n1x, double n1y,
                      double n2x, double n2y)
 {
@@ -122,6 +178,18 @@ static int add_ghost(sph_model *m, size_t k, double gx, double gy, double n1x, d
     size_t q = P->n + m->ng;
     if (q >= P->cap)
         return 0;
+    long c = m->ghost_merge ? ghost_crowded(m, k, gx, gy) : -1;
+    if (c >= 0) {
+        /* the ghost there takes this one's volume (mass / density): the
+         * land's share of the kernel sums is kept, on one particle */
+        size_t g = (size_t)c;
+        if (P->dens[k] > 0.0 && P->dens[g] > 0.0)
+            P->mass[g] += P->mass[k] * P->dens[g] / P->dens[k];
+        else
+            P->mass[g] += P->mass[k];
+        m->ghosts_thinned++;
+        return 0;
+    }
     sph_particles_copy_one(P, q, P, k);
     P->x[q] = gx;
     P->y[q] = gy;
@@ -130,6 +198,12 @@ static int add_ghost(sph_model *m, size_t k, double gx, double gy, double n1x, d
     m->ghost_ny[m->ng] = n1y;
     m->ghost_n2x[m->ng] = n2x;
     m->ghost_n2y[m->ng] = n2y;
+    if (m->gh_cell > 0.0 && isfinite(gx) && isfinite(gy)) {
+        long ix, iy;
+        size_t b = gh_bucket(m, gx, gy, &ix, &iy);
+        m->gh_next[m->ng] = m->gh_head[b];
+        m->gh_head[b] = (int)m->ng;
+    }
     m->ng++;
     return 1;
 }
@@ -139,8 +213,13 @@ void sph_build_ghosts(sph_model *m)
     sph_particles *P = m->P;
     size_t n = P->n;
     m->ng = 0;
+    m->ghosts_thinned = 0;
     if (!m->has_mask)
         return;
+    /* the hash's cells cover the largest thinning radius */
+    m->gh_cell = GHOST_MIN_SEP * sph_max_sml(P, n);
+    for (size_t b = 0; b < m->gh_size; b++)
+        m->gh_head[b] = -1;
     for (size_t k = 0; k < n; k++) {
         double radius = m->kern.radius * P->sml[k];
         double d1, n1x, n1y, d2, n2x, n2y;

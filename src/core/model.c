@@ -83,6 +83,11 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     m->ghost_ny = calloc(c2, sizeof(double));
     m->ghost_n2x = calloc(c2, sizeof(double));
     m->ghost_n2y = calloc(c2, sizeof(double));
+    m->gh_size = 64;
+    while (with_mask && m->gh_size < c2)
+        m->gh_size *= 2;
+    m->gh_head = malloc(m->gh_size * sizeof(int));
+    m->gh_next = malloc(c2 * sizeof(int));
     m->un = calloc(c2, sizeof(double));
     m->vn = calloc(c2, sizeof(double));
     m->zeta = calloc(c2, sizeof(double));
@@ -94,7 +99,7 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     m->active = calloc(c2, sizeof(int));
     m->loose = calloc(c2, 1);
     m->tw = sph_thermo_work_create(c2, nl);
-    int ok = m->P && m->nb && m->ghost_src && m->ghost_nx && m->ghost_ny && m->ghost_n2x && m->ghost_n2y && m->un && m->vn &&
+    int ok = m->P && m->nb && m->ghost_src && m->ghost_nx && m->ghost_ny && m->ghost_n2x && m->ghost_n2y && m->gh_head && m->gh_next && m->un && m->vn &&
              m->zeta && m->dvel && m->binv && m->fcor && m->scratch && m->order && m->active && m->loose && m->tw;
     if (ok && with_mask) {
         size_t nc = (size_t)mask->nx * (size_t)mask->ny;
@@ -134,6 +139,8 @@ void sph_model_free(sph_model *m)
     free(m->ghost_ny);
     free(m->ghost_n2x);
     free(m->ghost_n2y);
+    free(m->gh_head);
+    free(m->gh_next);
     free(m->un);
     free(m->vn);
     free(m->zeta);
@@ -258,12 +265,14 @@ static double new_ice_sml(const sph_model *m, double smax)
     return smax;
 }
 
-/* Neighbours, density and diagnosis at the current positions. */
-static int prepare(sph_model *m, sph_status *st)
+/* Neighbour lists over the particles and their ghosts, then density and
+ * diagnosis. A list that overflows max_neighbours while the coast's
+ * ghosts are not yet merged (coast.c: ghosts piled up by a coast curved
+ * tighter than the kernel support) merges them from now on and tries
+ * again; an overflow left after that is particle clumping. */
+static int prepare_lists(sph_model *m, sph_status *st)
 {
     sph_particles *P = m->P;
-    sph_reorder(m);
-    sph_build_ghosts(m);
     size_t nall = P->n + m->ng;
     /* B^-1 = I (no correction) for the slots in use: set once per slot, so
      * that the pages beyond the live particles and ghosts stay untouched
@@ -278,7 +287,12 @@ static int prepare(sph_model *m, sph_status *st)
     double cell = m->kern.radius * sph_max_sml(P, nall);
     sph_nbr_grid(m->nb, nall, P->x, P->y, cell);
     long over = -1;
-    if (sph_nbr_build(m->nb, &m->kern, P->n, P->x, P->y, P->sml, &over))
+    if (sph_nbr_build(m->nb, &m->kern, P->n, P->x, P->y, P->sml, &over) && !m->ghost_merge && m->ng > 0) {
+        m->ghost_merge = 1;
+        sph_build_ghosts(m);
+        return prepare_lists(m, st);
+    }
+    if (over >= 0)
         return sph_status_set(st, SPH_STEP_RECOVERABLE, SPH_FAULT_CLUMPING, over >= 0 ? P->id[over] : -1,
                               "neighbour count", (double)m->prm.max_neighbours,
                               (double)m->prm.max_neighbours,
@@ -298,6 +312,16 @@ static int prepare(sph_model *m, sph_status *st)
     sph_select_active(m);
     return SPH_STEP_OK;
 }
+
+/* Neighbours, density and diagnosis at the current positions. */
+static int prepare(sph_model *m, sph_status *st)
+{
+    sph_reorder(m);
+    sph_build_ghosts(m);
+    return prepare_lists(m, st);
+}
+
+int sph_model_ghosts_merging(const sph_model *m) { return m && m->ghost_merge; }
 
 /* ------------------------------------------------------------------ */
 /* free drift as independent parcels (model.free_drift_parcels)       */

@@ -57,6 +57,13 @@ struct sph_model {
     size_t ng;        /* ghosts this step, at indices [n, n + ng) */
     int *ghost_src;
     double *ghost_nx, *ghost_ny, *ghost_n2x, *ghost_n2y;
+    /* the ghosts placed so far in a hash of square cells (coast.c): heads
+     * [gh_size, a power of two], chains [2*cap] */
+    int *gh_head, *gh_next;
+    size_t gh_size;
+    double gh_cell;
+    size_t ghosts_thinned; /* ghosts merged into others by the last build (coast.c) */
+    int ghost_merge;       /* 1 once a neighbour list overflowed: crowded ghosts are merged */
     sph_nbr *nb;
     int has_mask;
     sph_landmask mask;

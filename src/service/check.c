@@ -21,39 +21,61 @@
 #include "util/limits.h"
 #include "util/timeutil.h"
 
-/* The raster seeded as a cold start would (before the land mask): the
- * particles' ice area and volume against the raster's over the model's
- * plane box, and whether initial.gate's 5 % would hold. */
-static void check_seeding(const struct sph_config *cfg, const ice_raster *r, int json, FILE *out, cJSON *j)
+/* The raster seeded exactly as a cold start of this cycle seeds it
+ * (fc_seed: the same options, plane box and land mask, built from the
+ * local files the cycle would use): the particles' ice area and volume
+ * against the raster's over the model's plane box, the fraction seeded on
+ * land, and whether initial.gate's 5 % would hold. */
+static void check_seeding(const struct sph_config *cfg, ice_raster *r, double t, int json, FILE *out, cJSON *j)
 {
     sph_error e;
     sph_error_clear(&e);
+    /* the forcing files the cycle would take its land from (source forcing) */
+    char files[SPHICE_MAX_SOURCES][4096];
+    const char *lists[SPHICE_MAX_SOURCES][2];
+    forecast_request req;
+    memset(&req, 0, sizeof req);
+    req.cycle_time = t;
+    for (size_t s = 0; s < cfg->nforcing && s < SPHICE_MAX_SOURCES; s++) {
+        struct stat st;
+        const char *f = files[s];
+        files[s][0] = 0;
+        if (cfg->forcing[s].urls.n && cycle_expand_template(cfg->forcing[s].urls.v[0], t, files[s],
+                                                            sizeof files[s], &e) == SPH_OK)
+            f = !strncmp(files[s], "file://", 7) ? files[s] + 7 : files[s];
+        sph_error_clear(&e);
+        lists[s][0] = f[0] && !strstr(f, "://") && stat(f, &st) == 0 ? f : NULL;
+        lists[s][1] = NULL;
+        req.forcing_files[s] = lists[s];
+    }
     engine eng;
     memset(&eng, 0, sizeof eng);
     eng.cfg = cfg;
+    eng.req = &req;
+    eng.raster = r;
+    snprintf(eng.raster_path, sizeof eng.raster_path, "%s", r->path);
     eng.proj = geo_proj_create(cfg->domain.projection, 0.5 * (cfg->domain.lon_min + cfg->domain.lon_max),
                                0.5 * (cfg->domain.lat_min + cfg->domain.lat_max), &e);
-    double b[4] = {0, 0, 0, 0}, ra = 0, rv = 0;
+    double b[4] = {0, 0, 0, 0};
     seed_options so;
-    seed_options_default(&so);
-    so.threshold = cfg->initial.threshold;
-    so.spacing_m = cfg->initial.spacing_deg > 0 ? cfg->initial.spacing_deg * METRES_PER_DEGREE : 0.0;
-    so.rho_ice = cfg->model.rho_i;
-    size_t n = 0;
+    size_t n = 0, on = 0;
     sph_particles *P = NULL;
-    seed_totals t;
-    memset(&t, 0, sizeof t);
+    fc_seeded sd;
+    memset(&sd, 0, sizeof sd);
     int rc = eng.proj ? fc_plane_box(&eng, &b[0], &b[1], &b[2], &b[3], &e) : SPH_ERR_CONFIG;
-    so.xmin = b[0], so.xmax = b[1], so.ymin = b[2], so.ymax = b[3];
     if (rc == SPH_OK)
-        rc = seed_count(r, eng.proj, NULL, &so, &n, &e);
+        rc = fc_build_landmask(&eng, b[0], b[1], b[2], b[3], 0.5 * fc_spacing_m(&eng), &e);
+    fc_seed_options(&eng, &so);
+    if (rc == SPH_OK)
+        rc = seed_count(r, eng.proj, eng.lm, &so, &n, &e);
     if (rc == SPH_OK && !(P = sph_particles_create(n ? n : 1, 1)))
         rc = sph_err_set(&e, SPH_ERR_NOMEM, "check: out of memory");
     if (rc == SPH_OK)
-        rc = seed_from_raster_totals(r, eng.proj, NULL, &so, P, &t, &e);
-    if (rc == SPH_OK)
-        rc = seed_raster_totals(r, eng.proj, NULL, &so, b, &ra, &rv, &e);
+        rc = fc_seed(&eng, &so, P, &sd, &e);
+    double fland = rc == SPH_OK ? fc_land_fraction(&eng.plane, P, &on) : 0.0;
     sph_particles_free(P);
+    landmask_free(eng.lm);
+    free(eng.plane_land);
     geo_proj_free(eng.proj);
     if (rc != SPH_OK) {
         cJSON_AddStringToObject(j, "seeding_problem", e.msg);
@@ -62,22 +84,23 @@ static void check_seeding(const struct sph_config *cfg, const ice_raster *r, int
         return;
     }
     /* the lattice's totals before its scaling, as the cycle's gate */
-    double sa = t.rescaled ? t.raw_area_m2 : t.seeded_area_m2, sv = t.rescaled ? t.raw_volume_m3 : t.seeded_volume_m3;
-    double da = ra > 0 ? sa / ra - 1 : 0, dv = rv > 0 ? sv / rv - 1 : 0;
-    int ok = ra > 0 ? n > 0 && fabs(da) <= 0.05 && fabs(dv) <= 0.05 : 1;
-    cJSON_AddNumberToObject(j, "seeded_particles", (double)n);
+    double ra = sd.raster_area, rv = sd.raster_volume;
+    double da = ra > 0 ? sd.raw_area / ra - 1 : 0, dv = rv > 0 ? sd.raw_volume / rv - 1 : 0;
+    int ok = ra > 0 ? sd.n > 0 && fabs(da) <= 0.05 && fabs(dv) <= 0.05 : 1;
+    cJSON_AddNumberToObject(j, "seeded_particles", (double)sd.n);
     cJSON_AddNumberToObject(j, "domain_raster_ice_area_km2", ra / 1e6);
     cJSON_AddNumberToObject(j, "domain_raster_ice_volume_km3", rv / 1e9);
-    cJSON_AddNumberToObject(j, "seeded_ice_area_km2", t.seeded_area_m2 / 1e6);
-    cJSON_AddNumberToObject(j, "seeded_ice_volume_km3", t.seeded_volume_m3 / 1e9);
+    cJSON_AddNumberToObject(j, "seeded_ice_area_km2", sd.area / 1e6);
+    cJSON_AddNumberToObject(j, "seeded_ice_volume_km3", sd.volume / 1e9);
+    cJSON_AddNumberToObject(j, "seeded_on_land_fraction", fland);
     cJSON_AddBoolToObject(j, "seeding_gate_ok", ok);
     if (!json) {
-        fprintf(out, "raster       initial        seeded (before the land mask) %zu particles: area %.6g km2, "
-                "volume %.6g km3; the raster over the model's box %.6g km2, %.6g km3\n", n,
-                t.seeded_area_m2 / 1e6, t.seeded_volume_m3 / 1e9, ra / 1e6, rv / 1e9);
+        fprintf(out, "raster       initial        seeded as the cycle seeds (land mask applied) %zu particles: "
+                "area %.6g km2, volume %.6g km3, %zu on land; the raster over the model's box %.6g km2, "
+                "%.6g km3\n", sd.n, sd.area / 1e6, sd.volume / 1e9, on, ra / 1e6, rv / 1e9);
         if (!ok)
             fprintf(out, "PROBLEM      seeding: the %s seeds %+.1f %% of the raster's ice area and %+.1f %% "
-                    "of its volume (more than 5 %%: initial.gate)\n", t.rescaled ? "lattice" : "raster's cells",
+                    "of its volume (more than 5 %%: initial.gate)\n", sd.rescaled ? "lattice" : "raster's cells",
                     100 * da, 100 * dv);
     }
 }
@@ -160,7 +183,7 @@ static int check_raster(const struct sph_config *cfg, double t, int json, FILE *
         else
             fprintf(out, "raster       initial        no ice in the domain: an open-water start\n");
     }
-    check_seeding(cfg, r, json, out, j);
+    check_seeding(cfg, r, t, json, out, j);
     ice_raster_free(r);
     return 0;
 }

@@ -62,7 +62,7 @@ static const char *const reinit_names[] = {"warm", "cold", "newer_raster", NULL}
 static const char *const thick_kind_names[] = {"auto", "ice", "cell_mean", NULL};
 static const char *const conc_units_names[] = {"auto", "fraction", "percent", NULL}; /* ICE_CONC_UNITS_* */
 static const char *const gate_names[] = {"fail", "flag", NULL};
-static const char *const land_names[] = {"none", "gshhg", "netcdf", "forcing", NULL};
+static const char *const land_names[] = {"none", "gshhg", "netcdf", "forcing", "raster", NULL};
 static const char *const landres_names[] = {"crude", "low", "intermediate", "high", "full", NULL};
 static const char *const landfrom_names[] = {"auto", "mask", "fill", NULL};
 static const char *const landpol_names[] = {"auto", "land_is_1", "water_is_1", NULL};
@@ -156,6 +156,8 @@ static const cfg_key tail_keys[] = {
        "Concentration below which no particle is placed."),
     C_("initial.spacing", CT_DOUBLE, initial.spacing_deg, "0.02", 0, 5, R, NULL,
        "Initial particle spacing, degrees (a lattice on the model plane); 0: one particle per raster cell, at its centre with the cell's true area."),
+    C_("initial.cell_particles", CT_INT, initial.cell_particles, "0", 0, 10, R, NULL,
+       "n > 0: seed n x n particles per raster cell (at its sub-cells' centres, each with the cell's concentration and thickness and 1/n^2 of its true area), whatever initial.spacing says; 0: initial.spacing decides (a lattice, or one per cell)."),
     C_("initial.reinit", CT_ENUM, initial.reinit, "\"newer_raster\"", 0, 0, R, reinit_names,
        "warm: warm start from the previous cycle's particles when they exist; cold: always from the raster; newer_raster: warm unless the raster is newer than the previous cycle."),
     C_("initial.thickness_kind", CT_ENUM, initial.thickness_kind, "\"auto\"", 0, 0, R, thick_kind_names,
@@ -175,8 +177,10 @@ static const cfg_key tail_keys[] = {
        "GeoTIFF: the concentration band's unit: fraction (0..1), percent, or auto (the band's unit type or units metadata: %, percent, 1, fraction; where it says nothing the file is refused naming this key)."),
 
     C_("landmask.source", CT_ENUM, landmask.source, "\"none\"", 0, 0, R, land_names,
-       "none, gshhg (shoreline polygons), netcdf (mask variable), forcing (ocean model's land)."),
+       "none, gshhg (shoreline polygons), netcdf (mask variable), forcing (ocean model's land), raster (the initial raster's own land, coast and lake flags)."),
     C_("landmask.path", CT_STRING, landmask.path, "\"\"", 0, 4095, R, NULL, "Land mask file."),
+    C_("landmask.raster_land", CT_BOOL, landmask.raster_land, "false", 0, 0, R, NULL,
+       "true: the initial raster's own land, coast and lake flags are land as well (in union with landmask.source); the raster must then be readable at every cycle."),
     C_("landmask.variable", CT_STRING, landmask.variable, "\"\"", 0, 63, R, NULL,
        "Mask variable, or (from fill) the variable whose fill marks land; empty: found in the file (a land/sea mask by standard name, flag meanings or ROMS mask_rho; for source forcing else a current's fill)."),
     C_("landmask.resolution", CT_ENUM, landmask.resolution, "\"intermediate\"", 0, 0, R, landres_names,

@@ -269,8 +269,10 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     if ((rc = coupling_open(&e->cpl, cfg, req, e->t0, e->t_end, e->cname, er)))
         goto fail;
 
-    /* the raster is read first on a cold start: the mask cell size may depend on it */
-    if (!req->warm_start && cfg->initial.spacing_deg <= 0 && cfg->initial.path && cfg->initial.path[0] &&
+    /* the raster is read first on a cold start: the mask cell size may depend on it;
+     * on any start when the land mask takes the raster's own land */
+    if (((!req->warm_start && (cfg->initial.spacing_deg <= 0 || cfg->initial.cell_particles > 0)) ||
+         fc_raster_land(cfg)) && cfg->initial.path && cfg->initial.path[0] &&
         (rc = fc_read_raster(e, cfg->initial.path, cfg->initial.format, cfg->initial.conc_var, e->t0, &e->raster,
                           e->raster_path, sizeof e->raster_path, "initial field", er)))
         goto fail;
@@ -411,6 +413,9 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     log_info("forecast %s: %ld steps, %d output times, %ld -> %ld particles, budget residual %.3g, %.1f s",
              e->cname, nsteps, nout, res->run.particles_start, res->run.particles_end, res->run.budget_residual,
              res->wall_seconds);
+    if (sph_model_ghosts_merging(e->m))
+        log_info("forecast %s: a coast curved tighter than the kernel support piled its mirror ghosts up beyond "
+                 "model.max_neighbours: crowded ghosts were merged (docs/engine.md)", e->cname);
     if (b->ocean)
         log_info("forecast %s: ice and ocean budgets: energy residual %.3g, water %.3g, salt %.3g; %ld particles "
                  "created, %ld merged", e->cname, res->run.energy_residual, res->run.water_residual,

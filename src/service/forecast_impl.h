@@ -107,6 +107,8 @@ int fc_resolve_dt(engine *e, sph_error *err);
 /* More than 1 % of the particles on the plane's land: fails or flags by
  * initial.gate (forecast_init.c); sets res->land_fraction. */
 int fc_land_gate(engine *e, sph_error *err);
+/* The fraction of P's particles on L's land (*count: how many; may be NULL). */
+double fc_land_fraction(const sph_landmask *L, const sph_particles *P, size_t *count);
 void fc_fmt_status(const sph_status *st, char *buf, size_t len);
 int fc_settings_fault(const sph_status *st);
 
@@ -121,6 +123,26 @@ int fc_read_raster(engine *e, const char *tmpl, int format, const char *conc_var
  * the drivers that read only what covers it. */
 void fc_raster_options(const struct sph_config *cfg, ice_raster_options *o);
 double fc_spacing_m(const engine *e);
+/* 1 when the land mask takes the initial raster's own land flags */
+static inline int fc_raster_land(const struct sph_config *cfg)
+{
+    return cfg->landmask.source == CFG_LAND_RASTER || cfg->landmask.raster_land;
+}
+/* A cold start's seeding, for the cycle and `sphice check` alike: the
+ * options from the configuration and the plane box; the particles seeded
+ * into P (e->raster, e->proj, e->lm, e->plane set), those outside the
+ * plane box dropped, and the numbers its gates and cycle.json report (m^2,
+ * m^3): the raster's ice over the plane box's sea, the particles', and
+ * the particles' before the lattice's scaling (raw_: = the particles' per
+ * cell). */
+typedef struct fc_seeded {
+    double raster_area, raster_volume, area, volume, raw_area, raw_volume;
+    size_t n, dropped;
+    int rescaled;
+} fc_seeded;
+struct seed_options;
+void fc_seed_options(const engine *e, struct seed_options *so);
+int fc_seed(engine *e, const struct seed_options *so, sph_particles *P, fc_seeded *out, sph_error *err);
 int fc_cold_start(engine *e, sph_error *err);
 int fc_warm_start(engine *e, sph_error *err);
 

@@ -131,13 +131,33 @@ int fc_build_landmask(engine *e, double xmin, double xmax, double ymin, double y
             return rc;
         break;
     }
+    case CFG_LAND_RASTER:
+        if (!e->raster)
+            return sph_err_set(err, SPH_ERR_CONFIG, "config: landmask.source raster: no initial raster "
+                               "(initial.path) to take the land from");
+        if (!(e->lm = landmask_from_raster(e->raster, "landmask.source raster", err)))
+            return err->code ? err->code : SPH_ERR_CONFIG;
+        break;
     default:
         return sph_err_set(err, SPH_ERR_CONFIG, "config: landmask.source: unknown value %d",
                            cfg->landmask.source);
     }
+    if (cfg->landmask.raster_land && cfg->landmask.source != CFG_LAND_RASTER) {
+        /* the raster's own land, coast and lake flags as well */
+        if (!e->raster)
+            return sph_err_set(err, SPH_ERR_CONFIG, "config: landmask.raster_land: no initial raster "
+                               "(initial.path) to take the land from");
+        landmask *rl = landmask_from_raster(e->raster, "landmask.raster_land", err);
+        if (!rl)
+            return err->code ? err->code : SPH_ERR_CONFIG;
+        if (e->lm)
+            landmask_add(e->lm, rl);
+        else
+            e->lm = rl;
+    }
     /* plane grid over the projected domain box; on a native model grid in
      * cells of at most a third of the model's, so that its coast is kept */
-    if (e->lm && landmask_is_native(e->lm) && landmask_native_spacing_m(e->lm) / 3 < cell)
+    if (e->lm && landmask_native_spacing_m(e->lm) / 3 < cell) /* NaN: no native grid */
         cell = landmask_native_spacing_m(e->lm) / 3;
     int nx = (int)ceil((xmax - xmin) / cell), ny = (int)ceil((ymax - ymin) / cell);
     while ((double)nx * ny > (double)MAX_PLANE_CELLS) {
@@ -267,6 +287,10 @@ int fc_read_raster(engine *e, const char *tmpl, int format, const char *conc_var
 
 double fc_spacing_m(const engine *e)
 {
+    if (e->cfg->initial.cell_particles > 0 && e->raster) {
+        int j = e->raster->nlat / 2;
+        return sqrt(ice_raster_area(e->raster, e->raster->nlon / 2, j)) / e->cfg->initial.cell_particles;
+    }
     if (e->cfg->initial.spacing_deg > 0)
         return e->cfg->initial.spacing_deg * METRES_PER_DEGREE;
     if (e->raster) {
@@ -302,24 +326,63 @@ static int gate(engine *e, const char *msg, sph_error *err)
     return sph_err_set(err, SPH_ERR_BAD_DATA, "%s (initial.gate flag publishes it flagged)", msg);
 }
 
-/* The cold start's sanity gates (issue 19 item 7): the raster's ice over
- * the model's plane box (its sea cells above the threshold) against the
- * seeded particles' (the lattice's before its scaling to the raster). */
-static int seed_gate(engine *e, const seed_options *so, const seed_totals *st, const sph_particles *P,
-                     sph_error *err)
+void fc_seed_options(const engine *e, seed_options *so)
 {
-    double box[4] = {e->plane.x0, e->plane.x0 + e->plane.nx * e->plane.dx, e->plane.y0,
-                     e->plane.y0 + e->plane.ny * e->plane.dy};
-    double ra = 0, rv = 0, sa = 0, sv = 0;
-    int rc = seed_raster_totals(e->raster, e->proj, e->lm, so, box, &ra, &rv, err);
+    const struct sph_config *cfg = e->cfg;
+    seed_options_default(so);
+    so->threshold = cfg->initial.threshold;
+    so->spacing_m = cfg->initial.spacing_deg > 0 ? cfg->initial.spacing_deg * METRES_PER_DEGREE : 0.0;
+    so->cell_n = cfg->initial.cell_particles;
+    if (so->cell_n > 0)
+        so->spacing_m = 0.0; /* n x n per cell, whatever initial.spacing says */
+    so->sml_factor = cfg->model.sml_factor;
+    so->rho_ice = cfg->model.rho_i;
+    so->first_id = 0;
+    if (so->spacing_m > 0) { /* lattice over the model's plane box */
+        so->xmin = e->plane.x0;
+        so->ymin = e->plane.y0;
+        so->xmax = e->plane.x0 + e->plane.nx * e->plane.dx;
+        so->ymax = e->plane.y0 + e->plane.ny * e->plane.dy;
+    }
+}
+
+int fc_seed(engine *e, const seed_options *so, sph_particles *P, fc_seeded *out, sph_error *err)
+{
+    memset(out, 0, sizeof *out);
+    seed_totals st;
+    int rc = seed_from_raster_totals(e->raster, e->proj, e->lm, so, P, &st, err);
     if (rc)
         return rc;
+    /* particles outside the model's plane box would leave at once: drop them */
+    double x1 = e->plane.x0 + e->plane.nx * e->plane.dx, y1 = e->plane.y0 + e->plane.ny * e->plane.dy;
+    for (size_t k = P->n; k-- > 0;)
+        if (!(P->x[k] >= e->plane.x0 && P->x[k] < x1 && P->y[k] >= e->plane.y0 && P->y[k] < y1)) {
+            sph_particles_remove(P, k);
+            out->dropped++;
+        }
+    /* the raster's ice over the model's plane box (its sea cells above the
+     * threshold) against the seeded particles' */
+    double box[4] = {e->plane.x0, x1, e->plane.y0, y1};
+    if ((rc = seed_raster_totals(e->raster, e->proj, e->lm, so, box, &out->raster_area, &out->raster_volume,
+                                 err)))
+        return rc;
     for (size_t k = 0; k < P->n; k++) {
-        sv += P->mass[k] / so->rho_ice;
-        sa += P->mass[k] / (so->rho_ice * P->thick[k]);
+        out->volume += P->mass[k] / so->rho_ice;
+        out->area += P->mass[k] / (so->rho_ice * P->thick[k]);
     }
     /* what the seeding itself gave: the lattice before its scaling */
-    double ga = st->rescaled ? st->raw_area_m2 : sa, gv = st->rescaled ? st->raw_volume_m3 : sv;
+    out->rescaled = st.rescaled;
+    out->raw_area = st.rescaled ? st.raw_area_m2 : out->area;
+    out->raw_volume = st.rescaled ? st.raw_volume_m3 : out->volume;
+    out->n = P->n;
+    return SPH_OK;
+}
+
+/* The cold start's sanity gates (issue 19 item 7) on fc_seed's numbers. */
+static int seed_gate(engine *e, const seed_options *so, const fc_seeded *s, sph_error *err)
+{
+    double ra = s->raster_area, rv = s->raster_volume, sa = s->area, sv = s->volume;
+    double ga = s->raw_area, gv = s->raw_volume;
     if (e->res) {
         e->res->raster_ice_area_km2 = ra / 1e6;
         e->res->raster_ice_volume_km3 = rv / 1e9;
@@ -337,11 +400,11 @@ static int seed_gate(engine *e, const seed_options *so, const seed_totals *st, c
     }
     log_info("forecast %s: initial field %s: ice area %.6g km2, volume %.6g km3 over the domain's sea; "
              "seeded %zu particles, %.6g km2, %.6g km3%s", e->cname, e->raster_path, ra / 1e6, rv / 1e9,
-             P->n, sa / 1e6, sv / 1e9, st->rescaled ? "" : " (per cell)");
-    if (st->rescaled)
+             s->n, sa / 1e6, sv / 1e9, s->rescaled ? "" : " (per cell)");
+    if (s->rescaled)
         log_info("forecast %s: the lattice sampled %+.3f %% of the raster's area and %+.3f %% of its volume "
                  "before its scaling", e->cname, 100 * (ga / ra - 1), 100 * (gv / rv - 1));
-    if (P->n == 0) {
+    if (s->n == 0) {
         snprintf(msg, sizeof msg, "initial field %s: ice area %.6g km2 and volume %.6g km3 in the domain "
                  "but no particle seeded", e->raster_path, ra / 1e6, rv / 1e9);
         return gate(e, msg, err);
@@ -357,17 +420,24 @@ static int seed_gate(engine *e, const seed_options *so, const seed_totals *st, c
     return SPH_OK;
 }
 
-int fc_land_gate(engine *e, sph_error *err)
+double fc_land_fraction(const sph_landmask *L, const sph_particles *P, size_t *count)
 {
-    const sph_particles *P = sph_model_particles(e->m);
-    const sph_landmask *L = &e->plane;
     size_t on = 0;
     for (size_t k = 0; L->land && k < P->n; k++) {
         long i = (long)floor((P->x[k] - L->x0) / L->dx), j = (long)floor((P->y[k] - L->y0) / L->dy);
         if (i >= 0 && j >= 0 && i < L->nx && j < L->ny && L->land[(size_t)j * L->nx + i])
             on++;
     }
-    double f = P->n ? (double)on / (double)P->n : 0.0;
+    if (count)
+        *count = on;
+    return P->n ? (double)on / (double)P->n : 0.0;
+}
+
+int fc_land_gate(engine *e, sph_error *err)
+{
+    const sph_particles *P = sph_model_particles(e->m);
+    size_t on = 0;
+    double f = fc_land_fraction(&e->plane, P, &on);
     if (e->res)
         e->res->land_fraction = f;
     if (f > 0.01) {
@@ -392,18 +462,7 @@ int fc_cold_start(engine *e, sph_error *err)
                           &e->raster, e->raster_path, sizeof e->raster_path, "initial field", err)))
         return rc;
     seed_options so;
-    seed_options_default(&so);
-    so.threshold = cfg->initial.threshold;
-    so.spacing_m = cfg->initial.spacing_deg > 0 ? cfg->initial.spacing_deg * METRES_PER_DEGREE : 0.0;
-    so.sml_factor = cfg->model.sml_factor;
-    so.rho_ice = cfg->model.rho_i;
-    so.first_id = 0;
-    if (so.spacing_m > 0) { /* lattice over the model's plane box */
-        so.xmin = e->plane.x0;
-        so.ymin = e->plane.y0;
-        so.xmax = e->plane.x0 + e->plane.nx * e->plane.dx;
-        so.ymax = e->plane.y0 + e->plane.ny * e->plane.dy;
-    }
+    fc_seed_options(e, &so);
     size_t count = 0;
     if ((rc = seed_count(e->raster, e->proj, e->lm, &so, &count, err)))
         return rc;
@@ -412,20 +471,12 @@ int fc_cold_start(engine *e, sph_error *err)
     if (!e->m)
         return sph_err_set(err, SPH_ERR_NOMEM, "model: cannot create a model for %zu particles", e->cap);
     sph_particles *P = sph_model_particles(e->m);
-    seed_totals st0;
-    if ((rc = seed_from_raster_totals(e->raster, e->proj, e->lm, &so, P, &st0, err)))
+    fc_seeded seeded;
+    if ((rc = fc_seed(e, &so, P, &seeded, err)))
         return rc;
-    /* particles outside the model's plane box would leave at once: drop them */
-    size_t dropped = 0;
-    double x1 = e->plane.x0 + e->plane.nx * e->plane.dx, y1 = e->plane.y0 + e->plane.ny * e->plane.dy;
-    for (size_t k = P->n; k-- > 0;)
-        if (!(P->x[k] >= e->plane.x0 && P->x[k] < x1 && P->y[k] >= e->plane.y0 && P->y[k] < y1)) {
-            sph_particles_remove(P, k);
-            dropped++;
-        }
-    if (dropped)
-        log_info("forecast %s: %zu seeded particles outside the domain box left out", e->cname, dropped);
-    if ((rc = seed_gate(e, &so, &st0, P, err)))
+    if (seeded.dropped)
+        log_info("forecast %s: %zu seeded particles outside the domain box left out", e->cname, seeded.dropped);
+    if ((rc = seed_gate(e, &so, &seeded, err)))
         return rc;
     for (size_t k = 0; k < P->n; k++) {
         P->snow[k] = 0.0;

@@ -30,6 +30,7 @@
  * O(edges + cells) per row. Antarctic ice-shelf variants are not handled.
  */
 #include "io/landmask.h"
+#include "io/raster.h"
 
 #include <math.h>
 #include <netcdf.h>
@@ -53,6 +54,7 @@ struct landmask {
     double bmin[3], bsize, spacing; /* spacing: mean chord between neighbours */
     int nb[3];
     uint32_t *bstart, *bidx;
+    struct landmask *also; /* land as well where this one says so (landmask_add) */
 };
 
 static landmask *mask_alloc(int nlon, int nlat, double lon0, double lat0, double dlon,
@@ -89,6 +91,7 @@ void landmask_free(landmask *m)
     free(m->reach2);
     free(m->bstart);
     free(m->bidx);
+    landmask_free(m->also);
     free(m);
 }
 
@@ -103,8 +106,51 @@ landmask *landmask_create_array(int nlon, int nlat, double lon0, double lat0, do
 }
 
 static long native_nearest(const landmask *m, double lon, double lat);
+static landmask *native_create(size_t nx, size_t ny, const double *lon, const double *lat,
+                               const unsigned char *land, const char *path, sph_error *err);
+
+static int is_land_one(const landmask *m, double lon, double lat);
 
 int landmask_is_land(const landmask *m, double lon, double lat)
+{
+    int r = is_land_one(m, lon, lat);
+    if (r == 1 || !m || !m->also)
+        return r;
+    int a = landmask_is_land(m->also, lon, lat);
+    return a == 1 ? 1 : r == -1 && a == -1 ? -1 : 0;
+}
+
+void landmask_add(landmask *m, landmask *also)
+{
+    while (m->also)
+        m = m->also;
+    m->also = also;
+}
+
+landmask *landmask_from_raster(const ice_raster *r, const char *key, sph_error *err)
+{
+    if (!r->land || !r->nland) {
+        sph_err_set(err, SPH_ERR_CONFIG, "%s: initial raster %s flags no land (no land, coast or lake in its "
+                    "flag_values/flag_meanings or status_flag)", key, r->path);
+        return NULL;
+    }
+    size_t n = (size_t)r->nlon * r->nlat;
+    unsigned char *land = malloc(n ? n : 1);
+    if (!land) {
+        sph_err_set(err, SPH_ERR_NOMEM, "land mask %s: out of memory", r->path);
+        return NULL;
+    }
+    for (size_t k = 0; k < n; k++)
+        land[k] = r->land[k] == 1;
+    landmask *m = r->kind == ICE_RASTER_LONLAT
+                      ? landmask_create_array(r->nlon, r->nlat, r->lon[0] - r->dlon / 2, r->lat[0] - r->dlat / 2,
+                                              r->dlon, r->dlat, land, err)
+                      : native_create((size_t)r->nlon, (size_t)r->nlat, r->cell_lon, r->cell_lat, land, r->path, err);
+    free(land);
+    return m;
+}
+
+static int is_land_one(const landmask *m, double lon, double lat)
 {
     if (!m || !isfinite(lon) || !isfinite(lat))
         return -1;
@@ -137,7 +183,8 @@ int landmask_is_native(const landmask *m) { return m && m->native; }
 
 double landmask_native_spacing_m(const landmask *m)
 {
-    return m && m->native ? m->spacing * 6371000.0 : NAN;
+    double s = m && m->native ? m->spacing * 6371000.0 : NAN, a = m && m->also ? landmask_native_spacing_m(m->also) : NAN;
+    return isnan(s) || a < s ? a : s;
 }
 
 /* ---------------------------------------------------------------- GSHHG */
@@ -1297,6 +1344,7 @@ int landmask_to_plane(const landmask *m, const geo_proj *p, double x0, double y0
     free(x);
     /* a native land cell is never lost between plane centres: the plane
      * cell that contains its centre is land as well */
+    for (; m; m = m->also) /* every mask of a union (landmask_add) */
     for (size_t k = 0; m->native && k < (size_t)m->nlon * (size_t)m->nlat; k++) {
         if (!m->land[k] || isnan(m->xyz[3 * k]))
             continue;

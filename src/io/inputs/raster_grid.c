@@ -131,6 +131,19 @@ int raster_crs_forward(const struct raster_crs *c, double lon, double lat, doubl
     return 1;
 }
 
+int raster_crs_inverse(const struct raster_crs *c, double x, double y, double *lon, double *lat)
+{
+    PJ_COORD ll = proj_trans(c->fwd, PJ_INV, proj_coord(x / c->unit, y / c->unit, 0, HUGE_VAL));
+    if (!isfinite(ll.lp.lam) || !isfinite(ll.lp.phi) || ll.lp.lam == HUGE_VAL) {
+        proj_errno_reset(c->fwd);
+        *lon = *lat = NAN;
+        return 0;
+    }
+    *lon = remainder(ll.lp.lam, 360.0);
+    *lat = ll.lp.phi;
+    return 1;
+}
+
 int raster_set_projected(ice_raster *r, const char *def, const char *var,
                          const double *cell_area, sph_error *err)
 {

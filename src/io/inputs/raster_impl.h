@@ -58,6 +58,9 @@ int raster_set_regular_projected(ice_raster *r, const char *def, const char *var
 /* lon/lat (degrees, the CRS's geodetic datum) -> x/y (m); 0 when it does
  * not project. */
 int raster_crs_forward(const struct raster_crs *c, double lon, double lat, double *x, double *y);
+/* x/y (m) -> lon/lat (degrees, the CRS's geodetic datum); 0 when it does
+ * not unproject. */
+int raster_crs_inverse(const struct raster_crs *c, double x, double y, double *lon, double *lat);
 void raster_crs_free(struct raster_crs *c);
 
 /* The cells of a regular projected grid (nx x ny centres x0 + i dx,

@@ -32,6 +32,9 @@ static int check_options(const ice_raster *r, const seed_options *o, sph_error *
                            o->spacing_m, o->sml_factor, o->rho_ice);
     if (!r || r->nlon < 1 || r->nlat < 1)
         return sph_err_set(err, SPH_ERR_PARAM, "seeding: empty raster");
+    if (o->cell_n < 0 || o->cell_n > SEED_MAX_CELL_N)
+        return sph_err_set(err, SPH_ERR_CONFIG, "seeding: %d x %d particles per cell outside 0..%d",
+                           o->cell_n, o->cell_n, SEED_MAX_CELL_N);
     return SPH_OK;
 }
 
@@ -48,24 +51,80 @@ static int is_sea(const landmask *mask, double lon, double lat)
     return !mask || landmask_is_land(mask, lon, lat) != 1;
 }
 
+/* Sub-cell (a, b) of n x n of cell (i, j): its centre, at the fractions
+ * (a + 1/2) / n, (b + 1/2) / n of the cell in the raster's own
+ * coordinates (lon/lat, or x/y unprojected by PROJ); on a curvilinear
+ * grid interpolated bilinearly (as unit vectors) between the surrounding
+ * centres. n = 1: the cell's centre. 0 when it has no position. */
+static int sub_lonlat(const ice_raster *r, int i, int j, int n, int a, int b, double *lon, double *lat)
+{
+    if (n <= 1) {
+        ice_raster_cell_lonlat(r, i, j, lon, lat);
+        return isfinite(*lon) && isfinite(*lat);
+    }
+    double f = (a + 0.5) / n - 0.5, g = (b + 0.5) / n - 0.5;
+    if (r->kind == ICE_RASTER_LONLAT) {
+        *lon = r->lon[i] + f * r->dlon;
+        *lat = r->lat[j] + g * r->dlat;
+        return 1;
+    }
+    if (r->kind == ICE_RASTER_PROJECTED)
+        return raster_crs_inverse(r->crs, r->x[i] + f * r->dx, r->y[j] + g * r->dy, lon, lat);
+    /* curvilinear: between the two nearest centres along each index */
+    int i0 = f >= 0 ? i : i - 1, j0 = g >= 0 ? j : j - 1;
+    if (i0 + 1 >= r->nlon) i0 = r->nlon - 2;
+    if (j0 + 1 >= r->nlat) j0 = r->nlat - 2;
+    if (i0 < 0) i0 = 0;
+    if (j0 < 0) j0 = 0;
+    double t = r->nlon > 1 ? i + f - i0 : 0, u = r->nlat > 1 ? j + g - j0 : 0, v[3] = {0, 0, 0};
+    const double deg = M_PI / 180.0;
+    for (int q = 0; q < 4; q++) {
+        int ii = i0 + (q & 1), jj = j0 + (q >> 1);
+        if (ii >= r->nlon) ii = r->nlon - 1;
+        if (jj >= r->nlat) jj = r->nlat - 1;
+        double w = ((q & 1) ? t : 1 - t) * ((q >> 1) ? u : 1 - u), clon, clat;
+        ice_raster_cell_lonlat(r, ii, jj, &clon, &clat);
+        if (!isfinite(clon) || !isfinite(clat)) {
+            ice_raster_cell_lonlat(r, i, j, lon, lat); /* no neighbour: the centre */
+            return isfinite(*lon) && isfinite(*lat);
+        }
+        v[0] += w * cos(clat * deg) * cos(clon * deg);
+        v[1] += w * cos(clat * deg) * sin(clon * deg);
+        v[2] += w * sin(clat * deg);
+    }
+    *lon = atan2(v[1], v[0]) / deg;
+    *lat = atan2(v[2], hypot(v[0], v[1])) / deg;
+    return 1;
+}
+
+/* Per cell (spacing_m == 0): cell_n x cell_n particles (at least one) per
+ * cell above the threshold, each with the cell's concentration and
+ * thickness and 1 / cell_n^2 of its area; a sub-cell whose centre is land
+ * (mask) is left out. */
 static int walk_cells(const ice_raster *r, const landmask *mask, const seed_options *o,
                       emit_fn emit, void *ctx, size_t *count)
 {
     *count = 0;
+    const int n = o->cell_n > 1 ? o->cell_n : 1;
     for (int j = 0; j < r->nlat; j++) {
         for (int i = 0; i < r->nlon; i++) {
             size_t k = (size_t)j * r->nlon + i;
             double c = r->conc[k], lon, lat;
-            ice_raster_cell_lonlat(r, i, j, &lon, &lat);
-            if (!(c > o->threshold) || !(r->thick[k] > 0) || !is_sea(mask, lon, lat))
+            if (!(c > o->threshold) || !(r->thick[k] > 0))
                 continue;
-            seed_point s = {lon, lat, c, r->thick[k], ice_raster_area(r, i, j)};
-            if (emit) {
-                int rc = emit(ctx, &s);
-                if (rc != SPH_OK)
-                    return rc;
-            }
-            (*count)++;
+            double a = ice_raster_area(r, i, j) / ((double)n * n);
+            for (int b = 0; b < n; b++)
+                for (int q = 0; q < n; q++) {
+                    if (!sub_lonlat(r, i, j, n, q, b, &lon, &lat) || !is_sea(mask, lon, lat))
+                        continue;
+                    seed_point s = {lon, lat, c, r->thick[k], a};
+                    if (emit) {
+                        int rc = emit(ctx, &s);
+                        if (rc != SPH_OK)
+                            return rc;
+                    }
+                    (*count)++;
+                }
         }
     }
     return SPH_OK;
@@ -179,6 +238,22 @@ static int inside_raster(const ice_raster *r, double lon, double lat)
     return x >= rx[0] - hx && x <= rx[r->nlon - 1] + hx && y >= ry[0] - hy && y <= ry[r->nlat - 1] + hy;
 }
 
+/* 1 when (lon, lat) lies in a cell the raster flags as land (ice_raster.land 1). */
+static int raster_flags_land(const ice_raster *r, double lon, double lat)
+{
+    if (!r->land)
+        return 0;
+    double x = lon, y = lat, x0 = r->kind == ICE_RASTER_LONLAT ? r->lon[0] : r->x[0];
+    double y0 = r->kind == ICE_RASTER_LONLAT ? r->lat[0] : r->y[0];
+    double dx = r->kind == ICE_RASTER_LONLAT ? r->dlon : r->dx, dy = r->kind == ICE_RASTER_LONLAT ? r->dlat : r->dy;
+    if (r->kind == ICE_RASTER_PROJECTED && !raster_crs_forward(r->crs, lon, lat, &x, &y))
+        return 0;
+    double fi = floor((x - x0) / dx + 0.5), fj = floor((y - y0) / dy + 0.5);
+    if (!(fi >= 0 && fj >= 0 && fi < r->nlon && fj < r->nlat))
+        return 0;
+    return r->land[(size_t)fj * r->nlon + (size_t)fi] == 1;
+}
+
 static int walk_lattice(const ice_raster *r, const geo_proj *p, const landmask *mask,
                         const seed_options *o, emit_fn emit, void *ctx, size_t *count,
                         double box[4], sph_error *err)
@@ -226,7 +301,8 @@ static int walk_lattice(const ice_raster *r, const geo_proj *p, const landmask *
             if (!isfinite(lon[i]) || !inside_raster(r, lon[i], lat[i]) ||
                 !ice_raster_sample(&vol, lon[i], lat[i], &s.conc, &ah))
                 continue;
-            if (!(s.conc > o->threshold) || !(ah > 0) || !is_sea(mask, lon[i], lat[i]))
+            if (!(s.conc > o->threshold) || !(ah > 0) || !is_sea(mask, lon[i], lat[i]) ||
+                raster_flags_land(r, lon[i], lat[i]))
                 continue;
             s.thick = ah / s.conc; /* thickness of the ice, not of ice and water */
             if (emit)
@@ -255,16 +331,23 @@ int seed_raster_totals(const ice_raster *r, const geo_proj *p, const landmask *m
             double c = r->conc[k], lon, lat;
             if (!(c > o->threshold) || !(r->thick[k] > 0))
                 continue;
-            ice_raster_cell_lonlat(r, i, j, &lon, &lat);
-            if (!is_sea(mask, lon, lat))
+            /* the lattice: by the cell's centre; per cell: by its sub-cells' */
+            int sub = o->spacing_m > 0 || o->cell_n <= 1 ? 1 : o->cell_n, in = 0;
+            for (int b = 0; b < sub; b++)
+                for (int q = 0; q < sub; q++) {
+                    if (!sub_lonlat(r, i, j, sub, q, b, &lon, &lat) || !is_sea(mask, lon, lat))
+                        continue;
+                    if (box) {
+                        double x, y;
+                        if (!p || geo_forward(p, 1, &lon, &lat, &x, &y, NULL) != SPH_OK ||
+                            !(x >= box[0] && x < box[1] && y >= box[2] && y < box[3]))
+                            continue;
+                    }
+                    in++;
+                }
+            if (!in)
                 continue;
-            if (box) {
-                double x, y;
-                if (!p || geo_forward(p, 1, &lon, &lat, &x, &y, NULL) != SPH_OK ||
-                    !(x >= box[0] && x < box[1] && y >= box[2] && y < box[3]))
-                    continue;
-            }
-            double a = ice_raster_area(r, i, j);
+            double a = ice_raster_area(r, i, j) * (in / ((double)sub * sub));
             *area += c * a;
             *volume += c * r->thick[k] * a;
         }
