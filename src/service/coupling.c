@@ -48,6 +48,8 @@ int forecast_source_spec(const struct sph_config *cfg, size_t s, const char *con
     }
     sp->vectors = src->vectors; /* FORCING_VECTORS_* in the order of the key's names */
     sp->accumulation = src->accumulation; /* FORCING_ACCUMULATION_*, likewise */
+    sp->window = src->margin_km < 20040.0; /* half the circumference: whole grids */
+    sp->margin_km = src->margin_km;
     for (size_t k = 0; k < src->required.n; k++)
         sp->required |= (unsigned)config_quantity_flag(src->required.v[k]);
     for (size_t k = 0; k < src->optional_q.n; k++)
