@@ -25,7 +25,11 @@
 #include "check.h"
 #include "io/forcing.h"
 #include "io/geo.h"
+#include "service/check.h"
+#include "service/config.h"
+#include "service/forecast.h"
 #include "util/err.h"
+#include "cmems_nc.h"
 
 #include <math.h>
 #include <netcdf.h>
@@ -46,9 +50,8 @@
 
 #define DEG (M_PI / 180.0)
 #define T0 1700006400.0      /* 2023-11-15T00:00:00Z */
-#define H1950 (-175320.0)    /* 1970-01-01 in hours since 1950-01-01 */
 #define NT 3                 /* 6-hourly */
-#define FILL 1e20f
+#define FILL CMEMS_FILL
 #define KM_PER_DEG 111.19492664455873 /* 6371 km sphere */
 
 enum { REGULAR = 0, PROJECTED, CURVILINEAR };
@@ -93,140 +96,95 @@ static void curv_node(const shape *s, size_t i, size_t j, double *lon, double *l
     *lon = s->clon + E / cos(*lat * DEG);
 }
 
-static void put_text(int nc, int v, const char *name, const char *text)
+static const char *const proj_y_atts[] = {"standard_name", "projection_y_coordinate", "units", "m",
+                                          "axis", "Y", NULL};
+static const char *const proj_x_atts[] = {"standard_name", "projection_x_coordinate", "units", "m",
+                                          "axis", "X", NULL};
+static const char *const lat2_atts[] = {"standard_name", "latitude", "units", "degrees_north", NULL};
+static const char *const lon2_atts[] = {"standard_name", "longitude", "units", "degrees_east", NULL};
+static const char *const angle_atts[] = {"long_name", "angle between XI-axis and EAST", "units",
+                                         "radians", NULL};
+
+/* NSIDC polar stereographic north (Hughes 1980 ellipsoid, true at 70 N) */
+static void def_crs(int nc)
 {
-    NCW(nc_put_att_text(nc, v, name, strlen(text), text));
+    static const char *const atts[] = {"grid_mapping_name", "polar_stereographic", NULL};
+    static const struct { const char *name; double v; } num[] = {
+        {"latitude_of_projection_origin", 90}, {"standard_parallel", 70},
+        {"straight_vertical_longitude_from_pole", -45}, {"false_easting", 0}, {"false_northing", 0},
+        {"semi_major_axis", 6378273.0}, {"inverse_flattening", 298.279411123064}};
+    int crs = cmems_var(nc, "crs", NC_INT, 0, NULL, atts);
+    for (size_t k = 0; k < sizeof num / sizeof num[0]; k++)
+        NCW(nc_put_att_double(nc, crs, num[k].name, NC_DOUBLE, 1, &num[k].v));
 }
 
 static void write_file(const char *path, const shape *s)
 {
-    int nc, dt, dz = -1, dy, dx, vt, vz = -1, vy, vx, crs = -1;
+    int nc, d[4] = {-1, -1, -1, -1}, c[4] = {-1, -1, -1, -1}, lat2 = -1, lon2 = -1, ang = -1;
     NCW(nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc));
-    NCW(nc_def_dim(nc, "time", NT, &dt));
-    const char *yn = s->kind == REGULAR ? "latitude" : "y", *xn = s->kind == REGULAR ? "longitude" : "x";
-    if (s->kind == REGULAR)
-        NCW(nc_def_dim(nc, "depth", 1, &dz));
-    NCW(nc_def_dim(nc, yn, s->ny, &dy));
-    NCW(nc_def_dim(nc, xn, s->nx, &dx));
-    NCW(nc_def_var(nc, "time", NC_FLOAT, 1, &dt, &vt));
-    put_text(nc, vt, "standard_name", "time");
-    put_text(nc, vt, "units", "hours since 1950-01-01");
-    put_text(nc, vt, "calendar", "gregorian");
-    put_text(nc, vt, "axis", "T");
-    int lat2 = -1, lon2 = -1, ang = -1;
     if (s->kind == REGULAR) {
-        NCW(nc_def_var(nc, "depth", NC_FLOAT, 1, &dz, &vz));
-        put_text(nc, vz, "standard_name", "depth");
-        put_text(nc, vz, "units", "m");
-        put_text(nc, vz, "positive", "down");
-        put_text(nc, vz, "axis", "Z");
-        NCW(nc_def_var(nc, "latitude", NC_FLOAT, 1, &dy, &vy));
-        put_text(nc, vy, "standard_name", "latitude");
-        put_text(nc, vy, "units", "degrees_north");
-        put_text(nc, vy, "axis", "Y");
-        NCW(nc_def_var(nc, "longitude", NC_FLOAT, 1, &dx, &vx));
-        put_text(nc, vx, "standard_name", "longitude");
-        put_text(nc, vx, "units", "degrees_east");
-        put_text(nc, vx, "axis", "X");
-    } else if (s->kind == PROJECTED) {
-        NCW(nc_def_var(nc, "y", NC_DOUBLE, 1, &dy, &vy));
-        put_text(nc, vy, "standard_name", "projection_y_coordinate");
-        put_text(nc, vy, "units", "m");
-        put_text(nc, vy, "axis", "Y");
-        NCW(nc_def_var(nc, "x", NC_DOUBLE, 1, &dx, &vx));
-        put_text(nc, vx, "standard_name", "projection_x_coordinate");
-        put_text(nc, vx, "units", "m");
-        put_text(nc, vx, "axis", "X");
-        /* NSIDC polar stereographic north (Hughes 1980 ellipsoid, true at 70 N) */
-        NCW(nc_def_var(nc, "crs", NC_INT, 0, NULL, &crs));
-        put_text(nc, crs, "grid_mapping_name", "polar_stereographic");
-        double v;
-        v = 90;
-        NCW(nc_put_att_double(nc, crs, "latitude_of_projection_origin", NC_DOUBLE, 1, &v));
-        v = 70;
-        NCW(nc_put_att_double(nc, crs, "standard_parallel", NC_DOUBLE, 1, &v));
-        v = -45;
-        NCW(nc_put_att_double(nc, crs, "straight_vertical_longitude_from_pole", NC_DOUBLE, 1, &v));
-        v = 0;
-        NCW(nc_put_att_double(nc, crs, "false_easting", NC_DOUBLE, 1, &v));
-        NCW(nc_put_att_double(nc, crs, "false_northing", NC_DOUBLE, 1, &v));
-        v = 6378273.0;
-        NCW(nc_put_att_double(nc, crs, "semi_major_axis", NC_DOUBLE, 1, &v));
-        v = 298.279411123064;
-        NCW(nc_put_att_double(nc, crs, "inverse_flattening", NC_DOUBLE, 1, &v));
+        cmems_coords(nc, NT, s->ny, s->nx, d, c);
     } else {
-        int d2[2] = {dy, dx};
-        NCW(nc_def_var(nc, "lat", NC_DOUBLE, 2, d2, &lat2));
-        put_text(nc, lat2, "standard_name", "latitude");
-        put_text(nc, lat2, "units", "degrees_north");
-        NCW(nc_def_var(nc, "lon", NC_DOUBLE, 2, d2, &lon2));
-        put_text(nc, lon2, "standard_name", "longitude");
-        put_text(nc, lon2, "units", "degrees_east");
-        NCW(nc_def_var(nc, "angle", NC_DOUBLE, 2, d2, &ang));
-        put_text(nc, ang, "long_name", "angle between XI-axis and EAST");
-        put_text(nc, ang, "units", "radians");
+        NCW(nc_def_dim(nc, "time", NT, &d[0]));
+        NCW(nc_def_dim(nc, "y", s->ny, &d[2]));
+        NCW(nc_def_dim(nc, "x", s->nx, &d[3]));
+        c[0] = cmems_var(nc, "time", NC_FLOAT, 1, &d[0], cmems_time_atts);
+    }
+    if (s->kind == PROJECTED) {
+        c[2] = cmems_var(nc, "y", NC_DOUBLE, 1, &d[2], proj_y_atts);
+        c[3] = cmems_var(nc, "x", NC_DOUBLE, 1, &d[3], proj_x_atts);
+        def_crs(nc);
+    } else if (s->kind == CURVILINEAR) {
+        lat2 = cmems_var(nc, "lat", NC_DOUBLE, 2, &d[2], lat2_atts);
+        lon2 = cmems_var(nc, "lon", NC_DOUBLE, 2, &d[2], lon2_atts);
+        ang = cmems_var(nc, "angle", NC_DOUBLE, 2, &d[2], angle_atts);
     }
     static const char *const names[3] = {"uo", "vo", "zos"};
-    const char *std[3];
-    if (s->kind == REGULAR) {
-        std[0] = "eastward_sea_water_velocity";
-        std[1] = "northward_sea_water_velocity";
-    } else {
+    const char *std[3] = {"eastward_sea_water_velocity", "northward_sea_water_velocity",
+                          "sea_surface_height_above_geoid"};
+    if (s->kind != REGULAR) {
         std[0] = "sea_water_x_velocity";
         std[1] = "sea_water_y_velocity";
     }
-    std[2] = "sea_surface_height_above_geoid";
     int vv[3];
     for (int q = 0; q < 3; q++) {
         int dims[4], nd = 0;
-        dims[nd++] = dt;
+        dims[nd++] = d[0];
         if (s->kind == REGULAR && q < 2)
-            dims[nd++] = dz;
-        dims[nd++] = dy;
-        dims[nd++] = dx;
-        NCW(nc_def_var(nc, names[q], NC_FLOAT, nd, dims, &vv[q]));
-        size_t ch[4], c = 0;
-        ch[c++] = 1;
-        if (nd == 4)
-            ch[c++] = 1;
-        ch[c++] = s->ny < 64 ? s->ny : 64;
-        ch[c++] = s->nx < 128 ? s->nx : 128;
-        NCW(nc_def_var_chunking(nc, vv[q], NC_CHUNKED, ch));
-        NCW(nc_def_var_deflate(nc, vv[q], 1, 1, 1));
-        float f = FILL;
-        NCW(nc_put_att_float(nc, vv[q], "_FillValue", NC_FLOAT, 1, &f));
-        put_text(nc, vv[q], "standard_name", std[q]);
-        put_text(nc, vv[q], "units", q < 2 ? "m s-1" : "m");
-        if (crs >= 0)
-            put_text(nc, vv[q], "grid_mapping", "crs");
-        if (lat2 >= 0)
-            put_text(nc, vv[q], "coordinates", "lon lat");
+            dims[nd++] = d[1];
+        dims[nd++] = d[2];
+        dims[nd++] = d[3];
+        size_t ch[4] = {1, 1, 1, 1};
+        ch[nd - 2] = s->ny < 64 ? s->ny : 64;
+        ch[nd - 1] = s->nx < 128 ? s->nx : 128;
+        const char *atts[9] = {"standard_name", std[q], "units", q < 2 ? "m s-1" : "m", NULL, NULL,
+                               NULL, NULL, NULL};
+        if (s->kind == PROJECTED)
+            atts[4] = "grid_mapping", atts[5] = "crs";
+        if (s->kind == CURVILINEAR)
+            atts[4] = "coordinates", atts[5] = "lon lat";
+        vv[q] = cmems_data(nc, names[q], nd, dims, ch, atts);
     }
     NCW(nc_enddef(nc));
-    float tv[NT];
-    for (int k = 0; k < NT; k++)
-        tv[k] = (float)(T0 / 3600.0 - H1950 + 6.0 * k);
-    NCW(nc_put_var_float(nc, vt, tv));
     size_t n = s->nx * s->ny;
     double *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b);
     float *buf = malloc(n * sizeof *buf);
     if (s->kind == REGULAR) {
-        float z = 0.494025f;
-        NCW(nc_put_var_float(nc, vz, &z));
-        for (size_t j = 0; j < s->ny; j++)
-            buf[j] = (float)(s->lat0 + (double)j * s->dlat);
-        NCW(nc_put_var_float(nc, vy, buf));
-        for (size_t i = 0; i < s->nx; i++)
-            buf[i] = (float)(s->lon0 + (double)i * s->dlon);
-        NCW(nc_put_var_float(nc, vx, buf));
-    } else if (s->kind == PROJECTED) {
+        cmems_coord_values(nc, c, NT, T0 / 3600.0 + CMEMS_H1970, s->ny, s->lat0, s->nx, s->lon0,
+                           s->dlon);
+    } else {
+        for (size_t k = 0; k < NT; k++)
+            buf[k] = (float)(T0 / 3600.0 + CMEMS_H1970 + 6.0 * (double)k);
+        NCW(nc_put_var_float(nc, c[0], buf));
+    }
+    if (s->kind == PROJECTED) {
         for (size_t j = 0; j < s->ny; j++)
             a[j] = s->y0 + (double)j * s->dy;
-        NCW(nc_put_var_double(nc, vy, a));
+        NCW(nc_put_var_double(nc, c[2], a));
         for (size_t i = 0; i < s->nx; i++)
             a[i] = s->x0 + (double)i * s->dx;
-        NCW(nc_put_var_double(nc, vx, a));
-    } else {
+        NCW(nc_put_var_double(nc, c[3], a));
+    } else if (s->kind == CURVILINEAR) {
         double *an = malloc(n * sizeof *an);
         for (size_t j = 0; j < s->ny; j++)
             for (size_t i = 0; i < s->nx; i++) {
@@ -260,15 +218,7 @@ static int open_one(forcing **f, const char *path, const double box[4], int wind
                     double margin_km, sph_error *e)
 {
     const char *files[1] = {path};
-    forcing_source_spec sp;
-    memset(&sp, 0, sizeof sp);
-    sp.name = "ocean";
-    sp.kind = FORCING_OCEAN;
-    sp.files = files;
-    sp.nfiles = 1;
-    sp.required = FQ_CURRENT | FQ_SSH;
-    sp.window = window;
-    sp.margin_km = margin_km;
+    forcing_source_spec sp = cmems_spec(files, FQ_CURRENT | FQ_SSH, window, margin_km);
     sph_error_clear(e);
     return forcing_open(f, &sp, 1, T0, T0 + 12 * 3600.0, box[0], box[1], box[2], box[3], e);
 }
@@ -591,6 +541,50 @@ int main(void)
         c.cells_max = (span + 12) * (span + 12);
     }
     run_case(dir, &c);
+    /* The service: forcing[].margin_km reaches the reader (default 300 km; 20040 km,
+     * half the circumference, reads whole grids), sphice check shows the window. */
+    {
+        char path[512];
+        snprintf(path, sizeof path, "%s/service.nc", dir);
+        write_file(path, &g.s);
+        static const char *const margins[] = {"", ", \"margin_km\": 150", ", \"margin_km\": 20040"};
+        static const double want_margin[] = {300.0, 150.0, 20040.0};
+        for (int k = 0; k < 3; k++) {
+            char text[2048];
+            snprintf(text, sizeof text,
+                     "{\"domain\": {\"lon_min\": 176, \"lon_max\": 186, \"lat_min\": 58, "
+                     "\"lat_max\": 62}, \"schedule\": {\"forecast_hours\": 6},"
+                     " \"forcing\": [{\"name\": \"cmems\", \"kind\": \"ocean\", \"urls\": \"%s\","
+                     " \"required\": [\"current\"]%s}], \"output\": {\"dir\": \"%s/out\"}}",
+                     path, margins[k], dir);
+            struct sph_config *cfg = NULL;
+            sph_error e;
+            sph_error_clear(&e);
+            int rc = sph_config_parse(text, "hyperslab.json", &cfg, &e);
+            CHECK(rc == 0, "config with forcing[].margin_km: %s", e.msg);
+            if (rc)
+                continue;
+            CHECK(cfg->forcing[0].margin_km == want_margin[k], "margin_km %g, want %g",
+                  cfg->forcing[0].margin_km, want_margin[k]);
+            const char *files[2] = {path, NULL};
+            forcing_source_spec sp;
+            forcing_name_map *map = NULL;
+            rc = forecast_source_spec(cfg, 0, files, &sp, &map, &e);
+            CHECK(rc == 0 && sp.window == (k < 2) && sp.margin_km == want_margin[k],
+                  "spec: window %d margin %g", sp.window, sp.margin_km);
+            char *out = NULL;
+            size_t outlen = 0;
+            FILE *mf = open_memstream(&out, &outlen);
+            service_check(cfg, T0, 0, mf);
+            fclose(mf);
+            CHECK((strstr(out, ", window ") != NULL) == (k < 2), "sphice check and the window:\n%s",
+                  out);
+            free(out);
+            free(map);
+            sph_config_free(cfg);
+        }
+        unlink(path);
+    }
     rmdir(dir);
     return check_summary("test_forcing_hyperslab");
 }
