@@ -79,7 +79,8 @@ typedef struct shape {
     int kind;
     size_t nx, ny;
     /* regular */
-    double lon0, dlon, lat0, dlat;
+    double lon0, dlon, lat0, dlat; /* dlat < 0: latitudes descending (ERA5) */
+    int swap;                      /* data dimensions (..., longitude, latitude) */
     /* projected */
     double x0, dx, y0, dy;
     /* curvilinear */
@@ -152,11 +153,15 @@ static void write_file(const char *path, const shape *s)
         dims[nd++] = d[0];
         if (s->kind == REGULAR && q < 2)
             dims[nd++] = d[1];
-        dims[nd++] = d[2];
-        dims[nd++] = d[3];
+        dims[nd++] = d[s->swap ? 3 : 2];
+        dims[nd++] = d[s->swap ? 2 : 3];
         size_t ch[4] = {1, 1, 1, 1};
         ch[nd - 2] = s->ny < 64 ? s->ny : 64;
         ch[nd - 1] = s->nx < 128 ? s->nx : 128;
+        if (s->swap) {
+            ch[nd - 2] = s->nx < 128 ? s->nx : 128;
+            ch[nd - 1] = s->ny < 64 ? s->ny : 64;
+        }
         const char *atts[9] = {"standard_name", std[q], "units", q < 2 ? "m s-1" : "m", NULL, NULL,
                                NULL, NULL, NULL};
         if (s->kind == PROJECTED)
@@ -172,6 +177,9 @@ static void write_file(const char *path, const shape *s)
     if (s->kind == REGULAR) {
         cmems_coord_values(nc, c, NT, T0 / 3600.0 + CMEMS_H1970, s->ny, s->lat0, s->nx, s->lon0,
                            s->dlon);
+        for (size_t j = 0; j < s->ny; j++)
+            buf[j] = (float)(s->lat0 + (double)j * s->dlat);
+        NCW(nc_put_var_float(nc, c[2], buf));
     } else {
         for (size_t k = 0; k < NT; k++)
             buf[k] = (float)(T0 / 3600.0 + CMEMS_H1970 + 6.0 * (double)k);
@@ -200,11 +208,13 @@ static void write_file(const char *path, const shape *s)
         for (int q = 0; q < 3; q++) {
             for (size_t j = 0; j < s->ny; j++)
                 for (size_t i = 0; i < s->nx; i++)
-                    buf[j * s->nx + i] = field(q, (double)i, (double)j, k);
+                    buf[s->swap ? i * s->ny + j : j * s->nx + i] = field(q, (double)i, (double)j, k);
             size_t start[4] = {k, 0, 0, 0}, count[4] = {1, 1, s->ny, s->nx};
+            if (s->swap)
+                count[2] = s->nx, count[3] = s->ny;
             if (!(s->kind == REGULAR && q < 2)) {
-                count[1] = s->ny;
-                count[2] = s->nx;
+                count[1] = count[2];
+                count[2] = count[3];
             }
             NCW(nc_put_vara_float(nc, vv[q], start, count, buf));
         }
@@ -287,6 +297,7 @@ typedef struct kase {
     shape s;
     double box[4];
     double margin_km;
+    double seam;       /* regular global grid: the meridian where its columns wrap */
     /* window cells expected from the box, the margin and the spacing (test's own
      * arithmetic): an upper bound on the window's nodes */
     double cells_max;
@@ -319,13 +330,13 @@ static void run_case(const char *dir, const kase *c)
         lon[p] = mb[0] + (mb[1] - mb[0]) * urand();
         lat[p] = mb[2] + (mb[3] - mb[2]) * urand();
     }
-    if (c->s.kind == REGULAR && c->box[0] < 180.0 && c->box[1] > 180.0) {
-        /* across the seam: nodes at 179.5 and -180 (= 180), between them, and on it */
-        static const double seam[] = {179.5, 179.75, 179.999999, 180.0, 180.000001, 180.25,
-                                      180.5, -180.0, -179.75, 179.9};
+    if (c->s.kind == REGULAR && c->box[0] < c->seam && c->box[1] > c->seam) {
+        /* across the seam: its nodes, between them, and on it (given either way) */
+        static const double seam[] = {-0.5, -0.25, -0.000001, 0.0, 0.000001, 0.25, 0.5, -360.0,
+                                      -359.75, -0.1, 360.0, 359.9};
         for (size_t k = 0; k < sizeof seam / sizeof seam[0]; k++) {
-            lon[k] = seam[k];
-            lat[k] = 0.5 * (c->box[2] + c->box[3]) + 0.37 * (double)k;
+            lon[k] = c->seam + seam[k];
+            lat[k] = 0.5 * (c->box[2] + c->box[3]) + 0.31 * (double)k;
         }
     }
     vals a, b;
@@ -485,11 +496,25 @@ int main(void)
               .s = {.kind = REGULAR, .nx = 720, .ny = 341, .lon0 = -180, .dlon = 0.5, .lat0 = -80,
                     .dlat = 0.5},
               .box = {176.0, 186.0, 58.0, 62.0},
-              .margin_km = 150.0};
+              .margin_km = 150.0,
+              .seam = 180.0};
     double mb[4];
     margin_box(g.box, g.margin_km, mb);
     g.cells_max = axis_nodes(mb[1] - mb[0], 0.5) * axis_nodes(mb[3] - mb[2], 0.5);
     run_case(dir, &g);
+
+    /* Global 0 .. 360 (as GFS and ERA5 write it), latitudes descending 90 .. -90, data
+     * dimensions (time, depth, longitude, latitude): a North Sea domain across the 0
+     * meridian, two slabs read x before y. */
+    kase z = {.name = "global_0_360",
+              .s = {.kind = REGULAR, .nx = 720, .ny = 361, .lon0 = 0, .dlon = 0.5, .lat0 = 90,
+                    .dlat = -0.5, .swap = 1},
+              .box = {-4.0, 4.0, 54.0, 58.0},
+              .margin_km = 100.0,
+              .seam = 0.0};
+    margin_box(z.box, z.margin_km, mb);
+    z.cells_max = axis_nodes(mb[1] - mb[0], 0.5) * axis_nodes(mb[3] - mb[2], 0.5);
+    run_case(dir, &z);
 
     /* The same file, domain away from the seam, margin 0: only the cells the domain
      * touches and the guard. */
