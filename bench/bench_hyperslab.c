@@ -21,11 +21,12 @@
  * and without a read window (forcing[].margin_km default, 300 km), then
  * sampling the currents at 2000 points in the domain at two times (all
  * three slices of both variables are read). Rows: method "whole" and
- * "window" (err = bytes the reader holds, MB; err2 = slices read; err3 for
- * the window: values that differ from the whole read's, bit for bit), and
- * "window/whole" (err = wall-time ratio, err2 = bytes ratio, err3 = peak RSS
- * ratio). The issue's target: a regional read costs at most 5 % of the
- * whole file's.
+ * "window" (err = bytes the reader holds, MB; err2 = slices read), and
+ * "window/whole" (cpu_s and wall_s: the ratios; peak_rss_mb: the window's;
+ * err = wall-time ratio, err2 = bytes ratio, err3 = peak RSS ratio; status
+ * "values_differ" when a sampled value is not bit for bit the whole read's).
+ * The issue's target: a regional read costs at most 5 % of the whole
+ * file's.
  *   BENCH_QUICK=1: 2 time steps. */
 #include "bench_common.h"
 #include "io/forcing.h"
@@ -183,14 +184,14 @@ int main(void)
         snprintf(ratio.config, sizeof ratio.config, "%s", config);
         ratio.cpu_s = whole.cpu_s > 0 ? win.cpu_s / whole.cpu_s : NAN;
         ratio.wall_s = whole.wall_s > 0 ? win.wall_s / whole.wall_s : NAN;
-        ratio.rss_mb = whole.rss_mb > 0 ? win.rss_mb / whole.rss_mb : NAN;
+        ratio.rss_mb = win.rss_mb;
         snprintf(ratio.status, sizeof ratio.status, "%s", diff ? "values_differ" : "ok");
         ratio.err_name[0] = "wall_ratio";
         ratio.err[0] = ratio.wall_s;
         ratio.err_name[1] = "bytes_ratio";
         ratio.err[1] = whole.err[0] > 0 ? win.err[0] / whole.err[0] : NAN;
-        ratio.err_name[2] = "values_differing";
-        ratio.err[2] = (double)diff;
+        ratio.err_name[2] = "rss_ratio";
+        ratio.err[2] = whole.rss_mb > 0 ? win.rss_mb / whole.rss_mb : NAN;
         bench_row_print(&ratio);
         fprintf(stderr,
                 "bench_hyperslab: %s: whole %.3f s wall, %.1f MB held, %.0f MB peak RSS; window "
