@@ -27,7 +27,9 @@
 #include "io/geo.h"
 #include "service/check.h"
 #include "service/config.h"
+#include "service/coupling.h"
 #include "service/forecast.h"
+#include "core/particles.h"
 #include "util/err.h"
 #include "cmems_nc.h"
 
@@ -605,6 +607,38 @@ int main(void)
             CHECK((strstr(out, ", window ") != NULL) == (k < 2), "sphice check and the window:\n%s",
                   out);
             free(out);
+            if (k == 1) {
+                /* a particle that drifted out of the window is outside the forcing: an
+                 * ocean source serves the others and counts it as a coast fallback (no
+                 * current), as for a point outside the file's grid */
+                forecast_request req;
+                memset(&req, 0, sizeof req);
+                req.cycle_time = T0;
+                req.forcing_files[0] = files;
+                fc_coupling cp;
+                memset(&cp, 0, sizeof cp);
+                rc = coupling_open(&cp, cfg, &req, T0, T0 + 6 * 3600.0, "test", &e);
+                CHECK(rc == 0, "coupling_open: %s", e.msg);
+                geo_proj *proj = geo_proj_create("aeqd", 181.0, 60.0, &e);
+                sph_particles *P = sph_particles_create(3, 1);
+                double plon[3] = {180.1, 177.3, 150.0}, plat[3] = {60.2, 58.6, 60.0};
+                CHECK(proj && P && geo_forward(proj, 3, plon, plat, P->x, P->y, &e) == 0,
+                      "particles: %s", e.msg);
+                P->n = 3;
+                for (size_t q = 0; q < 3; q++)
+                    P->id[q] = (long)q;
+                CHECK(coupling_alloc(&cp, 3, &e) == 0, "alloc");
+                if (rc == 0)
+                    rc = coupling_fill(&cp, proj, &cfg->model.thermo, 0, P, T0 + 3600.0, &e);
+                CHECK(rc == 0 && cp.coast_fallbacks == 1, "fill: rc %d, %ld fallbacks: %s", rc,
+                      cp.coast_fallbacks, e.msg);
+                CHECK(P->uw[2] == 0 && P->vw[2] == 0, "the particle outside the window got no current");
+                CHECK(hypot(P->uw[0], P->vw[0]) > 0 && hypot(P->uw[1], P->vw[1]) > 0,
+                      "the particles inside got currents");
+                coupling_free(&cp);
+                sph_particles_free(P);
+                geo_proj_free(proj);
+            }
             free(map);
             sph_config_free(cfg);
         }
