@@ -1,9 +1,10 @@
 #!/bin/sh
 # The benchmark suite (issue 2 performance, issue 7 speed-accuracy,
-# stability envelope, auto vs full). `make bench` runs it after building.
+# stability envelope, auto vs full, read windows on a global file).
+# `make bench` runs it after building.
 #   BENCH_QUICK=1  small matrices (CI, ~3 min)
 #   BENCH_OUT=dir  output folder (default bench/out)
-#   BENCH_ONLY="neighbours reference stability auto demo"  a subset
+#   BENCH_ONLY="neighbours reference stability auto demo hyperslab"  a subset
 #              (box2001: CICE's box2001 side by side, not in the default list)
 #   DEMO_HOURS=h   the demo problem's forecast length (bench/bench_demo.sh; 96)
 # Writes $BENCH_OUT/results.csv (one row per run, see bench/bench_common.h),
@@ -15,7 +16,7 @@
 set -eu
 BUILD=${BUILD:-build}
 OUT=${BENCH_OUT:-bench/out}
-ONLY=${BENCH_ONLY:-"neighbours reference stability auto demo"}
+ONLY=${BENCH_ONLY:-"neighbours reference stability auto demo hyperslab"}
 mkdir -p "$OUT"
 export OMP_WAIT_POLICY=PASSIVE
 {

@@ -85,6 +85,13 @@ typedef struct forcing_source_spec {
     /* Added: 1 = harmonic tides without nodal corrections (f = 1, u = 0). */
     int tide_no_nodal;
     int accumulation;          /* FORCING_ACCUMULATION_* */
+    /* Read window (hyperslab): 1 = read only the part of each grid that covers the
+     * domain box given to forcing_open plus margin_km (and the nodes bilinear
+     * interpolation needs); 0 = whole grids. A point outside the window is outside
+     * the grid (SPH_ERR_COVERAGE), like a point outside the file. Harmonic tide files
+     * are read whole. */
+    int window;
+    double margin_km;
 } forcing_source_spec;
 
 /* Values at n points; arrays the caller owns, each of length n. A pointer
@@ -140,6 +147,11 @@ size_t forcing_describe(const forcing *f, forcing_var_info *info, size_t max);
  * counter: tests assert that stepping inside one forcing interval reads
  * nothing new). */
 size_t forcing_debug_slice_reads(const forcing *f);
+
+/* Added. Bytes of the arrays the reader holds (grids, node coordinates and angles,
+ * point stencils, time axes, cached slices and tide constants): with a read window
+ * they follow the window, not the file. */
+size_t forcing_debug_bytes(const forcing *f);
 
 /* Added. Built-in variable names of known products (ERA5, CMEMS, HYCOM)
  * tried after the standard_name when the spec's map has no entry for the

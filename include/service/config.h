@@ -49,6 +49,7 @@ typedef struct cfg_forcing_source {
     int optional_source;    /* key "optional_source": a missing source is not an error */
     int vectors;            /* FORCING_VECTORS_*: orientation of wind and current pairs */
     int accumulation;       /* FORCING_ACCUMULATION_*: how accumulated fields are read */
+    double margin_km;       /* read window: the domain plus this margin */
 } cfg_forcing_source;
 
 typedef struct cfg_station { char *name; double lon, lat; int structure_kind; double structure_diameter, structure_c_r; } cfg_station;

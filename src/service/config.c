@@ -98,6 +98,8 @@ static const cfg_key forcing_keys[] = {
       "Wind and current components: auto (from the standard_name or the file's conventions; a pair found by name on a curvilinear grid is refused), earth (east/north) or grid (along the grid axes, rotated)."),
     K(cfg_forcing_source, "accumulation", CT_ENUM, accumulation, "\"interval\"", 0, 0, 0, accumulation_names,
       "Accumulated fields (J m-2; kg m-2 or m of water of snowfall and precipitation): interval (each value is the amount over the interval ending at its time, ERA5 hourly) or running (the amount since a start that may reset, GFS and forecasts: consecutive values are differenced; a time whose grid total drops starts a new accumulation)."),
+    K(cfg_forcing_source, "margin_km", CT_DOUBLE, margin_km, "300", 0, 20040, 0, NULL,
+      "Read window: only the part of each grid that covers the domain plus this margin, km, is read (plus 3 nodes each side for bilinear interpolation); the default covers 72 h of drift at 1.1 m/s. A particle that leaves the window is outside the forcing. 20040 (half the circumference) reads whole grids; harmonic tide files are always read whole."),
 };
 static const cfg_table forcing_table = {forcing_keys, sizeof forcing_keys / sizeof forcing_keys[0],
                                         sizeof(cfg_forcing_source)};

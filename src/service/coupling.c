@@ -48,6 +48,8 @@ int forecast_source_spec(const struct sph_config *cfg, size_t s, const char *con
     }
     sp->vectors = src->vectors; /* FORCING_VECTORS_* in the order of the key's names */
     sp->accumulation = src->accumulation; /* FORCING_ACCUMULATION_*, likewise */
+    sp->window = src->margin_km < 20040.0; /* half the circumference: whole grids */
+    sp->margin_km = src->margin_km;
     for (size_t k = 0; k < src->required.n; k++)
         sp->required |= (unsigned)config_quantity_flag(src->required.v[k]);
     for (size_t k = 0; k < src->optional_q.n; k++)
@@ -177,6 +179,7 @@ static int sample_source(fc_coupling *c, size_t src, double t, size_t n, unsigne
         return sph_err_set(err, rc, "forcing at %s: %s", when, local.msg);
     size_t nbad = 0, first_bad = 0;
     unsigned flags = 0;
+    char why[sizeof local.msg] = "";
     for (size_t k = 0; k < n; k++) {
         forcing_sample one;
         sample_view(c, k, &one);
@@ -186,8 +189,10 @@ static int sample_source(fc_coupling *c, size_t src, double t, size_t n, unsigne
         if (r1 == SPH_OK) {
             flags |= one.provided;
         } else if (r1 == SPH_ERR_COVERAGE) {
-            if (!nbad++)
+            if (!nbad++) {
                 first_bad = k;
+                snprintf(why, sizeof why, "%s", e1.msg); /* outside its grid or read window */
+            }
             c->bad[k] = 1;
         } else {
             return sph_err_set(err, r1, "forcing at %s: %s", when, e1.msg);
@@ -199,8 +204,8 @@ static int sample_source(fc_coupling *c, size_t src, double t, size_t n, unsigne
         char ll[64];
         coupling_format_lonlat(c->lon[first_bad], c->lat[first_bad], ll, sizeof ll);
         log_warn("forecast %s: forcing %s has no water near %zu particle(s) (first at %s, %s): "
-                 "no current or sea-surface slope there (reported once)", c->cname, c->forc_name[src],
-                 nbad, ll, when);
+                 "no current or sea-surface slope there (reported once): %s", c->cname,
+                 c->forc_name[src], nbad, ll, when, why);
     }
     c->coast_fallbacks += (long)nbad;
     *got = flags;

@@ -794,17 +794,13 @@ static int finish_var(fsource *s, fvar *v, sph_error *err)
     return 0;
 }
 
+/* The extent of the file's grid (not of the read window). */
 static void grid_extent(const fgrid *g, double *x0, double *x1, double *y0, double *y1)
 {
-    *x0 = *y0 = INFINITY;
-    *x1 = *y1 = -INFINITY;
-    for (size_t p = 0; p < g->nx * g->ny; p++) {
-        double x = g->lon1 ? g->lon1[p % g->nx] : g->lon2[p];
-        *x0 = fmin(*x0, x);
-        *x1 = fmax(*x1, x);
-        *y0 = fmin(*y0, g->lat2[p]);
-        *y1 = fmax(*y1, g->lat2[p]);
-    }
+    *x0 = g->ext[0];
+    *x1 = g->ext[1];
+    *y0 = g->ext[2];
+    *y1 = g->ext[3];
 }
 
 static int check_coverage(forcing *f, fvar *v, double t0, double t1, double lon0, double lon1,
@@ -965,6 +961,9 @@ static int open_source(forcing *f, fsource *s, const forcing_source_spec *spec, 
             return rc;
         }
     }
+    /* grids read from here on keep only their read window (harmonic tides: whole) */
+    s->win_on = spec->window;
+    s->win_margin_km = spec->margin_km > 0 ? spec->margin_km : 0.0;
     for (size_t i = 0; i < s->npaths; i++)
         if (scan_file(s, spec, (int)i, want, units, err))
             return err->code;
@@ -1066,6 +1065,10 @@ int forcing_open(forcing **out, const forcing_source_spec *specs, size_t nspecs,
         s->open_file = -1;
         s->kind = specs[i].kind;
         snprintf(s->name, sizeof s->name, "%s", specs[i].name ? specs[i].name : "?");
+        s->win_box[0] = lon_min;
+        s->win_box[1] = lon_max;
+        s->win_box[2] = lat_min;
+        s->win_box[3] = lat_max;
         rc = open_source(f, s, &specs[i], t_start, units, err);
         for (int w = 0; w < FV_COUNT && !rc; w++)
             if (s->vars[w])
@@ -1111,6 +1114,31 @@ size_t forcing_debug_slice_reads(const forcing *f)
     return f ? f->reads : 0;
 }
 
+size_t forcing_debug_bytes(const forcing *f)
+{
+    if (!f)
+        return 0;
+    size_t b = f->tmp_n * 6 * sizeof(double);
+    for (size_t i = 0; i < f->nsrc; i++) {
+        const fsource *s = &f->src[i];
+        for (const fgrid *g = s->grids; g; g = g->next)
+            b += fgrid_bytes(g);
+        for (int w = 0; w < FV_COUNT; w++) {
+            const fvar *v = s->vars[w];
+            if (!v)
+                continue;
+            size_t n = v->grid->nx * v->grid->ny;
+            b += sizeof *v + v->nvfiles * sizeof *v->vfiles + v->ntimes * sizeof *v->times;
+            for (int k = 0; k < 2; k++)
+                b += ((v->slot[k] != NULL) + (v->slot_gx[k] != NULL) + (v->slot_gy[k] != NULL)) *
+                     n * sizeof(double);
+            for (int k = 0; v->harm && k < TIDE_NCONST; k++)
+                b += ((v->harm->c[k] != NULL) + (v->harm->s[k] != NULL)) * n * sizeof(double);
+        }
+    }
+    return b;
+}
+
 /* ---- sampling ---- */
 
 /* Interpolates v at the n points and time t into dst (and the SSH gradient
@@ -1120,11 +1148,20 @@ static int sample_var(forcing *f, fvar *v, double t, size_t n, const double *lon
 {
     fgrid *g = v->grid;
     if (fgrid_stencils(g, f->stamp, n, lon, lat)) {
-        for (size_t p = 0; p < n; p++)
-            if (!g->ok[p])
+        for (size_t p = 0; p < n; p++) {
+            if (g->ok[p])
+                continue;
+            if (g->windowed && fgrid_covers_file(g, lon[p], lat[p]))
                 return forcing_fail(err, v->src, v->file0, SPH_ERR_COVERAGE,
-                                    "point (%.6g, %.6g) is outside the grid of variable '%s' (%s)",
-                                    lon[p], lat[p], v->varname, g->desc);
+                                    "point (%.6g, %.6g) is outside the read window of variable "
+                                    "'%s' (%s; lon %.4g .. %.4g, lat %.4g .. %.4g: the domain "
+                                    "plus forcing[].margin_km = %g km)",
+                                    lon[p], lat[p], v->varname, g->desc, g->wext[0], g->wext[1],
+                                    g->wext[2], g->wext[3], g->margin_km);
+            return forcing_fail(err, v->src, v->file0, SPH_ERR_COVERAGE,
+                                "point (%.6g, %.6g) is outside the grid of variable '%s' (%s)",
+                                lon[p], lat[p], v->varname, g->desc);
+        }
         return forcing_fail(err, v->src, v->file0, SPH_ERR_NOMEM, "out of memory");
     }
     size_t k0, k1;

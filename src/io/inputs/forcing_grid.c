@@ -62,6 +62,121 @@ void fgrid_angles(fgrid *g, const double *angle)
         }
 }
 
+/* ---- read windows ---- */
+
+#define KM_PER_DEG (FORCING_EARTH_RADIUS * DEG / 1000.0)
+
+/* The source's box plus its margin: latitudes lat0..lat1, longitudes within hw
+ * degrees of lonc (hw >= 180: every longitude). */
+typedef struct wbox {
+    double lat0, lat1, lonc, hw;
+} wbox;
+
+static void win_box(const fsource *s, wbox *b)
+{
+    double dlat = s->win_margin_km / KM_PER_DEG;
+    b->lat0 = s->win_box[2] - dlat;
+    b->lat1 = s->win_box[3] + dlat;
+    double phi = fmax(fabs(b->lat0), fabs(b->lat1));
+    b->lonc = 0.5 * (s->win_box[0] + s->win_box[1]);
+    b->hw = phi >= 89.0 ? 360.0 : 0.5 * (s->win_box[1] - s->win_box[0]) + dlat / cos(phi * DEG);
+}
+
+/* 1 when the cell with these n corner longitudes reaches longitudes of the box. */
+static int lon_overlap(const wbox *b, const double *lon, int n)
+{
+    if (b->hw >= 180.0)
+        return 1;
+    double x[4], mn = INFINITY, mx = -INFINITY;
+    for (int k = 0; k < n; k++) {
+        x[k] = fgrid_wrap180(lon[k] - b->lonc);
+        mn = fmin(mn, x[k]);
+        mx = fmax(mx, x[k]);
+    }
+    if (mx - mn <= 180.0)
+        return mn <= b->hw && mx >= -b->hw;
+    /* the cell spans the meridian opposite the box's centre */
+    double pmin = INFINITY, nmax = -INFINITY;
+    for (int k = 0; k < n; k++) {
+        if (x[k] >= 0)
+            pmin = fmin(pmin, x[k]);
+        else
+            nmax = fmax(nmax, x[k]);
+    }
+    return pmin <= b->hw || nmax >= -b->hw;
+}
+
+static int lat_overlap(const wbox *b, double a, double c)
+{
+    return fmin(a, c) <= b->lat1 && fmax(a, c) >= b->lat0;
+}
+
+/* One axis of a window from the selected nodes sel[n]: [*w0, *w0 + *wn) (mod n when
+ * circular), widened by FGRID_GUARD nodes; none selected or all: the whole axis. */
+static void win_axis(const unsigned char *sel, size_t n, int circular, size_t *w0, size_t *wn,
+                     int *edge_lo, int *edge_hi)
+{
+    size_t first = n, last = 0, count = 0;
+    for (size_t i = 0; i < n; i++)
+        if (sel[i]) {
+            if (first == n)
+                first = i;
+            last = i;
+            count++;
+        }
+    *w0 = 0;
+    *wn = n;
+    *edge_lo = *edge_hi = 1;
+    if (count == 0 || count == n)
+        return;
+    if (!circular) {
+        size_t a = first > FGRID_GUARD ? first - FGRID_GUARD : 0;
+        size_t b = last + FGRID_GUARD < n ? last + FGRID_GUARD : n - 1;
+        *w0 = a;
+        *wn = b - a + 1;
+        *edge_lo = a == 0;
+        *edge_hi = b == n - 1;
+        return;
+    }
+    /* circular: the window is everything but the longest run of unselected nodes */
+    size_t best_len = 0, best_end = 0; /* the run ends just before node best_end */
+    for (size_t i = 0; i < n; i++) {
+        if (!sel[i] || sel[(i + n - 1) % n])
+            continue;
+        /* a selected node after an unselected one: measure the run before it */
+        size_t len = 0;
+        while (len < n && !sel[(i + n - 1 - len) % n])
+            len++;
+        if (len > best_len) {
+            best_len = len;
+            best_end = i;
+        }
+    }
+    size_t keep = n - best_len + 2 * FGRID_GUARD;
+    if (keep >= n)
+        return;
+    *w0 = (best_end + n - FGRID_GUARD) % n;
+    *wn = keep;
+    *edge_lo = *edge_hi = 0;
+}
+
+static void win_flags(fgrid *g, const fsource *s)
+{
+    g->windowed = g->nx < g->fnx || g->ny < g->fny;
+    g->margin_km = s->win_margin_km;
+    if (!g->windowed)
+        g->edge[0] = g->edge[1] = g->edge[2] = g->edge[3] = 1;
+}
+
+static void win_desc(fgrid *g)
+{
+    if (!g->windowed)
+        return;
+    size_t used = strlen(g->desc);
+    if (used + 1 < sizeof g->desc)
+        snprintf(g->desc + used, sizeof g->desc - used, ", window %zux%zu", g->nx, g->ny);
+}
+
 int fgrid_setup_regular(fgrid *g, const fsource *s, const char *path, sph_error *err)
 {
     size_t nx = g->nx, ny = g->ny;
@@ -88,15 +203,175 @@ int fgrid_setup_regular(fgrid *g, const fsource *s, const char *path, sph_error 
     double dlon = nx > 1 ? (g->lon1[nx - 1] - g->lon1[0]) / (double)(nx - 1) : 360.0;
     double dlat = ny > 1 ? fabs(g->lat1[ny - 1] - g->lat1[0]) / (double)(ny - 1) : 0.0;
     double gap = g->lon1[0] + 360.0 - g->lon1[nx - 1];
-    g->lon_wrap = nx > 1 && gap > 1e-9 && gap <= 1.5 * dlon;
-    for (size_t j = 0; j < ny; j++)
-        for (size_t i = 0; i < nx; i++) {
-            g->lon2[j * nx + i] = fgrid_wrap180(g->lon1[i]);
-            g->lat2[j * nx + i] = g->lat1[j];
+    g->fwrap = nx > 1 && gap > 1e-9 && gap <= 1.5 * dlon;
+    g->fnx = nx;
+    g->fny = ny;
+    g->ext[0] = g->lon1[0];
+    g->ext[1] = g->lon1[nx - 1];
+    g->ext[2] = fmin(g->lat1[0], g->lat1[ny - 1]);
+    g->ext[3] = fmax(g->lat1[0], g->lat1[ny - 1]);
+    g->wi0 = g->wj0 = 0;
+    if (s->win_on) {
+        /* the nodes of the cells (columns, rows) that reach the box plus margin */
+        wbox b;
+        win_box(s, &b);
+        unsigned char *sx = calloc(nx, 1), *sy = calloc(ny, 1);
+        if (!sx || !sy) {
+            free(sx);
+            free(sy);
+            return forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
         }
+        for (size_t i = 0; i + 1 < nx + (size_t)g->fwrap; i++) {
+            size_t i1 = (i + 1) % nx;
+            double c[2] = {g->lon1[i], g->lon1[i1]};
+            if (lon_overlap(&b, c, 2))
+                sx[i] = sx[i1] = 1;
+        }
+        for (size_t j = 0; j + 1 < ny; j++)
+            if (lat_overlap(&b, g->lat1[j], g->lat1[j + 1]))
+                sy[j] = sy[j + 1] = 1;
+        size_t wn, hn;
+        win_axis(sx, nx, g->fwrap, &g->wi0, &wn, &g->edge[0], &g->edge[1]);
+        win_axis(sy, ny, 0, &g->wj0, &hn, &g->edge[2], &g->edge[3]);
+        free(sx);
+        free(sy);
+        g->nx = wn;
+        g->ny = hn;
+    }
+    win_flags(g, s);
+    g->lon_wrap = g->fwrap && g->nx == nx;
+    free(g->lon2);
+    free(g->lat2);
+    g->lon2 = malloc(g->nx * g->ny * sizeof(double));
+    g->lat2 = malloc(g->nx * g->ny * sizeof(double));
+    if (!g->lon2 || !g->lat2)
+        return forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
+    for (size_t j = 0; j < g->ny; j++)
+        for (size_t i = 0; i < g->nx; i++) {
+            g->lon2[j * g->nx + i] = fgrid_wrap180(g->lon1[(g->wi0 + i) % nx]);
+            g->lat2[j * g->nx + i] = g->lat1[g->wj0 + j];
+        }
+    size_t e = (g->wi0 + g->nx - 1) % nx;
+    g->wext[0] = g->lon1[g->wi0];
+    g->wext[1] = g->lon1[e] + (e < g->wi0 ? 360.0 : 0.0);
+    g->wext[2] = fmin(g->lat2[0], g->lat2[(g->ny - 1) * g->nx]);
+    g->wext[3] = fmax(g->lat2[0], g->lat2[(g->ny - 1) * g->nx]);
     snprintf(g->desc, sizeof g->desc, "regular %.6gx%.6g deg %zux%zu%s", dlon, dlat, nx, ny,
-             g->lon_wrap ? " global" : "");
+             g->fwrap ? " global" : "");
+    win_desc(g);
     return 0;
+}
+
+/* Keeps nodes [i0, i0 + wn) x [j0, j0 + hn) of an array of fnx x fny nodes. */
+static int crop(double **a, size_t fnx, size_t i0, size_t j0, size_t wn, size_t hn)
+{
+    if (!*a)
+        return 0;
+    double *b = malloc(wn * hn * sizeof *b);
+    if (!b)
+        return -1;
+    for (size_t j = 0; j < hn; j++)
+        memcpy(b + j * wn, *a + (j0 + j) * fnx + i0, wn * sizeof *b);
+    free(*a);
+    *a = b;
+    return 0;
+}
+
+int fgrid_window(fgrid *g, const fsource *s)
+{
+    size_t nx = g->nx, ny = g->ny;
+    g->fnx = nx;
+    g->fny = ny;
+    g->wi0 = g->wj0 = 0;
+    g->ext[0] = g->ext[2] = INFINITY;
+    g->ext[1] = g->ext[3] = -INFINITY;
+    for (size_t p = 0; p < nx * ny; p++) {
+        g->ext[0] = fmin(g->ext[0], g->lon2[p]);
+        g->ext[1] = fmax(g->ext[1], g->lon2[p]);
+        g->ext[2] = fmin(g->ext[2], g->lat2[p]);
+        g->ext[3] = fmax(g->ext[3], g->lat2[p]);
+    }
+    if (s->win_on) {
+        /* the bounding index box of the cells that reach the box plus margin */
+        wbox b;
+        win_box(s, &b);
+        size_t i0 = nx, i1 = 0, j0 = ny, j1 = 0;
+        for (size_t j = 0; j + 1 < ny; j++)
+            for (size_t i = 0; i + 1 < nx; i++) {
+                size_t c[4] = {j * nx + i, j * nx + i + 1, (j + 1) * nx + i, (j + 1) * nx + i + 1};
+                double la0 = fmin(fmin(g->lat2[c[0]], g->lat2[c[1]]), fmin(g->lat2[c[2]], g->lat2[c[3]]));
+                double la1 = fmax(fmax(g->lat2[c[0]], g->lat2[c[1]]), fmax(g->lat2[c[2]], g->lat2[c[3]]));
+                if (!lat_overlap(&b, la0, la1))
+                    continue;
+                double lo[4] = {g->lon2[c[0]], g->lon2[c[1]], g->lon2[c[2]], g->lon2[c[3]]};
+                if (!lon_overlap(&b, lo, 4))
+                    continue;
+                i0 = i < i0 ? i : i0;
+                i1 = i + 1 > i1 ? i + 1 : i1;
+                j0 = j < j0 ? j : j0;
+                j1 = j + 1 > j1 ? j + 1 : j1;
+            }
+        if (i0 < nx) {
+            i0 = i0 > FGRID_GUARD ? i0 - FGRID_GUARD : 0;
+            j0 = j0 > FGRID_GUARD ? j0 - FGRID_GUARD : 0;
+            i1 = i1 + FGRID_GUARD < nx ? i1 + FGRID_GUARD : nx - 1;
+            j1 = j1 + FGRID_GUARD < ny ? j1 + FGRID_GUARD : ny - 1;
+            size_t wn = i1 - i0 + 1, hn = j1 - j0 + 1;
+            if (wn < nx || hn < ny) {
+                if (crop(&g->lon2, nx, i0, j0, wn, hn) || crop(&g->lat2, nx, i0, j0, wn, hn) ||
+                    crop(&g->cosang, nx, i0, j0, wn, hn) || crop(&g->sinang, nx, i0, j0, wn, hn))
+                    return -1;
+                g->wi0 = i0;
+                g->wj0 = j0;
+                g->nx = wn;
+                g->ny = hn;
+                g->edge[0] = i0 == 0;
+                g->edge[1] = i1 == nx - 1;
+                g->edge[2] = j0 == 0;
+                g->edge[3] = j1 == ny - 1;
+            }
+        }
+    }
+    win_flags(g, s);
+    g->wext[0] = g->wext[2] = INFINITY;
+    g->wext[1] = g->wext[3] = -INFINITY;
+    for (size_t p = 0; p < g->nx * g->ny; p++) {
+        g->wext[0] = fmin(g->wext[0], g->lon2[p]);
+        g->wext[1] = fmax(g->wext[1], g->lon2[p]);
+        g->wext[2] = fmin(g->wext[2], g->lat2[p]);
+        g->wext[3] = fmax(g->wext[3], g->lat2[p]);
+    }
+    win_desc(g);
+    return 0;
+}
+
+size_t fgrid_bytes(const fgrid *g)
+{
+    size_t n = g->nx * g->ny, b = sizeof *g;
+    if (g->lon1)
+        b += (g->fnx + g->fny) * sizeof(double);
+    b += (g->lon2 ? n : 0) * sizeof(double) + (g->lat2 ? n : 0) * sizeof(double);
+    b += (g->cosang ? n : 0) * sizeof(double) + (g->sinang ? n : 0) * sizeof(double);
+    b += g->npoints * (4 * sizeof(size_t) + 4 * sizeof(double) + sizeof(int) + sizeof(size_t));
+    return b;
+}
+
+/* 1 when the cell (ci, cj) of the window samples exactly as in the file's grid:
+ * inside the window with the nodes the nearest-valid fallback (one node around the
+ * cell) and their SSH gradient (one more) inside too, unless that side of the
+ * window is the file's. */
+static int usable(const fgrid *g, size_t ci, size_t cj)
+{
+    const size_t G = 2;
+    if (!g->windowed)
+        return 1;
+    if (!g->lon_wrap) {
+        if (ci + 1 >= g->nx || (!g->edge[0] && ci < G) || (!g->edge[1] && ci + 1 + G >= g->nx))
+            return 0;
+    }
+    if (cj + 1 >= g->ny || (!g->edge[2] && cj < G) || (!g->edge[3] && cj + 1 + G >= g->ny))
+        return 0;
+    return 1;
 }
 
 fgrid *fgrid_find(const fsource *s, const char *key)
@@ -138,11 +413,13 @@ static int bracket(const double *a, size_t n, double x, size_t *i, double *frac)
 
 static int locate_regular(const fgrid *g, double lon, double lat, size_t idx[4], double w[4])
 {
-    size_t nx = g->nx, i, i1, j;
+    /* located on the file's axes (the same arithmetic with or without a window),
+     * then mapped into the window */
+    size_t nx = g->fnx, i, i1, j;
     double fx, fy;
     double x = g->lon1[0] + fmod(fmod(lon - g->lon1[0], 360.0) + 360.0, 360.0);
     if (x > g->lon1[nx - 1] + 1e-10) {
-        if (g->lon_wrap) {
+        if (g->fwrap) {
             i = nx - 1;
             i1 = 0;
             fx = (x - g->lon1[nx - 1]) / (g->lon1[0] + 360.0 - g->lon1[nx - 1]);
@@ -154,8 +431,21 @@ static int locate_regular(const fgrid *g, double lon, double lat, size_t idx[4],
             return -1;
         i1 = i + 1;
     }
-    if (bracket(g->lat1, g->ny, lat, &j, &fy))
+    if (bracket(g->lat1, g->fny, lat, &j, &fy))
         return -1;
+    /* into the window: columns from wi0 (mod nx on a global grid), rows from wj0 */
+    size_t wi = g->fwrap ? (i + nx - g->wi0) % nx : i - g->wi0;
+    size_t wi1 = g->fwrap ? (i1 + nx - g->wi0) % nx : i1 - g->wi0;
+    if (i < g->wi0 && !g->fwrap)
+        return -1;
+    if (j < g->wj0 || wi >= g->nx || wi1 >= g->nx)
+        return -1;
+    j -= g->wj0;
+    if (!usable(g, wi, j))
+        return -1;
+    nx = g->nx;
+    i = wi;
+    i1 = wi1;
     idx[0] = j * nx + i;
     idx[1] = j * nx + i1;
     idx[2] = (j + 1) * nx + i;
@@ -174,11 +464,18 @@ static int cell_invert(const fgrid *g, size_t i, size_t j, double lon, double la
 {
     size_t nx = g->nx;
     size_t c[4] = {j * nx + i, j * nx + i + 1, (j + 1) * nx + i, (j + 1) * nx + i + 1};
-    double X[4], Y[4];
+    double X[4], Y[4], xmin = INFINITY, xmax = -INFINITY;
     for (int k = 0; k < 4; k++) {
         X[k] = lon + fgrid_wrap180(g->lon2[c[k]] - lon);
         Y[k] = g->lat2[c[k]];
+        xmin = fmin(xmin, X[k]);
+        xmax = fmax(xmax, X[k]);
     }
+    /* a cell whose corners are more than 180 degrees apart seen from the point lies
+     * across the meridian opposite it (or around a pole): its lon/lat map cannot hold
+     * the point (it did, on the far side of the pole of a polar stereographic grid) */
+    if (xmax - xmin > 180.0)
+        return -1;
     double a = 0.5, b = 0.5;
     for (int it = 0; it < 30; it++) {
         double px = (1 - a) * (1 - b) * X[0] + a * (1 - b) * X[1] + (1 - a) * b * X[2] + a * b * X[3];
@@ -258,7 +555,8 @@ static int locate_curvilinear(const fgrid *g, double lon, double lat, size_t *hi
                 ymin = fmin(ymin, g->lat2[c[k]]);
                 ymax = fmax(ymax, g->lat2[c[k]]);
             }
-            if (xmin > 1e-9 || xmax < -1e-9 || lat < ymin - 1e-9 || lat > ymax + 1e-9)
+            if (xmin > 1e-9 || xmax < -1e-9 || xmax - xmin > 180.0 || lat < ymin - 1e-9 ||
+                lat > ymax + 1e-9)
                 continue;
             if (cell_invert(g, bi, bj, lon, lat, &fx, &fy) == 0 && in_unit(fx) && in_unit(fy)) {
                 found = 1;
@@ -266,7 +564,7 @@ static int locate_curvilinear(const fgrid *g, double lon, double lat, size_t *hi
                 cj = bj;
             }
         }
-    if (!found)
+    if (!found || !usable(g, ci, cj))
         return -1;
     fx = clamp01(fx);
     fy = clamp01(fy);
@@ -288,6 +586,16 @@ int fgrid_covers(fgrid *g, double lon, double lat)
     double w[4];
     return g->curvilinear ? locate_curvilinear(g, lon, lat, &hint, idx, w) == 0
                           : locate_regular(g, lon, lat, idx, w) == 0;
+}
+
+int fgrid_covers_file(const fgrid *g, double lon, double lat)
+{
+    if (!(lat >= g->ext[2] && lat <= g->ext[3]))
+        return 0;
+    if (g->fwrap)
+        return 1;
+    double x = g->ext[0] + fmod(fmod(lon - g->ext[0], 360.0) + 360.0, 360.0);
+    return x <= g->ext[1];
 }
 
 size_t fgrid_stencils(fgrid *g, unsigned long stamp, size_t n, const double *lon,

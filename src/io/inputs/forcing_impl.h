@@ -33,10 +33,25 @@ enum { FVEC_STD_EARTH = 0, FVEC_STD_GRID, FVEC_NAME };
  * the x (longitude-like) dimension, j along y. */
 typedef struct fgrid {
     int curvilinear;
-    size_t nx, ny;
-    double *lon1, *lat1;   /* regular: lon1[nx] increasing (unwrapped), lat1[ny] monotonic */
-    int lon_wrap;          /* regular and global: a cell joins column nx-1 to column 0 */
-    double *lon2, *lat2;   /* node coordinates [ny*nx] for both kinds (lon in [-180,180)) */
+    size_t nx, ny;         /* the nodes held: the read window (all of the file's grid when
+                              the source reads whole files) */
+    double *lon1, *lat1;   /* regular: the file's lon1[fnx] increasing (unwrapped), lat1[fny]
+                              monotonic (points are located on them, then mapped into the
+                              window, so that a window samples exactly as the whole file) */
+    int lon_wrap;          /* regular and global, window of all columns: a cell joins
+                              column nx-1 to column 0 */
+    double *lon2, *lat2;   /* node coordinates [ny*nx] of the window, both kinds
+                              (lon in [-180,180)) */
+    /* Read window (hyperslab, docs/forcing.md "Large files"): node (i, j) of the window is
+     * node ((wi0 + i) mod fnx, wj0 + j) of the file's fnx x fny grid; on a global grid
+     * the window may straddle the seam (two slabs). */
+    size_t fnx, fny, wi0, wj0;
+    int fwrap;             /* the file's regular grid is global (wraps) */
+    int windowed;          /* the window is smaller than the file's grid */
+    int edge[4];           /* window side is the file's side: west, east, south, north */
+    double ext[4];         /* the file grid's extent: lon min, max, lat min, max */
+    double wext[4];        /* the window's extent (messages) */
+    double margin_km;      /* the margin it was cut with (messages) */
     double *cosang, *sinang; /* curvilinear: angle from east to the x axis, per node */
     char angle_var[64];    /* curvilinear: the file's angle variable ("" if none) */
     char angle_from[128];  /* where the angle comes from, for `sphice check` */
@@ -131,6 +146,11 @@ typedef struct fsource {
     int accumulation;        /* FORCING_ACCUMULATION_* */
     tide_args targs;
     const struct forcing_driver *drv; /* the format of the source's files */
+    /* Read window: grids set up while win_on is 1 keep only the nodes of the box
+     * (degrees) plus win_margin_km (fgrid_setup_regular, fgrid_window). */
+    int win_on;
+    double win_box[4];       /* lon min, lon max, lat min, lat max */
+    double win_margin_km;
     int open_file;           /* cached open file: index into paths, -1 none */
     void *open_fh;           /* its driver handle */
 } fsource;
@@ -228,9 +248,21 @@ void fgrid_free(fgrid *g);
 fgrid *fgrid_find(const fsource *s, const char *key);
 /* Adds a complete grid to the source's list (it owns it from then on). */
 void fgrid_add(fsource *s, fgrid *g);
-/* Regular grid: checks lon1/lat1, unwraps longitudes, fills lon2/lat2,
+/* Regular grid: checks lon1/lat1 (nx, ny: the file's), unwraps longitudes, sets the
+ * read window (s->win_on; else all nodes), allocates and fills lon2/lat2 for it, sets
  * lon_wrap and desc. */
 int fgrid_setup_regular(fgrid *g, const fsource *s, const char *path, sph_error *err);
+/* Curvilinear (and projected) grid with lon2/lat2 (and, when set, cosang/sinang)
+ * for all the file's nx x ny nodes: sets fnx, fny and ext, and, when the source has a
+ * read window (s->win_on), keeps only the window's nodes (the bounding index box of
+ * the cells that overlap the box plus the margin, plus FGRID_GUARD nodes each side).
+ * Returns 0, or -1 when out of memory. */
+int fgrid_window(fgrid *g, const fsource *s);
+/* Nodes kept around the cells the box touches: the bilinear stencil's fallback
+ * reaches one node further, and the SSH gradient at those nodes one more. */
+#define FGRID_GUARD 3
+/* Bytes of the arrays a grid holds (forcing_debug_bytes). */
+size_t fgrid_bytes(const fgrid *g);
 /* Curvilinear grid: cosang/sinang from an angle per node (radians; NULL
  * or NaN: from the node coordinates). */
 void fgrid_angles(fgrid *g, const double *angle);
@@ -247,6 +279,9 @@ int fgrid_interp(const fgrid *g, const double *slice, size_t p, double lon, doub
 void fgrid_gradient(const fgrid *g, const double *h, double *gx, double *gy);
 /* 1 when the point lies in the grid. */
 int fgrid_covers(fgrid *g, double lon, double lat);
+/* 1 when the point lies within the extent of the file's grid (a point the read
+ * window leaves out, for messages). */
+int fgrid_covers_file(const fgrid *g, double lon, double lat);
 
 /* forcing_tide.c */
 /* Harmonic constants of v from amplitudes and phases (degrees) of nc

@@ -458,12 +458,10 @@ static int projected_grid(fsource *s, const char *path, int ncid, int varid, con
     g = calloc(1, sizeof *g);
     double *X = malloc(nx * ny * sizeof *X), *Y = malloc(nx * ny * sizeof *Y);
     double *x1 = malloc(nx * sizeof *x1), *y1 = malloc(ny * sizeof *y1);
-    double *ang = malloc(nx * ny * sizeof *ang);
+    double *ang = NULL;
     int rc = 0;
-    if (!g || !X || !Y || !x1 || !y1 || !ang || !(g->lon2 = malloc(nx * ny * sizeof(double))) ||
-        !(g->lat2 = malloc(nx * ny * sizeof(double))) ||
-        !(g->cosang = malloc(nx * ny * sizeof(double))) ||
-        !(g->sinang = malloc(nx * ny * sizeof(double)))) {
+    if (!g || !X || !Y || !x1 || !y1 || !(g->lon2 = malloc(nx * ny * sizeof(double))) ||
+        !(g->lat2 = malloc(nx * ny * sizeof(double)))) {
         rc = forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
     } else if (nc_get_var_double(ncid, xv, x1) != NC_NOERR ||
                nc_get_var_double(ncid, yv, y1) != NC_NOERR) {
@@ -492,7 +490,16 @@ static int projected_grid(fsource *s, const char *path, int ncid, int varid, con
                               "grid mapping '%s' of variable '%s': a node does not invert: %s",
                               gmname, vname, e.msg);
     }
-    for (size_t p = 0; !rc && p < nx * ny; p++) {
+    if (!rc) {
+        /* the read window first: PROJ's angles only at the nodes kept */
+        g->nx = nx;
+        g->ny = ny;
+        if (fgrid_window(g, s) || !(ang = malloc(g->nx * g->ny * sizeof *ang)) ||
+            !(g->cosang = malloc(g->nx * g->ny * sizeof(double))) ||
+            !(g->sinang = malloc(g->nx * g->ny * sizeof(double))))
+            rc = forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
+    }
+    for (size_t p = 0; !rc && p < g->nx * g->ny; p++) {
         /* geo_grid_angle: from east to the plane's x axis, anticlockwise */
         ang[p] = geo_grid_angle(pj, g->lon2[p], g->lat2[p]);
         if (!isfinite(ang[p]))
@@ -502,13 +509,15 @@ static int projected_grid(fsource *s, const char *path, int ncid, int varid, con
     geo_proj_free(pj);
     if (!rc) {
         g->curvilinear = 1;
-        g->nx = nx;
-        g->ny = ny;
         snprintf(g->key, sizeof g->key, "%s", key);
         fgrid_angles(g, ang);
         snprintf(g->angle_from, sizeof g->angle_from,
                  "the grid mapping '%.60s' (meridian convergence by PROJ)", gmname);
-        snprintf(g->desc, sizeof g->desc, "projected %zux%zu (%.60s)", nx, ny, gmname);
+        snprintf(g->desc, sizeof g->desc, "projected %zux%zu (%.50s)", nx, ny, gmname);
+        if (g->windowed) {
+            size_t used = strlen(g->desc);
+            snprintf(g->desc + used, sizeof g->desc - used, ", window %zux%zu", g->nx, g->ny);
+        }
     }
     free(X), free(Y), free(x1), free(y1), free(ang);
     if (rc) {
@@ -624,12 +633,12 @@ static int grid_read(fsource *s, const char *path, int ncid, int varid, fvfile *
     g->nx = nx;
     g->ny = ny;
     snprintf(g->key, sizeof g->key, "%s", key);
-    g->lon2 = malloc(nx * ny * sizeof(double));
-    g->lat2 = malloc(nx * ny * sizeof(double));
     int rc = 0;
-    if (!g->lon2 || !g->lat2) {
+    if (curv && (!(g->lon2 = malloc(nx * ny * sizeof(double))) ||
+                 !(g->lat2 = malloc(nx * ny * sizeof(double))))) {
         rc = forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
     } else if (!curv) {
+        /* fgrid_setup_regular allocates the node coordinates of the read window */
         g->lon1 = malloc(nx * sizeof(double));
         g->lat1 = malloc(ny * sizeof(double));
         if (!g->lon1 || !g->lat1)
@@ -699,6 +708,8 @@ static int grid_read(fsource *s, const char *path, int ncid, int varid, fvfile *
             }
             free(angle);
             snprintf(g->desc, sizeof g->desc, "curvilinear %zux%zu", nx, ny);
+            if (!rc && fgrid_window(g, s))
+                rc = forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
         }
     }
     if (rc) {
@@ -902,9 +913,40 @@ static int nc_slice(fsource *s, const char *path, void *fh, const fvar *v, const
     }
     if (vf->tdim >= 0)
         start[vf->tdim] = k;
-    count[vf->ydim] = v->grid->ny;
-    count[vf->xdim] = v->grid->nx;
-    int rc = nc_get_vara_double(ncid_of(fh), vf->varid, start, count, raw);
+    /* the read window: rows wj0.., columns wi0..; on a global grid a window across
+     * the seam is two slabs, the columns up to the last and those from the first */
+    const fgrid *g = v->grid;
+    size_t n1 = g->wi0 + g->nx > g->fnx ? g->fnx - g->wi0 : g->nx;
+    start[vf->ydim] = g->wj0;
+    start[vf->xdim] = g->wi0;
+    count[vf->ydim] = g->ny;
+    count[vf->xdim] = n1;
+    int rc;
+    if (n1 == g->nx) {
+        rc = nc_get_vara_double(ncid_of(fh), vf->varid, start, count, raw);
+    } else if (vf->transpose) {
+        /* x before y: each slab is a contiguous block of columns */
+        rc = nc_get_vara_double(ncid_of(fh), vf->varid, start, count, raw);
+        start[vf->xdim] = 0;
+        count[vf->xdim] = g->nx - n1;
+        if (rc == NC_NOERR)
+            rc = nc_get_vara_double(ncid_of(fh), vf->varid, start, count, raw + n1 * g->ny);
+    } else {
+        double *tmp = malloc(g->nx * g->ny * sizeof *tmp);
+        if (!tmp)
+            return forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
+        size_t n2 = g->nx - n1;
+        rc = nc_get_vara_double(ncid_of(fh), vf->varid, start, count, tmp);
+        start[vf->xdim] = 0;
+        count[vf->xdim] = n2;
+        if (rc == NC_NOERR)
+            rc = nc_get_vara_double(ncid_of(fh), vf->varid, start, count, tmp + n1 * g->ny);
+        for (size_t j = 0; rc == NC_NOERR && j < g->ny; j++) {
+            memcpy(raw + j * g->nx, tmp + j * n1, n1 * sizeof *raw);
+            memcpy(raw + j * g->nx + n1, tmp + n1 * g->ny + j * n2, n2 * sizeof *raw);
+        }
+        free(tmp);
+    }
     if (rc != NC_NOERR)
         return forcing_fail(err, s, path, SPH_ERR_NETCDF,
                             "cannot read variable '%s' at time index %zu: %s", v->varname, k,
