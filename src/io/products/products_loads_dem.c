@@ -20,8 +20,10 @@
  *     move with the far-field ice at u (translation and rotation fixed),
  *     the rest starts at u;
  *   the structure: a vertical cylinder of the station's diameter, mass,
- *     stiffness and damping ratio, its surface touching the sheet's front
- *     (x0 = front + w / 2), centred across it;
+ *     stiffness and damping ratio, centred across the sheet (y0 = sqrt(3) r
+ *     (ny - 1) / 2), touching the sheet without overlap: x0 = max over
+ *     the spheres with |y - y0| < R + r of x + sqrt((R + r)^2 - (y - y0)^2),
+ *     R = w / 2 (front + R where none is that close);
  *   step dt = loads.dem_dt, or 0.9 dt_safety dt_critical when 0; the
  *     number of steps ceil(duration / dt) (loads.dem_duration);
  *   the series: the structure's load along the drift (s.fx), its
@@ -84,6 +86,37 @@ static void abs_max_std(const double *x, long n, double *mx, double *sd)
     *sd = n > 1 ? sqrt(v / (double)(n - 1)) : 0.0;
 }
 
+/* The rear (x < 4r) and side (y < 2r, y > y_max - 2r) edges move with the
+ * far-field ice at u; returns the sheet's front, max (x + r). */
+static double drive_edges(dem *d, double rad, double ymax, double u)
+{
+    double front = 0.0;
+    for (size_t i = 0; i < d->n; i++) {
+        const double x = d->x[i], y = d->y[i];
+        front = fmax(front, x + rad);
+        int edge = x < 4.0 * rad || y < 2.0 * rad || y > ymax - 2.0 * rad;
+        if (!edge)
+            continue;
+        d->flags[i] = DEM_FIX_TRANSLATION | DEM_FIX_ROTATION;
+        dem_set_velocity(d, (long)i, u, 0.0, 0.0);
+    }
+    return front;
+}
+
+/* The axis x0 at which the cylinder of radius R, centred across at y0,
+ * touches the sheet without overlapping it: max over the spheres with
+ * |y - y0| < R + r of x + sqrt((R + r)^2 - (y - y0)^2); front + R if none. */
+static double touching_x0(const dem *d, double rad, double R, double y0, double front)
+{
+    double x0 = -HUGE_VAL, reach = R + rad;
+    for (size_t i = 0; i < d->n; i++) {
+        double dy = d->y[i] - y0;
+        if (fabs(dy) < reach)
+            x0 = fmax(x0, d->x[i] + sqrt(reach * reach - dy * dy));
+    }
+    return x0 > -HUGE_VAL ? x0 : front + R;
+}
+
 static int dem_fail(sph_error *err, int code, const char *station, const char *key, const char *fmt, ...)
     __attribute__((format(printf, 5, 6)));
 static int dem_fail(sph_error *err, int code, const char *station, const char *key, const char *fmt, ...)
@@ -135,18 +168,11 @@ int products_loads_dem_run(const prod_loads_options *o, const prod_structure *ps
         return dem_fail(err, SPH_ERR_CONFIG, station, "loads.dem_max_particles",
                         "the DEM's ice sheet cannot be built (%.0f spheres, bond capacity %.0f)", np, 8.0 * np);
     }
-    double front = 0.0, ymax = sqrt(3.0) * rad * (double)(ny - 1) + rad;
-    for (size_t i = 0; i < d->n; i++) {
-        front = fmax(front, d->x[i] + rad);
-        if (d->x[i] < 4.0 * rad || d->y[i] < 2.0 * rad || d->y[i] > ymax - 2.0 * rad) {
-            d->flags[i] = DEM_FIX_TRANSLATION | DEM_FIX_ROTATION;
-            dem_set_velocity(d, (long)i, u, 0.0, 0.0);
-        }
-    }
+    double front = drive_edges(d, rad, sqrt(3.0) * rad * (double)(ny - 1) + rad, u);
     d->s.kind = DEM_STRUCT_CYLINDER;
     d->s.diameter = ps->w;
-    d->s.x0 = front + 0.5 * ps->w;
     d->s.y0 = 0.5 * sqrt(3.0) * rad * (double)(ny - 1);
+    d->s.x0 = touching_x0(d, rad, 0.5 * ps->w, d->s.y0, front);
     d->s.mass = ps->mass;
     d->s.stiffness = ps->stiffness;
     d->s.damping_ratio = ps->damping;
@@ -222,6 +248,17 @@ int products_loads_dem_run(const prod_loads_options *o, const prod_structure *ps
     return SPH_OK;
 }
 
+static int cache_grow(prod_writer *p)
+{
+    size_t cap = p->ld_capcache ? 2 * p->ld_capcache : 16;
+    prod_dem_cache *grown = realloc(p->ld_cache, cap * sizeof *grown);
+    if (grown) {
+        p->ld_cache = grown;
+        p->ld_capcache = cap;
+    }
+    return grown ? 0 : -1;
+}
+
 int prod_loads_dem(prod_writer *p, int s, double h, double u, prod_dem_result *r, int *cached, sph_error *err)
 {
     const prod_loads_options *o = &p->opts.loads;
@@ -245,14 +282,8 @@ int prod_loads_dem(prod_writer *p, int s, double h, double u, prod_dem_result *r
     p->ld_sum.dem_seconds += r->seconds;
     p->ld_sum.dem_steps += r->steps;
     p->ld_sum.dem_particle_steps += r->steps * r->particles;
-    if (p->ld_ncache == p->ld_capcache) {
-        size_t cap = p->ld_capcache ? 2 * p->ld_capcache : 16;
-        prod_dem_cache *nc = realloc(p->ld_cache, cap * sizeof *nc);
-        if (!nc)
-            return sph_err_set(err, SPH_ERR_NOMEM, "loads: out of memory (DEM cache)");
-        p->ld_cache = nc;
-        p->ld_capcache = cap;
-    }
+    if (p->ld_ncache == p->ld_capcache && cache_grow(p) != 0)
+        return sph_err_set(err, SPH_ERR_NOMEM, "loads: out of memory (DEM cache)");
     prod_dem_cache *e = &p->ld_cache[p->ld_ncache++];
     e->w = ps->w;
     e->mass = ps->mass;
