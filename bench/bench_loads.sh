@@ -57,21 +57,16 @@ write_config() {
              -e "s#^\( *\"cache_dir\": *\"\)[^\"]*\"#\1$W/$1.cache\"#" >"$W/$1.json"
 }
 
-# run_cycle NAME: sets CPU WALL RSS STATUS
+# run_cycle NAME: sets CPU WALL RSS (GNU time's last line: user, system, wall, peak kB) and STATUS
 run_cycle() {
     rm -rf "$W/$1" "$W/$1.state" "$W/$1.cache"
     echo "bench_loads: $1: sphice run $W/$1.json --hours $HOURS" >&2
-    if /usr/bin/time -f '%U %S %e %M' -o "$W/$1.time" \
-            "$BUILD/sphice" run "$W/$1.json" --cycle "$CYCLE" --hours "$HOURS" --out "$W/$1" --force \
-            >"$W/$1.log" 2>&1; then
-        STATUS=ok
-    else
-        STATUS=failed
-    fi
-    set -- $(tail -n 1 "$W/$1.time")
-    CPU=$(awk -v u="$1" -v s="$2" 'BEGIN { printf "%.2f", u + s }')
-    WALL=$3
-    RSS=$(awk -v k="$4" 'BEGIN { printf "%.1f", k / 1024 }')
+    STATUS=ok
+    /usr/bin/time -f '%U %S %e %M' -o "$W/$1.time" "$BUILD/sphice" run "$W/$1.json" --cycle "$CYCLE" \
+        --hours "$HOURS" --out "$W/$1" --force >"$W/$1.log" 2>&1 || STATUS=failed
+    read -r CPU WALL RSS <<EOF_T
+$(awk 'END { printf "%.2f %s %.1f", $1 + $2, $3, $4 / 1024 }' "$W/$1.time")
+EOF_T
 }
 
 # num FILE KEY: the first number after "KEY": in cycle.json

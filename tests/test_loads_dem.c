@@ -253,19 +253,32 @@ static void direct_dem(const prod_loads_options *o, const prod_structure *ps, do
 
 static double rounded(double x, double res) { return res > 0.0 ? res * round(x / res) : x; }
 
+/* runs the scene into root/name (lo NULL: quick_dem's options) and reads
+ * its rows: 1 when both worked */
+static int run_read(const char *root, const char *name, const prod_loads_options *lo, const scene *sc,
+                    prod_summary *sum, rows *r)
+{
+    prod_loads_options q;
+    if (!lo) {
+        quick_dem(&q);
+        lo = &q;
+    }
+    char stage[600];
+    snprintf(stage, sizeof stage, "%s/%s", root, name);
+    sph_error e;
+    int rc = run(stage, lo, sc, sum, &e);
+    CHECK(rc == SPH_OK, "%s: %s", name, e.msg);
+    return rc == SPH_OK && read_rows(stage, r) && r->nt == sc->nt;
+}
+
 static void test_below(const char *root)
 {
     /* thin; slow; loose: each below one threshold */
     scene sc = { 3, { 0.9, 0.9, 0.1 }, { 0.05, 0.3, 0.3 }, { -0.2, -0.01, -0.2 } };
-    prod_loads_options lo;
-    quick_dem(&lo);
-    char stage[600];
-    snprintf(stage, sizeof stage, "%s/below", root);
-    prod_summary sum;
-    sph_error e;
-    CHECK(run(stage, &lo, &sc, &sum, &e) == SPH_OK, "below: %s", e.msg);
     rows r;
-    CHECK(read_rows(stage, &r) && r.nt == 3, "below: read");
+    prod_summary sum;
+    if (!run_read(root, "below", NULL, &sc, &sum, &r))
+        return;
     const char *want[3] = { "thickness", "speed", "concentration" };
     for (int t = 0; t < 3; t++) {
         CHECK(!strcmp(r.model[t], "cheap") && strstr(r.why[t], want[t]) && strstr(r.why[t], "below"),
@@ -284,16 +297,10 @@ static void test_above_and_cache(const char *root)
     scene sc = { 4, { 0.9, 0.9, 0.9, 0.9 }, { 0.26, 0.262, 0.30, 0.259 }, { -0.2, -0.2, -0.2, -0.205 } };
     prod_loads_options lo;
     quick_dem(&lo);
-    char stage[600];
-    snprintf(stage, sizeof stage, "%s/above", root);
     prod_summary sum;
-    sph_error e;
-    CHECK(run(stage, &lo, &sc, &sum, &e) == SPH_OK, "above: %s", e.msg);
     rows r;
-    if (!read_rows(stage, &r) || r.nt != 4) {
-        CHECK(0, "above: read");
+    if (!run_read(root, "above", &lo, &sc, &sum, &r))
         return;
-    }
     for (int t = 0; t < 4; t++)
         CHECK(!strcmp(r.model[t], "dem") && strstr(r.why[t], "all DEM thresholds"), "above t%d: %s (%s)", t,
               r.model[t], r.why[t]);
@@ -334,8 +341,7 @@ static void test_above_and_cache(const char *root)
     lo.cache_thickness = 0.0;
     lo.cache_speed = 0.0;
     scene two = { 2, { 0.9, 0.9 }, { 0.26, 0.262 }, { -0.2, -0.2 } };
-    snprintf(stage, sizeof stage, "%s/nocache", root);
-    CHECK(run(stage, &lo, &two, &sum, &e) == SPH_OK && sum.loads.dem_runs == 2 && sum.loads.dem_cached == 0,
+    CHECK(run_read(root, "nocache", &lo, &two, &sum, &r) && sum.loads.dem_runs == 2 && sum.loads.dem_cached == 0,
           "resolution 0: exact values only (%ld runs)", sum.loads.dem_runs);
 }
 
@@ -343,22 +349,20 @@ static void test_force(const char *root)
 {
     prod_loads_options lo;
     quick_dem(&lo);
-    char stage[600];
     prod_summary sum;
-    sph_error e;
     rows r;
     /* a DEM scene, the cheap model forced */
     scene hot = { 1, { 0.9 }, { 0.26 }, { -0.2 } };
     lo.model = PROD_LOADS_CHEAP;
-    snprintf(stage, sizeof stage, "%s/force_cheap", root);
-    CHECK(run(stage, &lo, &hot, &sum, &e) == SPH_OK && read_rows(stage, &r), "force cheap: %s", e.msg);
+    if (!run_read(root, "force_cheap", &lo, &hot, &sum, &r))
+        return;
     CHECK(!strcmp(r.model[0], "cheap") && strstr(r.why[0], "forced") && r.cached[0] == -1 && sum.loads.dem_runs == 0,
           "force cheap: %s (%s)", r.model[0], r.why[0]);
     /* still ice, the DEM forced; and no ice at all: nothing to run */
     scene still = { 2, { 0.9, 0.0 }, { 0.3, 0.3 }, { 0.0, -0.2 } };
     lo.model = PROD_LOADS_DEM;
-    snprintf(stage, sizeof stage, "%s/force_dem", root);
-    CHECK(run(stage, &lo, &still, &sum, &e) == SPH_OK && read_rows(stage, &r), "force dem: %s", e.msg);
+    if (!run_read(root, "force_dem", &lo, &still, &sum, &r))
+        return;
     CHECK(!strcmp(r.model[0], "dem") && strstr(r.why[0], "forced") && r.cached[0] == 0 && sum.loads.dem_runs == 1,
           "force dem: %s (%s)", r.model[0], r.why[0]);
     CHECK(!strcmp(r.model[1], "none") && strstr(r.why[1], "no ice") && r.stload[1] == PROD_FILL_FLOAT,
@@ -398,20 +402,30 @@ static void test_refusals(const char *root)
           "a sheet too short refused in one line: %s", e.msg);
 }
 
+/* parses a configuration of one domain, one forcing, the given "loads"
+ * member text (may be "") and stations */
+static int parse(const char *loads, const char *stations, struct sph_config **c, sph_error *e)
+{
+    static const char *const head =
+        "{\"domain\": {\"lon_min\": 119, \"lon_max\": 122, \"lat_min\": 38, \"lat_max\": 41}, \"forcing\": "
+        "[{\"name\": \"atm\", \"kind\": \"atmosphere\", \"urls\": \"/a.nc\"}], \"output\": {\"dir\": \"/tmp/o\"}";
+    char text[2048];
+    snprintf(text, sizeof text, "%s%s%s, \"stations\": [%s]}", head, loads[0] ? ", " : "", loads, stations);
+    sph_error_clear(e);
+    *c = NULL;
+    return sph_config_parse(text, "t.json", c, e);
+}
+
 static void test_config(void)
 {
-#define BASE "{\"domain\": {\"lon_min\": 119, \"lon_max\": 122, \"lat_min\": 38, \"lat_max\": 41}," \
-             " \"forcing\": [{\"name\": \"atm\", \"kind\": \"atmosphere\", \"urls\": \"/a.nc\"}]," \
-             " \"output\": {\"dir\": \"/tmp/out\"}, %s \"stations\": [%s]}"
-    char text[2048];
     sph_error e;
-    struct sph_config *c = NULL;
-    snprintf(text, sizeof text, BASE,
-             "\"loads\": {\"model\": \"dem\", \"dem_min_speed\": 0.1, \"dem_duration\": 2, \"dem_cache_thickness\": 0.05},",
-             "{\"name\": \"JZ20-2\", \"lon\": 121.37, \"lat\": 40.47, \"structure\": {\"kind\": \"vertical\", "
-             "\"mass\": 500, \"stiffness\": 1e5, \"damping\": 0.05}}");
-    sph_error_clear(&e);
-    CHECK(sph_config_parse(text, "t.json", &c, &e) == SPH_OK, "loads keys parse: %s", e.msg);
+    struct sph_config *c;
+    int rc = parse("\"loads\": {\"model\": \"dem\", \"dem_min_speed\": 0.1, \"dem_duration\": 2, "
+                   "\"dem_cache_thickness\": 0.05}",
+                   "{\"name\": \"JZ20-2\", \"lon\": 121.37, \"lat\": 40.47, \"structure\": {\"kind\": "
+                   "\"vertical\", \"mass\": 500, \"stiffness\": 1e5, \"damping\": 0.05}}",
+                   &c, &e);
+    CHECK(rc == SPH_OK, "loads keys parse: %s", e.msg);
     if (c) {
         CHECK(c->loads.model == PROD_LOADS_DEM && c->loads.dem_min_speed == 0.1 && c->loads.dem_duration == 2 &&
                   c->loads.dem_cache_thickness == 0.05 && c->loads.dem_min_thickness == 0.1 &&
@@ -422,19 +436,13 @@ static void test_config(void)
               "structure dynamics read");
         sph_config_free(c);
     }
-    c = NULL;
-    snprintf(text, sizeof text, BASE, "",
-             "{\"name\": \"Loose\", \"lon\": 121, \"lat\": 40, \"structure\": {\"kind\": \"vertical\", \"stiffness\": 0}}");
-    sph_error_clear(&e);
-    int rc = sph_config_parse(text, "t.json", &c, &e);
+    rc = parse("", "{\"name\": \"Loose\", \"lon\": 121, \"lat\": 40, \"structure\": {\"kind\": \"vertical\", "
+               "\"stiffness\": 0}}", &c, &e);
     CHECK(rc == SPH_ERR_CONFIG && c == NULL && strstr(e.msg, "\"Loose\"") &&
               strstr(e.msg, "stations[0].structure.stiffness") && !strchr(e.msg, '\n'),
           "a structure of mass on no spring refused in one line: %s", e.msg);
-    snprintf(text, sizeof text, BASE, "\"loads\": {\"model\": \"sometimes\"},", "");
-    sph_error_clear(&e);
-    rc = sph_config_parse(text, "t.json", &c, &e);
-    CHECK(rc == SPH_ERR_CONFIG && strstr(e.msg, "loads.model"), "an unknown model refused: %s", e.msg);
-#undef BASE
+    rc = parse("\"loads\": {\"model\": \"sometimes\"}", "", &c, &e);
+    CHECK(rc == SPH_ERR_CONFIG && c == NULL && strstr(e.msg, "loads.model"), "an unknown model refused: %s", e.msg);
 }
 
 static void test_status(const char *root)

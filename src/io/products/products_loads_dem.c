@@ -42,6 +42,7 @@
 #include <string.h>
 
 #include "core/dem.h"
+#include "util/log.h"
 #include "util/timeutil.h"
 
 void prod_loads_options_default(prod_loads_options *o)
@@ -278,6 +279,9 @@ int prod_loads_dem(prod_writer *p, int s, double h, double u, prod_dem_result *r
     int rc = products_loads_dem_run(o, ps, p->stations[s].name, hr, ur, r, err);
     if (rc != SPH_OK)
         return rc;
+    log_info("loads: station \"%s\": DEM of %.3g m ice at %.3g m/s: %ld spheres, %ld steps of %.3g s, load mean %.4g kN, "
+             "max %.4g kN (%.1f s)", p->stations[s].name, hr, ur, r->particles, r->steps, r->dt, r->mean * 1e-3,
+             r->max * 1e-3, r->seconds);
     p->ld_sum.dem_runs++;
     p->ld_sum.dem_seconds += r->seconds;
     p->ld_sum.dem_steps += r->steps;
