@@ -89,7 +89,7 @@ if [ "$STATUS" = ok ] && [ -f "$J" ]; then
     CACHED=$(num "$J" dem_cached)
     PSTEPS=$(num "$J" dem_particle_steps)
     PER=$(awk -v d="$DEM" -v n="$n" -v h="$HOURS" 'BEGIN { printf "%.3f", d / (n * h) }')
-    SHARE=$(awk -v d="$DEM" -v f="$FC" 'BEGIN { printf "%.4f", f > 0 ? d / f : 0 }')
+    SHARE=$(awk -v d="$DEM" -v f="$FC" 'BEGIN { printf "%.4f", (f > 0 ? d / f : 0) }')
     echo "$PROBLEM,loads,model=$MODEL duration=${DURATION}s stations=$n,$CPU,$WALL,$RSS,$STATUS,dem_s_per_station_hour,$PER,dem_share,$SHARE,dem_runs,$RUNS/$ROWS"
     echo "bench_loads: $HOURS h, $n stations with the seed's leg, loads.model $MODEL, $DURATION s per DEM run:" >&2
     echo "bench_loads:   cycle wall $WALL s (without structures $WALL_NONE s); forecast wall $FC s of which DEM $DEM s (share $SHARE)" >&2
