@@ -241,9 +241,12 @@ static void direct_dem(const prod_loads_options *o, const prod_structure *ps, do
             acc += F[j];
         B[b] = acc / (double)blk;
     }
-    out[3] = 0.0;
+    out[3] = NAN;
+    m3 = 0.0;
     if (nb > 1)
         dem_load_stats(B, (size_t)nb, dt * (double)blk, &m1, &m2, &m3, &out[3]);
+    if (!(m3 > 0.0))
+        out[3] = PROD_FILL_FLOAT; /* no spectrum: fill in the file */
     free(B);
     free(F);
     free(U);

@@ -31,7 +31,8 @@
  *     mean, max, std (n - 1) of the load over every step; the dominant
  *     frequency by dem_load_stats of the series' means over blocks of
  *     k = max(1, floor(1 ms / dt)) steps (a 1 kHz series: the direct DFT
- *     of every step would cost more than the run); displacement and
+ *     of every step would cost more than the run; NaN from fewer than two
+ *     blocks or block means that do not vary); displacement and
  *     acceleration: max |.| and std. */
 #include "products_impl.h"
 
@@ -235,10 +236,14 @@ int products_loads_dem_run(const prod_loads_options *o, const prod_structure *ps
             bs += f[b * k + j];
         fd[b] = bs / (double)k;
     }
-    double m2, x2, s2;
-    r->freq = 0.0;
+    /* no spectrum (NaN, fill in the file) from fewer than two blocks or a
+     * load that does not vary (a sheet at rest: no dominant frequency) */
+    double m2, x2, s2 = 0.0;
+    r->freq = NAN;
     if (nd > 1)
         dem_load_stats(fd, (size_t)nd, dt * (double)k, &m2, &x2, &s2, &r->freq);
+    if (!(s2 > 0.0))
+        r->freq = NAN;
     r->particles = (long)d->n;
     r->bonds = (long)d->nbonds;
     r->steps = steps;
