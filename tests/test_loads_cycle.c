@@ -42,8 +42,11 @@ static struct sph_config *load(const char *loads)
     return cfg;
 }
 
-static int cycle(const struct sph_config *cfg, const char *out, cycle_report *rep, sph_error *err)
+/* runs the case's cycle for 3 h into dir/name (out gets that path) */
+static int cycle(const struct sph_config *cfg, const char *name, char *out, size_t len, cycle_report *rep,
+                 sph_error *err)
 {
+    snprintf(out, len, "%s/%s", dir, name);
     cycle_opts o = {.cycle_time = EC_CYCLE, .hours = 3, .out_dir = out, .force = 1};
     memset(rep, 0, sizeof *rep);
     sph_error_clear(err);
@@ -63,10 +66,9 @@ static void test_published(void)
     if (!cfg)
         return;
     char out[1200], path[1400];
-    snprintf(out, sizeof out, "%s/out", dir);
     cycle_report rep;
     sph_error err;
-    int rc = cycle(cfg, out, &rep, &err);
+    int rc = cycle(cfg, "out", out, sizeof out, &rep, &err);
     CHECK(rc == SPH_OK && rep.result == CYCLE_OK, "the cycle is published: %s", err.msg);
     snprintf(path, sizeof path, "%s/19990208T06Z/cycle.json", out);
     sph_error e;
@@ -117,11 +119,10 @@ static void test_refused(void)
     struct sph_config *cfg = load("\"model\": \"dem\", \"dem_duration\": 0.004, \"dem_dt\": 0.001");
     if (!cfg)
         return;
-    char out[1200], path[1400];
-    snprintf(out, sizeof out, "%s/bad", dir);
     cycle_report rep;
     sph_error err;
-    int rc = cycle(cfg, out, &rep, &err);
+    char out[1200], path[1400];
+    int rc = cycle(cfg, "bad", out, sizeof out, &rep, &err);
     CHECK(rc != SPH_OK && rep.result == CYCLE_FAILED, "a step beyond the limit fails the cycle");
     CHECK(strstr(err.msg, "\"centre\"") && strstr(err.msg, "loads.dem_dt") && !strchr(err.msg, '\n'),
           "one line naming the station and the key: %s", err.msg);
