@@ -19,6 +19,10 @@
 #include "service/status_page.h"
 #include "util/jsonutil.h"
 
+/* the station plots' fontconfig cache, as in test_products */
+const char *__lsan_default_suppressions(void);
+const char *__lsan_default_suppressions(void) { return "leak:libfontconfig\n"; }
+
 static char dir[] = "/tmp/test_loads_cycle_XXXXXX";
 
 /* the case's configuration with the leg at its station and the given loads.* members */
