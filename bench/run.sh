@@ -5,7 +5,8 @@
 #   BENCH_QUICK=1  small matrices (CI, ~3 min)
 #   BENCH_OUT=dir  output folder (default bench/out)
 #   BENCH_ONLY="neighbours reference stability auto demo hyperslab"  a subset
-#              (box2001: CICE's box2001 side by side, not in the default list)
+#              (box2001: CICE's box2001 side by side, not in the default list;
+#              loads: the station DEM's cost on the demo, bench/bench_loads.sh, neither)
 #   DEMO_HOURS=h   the demo problem's forecast length (bench/bench_demo.sh; 96)
 # Writes $BENCH_OUT/results.csv (one row per run, see bench/bench_common.h),
 # $BENCH_OUT/machine.txt, and the charts (bench/plot.sh, needs gnuplot).
@@ -36,6 +37,7 @@ for b in $ONLY; do
     case $b in
     neighbours) "$BUILD/bench/bench_neighbours" >> "$CSV" ;;
     demo) BUILD="$BUILD" BENCH_OUT="$OUT" sh bench/bench_demo.sh >> "$CSV" ;;
+    loads) BUILD="$BUILD" BENCH_OUT="$OUT" sh bench/bench_loads.sh >> "$CSV" ;;
     auto) # the channel half packed, then packed everywhere
         OMP_NUM_THREADS=1 "$BUILD/bench/bench_auto" >> "$CSV"
         BENCH_AUTO_PACKED=1 OMP_NUM_THREADS=1 "$BUILD/bench/bench_auto" >> "$CSV" ;;

@@ -45,7 +45,71 @@ typedef struct prod_station {
 typedef struct prod_structure {
     double w;   /* vertical structure's waterline diameter, m; 0 = none (no load) */
     double c_r; /* its ISO 19906 C_R, Pa */
+    /* the DEM's rigid structure (products_loads_dem.c): a horizontal
+     * oscillator; mass 0 = fixed */
+    double mass;      /* kg */
+    double stiffness; /* N m-1 */
+    double damping;   /* damping ratio zeta */
 } prod_structure;
+
+/* The ice-load product's model choice and DEM (products_loads_dem.c,
+ * docs/dem.md "The station DEM"); the configuration's loads.* keys. */
+enum { PROD_LOADS_AUTO = 0, PROD_LOADS_CHEAP = 1, PROD_LOADS_DEM = 2 }; /* = DEM_CHOOSE_* */
+typedef struct prod_loads_options {
+    int model;                /* PROD_LOADS_*: auto (the scene decides) or forced */
+    double min_speed;         /* DEM threshold: drift speed, m s-1 (the concentration's is edge_threshold) */
+    double min_thickness;     /* DEM threshold: thickness, m */
+    double duration;          /* simulated time of one DEM run, s */
+    double particle_diameter; /* nominal sphere diameter, m (the layers' count comes from it) */
+    double sheet_length;      /* the ice sheet's length along the drift, m */
+    double sheet_width;       /* its width across the drift, in structure diameters */
+    double dt;                /* DEM step, s; 0: 0.9 dt_safety dt_critical */
+    long max_particles;       /* a sheet needing more is refused */
+    double cache_thickness;   /* the cache's (and the run's) thickness resolution, m; 0: exact */
+    double cache_speed;       /* its speed resolution, m s-1; 0: exact */
+    double map_threshold;     /* N: quick-look marks a station whose load exceeds it; 0: none */
+} prod_loads_options;
+void prod_loads_options_default(prod_loads_options *o);
+
+/* One station DEM run's result. */
+typedef struct prod_dem_result {
+    double thickness, speed;  /* the DEM's ice (the forecast's, rounded to the cache resolution) */
+    double mean, max, std;    /* the ice load along the drift, N, over every step */
+    double freq;              /* its dominant frequency, Hz (the 1 kHz block-mean series) */
+    double disp_max, disp_std; /* structure displacement along the drift: max |u|, std, m */
+    double acc_max, acc_std;  /* structure acceleration: max |a|, std, m s-2 */
+    long particles, bonds, steps;
+    double dt;                /* step used, s */
+    double seconds;           /* wall time of the run, s */
+} prod_dem_result;
+
+/* Runs the station DEM (docs/dem.md "The station DEM") for ice of
+ * thickness h (m) drifting at speed u (m s-1) against structure ps.
+ * Returns SPH_OK, or an error whose one line names `station` and the key
+ * that settles it (loads.dem_dt beyond the stability limit,
+ * loads.dem_max_particles for a sheet that cannot be built). */
+int products_loads_dem_run(const prod_loads_options *o, const prod_structure *ps, const char *station, double h,
+                           double u, prod_dem_result *r, sph_error *err);
+
+/* The load product's summary (prod_summary.loads): cost and, per station
+ * with a structure (the first PROD_MAX_LOAD_STATIONS), the last output
+ * time's load of the model that ran. */
+#define PROD_MAX_LOAD_STATIONS 32
+typedef struct prod_load_latest {
+    char name[SPHICE_MAX_NAME + 1];
+    double time;              /* last output time */
+    double load;              /* N: cheap ice_load, or the DEM's max; NaN: none */
+    double max_load;          /* N: the largest such load over the forecast; NaN: none */
+    char model[16];           /* "cheap", "dem", "none" */
+} prod_load_latest;
+typedef struct prod_loads_summary {
+    int on;                   /* a load product was written */
+    double dem_seconds;       /* wall time in DEM runs, s */
+    long dem_runs, dem_cached, cheap_rows, dem_rows;
+    long dem_steps, dem_particle_steps;
+    int nstations;            /* entries in st */
+    prod_load_latest st[PROD_MAX_LOAD_STATIONS];
+} prod_loads_summary;
 
 typedef struct prod_options {
     const char *prefix;         /* file-name prefix; NULL or "" -> "sphice" */
@@ -56,6 +120,7 @@ typedef struct prod_options {
     const prod_station *stations;
     int nstations;
     const prod_structure *structures; /* NULL (none) or nstations entries */
+    prod_loads_options loads;   /* the load model's choice and DEM */
     int write_particles;        /* trajectory file <prefix>_particles.nc */
     int quicklook_every;        /* PNG for output times 0, k, 2k, ... and the
                                    last one; 0 = none */
@@ -132,6 +197,7 @@ typedef struct prod_summary {
     verify_scores scores;
     int nproducts;
     char products[PROD_MAX_PRODUCTS][PROD_NAME_LEN]; /* names relative to stage_dir */
+    prod_loads_summary loads;  /* the ice-load product (on = 0: none) */
 } prod_summary;
 
 typedef struct prod_writer prod_writer;

@@ -59,6 +59,11 @@ typedef struct quicklook_opts {
     int coastline;         /* 1: GSHHG coastline (default); 0: the grid's land mask */
     double smooth_km;      /* > 0: fields drawn after a Gaussian of this sigma, km (0) */
     const char *coast_dir; /* NULL: COAST_DEFAULT_DIR */
+    /* stations whose ice load exceeds a threshold (issue 25): st_mark[s] = 1
+     * draws station s as a red triangle, with a legend line naming
+     * mark_threshold_kn; NULL: none */
+    const unsigned char *st_mark;
+    double mark_threshold_kn;
 } quicklook_opts;
 
 void quicklook_opts_default(quicklook_opts *o);

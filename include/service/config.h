@@ -52,7 +52,9 @@ typedef struct cfg_forcing_source {
     double margin_km;       /* read window: the domain plus this margin */
 } cfg_forcing_source;
 
-typedef struct cfg_station { char *name; double lon, lat; int structure_kind; double structure_diameter, structure_c_r; } cfg_station;
+typedef struct cfg_station { char *name; double lon, lat; int structure_kind; double structure_diameter, structure_c_r;
+    double structure_mass, structure_stiffness, structure_damping; /* the DEM's oscillator: t, kN/m, ratio */
+} cfg_station;
 
 enum { CFG_INIT_NETCDF = 0, CFG_INIT_ESRI };
 enum { CFG_REINIT_WARM = 0, CFG_REINIT_COLD, CFG_REINIT_NEWER_RASTER };
@@ -137,6 +139,12 @@ struct sph_config {
 
     cfg_station *stations;
     size_t nstations;
+    struct {                    /* the ice-load product's model choice and DEM (io/products.h prod_loads_options) */
+        int model;              /* PROD_LOADS_* */
+        double dem_min_speed, dem_min_thickness, dem_duration, dem_particle_diameter, dem_sheet_length,
+            dem_sheet_width, dem_dt, dem_cache_thickness, dem_cache_speed, map_threshold_kn;
+        int dem_max_particles;
+    } loads;
 
     struct {
         cfg_todlist cycles;

@@ -15,6 +15,7 @@
 #include "core/model.h"
 #include "util/err.h"
 #include "util/limits.h"
+#include "io/products.h"
 
 struct sph_config;
 
@@ -70,6 +71,7 @@ typedef struct forecast_result {
     char raster_assumed[256];    /* the raster's values taken from configuration (IMS ice cell) */
     int nproducts;
     char products[FC_MAX_PRODUCTS][512]; /* file names relative to stage_dir */
+    prod_loads_summary loads;    /* the ice-load product: cost, latest load per station (on = 0: none) */
     struct {                     /* service/ensemble.h; members 0: a single run */
         int members;
         unsigned long long seed;

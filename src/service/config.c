@@ -12,6 +12,7 @@
 #include "service/cycle_name.h"
 #include "service/http.h"
 #include "io/ensemble.h"
+#include "io/products.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -74,6 +75,7 @@ static const char *const level_names[] = {"error", "warn", "info", "debug", NULL
 static const char *const vectors_names[] = {"auto", "earth", "grid", NULL};
 static const char *const accumulation_names[] = {"interval", "running", NULL};
 static const char *const structure_kind_names[] = {"none", "vertical", NULL};
+static const char *const loads_model_names[] = {"auto", "cheap", "dem", NULL};
 
 static const cfg_key forcing_keys[] = {
     K(cfg_forcing_source, "name", CT_STRING, name, NULL, 1, SPHICE_MAX_NAME, 0, NULL,
@@ -111,6 +113,9 @@ static const cfg_key station_keys[] = {
     K(cfg_station, "structure.kind", CT_ENUM, structure_kind, "\"none\"", 0, 0, 0, structure_kind_names, "Offshore structure at the station: none, or vertical (a vertical leg: the ice-load product sphice_loads.nc and .csv with ISO 19906 global crushing load, docs/dem.md)."),
     K(cfg_station, "structure.diameter", CT_DOUBLE, structure_diameter, "1.6", 0.01, 1000, 0, NULL, "The vertical structure's waterline diameter w, m (ISO 19906 valid for w/h > 2)."),
     K(cfg_station, "structure.c_r", CT_DOUBLE, structure_c_r, "1.8", 0.01, 100, 0, NULL, "ISO 19906 ice strength coefficient C_R, MPa (1.8 sub-Arctic, including the Bohai; 2.8 Arctic)."),
+    K(cfg_station, "structure.mass", CT_DOUBLE, structure_mass, "300", 0, 1e9, 0, NULL, "The structure's mass in the DEM (a horizontal oscillator), t; 0: fixed (default: the seed's leg, 300 t)."),
+    K(cfg_station, "structure.stiffness", CT_DOUBLE, structure_stiffness, "5e5", 0, 1e12, 0, NULL, "The structure's horizontal stiffness in the DEM, kN/m (the seed's 5.0e5); must be positive when the mass is."),
+    K(cfg_station, "structure.damping", CT_DOUBLE, structure_damping, "0.03", 0, 0.99, 0, NULL, "The structure's damping ratio in the DEM (the seed's 0.03)."),
 };
 static const cfg_table station_table = {station_keys, sizeof station_keys / sizeof station_keys[0],
                                         sizeof(cfg_station)};
@@ -280,6 +285,31 @@ static const cfg_key tail_keys[] = {
 
     {"stations", CT_OBJARRAY, "[]", 0, 10000, R, NULL, offsetof(struct sph_config, stations),
      offsetof(struct sph_config, nstations), &station_table, "Time series points, each {name, lon, lat}."},
+
+    C_("loads.model", CT_ENUM, loads.model, "\"auto\"", 0, 0, R, loads_model_names,
+       "Ice-load model at the stations with a structure: auto (the DEM where the concentration reaches output.edge_threshold, the drift speed loads.dem_min_speed and the thickness loads.dem_min_thickness, the cheap ISO 19906 formula elsewhere), cheap or dem (forced; docs/dem.md)."),
+    C_("loads.dem_min_speed", CT_DOUBLE, loads.dem_min_speed, "0.05", 0, 10, R, NULL,
+       "The DEM runs only where the ice drifts at least this fast, m/s."),
+    C_("loads.dem_min_thickness", CT_DOUBLE, loads.dem_min_thickness, "0.1", 0, 20, R, NULL,
+       "The DEM runs only where the ice is at least this thick, m."),
+    C_("loads.dem_duration", CT_DOUBLE, loads.dem_duration, "1", 1e-4, 600, R, NULL,
+       "Simulated time of one station DEM run, s."),
+    C_("loads.dem_particle_diameter", CT_DOUBLE, loads.dem_particle_diameter, "0.1", 0.005, 10, R, NULL,
+       "Nominal sphere diameter of the DEM's ice sheet, m (the seed's 0.1 m); the layers' count comes from it, the spheres are resized so that the sheet has the forecast's thickness."),
+    C_("loads.dem_sheet_length", CT_DOUBLE, loads.dem_sheet_length, "1", 0.01, 1000, R, NULL,
+       "Length of the DEM's ice sheet along the drift, m."),
+    C_("loads.dem_sheet_width", CT_DOUBLE, loads.dem_sheet_width, "2", 0.1, 100, R, NULL,
+       "Width of the DEM's ice sheet across the drift, in structure diameters."),
+    C_("loads.dem_dt", CT_DOUBLE, loads.dem_dt, "0", 0, 1, R, NULL,
+       "DEM time step, s; 0: 0.9 x 0.8 x the contact's stability limit. A step beyond 0.8 x the limit is refused (one line naming the station), nothing published."),
+    C_("loads.dem_max_particles", CT_INT, loads.dem_max_particles, "20000", 10, 10000000, R, NULL,
+       "A station DEM sheet needing more spheres is refused (one line naming the station), nothing published."),
+    C_("loads.dem_cache_thickness", CT_DOUBLE, loads.dem_cache_thickness, "0.02", 0, 10, R, NULL,
+       "The DEM runs at the thickness rounded to this resolution, m, and a cycle reuses the result of an equal (thickness, speed, structure); 0: exact values only."),
+    C_("loads.dem_cache_speed", CT_DOUBLE, loads.dem_cache_speed, "0.02", 0, 10, R, NULL,
+       "The same rounding of the drift speed, m/s; 0: exact values only."),
+    C_("loads.map_threshold_kn", CT_DOUBLE, loads.map_threshold_kn, "500", 0, 1e9, R, NULL,
+       "Quick-look maps mark a station whose ice load (the model that ran) exceeds this, kN; 0: no marks."),
 
     C_("schedule.cycles", CT_TODLIST, schedule.cycles, "[\"00:00\", \"12:00\"]", 0, CFG_MAX_CYCLES, R, NULL,
        "Cycle times of day, \"HH:MM\" UTC."),
@@ -889,6 +919,20 @@ static int cross_check(const struct sph_config *c, const char *origin, sph_error
                                "the domain [%g, %g] x [%g, %g]: no ice load can be forecast there",
                                origin, i, s->name, s->lon, s->lat, c->domain.lon_min, c->domain.lon_max,
                                c->domain.lat_min, c->domain.lat_max);
+        if (s->structure_kind && s->structure_mass > 0 && !(s->structure_stiffness > 0))
+            return sph_err_set(err, SPH_ERR_CONFIG,
+                               "config %s: stations[%zu].structure.stiffness: station \"%s\": a structure of mass "
+                               "%g t on no spring cannot be built for the DEM: give a stiffness, or mass 0 (fixed)",
+                               origin, i, s->name, s->structure_mass);
+    }
+    {
+        size_t nst = 0;
+        for (size_t i = 0; i < c->nstations; i++)
+            if (c->stations[i].structure_kind && ++nst > PROD_MAX_LOAD_STATIONS)
+                return sph_err_set(err, SPH_ERR_CONFIG,
+                                   "config %s: stations[%zu].structure.kind: station \"%s\" is the %zuth with a "
+                                   "structure, at most %d may have one", origin, i, c->stations[i].name, nst,
+                                   PROD_MAX_LOAD_STATIONS);
     }
     if (c->schedule.every_hours <= 0 && c->schedule.every_seconds <= 0 && c->schedule.cycles.n == 0)
         return sph_err_set(err, SPH_ERR_CONFIG,

@@ -568,6 +568,53 @@ static cJSON *cycle_scores_json(const forecast_result *r)
     return o;
 }
 
+/* cycle.json's timing block (written with a load product): the
+ * forecast's wall time and the stage "loads", the DEM runs inside it. */
+static cJSON *cycle_loads_timing_json(const forecast_result *r)
+{
+    const prod_loads_summary *l = &r->loads;
+    cJSON *t = cJSON_CreateObject(), *f = cJSON_AddObjectToObject(t, "forecast"),
+          *o = cJSON_AddObjectToObject(t, "loads");
+    cJSON_AddNumberToObject(f, "wall_seconds", r->wall_seconds);
+    cJSON_AddNumberToObject(o, "dem_wall_seconds", l->dem_seconds);
+    cJSON_AddNumberToObject(o, "dem_share_of_forecast", r->wall_seconds > 0 ? l->dem_seconds / r->wall_seconds : 0.0);
+    cJSON_AddNumberToObject(o, "dem_runs", (double)l->dem_runs);
+    cJSON_AddNumberToObject(o, "dem_cached", (double)l->dem_cached);
+    cJSON_AddNumberToObject(o, "dem_rows", (double)l->dem_rows);
+    cJSON_AddNumberToObject(o, "cheap_rows", (double)l->cheap_rows);
+    cJSON_AddNumberToObject(o, "dem_particle_steps", (double)l->dem_particle_steps);
+    return t;
+}
+
+/* The latest load and model per station (cycle.json "loads"; /status copies it). */
+static cJSON *cycle_loads_json(const prod_loads_summary *l)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (int k = 0; k < l->nstations; k++) {
+        const prod_load_latest *q = &l->st[k];
+        cJSON *o = cJSON_CreateObject();
+        char iso[32];
+        cJSON_AddStringToObject(o, "station", q->name);
+        if (isfinite(q->time)) {
+            time_format_iso(q->time, iso, sizeof iso);
+            cJSON_AddStringToObject(o, "valid_time", iso);
+        } else {
+            cJSON_AddNullToObject(o, "valid_time");
+        }
+        if (isfinite(q->load))
+            cJSON_AddNumberToObject(o, "load_kN", q->load * 1e-3);
+        else
+            cJSON_AddNullToObject(o, "load_kN");
+        cJSON_AddStringToObject(o, "model", q->model);
+        if (isfinite(q->max_load))
+            cJSON_AddNumberToObject(o, "max_load_kN", q->max_load * 1e-3);
+        else
+            cJSON_AddNullToObject(o, "max_load_kN");
+        cJSON_AddItemToArray(a, o);
+    }
+    return a;
+}
+
 static cJSON *products_json(const forecast_result *r, const char *dir)
 {
     cJSON *a = cJSON_CreateArray();
@@ -596,6 +643,10 @@ static int write_manifest(const struct sph_config *cfg, const cycle_opts *o, con
     for (size_t i = 0; i < f->nprov; i++)
         cJSON_AddItemToArray(src, cJSON_CreateString(f->prov[i]));
     cJSON_AddItemToObject(m, "result", result_json(&rep->res));
+    if (rep->res.loads.on) { /* the ice-load product: its DEM's cost, the latest load per station */
+        cJSON_AddItemToObject(m, "timing", cycle_loads_timing_json(&rep->res));
+        cJSON_AddItemToObject(m, "loads", cycle_loads_json(&rep->res.loads));
+    }
     cJSON_AddItemToObject(m, "scores", cycle_scores_json(&rep->res));
     cJSON *prods = cJSON_AddArrayToObject(m, "products");
     for (int i = 0; i < rep->res.nproducts && i < FC_MAX_PRODUCTS; i++)

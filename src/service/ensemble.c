@@ -115,6 +115,7 @@ const struct sph_config *fc_member_config(const struct sph_config *cfg, struct s
         return cfg;
     *lite = *cfg; /* shallow: read only, its strings stay cfg's */
     lite->output.products.maps = 0;
+    lite->loads.model = PROD_LOADS_CHEAP; /* the station DEM runs for the control only (its products are the cycle's) */
     return lite;
 }
 

@@ -390,6 +390,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         goto fail;
 
     res->ice_area_km2 = sum.ice_area_km2;
+    res->loads = sum.loads;
     res->ice_volume_km3 = sum.ice_volume_km3;
     res->ice_mass_kg = b->mass;
     res->edge_distance_nm = sum.edge_distance_nm;

@@ -99,12 +99,28 @@ int fc_open_products(engine *e, prod_station *stations, sph_error *err)
             if (cfg->stations[s].structure_kind) {
                 structures[ns].w = cfg->stations[s].structure_diameter;
                 structures[ns].c_r = cfg->stations[s].structure_c_r * 1e6;
+                structures[ns].mass = cfg->stations[s].structure_mass * 1e3;
+                structures[ns].stiffness = cfg->stations[s].structure_stiffness * 1e3;
+                structures[ns].damping = cfg->stations[s].structure_damping;
             }
             ns++;
         }
     o.stations = ns ? stations : NULL;
     o.nstations = ns;
     o.structures = ns ? structures : NULL;
+    /* the load model's keys (loads.*) */
+    o.loads.model = cfg->loads.model;
+    o.loads.min_speed = cfg->loads.dem_min_speed;
+    o.loads.min_thickness = cfg->loads.dem_min_thickness;
+    o.loads.duration = cfg->loads.dem_duration;
+    o.loads.particle_diameter = cfg->loads.dem_particle_diameter;
+    o.loads.sheet_length = cfg->loads.dem_sheet_length;
+    o.loads.sheet_width = cfg->loads.dem_sheet_width;
+    o.loads.dt = cfg->loads.dem_dt;
+    o.loads.max_particles = cfg->loads.dem_max_particles;
+    o.loads.cache_thickness = cfg->loads.dem_cache_thickness;
+    o.loads.cache_speed = cfg->loads.dem_cache_speed;
+    o.loads.map_threshold = cfg->loads.map_threshold_kn * 1e3;
     o.write_particles = cfg->output.products.particles;
     o.write_snow = fc_snow_possible(cfg);
     if (cfg->output.products.maps) {

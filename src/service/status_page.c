@@ -233,6 +233,18 @@ cJSON *status_latest_json(const char *out_dir)
     else
         cJSON_AddNullToObject(o, "edge");
     cJSON_Delete(m);
+    /* the ice loads (issue 25): the latest load and model per station, from cycle.json */
+    char path[4200];
+    snprintf(path, sizeof path, "%s/latest/cycle.json", out_dir ? out_dir : "");
+    sph_error e;
+    sph_error_clear(&e);
+    cJSON *c = out_dir ? json_read_file(path, &e) : NULL;
+    cJSON *loads = cJSON_DetachItemFromObjectCaseSensitive(c, "loads");
+    if (cJSON_IsArray(loads))
+        cJSON_AddItemToObject(o, "loads", loads);
+    else
+        cJSON_Delete(loads);
+    cJSON_Delete(c);
     return o;
 }
 

@@ -35,6 +35,7 @@ void products_options_default(prod_options *o)
     o->quicklook_height = 720;
     o->quicklook_thick_max = 0.6;
     o->deflate_level = 4;
+    prod_loads_options_default(&o->loads);
 }
 
 double products_drift_direction_deg(double u_east, double v_north)
@@ -729,21 +730,27 @@ static int render_quicklook(prod_writer *p, size_t index, double t, const edge_s
     const char **names = ns ? malloc(sizeof *names * (size_t)ns) : NULL;
     double *lon = ns ? malloc(sizeof *lon * (size_t)ns) : NULL;
     double *lat = ns ? malloc(sizeof *lat * (size_t)ns) : NULL;
+    unsigned char *mark = p->ld_sum.on && ns ? calloc((size_t)ns, 1) : NULL; /* loads above the threshold */
     int rc;
-    if (ns && (!names || !lon || !lat)) {
+    if (ns && (!names || !lon || !lat || (p->ld_sum.on && !mark))) {
         rc = sph_err_set(err, SPH_ERR_NOMEM, "products: out of memory");
     } else {
         for (int s = 0; s < ns; s++) {
             names[s] = p->stations[s].name;
             lon[s] = p->stations[s].lon;
             lat[s] = p->stations[s].lat;
+            if (mark)
+                mark[s] = (unsigned char)prod_loads_alert(p, s);
         }
+        qo.st_mark = mark;
+        qo.mark_threshold_kn = p->opts.loads.map_threshold * 1e-3;
         rc = quicklook_write_png(path, &p->grid, p->masked[PF_VAR_CONC], p->masked[PF_VAR_THICK],
                                  p->land, e, names, lon, lat, ns, t, &qo, err);
     }
     free(names);
     free(lon);
     free(lat);
+    free(mark);
     if (rc == SPH_OK) {
         add_product(p, name);
         p->last_quicklook_index = (int)index;
@@ -1155,6 +1162,7 @@ int products_close(prod_writer *p, prod_summary *summary, sph_error *err)
         summary->scores = p->scores;
         summary->nproducts = p->nproducts;
         memcpy(summary->products, p->products, sizeof summary->products);
+        summary->loads = p->ld_sum;
     }
     writer_free(p);
     return SPH_OK;

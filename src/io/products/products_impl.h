@@ -58,9 +58,15 @@ struct prod_writer {
     FILE *csv;
     /* ice loads at stations with a structure (products_loads.c) */
     prod_file ld_nc, ld_csv;
-    int ld_on, ld_ncid, ld_v_time, ld_v[6];
+    int ld_on, ld_ncid, ld_v_time, ld_v[24];
     prod_structure *ld_st;     /* copy of opts.structures */
     FILE *ld_f;
+    /* the DEM's cache, cost and the latest loads (products_loads_dem.c;
+     * ld_sum outlives prod_loads_close: the summary and the last map) */
+    struct prod_dem_cache *ld_cache;
+    size_t ld_ncache, ld_capcache;
+    prod_loads_summary ld_sum;
+    int ld_sum_station[PROD_MAX_LOAD_STATIONS]; /* station index of ld_sum.st[k] */
 
     /* particles */
     prod_file pt;
@@ -164,5 +170,13 @@ int prod_loads_add(prod_writer *p, size_t ti, double t, int s, double conc, doub
                    sph_error *err);
 int prod_loads_close(prod_writer *p, sph_error *err);
 void prod_loads_abort(prod_writer *p);
+
+/* products_loads_dem.c: the DEM result for station s's structure at
+ * thickness h and speed u, from the cycle's cache (*cached = 1) or a new
+ * run; the cost goes into p->ld_sum. */
+int prod_loads_dem(prod_writer *p, int s, double h, double u, prod_dem_result *r, int *cached, sph_error *err);
+void prod_loads_dem_free(prod_writer *p);
+/* 1 when station s's latest load exceeds opts.loads.map_threshold (the maps' mark) */
+int prod_loads_alert(const prod_writer *p, int s);
 
 #endif

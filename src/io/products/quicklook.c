@@ -387,19 +387,37 @@ static void draw_drift(cairo_t *cr, const quicklook_frame *m, const prod_grid *g
     cairo_restore(cr);
 }
 
+/* A station whose ice load exceeds the threshold: a red triangle, black outline. */
+static void load_mark(cairo_t *cr, double x, double y, double r)
+{
+    cairo_move_to(cr, x, y - r);
+    cairo_line_to(cr, x + 0.866 * r, y + 0.5 * r);
+    cairo_line_to(cr, x - 0.866 * r, y + 0.5 * r);
+    cairo_close_path(cr);
+    cairo_set_source_rgb(cr, 0.86, 0.08, 0.08);
+    cairo_fill_preserve(cr);
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 1.0);
+    cairo_stroke(cr);
+}
+
 static void draw_stations(cairo_t *cr, const quicklook_frame *m, const char *const *names,
-                          const double *slon, const double *slat, int nst)
+                          const double *slon, const double *slat, int nst, const unsigned char *mark)
 {
     cairo_set_font_size(cr, 11);
     for (int s = 0; s < nst; s++) {
         double x, y;
         quicklook_to_px(m, slon[s], slat[s], &x, &y);
-        cairo_set_source_rgb(cr, 1, 1, 1);
-        cairo_arc(cr, x, y, 4.5, 0, 2 * M_PI);
-        cairo_fill(cr);
-        cairo_set_source_rgb(cr, 0, 0, 0);
-        cairo_arc(cr, x, y, 3, 0, 2 * M_PI);
-        cairo_fill(cr);
+        if (mark && mark[s]) {
+            load_mark(cr, x, y, 7.0);
+        } else {
+            cairo_set_source_rgb(cr, 1, 1, 1);
+            cairo_arc(cr, x, y, 4.5, 0, 2 * M_PI);
+            cairo_fill(cr);
+            cairo_set_source_rgb(cr, 0, 0, 0);
+            cairo_arc(cr, x, y, 3, 0, 2 * M_PI);
+            cairo_fill(cr);
+        }
         if (names && names[s]) {
             cairo_move_to(cr, x + 6, y - 4);
             cairo_text_path(cr, names[s]);
@@ -669,10 +687,25 @@ int quicklook_write_png(const char *path, const prod_grid *g, const double *conc
         if (q == 1 && key > 0)
             draw_drift(cr, &m, g, conc, o, px_per_ms);
         draw_graticule(cr, &m, g);
-        draw_stations(cr, &m, st_names, st_lon, st_lat, nst);
+        draw_stations(cr, &m, st_names, st_lon, st_lat, nst, o->st_mark);
         quicklook_box(cr, m.ox, m.oy, m.w, m.h);
         draw_legend(cr, &m, q, o, thick_seen_max, have_coast, key, px_per_ms,
                     o->height - BOTTOM + 8);
+    }
+    int marked = 0;
+    for (int q = 0; o->st_mark && q < nst; q++)
+        marked |= o->st_mark[q];
+    if (marked) { /* the marks' legend entry, bottom right */
+        char note[96];
+        snprintf(note, sizeof note, "station with an ice load above %g kN", o->mark_threshold_kn);
+        cairo_set_font_size(cr, 10.5);
+        cairo_text_extents_t te;
+        cairo_text_extents(cr, note, &te);
+        double lx = o->width - MARGIN - te.x_advance;
+        load_mark(cr, lx - 10, o->height - 10, 6.0);
+        cairo_set_source_rgb(cr, 0, 0, 0);
+        cairo_move_to(cr, lx, o->height - 6);
+        cairo_show_text(cr, note);
     }
     if (!have_coast) {
         cairo_set_font_size(cr, 10);
