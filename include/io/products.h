@@ -45,6 +45,8 @@ typedef struct prod_station {
 typedef struct prod_structure {
     double w;   /* vertical structure's waterline diameter, m; 0 = none (no load) */
     double c_r; /* its ISO 19906 C_R, Pa */
+    /* a cone (cone_angle > 0; w is then its waterline diameter): Ralston's load */
+    double cone_angle, neck, sigma_f, mu; /* degrees, m, Pa, - */
 } prod_structure;
 
 typedef struct prod_options {

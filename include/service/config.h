@@ -51,7 +51,7 @@ typedef struct cfg_forcing_source {
     int accumulation;       /* FORCING_ACCUMULATION_*: how accumulated fields are read */
 } cfg_forcing_source;
 
-typedef struct cfg_station { char *name; double lon, lat; int structure_kind; double structure_diameter, structure_c_r; } cfg_station;
+typedef struct cfg_station { char *name; double lon, lat; int structure_kind; double structure_diameter, structure_c_r; double structure_cone_angle, structure_waterline_diameter, structure_neck_diameter, structure_flexural_strength, structure_friction; } cfg_station;
 
 enum { CFG_INIT_NETCDF = 0, CFG_INIT_ESRI };
 enum { CFG_REINIT_WARM = 0, CFG_REINIT_COLD, CFG_REINIT_NEWER_RASTER };

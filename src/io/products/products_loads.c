@@ -6,7 +6,10 @@
  * concentration reaches the edge threshold and the thickness is positive,
  * 0 elsewhere (no proportional scaling by concentration: ice present is
  * taken as level ice against the leg); fill where w/h <= 2 (outside the
- * formula's validity). dem_scene_choose says which model the scene needs
+ * formula's validity). On a cone (stations[].structure.kind "cone") the
+ * cheap load is Ralston's horizontal bending-failure load
+ * (dem_ralston_cone, ride-up thickness = the ice thickness), fill with the
+ * method's refusal as the reason outside its range. dem_scene_choose says which model the scene needs
  * and why; the DEM is not run from here: where it is needed the model is
  * "dem_needed" and the load is still the cheap one. Written only when a
  * station has a structure. */
@@ -26,6 +29,7 @@
 /* the scene's DEM thresholds besides the concentration (the edge threshold) */
 #define LOAD_MIN_SPEED 0.05    /* m s-1 */
 #define LOAD_MIN_THICKNESS 0.1 /* m */
+#define LOAD_ICE_DENSITY 900.0 /* kg m-3, the ice riding up a cone (Ralston's W) */
 
 #define LOADS_CSV_HEADER                                                                                   \
     "station,lon,lat,valid_time,siconc,sithick_m,drift_speed_m_s,structure_diameter_m,c_r_MPa,ice_load_kN,"  \
@@ -79,13 +83,19 @@ int prod_loads_open(prod_writer *p, sph_error *err)
     if (rc != SPH_OK)
         return rc;
     int nc = p->ld_ncid, d_st = q.d_st, d_t = q.d_t, v_name = q.v_name, v_lon = q.v_lon, v_lat = q.v_lat, v_w,
-        v_cr;
+        v_cr, v_ca;
     NCL(nc_def_var(nc, "structure_diameter", NC_DOUBLE, 1, &d_st, &v_w), "define variable in");
-    NCL(prod_put_text(nc, v_w, "long_name", "vertical structure's waterline diameter w"), "write attribute in");
+    NCL(prod_put_text(nc, v_w, "long_name", "structure's waterline diameter (vertical leg w, cone D)"), "write attribute in");
     NCL(prod_put_text(nc, v_w, "units", "m"), "write attribute in");
     NCL(nc_def_var(nc, "c_r", NC_DOUBLE, 1, &d_st, &v_cr), "define variable in");
     NCL(prod_put_text(nc, v_cr, "long_name", "ISO 19906 ice strength coefficient C_R"), "write attribute in");
     NCL(prod_put_text(nc, v_cr, "units", "Pa"), "write attribute in");
+    NCL(nc_def_var(nc, "structure_cone_angle", NC_DOUBLE, 1, &d_st, &v_ca), "define variable in");
+    NCL(prod_put_text(nc, v_ca, "long_name", "cone angle from the horizontal (fill: a vertical structure)"),
+        "write attribute in");
+    NCL(prod_put_text(nc, v_ca, "units", "degree"), "write attribute in");
+    double ca_fill = PROD_FILL_FLOAT;
+    NCL(nc_put_att_double(nc, v_ca, "_FillValue", NC_DOUBLE, 1, &ca_fill), "write attribute in");
     int dd[2] = { d_st, d_t };
     if ((rc = def_var(p, nc, dd, LD_CONC, NC_DOUBLE, "siconc", "sea_ice_area_fraction", "sea ice area fraction",
                       "1", err)) ||
@@ -94,8 +104,8 @@ int prod_loads_open(prod_writer *p, sph_error *err)
         (rc = def_var(p, nc, dd, LD_SPEED, NC_DOUBLE, "sispeed", "sea_ice_speed", "sea ice drift speed",
                       "m s-1", err)) ||
         (rc = def_var(p, nc, dd, LD_LOAD, NC_DOUBLE, "ice_load", NULL,
-                      "ISO 19906 global ice crushing load on the vertical structure, F = p_G w h "
-                      "(0 below the concentration threshold)", "N", err)) ||
+                      "ISO 19906 global ice crushing load on the vertical structure, F = p_G w h; on a cone "
+                      "Ralston's horizontal bending-failure load (0 below the concentration threshold)", "N", err)) ||
         (rc = def_var(p, nc, dd, LD_MODEL, NC_STRING, "load_model", NULL,
                       "load model the scene needs: cheap, dem_needed (the DEM is not run: ice_load is the "
                       "cheap model's), none (no sample)", NULL, err)) ||
@@ -122,6 +132,8 @@ int prod_loads_open(prod_writer *p, sph_error *err)
         NCL(nc_put_var1_double(nc, v_lat, &idx, &sp->lat), "write station lat to");
         NCL(nc_put_var1_double(nc, v_w, &idx, &p->ld_st[s].w), "write structure to");
         NCL(nc_put_var1_double(nc, v_cr, &idx, &p->ld_st[s].c_r), "write structure to");
+        double ca = p->ld_st[s].cone_angle > 0 ? p->ld_st[s].cone_angle : PROD_FILL_FLOAT;
+        NCL(nc_put_var1_double(nc, v_ca, &idx, &ca), "write structure to");
     }
     return SPH_OK;
 }
@@ -144,7 +156,14 @@ int prod_loads_add(prod_writer *p, size_t ti, double t, int s, double conc, doub
     if (!isnan(conc) && !isnan(thick)) {
         if (conc < keys.min_concentration || !(thick > 0))
             load = 0.0;
-        else {
+        else if (ps->cone_angle > 0) { /* a cone: Ralston's bending-failure load, h_r = h */
+            dem_cone_ice ci = { ps->sigma_f, thick, thick, LOAD_ICE_DENSITY, ps->mu, ps->cone_angle, ps->w, ps->neck };
+            dem_cone_load cl;
+            const char *rwhy = "";
+            load = dem_ralston_cone(&ci, &cl, &rwhy) == 0 ? cl.h : NAN;
+            if (isnan(load))
+                why = rwhy;
+        } else {
             load = dem_iso_force(ps->c_r, thick, ps->w);
             if (isnan(load))
                 why = "outside ISO 19906's validity (w/h <= 2): no load";
