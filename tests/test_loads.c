@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "core/dem.h"
 #include "io/products.h"
 #include "service/config.h"
 
@@ -105,7 +106,8 @@ static void test_product(const char *root)
 {
     /* A: the seed's leg (1.6 m, sub-Arctic C_R); B: no structure; C: 10 m, Arctic */
     prod_station st[3] = { { "A", 120.3, 38.3 }, { "B", 120.5, 38.5 }, { "C", 120.7, 38.7 } };
-    prod_structure ps[3] = { { 1.6, 1.8e6, 300e3, 5e8, 0.03 }, { 0, 0, 0, 0, 0 }, { 10.0, 2.8e6, 300e3, 5e8, 0.03 } };
+    prod_structure ps[3] = { { 1.6, 1.8e6, 300e3, 5e8, 0.03, 0, 0, 0, 0 }, { 0, 0, 0, 0, 0, 0, 0, 0, 0 },
+                             { 10.0, 2.8e6, 300e3, 5e8, 0.03, 0, 0, 0, 0 } };
     char stage[512];
     snprintf(stage, sizeof stage, "%s/with", root);
     prod_summary sum;
@@ -176,6 +178,40 @@ static void test_product(const char *root)
     CHECK(exists(stage, "t_stations.nc"), "the station product is still written");
 }
 
+/* A cone (45 deg, D 4 m, neck 2 m, sigma_f 0.6 MPa, mu 0.15): the load is
+ * Ralston's (dem_ralston_cone, tested against the formula in
+ * test_dem_cone) for the sampled thickness, ride-up thickness = thickness;
+ * 0 below the concentration threshold; the station's cone angle written. */
+static void test_cone_product(const char *root)
+{
+    prod_station st[1] = { { "K", 120.3, 38.3 } };
+    prod_structure ps[1] = { { .w = 4.0, .c_r = 0.0, .cone_angle = 45.0, .neck = 2.0, .sigma_f = 0.6e6, .mu = 0.15 } };
+    char stage[512], path[1024];
+    snprintf(stage, sizeof stage, "%s/cone", root);
+    prod_summary sum;
+    if (run(stage, st, ps, 1, &sum) != SPH_OK)
+        return;
+    snprintf(path, sizeof path, "%s/t_loads.nc", stage);
+    int nc, v;
+    double load[NT], angle = 0;
+    CHECK(nc_open(path, NC_NOWRITE, &nc) == NC_NOERR, "open %s", path);
+    CHECK(nc_inq_varid(nc, "ice_load", &v) == NC_NOERR && nc_get_var_double(nc, v, load) == NC_NOERR, "read ice_load");
+    CHECK(nc_inq_varid(nc, "structure_cone_angle", &v) == NC_NOERR && nc_get_var_double(nc, v, &angle) == NC_NOERR &&
+              angle == 45.0,
+          "cone angle %g", angle);
+    nc_close(nc);
+    for (int t = 0; t < NT; t++) {
+        dem_cone_ice c = { 0.6e6, THICK[t], THICK[t], 900.0, 0.15, 45.0, 4.0, 2.0 };
+        dem_cone_load L;
+        const char *why;
+        double want = CONC[t] >= 0.15 && dem_ralston_cone(&c, &L, &why) == 0 ? L.h : 0.0;
+        CHECK(fabs(load[t] - want) <= 1e-9 * (want > 1 ? want : 1), "cone load %d: %.6f N, Ralston %.6f N", t,
+              load[t], want);
+    }
+    CHECK(load[0] > 0 && load[2] == 0.0, "ice present gives a load, loose ice none");
+    printf("cone product: 0.26 m on a 45 deg, 4 m cone: %.1f kN\n", load[0] / 1e3);
+}
+
 static void test_config(void)
 {
 #define BASE "{\"domain\": {\"lon_min\": 119, \"lon_max\": 122, \"lat_min\": 38, \"lat_max\": 41}," \
@@ -204,6 +240,38 @@ static void test_config(void)
     CHECK(rc == SPH_ERR_CONFIG && c == NULL && strstr(e.msg, "\"Far\"") && strstr(e.msg, "stations[0].structure.kind") &&
               !strchr(e.msg, '\n'),
           "a structure outside the domain refused in one line: %s", e.msg);
+    /* a cone: its keys read; without its geometry, or outside Ralston's range, refused naming the key */
+    snprintf(text, sizeof text, BASE,
+             "{\"name\": \"JZ9-3\", \"lon\": 121, \"lat\": 40, \"structure\": {\"kind\": \"cone\", "
+             "\"cone_angle\": 60, \"waterline_diameter\": 4.0, \"neck_diameter\": 2.0}}");
+    sph_error_clear(&e);
+    c = NULL;
+    CHECK(sph_config_parse(text, "t.json", &c, &e) == SPH_OK, "cone parses: %s", e.msg);
+    if (c) {
+        CHECK(c->stations[0].structure_kind == 2 && c->stations[0].structure_cone_angle == 60 &&
+                  c->stations[0].structure_waterline_diameter == 4.0 && c->stations[0].structure_neck_diameter == 2.0 &&
+                  c->stations[0].structure_flexural_strength == 0.6 && c->stations[0].structure_friction == 0.15,
+              "cone keys and defaults read");
+        sph_config_free(c);
+    }
+    const char *bad[3][2] = {
+        { "\"cone_angle\": 75, \"waterline_diameter\": 4.0, \"neck_diameter\": 2.0", "structure.cone_angle" },
+        { "\"cone_angle\": 60, \"neck_diameter\": 2.0", "structure.waterline_diameter" },
+        { "\"cone_angle\": 60, \"waterline_diameter\": 4.0, \"neck_diameter\": 4.0", "structure.neck_diameter" },
+    };
+    for (int k = 0; k < 3; k++) {
+        char st[512];
+        snprintf(st, sizeof st,
+                 "{\"name\": \"JZ9-3\", \"lon\": 121, \"lat\": 40, \"structure\": {\"kind\": \"cone\", %s}}",
+                 bad[k][0]);
+        snprintf(text, sizeof text, BASE, st);
+        sph_error_clear(&e);
+        c = NULL;
+        rc = sph_config_parse(text, "t.json", &c, &e);
+        CHECK(rc == SPH_ERR_CONFIG && c == NULL && strstr(e.msg, bad[k][1]) && strstr(e.msg, "\"JZ9-3\"") &&
+                  !strchr(e.msg, '\n'),
+              "cone %d refused naming %s: %s", k, bad[k][1], e.msg);
+    }
     /* a station outside the domain without a structure stays accepted as before */
     snprintf(text, sizeof text, BASE, "{\"name\": \"Far\", \"lon\": 125, \"lat\": 40}");
     sph_error_clear(&e);
@@ -218,6 +286,7 @@ int main(void)
     char root[] = "/tmp/test_loads_XXXXXX", cmd[600];
     if (mkdtemp(root)) {
         test_product(root);
+        test_cone_product(root);
         snprintf(cmd, sizeof cmd, "rm -rf '%s'", root);
         CHECK(system(cmd) == 0, "cleanup of %s", root);
     } else {

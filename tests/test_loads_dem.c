@@ -38,7 +38,7 @@ const char *__lsan_default_suppressions(void) { return "leak:libfontconfig\n"; }
 #define MAXT 6
 
 static prod_grid G = { 20, 20, 120.0, 38.0, 0.05, 0.05 };
-static const prod_structure LEG = { 1.6, 1.8e6, 300e3, 5.0e8, 0.03 }; /* the seed's leg */
+static const prod_structure LEG = { 1.6, 1.8e6, 300e3, 5.0e8, 0.03, 0, 0, 0, 0 }; /* the seed's leg */
 
 typedef struct scene {
     int nt;

@@ -198,6 +198,42 @@ double dem_iso_pressure(double c_r, double h, double w);
 /* F = p_G w h, N. */
 double dem_iso_force(double c_r, double h, double w);
 
+/* Ralston's (1977) bending-failure load of level ice on an upward-breaking
+ * cone, in the form of IEC 61400-3 ed. 1 Annex E as implemented by the
+ * IceFloe module of NREL's OpenFAST (modules/icefloe/src/icefloe/
+ * IceFlexIEC.f90, DNV KEMA 2014; docs/dem.md gives the equations):
+ *   H = H_B + H_R,
+ *   H_B = sigma_f h^2 / 3 * tan(a) / (1 - mu g) * [G (x-1)(x+2) + (1 + Y x ln x)/(x-1)],
+ *   G = rho_i g_0 D^2 / (4 sigma_f h), x = 1 + (3 G + Y/2)^-1/2, Y = 2.711 (Tresca),
+ *   g = (sin a + a / cos a) / (2 mu a cos a + pi/2 sin^2 a),
+ *   H_R = W [tan a + mu (E - f g cos a)] / (1 - mu g),
+ *   W = rho_i g_0 h_r (D^2 - D_T^2) / (4 cos a), f = mu K cos a + sin a,
+ * K, E the complete elliptic integrals of modulus sin a. The vertical load
+ * V = H / xi, xi = (sin a + mu cos a)/(cos a - mu sin a), is the 2-D
+ * contact statics of the cone face (Croasdale's xi), not Ralston's own
+ * vertical coefficients (not found in the sources searched).
+ * Range (IceFloe's input limits): a in [20, 70] degrees, mu in
+ * [0, min(tan a, cot a) - 0.01], 1 - mu g > 0; D > D_T >= 0. */
+typedef struct dem_cone_ice {
+    double flexural_strength; /* sigma_f, Pa */
+    double thickness;         /* h, m */
+    double rideup_thickness;  /* h_r, m */
+    double ice_density;       /* rho_i, kg m-3 */
+    double friction;          /* mu, ice on the cone */
+    double angle;             /* a, degrees from the horizontal */
+    double diameter;          /* D, waterline, m */
+    double top_diameter;      /* D_T, where the ride-up ends (neck), m */
+} dem_cone_ice;
+
+typedef struct dem_cone_load {
+    double h, v;              /* horizontal and vertical load, N */
+    double h_break, h_rideup; /* H_B and H_R, N */
+    double g, xi;             /* the coefficients g and xi */
+} dem_cone_load;
+
+/* 0 and the loads, or -1 (loads NAN) with *why naming the limit broken. */
+int dem_ralston_cone(const dem_cone_ice *c, dem_cone_load *out, const char **why);
+
 /* "As much as the scene needs" (issue 25): which load model a station's
  * scene calls for. The DEM runs only where ice is present (concentration
  * >= min_concentration), moving (drift speed >= min_speed) and thick

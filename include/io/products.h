@@ -50,6 +50,8 @@ typedef struct prod_structure {
     double mass;      /* kg */
     double stiffness; /* N m-1 */
     double damping;   /* damping ratio zeta */
+    /* a cone (cone_angle > 0; w is then its waterline diameter): Ralston's load */
+    double cone_angle, neck, sigma_f, mu; /* degrees, m, Pa, - */
 } prod_structure;
 
 /* The ice-load product's model choice and DEM (products_loads_dem.c,

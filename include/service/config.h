@@ -54,6 +54,8 @@ typedef struct cfg_forcing_source {
 
 typedef struct cfg_station { char *name; double lon, lat; int structure_kind; double structure_diameter, structure_c_r;
     double structure_mass, structure_stiffness, structure_damping; /* the DEM's oscillator: t, kN/m, ratio */
+    double structure_cone_angle, structure_waterline_diameter, structure_neck_diameter, structure_flexural_strength,
+        structure_friction;
 } cfg_station;
 
 enum { CFG_INIT_NETCDF = 0, CFG_INIT_ESRI };

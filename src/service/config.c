@@ -74,7 +74,7 @@ static const char *const engine_names[] = {"forecast", "test-double", NULL};
 static const char *const level_names[] = {"error", "warn", "info", "debug", NULL};
 static const char *const vectors_names[] = {"auto", "earth", "grid", NULL};
 static const char *const accumulation_names[] = {"interval", "running", NULL};
-static const char *const structure_kind_names[] = {"none", "vertical", NULL};
+static const char *const structure_kind_names[] = {"none", "vertical", "cone", NULL};
 static const char *const loads_model_names[] = {"auto", "cheap", "dem", NULL};
 
 static const cfg_key forcing_keys[] = {
@@ -110,12 +110,17 @@ static const cfg_key station_keys[] = {
     K(cfg_station, "name", CT_STRING, name, NULL, 1, SPHICE_MAX_NAME, 0, NULL, "Station name."),
     K(cfg_station, "lon", CT_DOUBLE, lon, NULL, -180, 360, 0, NULL, "Longitude, degrees east."),
     K(cfg_station, "lat", CT_DOUBLE, lat, NULL, -90, 90, 0, NULL, "Latitude, degrees north."),
-    K(cfg_station, "structure.kind", CT_ENUM, structure_kind, "\"none\"", 0, 0, 0, structure_kind_names, "Offshore structure at the station: none, or vertical (a vertical leg: the ice-load product sphice_loads.nc and .csv with ISO 19906 global crushing load, docs/dem.md)."),
+    K(cfg_station, "structure.kind", CT_ENUM, structure_kind, "\"none\"", 0, 0, 0, structure_kind_names, "Offshore structure at the station: none, vertical (a vertical leg: the ice-load product sphice_loads.nc and .csv with ISO 19906 global crushing load, docs/dem.md) or cone (an upward-breaking cone: Ralston's bending-failure load; needs structure.cone_angle, waterline_diameter and neck_diameter)."),
     K(cfg_station, "structure.diameter", CT_DOUBLE, structure_diameter, "1.6", 0.01, 1000, 0, NULL, "The vertical structure's waterline diameter w, m (ISO 19906 valid for w/h > 2)."),
     K(cfg_station, "structure.c_r", CT_DOUBLE, structure_c_r, "1.8", 0.01, 100, 0, NULL, "ISO 19906 ice strength coefficient C_R, MPa (1.8 sub-Arctic, including the Bohai; 2.8 Arctic)."),
     K(cfg_station, "structure.mass", CT_DOUBLE, structure_mass, "300", 0, 1e9, 0, NULL, "The structure's mass in the DEM (a horizontal oscillator), t; 0: fixed (default: the seed's leg, 300 t)."),
     K(cfg_station, "structure.stiffness", CT_DOUBLE, structure_stiffness, "5e5", 0, 1e12, 0, NULL, "The structure's horizontal stiffness in the DEM, kN/m (the seed's 5.0e5); must be positive when the mass is."),
     K(cfg_station, "structure.damping", CT_DOUBLE, structure_damping, "0.03", 0, 0.99, 0, NULL, "The structure's damping ratio in the DEM (the seed's 0.03)."),
+    K(cfg_station, "structure.cone_angle", CT_DOUBLE, structure_cone_angle, "0", 0, 90, 0, NULL, "A cone's angle from the horizontal, degrees; kind cone needs it within Ralston's range [20, 70] (0: not set)."),
+    K(cfg_station, "structure.waterline_diameter", CT_DOUBLE, structure_waterline_diameter, "0", 0, 1000, 0, NULL, "A cone's diameter at the waterline D, m (kind cone; 0: not set)."),
+    K(cfg_station, "structure.neck_diameter", CT_DOUBLE, structure_neck_diameter, "0", 0, 1000, 0, NULL, "A cone's top (neck) diameter D_T, m, where the ride-up ends; positive and below the waterline diameter (kind cone; 0: not set)."),
+    K(cfg_station, "structure.flexural_strength", CT_DOUBLE, structure_flexural_strength, "0.6", 0.01, 10, 0, NULL, "Flexural strength of the ice on a cone, MPa (0.6: Bohai ice, 0.5-0.7 MPa, docs/dem.md)."),
+    K(cfg_station, "structure.friction", CT_DOUBLE, structure_friction, "0.15", 0, 1, 0, NULL, "Ice-to-cone friction coefficient mu (0.15: ice on steel); Ralston needs mu <= min(tan a, cot a) - 0.01."),
 };
 static const cfg_table station_table = {station_keys, sizeof station_keys / sizeof station_keys[0],
                                         sizeof(cfg_station)};
@@ -919,6 +924,21 @@ static int cross_check(const struct sph_config *c, const char *origin, sph_error
                                "the domain [%g, %g] x [%g, %g]: no ice load can be forecast there",
                                origin, i, s->name, s->lon, s->lat, c->domain.lon_min, c->domain.lon_max,
                                c->domain.lat_min, c->domain.lat_max);
+        if (s->structure_kind == 2) { /* cone: the geometry Ralston's load needs */
+            double a = s->structure_cone_angle * M_PI / 180.0;
+            const char *key = NULL, *what = NULL;
+            if (!(s->structure_cone_angle >= 20 && s->structure_cone_angle <= 70))
+                key = "cone_angle", what = "must lie in Ralston's range [20, 70] degrees";
+            else if (!(s->structure_waterline_diameter > 0))
+                key = "waterline_diameter", what = "must be set (positive) for a cone";
+            else if (!(s->structure_neck_diameter > 0 && s->structure_neck_diameter < s->structure_waterline_diameter))
+                key = "neck_diameter", what = "must be positive and below the waterline diameter";
+            else if (!(s->structure_friction <= fmin(tan(a), 1.0 / tan(a)) - 0.01))
+                key = "friction", what = "must be at most min(tan a, cot a) - 0.01 for Ralston's load";
+            if (key)
+                return sph_err_set(err, SPH_ERR_CONFIG, "config %s: stations[%zu].structure.%s: station \"%s\": %s",
+                                   origin, i, key, s->name, what);
+        }
         if (s->structure_kind && s->structure_mass > 0 && !(s->structure_stiffness > 0))
             return sph_err_set(err, SPH_ERR_CONFIG,
                                "config %s: stations[%zu].structure.stiffness: station \"%s\": a structure of mass "

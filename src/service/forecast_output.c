@@ -102,6 +102,13 @@ int fc_open_products(engine *e, prod_station *stations, sph_error *err)
                 structures[ns].mass = cfg->stations[s].structure_mass * 1e3;
                 structures[ns].stiffness = cfg->stations[s].structure_stiffness * 1e3;
                 structures[ns].damping = cfg->stations[s].structure_damping;
+                if (cfg->stations[s].structure_kind == 2) { /* cone */
+                    structures[ns].w = cfg->stations[s].structure_waterline_diameter;
+                    structures[ns].cone_angle = cfg->stations[s].structure_cone_angle;
+                    structures[ns].neck = cfg->stations[s].structure_neck_diameter;
+                    structures[ns].sigma_f = cfg->stations[s].structure_flexural_strength * 1e6;
+                    structures[ns].mu = cfg->stations[s].structure_friction;
+                }
             }
             ns++;
         }

@@ -6,11 +6,15 @@
  * where the concentration reaches the edge threshold and the thickness is
  * positive, 0 elsewhere (no proportional scaling by concentration: ice
  * present is taken as level ice against the leg); fill where w/h <= 2
- * (outside the formula's validity). dem_scene_choose with the loads.*
- * keys says which model the scene needs and why; where it is the DEM, the
- * station DEM runs (products_loads_dem.c, cached within the cycle) and its
- * statistics are written beside the cheap load; station_load is the load
- * of the model that ran (the cheap ice_load, or the DEM's maximum).
+ * (outside the formula's validity). On a cone (stations[].structure.kind
+ * "cone") the cheap load is Ralston's horizontal bending-failure load
+ * (dem_ralston_cone, ride-up thickness = the ice thickness), fill with the
+ * method's refusal as the reason outside its range. dem_scene_choose with
+ * the loads.* keys says which model the scene needs and why; where it is
+ * the DEM, the station DEM runs (products_loads_dem.c, cached within the
+ * cycle; vertical legs only: a cone keeps Ralston's load and says so) and
+ * its statistics are written beside the cheap load; station_load is the
+ * load of the model that ran (the cheap ice_load, or the DEM's maximum).
  * Written only when a station has a structure. */
 #include "products_impl.h"
 
@@ -24,6 +28,8 @@
 #include "core/dem.h"
 #include "util/fileio.h"
 #include "util/timeutil.h"
+
+#define LOAD_ICE_DENSITY 900.0 /* kg m-3, the ice riding up a cone (Ralston's W) */
 
 #define LOADS_CSV_HEADER                                                                                   \
     "station,lon,lat,valid_time,siconc,sithick_m,drift_speed_m_s,structure_diameter_m,c_r_MPa,ice_load_kN,"  \
@@ -108,22 +114,28 @@ int prod_loads_open(prod_writer *p, sph_error *err)
     if (rc != SPH_OK)
         return rc;
     int nc = p->ld_ncid, d_st = q.d_st, d_t = q.d_t, v_name = q.v_name, v_lon = q.v_lon, v_lat = q.v_lat;
-    int vs[5];
-    if ((rc = def_structure(nc, d_st, "structure_diameter", "vertical structure's waterline diameter w", "m", &vs[0],
-                            p, err)) ||
+    int vs[5], v_ca;
+    if ((rc = def_structure(nc, d_st, "structure_diameter", "structure's waterline diameter (vertical leg w, cone D)",
+                            "m", &vs[0], p, err)) ||
         (rc = def_structure(nc, d_st, "c_r", "ISO 19906 ice strength coefficient C_R", "Pa", &vs[1], p, err)) ||
         (rc = def_structure(nc, d_st, "structure_mass", "DEM structure's mass (0: fixed)", "kg", &vs[2], p, err)) ||
         (rc = def_structure(nc, d_st, "structure_stiffness", "DEM structure's horizontal stiffness", "N m-1",
                             &vs[3], p, err)) ||
         (rc = def_structure(nc, d_st, "structure_damping", "DEM structure's damping ratio", "1", &vs[4], p, err)))
         return rc;
+    NCL(nc_def_var(nc, "structure_cone_angle", NC_DOUBLE, 1, &d_st, &v_ca), "define variable in");
+    NCL(prod_put_text(nc, v_ca, "long_name", "cone angle from the horizontal (fill: a vertical structure)"),
+        "write attribute in");
+    NCL(prod_put_text(nc, v_ca, "units", "degree"), "write attribute in");
+    double ca_fill = PROD_FILL_FLOAT;
+    NCL(nc_put_att_double(nc, v_ca, "_FillValue", NC_DOUBLE, 1, &ca_fill), "write attribute in");
     int dd[2] = { d_st, d_t };
     static const struct { const char *name, *std, *lname, *units; } V[LD_NUM] = {
         { "siconc", "sea_ice_area_fraction", "sea ice area fraction", "1" },
         { "sithick", "sea_ice_thickness", "sea ice thickness (of the ice-covered part)", "m" },
         { "sispeed", "sea_ice_speed", "sea ice drift speed", "m s-1" },
-        { "ice_load", NULL, "ISO 19906 global ice crushing load on the vertical structure, F = p_G w h "
-                            "(0 below the concentration threshold)", "N" },
+        { "ice_load", NULL, "ISO 19906 global ice crushing load on the vertical structure, F = p_G w h; on a cone "
+                            "Ralston's horizontal bending-failure load (0 below the concentration threshold)", "N" },
         { "station_load", NULL, "ice load of the model that ran: ice_load (cheap) or dem_load_max (dem)", "N" },
         { "dem_load_mean", NULL, "DEM ice load along the drift: mean over the run", "N" },
         { "dem_load_max", NULL, "DEM ice load along the drift: maximum over the run", "N" },
@@ -177,6 +189,8 @@ int prod_loads_open(prod_writer *p, sph_error *err)
         double sv[5] = { ps->w, ps->c_r, ps->mass, ps->stiffness, ps->damping };
         for (int j = 0; j < 5; j++)
             NCL(nc_put_var1_double(nc, vs[j], &idx, &sv[j]), "write structure to");
+        double ca = ps->cone_angle > 0 ? ps->cone_angle : PROD_FILL_FLOAT;
+        NCL(nc_put_var1_double(nc, v_ca, &idx, &ca), "write structure to");
     }
     return SPH_OK;
 }
@@ -199,7 +213,14 @@ int prod_loads_add(prod_writer *p, size_t ti, double t, int s, double conc, doub
     if (!isnan(conc) && !isnan(thick)) {
         if (conc < keys.min_concentration || !(thick > 0))
             load = 0.0;
-        else {
+        else if (ps->cone_angle > 0) { /* a cone: Ralston's bending-failure load, h_r = h */
+            dem_cone_ice ci = { ps->sigma_f, thick, thick, LOAD_ICE_DENSITY, ps->mu, ps->cone_angle, ps->w, ps->neck };
+            dem_cone_load cl;
+            const char *rwhy = "";
+            load = dem_ralston_cone(&ci, &cl, &rwhy) == 0 ? cl.h : NAN;
+            if (isnan(load))
+                why = rwhy;
+        } else {
             load = dem_iso_force(ps->c_r, thick, ps->w);
             if (isnan(load) && m == DEM_MODEL_CHEAP)
                 why = "outside ISO 19906's validity (w/h <= 2): no load";
@@ -213,6 +234,10 @@ int prod_loads_add(prod_writer *p, size_t ti, double t, int s, double conc, doub
     v[LD_SPEED] = speed;
     v[LD_LOAD] = load;
     signed char cached = -1;
+    if (m == DEM_MODEL_DEM && ps->cone_angle > 0) { /* the station DEM builds a vertical leg only */
+        m = DEM_MODEL_CHEAP;
+        why = "a cone: the station DEM runs vertical legs only, Ralston's load is used";
+    }
     if (m == DEM_MODEL_DEM) {
         /* a forced DEM needs ice to push: none at the station, or a sheet
          * that rounds to nothing at the cache's resolution, runs nothing */
