@@ -382,9 +382,9 @@ static int ofx_ocean_grid(engine *e, const char *path, int *nx, int *ny, double 
     if (landmask_is_native(m)) {
         landmask_free(m);
         return sph_err_set(err, SPH_ERR_CONFIG,
-                           "output.ocean_fluxes_grid: the ocean forcing %s is not on a regular lon/lat grid, "
-                           "which the ocean-fluxes file does not take yet: set output.ocean_fluxes_grid to "
-                           "\"output\"", path);
+                           "output.ocean_fluxes_grid: the ocean forcing %s is not on a regular lon/lat grid "
+                           "(2-D latitude and longitude, a curvilinear grid, or unevenly spaced axes), which the ocean-fluxes "
+                           "file does not take yet: set output.ocean_fluxes_grid to \"output\"", path);
     }
     int gx, gy;
     double lon0, lat0, dlon, dlat;
