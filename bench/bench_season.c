@@ -7,33 +7,44 @@
  * (docs/season.md), so two 90-day runs would take over half an hour.
  *
  * Case: a closed box of 32 x 20 km of sea, lattice 1 km (the seeding
- * lattice of new particles: 640 points; capacity 2560), mixed layer on cells of 4 km,
- * 30 psu, +1 C at the start, the depth growing from 5 m at the west wall
- * to 30 m at the east one (shallow water freezes first); the salinity
- * restored to 30 psu in 10 days (without it the polynya the west wind
- * keeps open at the west wall turns its 5 m slab to brine and the run
- * stops on day 34: "sea_surface_temperature outside the physical range"). Air temperature
- * over the season T(d) = -2 - 12 sin(pi d / 70) for days 0-70 (coldest
- * -14 C on day 35), then +1 C per day up to +18 C on day 90 (melt,
- * removal); a diurnal +-2 C; dark, longwave 0.75 sigma T^4, specific
- * humidity 2e-3 (1e-3 below -5 C); wind 3 m/s from the west, turning
- * to the west-north-west every ten days for three days at 6 m/s: the ice is
- * pushed against the east wall, open water opens in the west and freezes
- * again, so new particles keep being created next to older ones.
- * Dynamics every 900 s (mEVP; kernel radius 2 h as the scene, P0 2.75e4
- * N/m^2, up to 192 neighbours), thermodynamics
- * every 3600 s.
+ * lattice of new particles: 640 points; capacity 2560), mixed layer on
+ * cells of 4 km, 30 psu, +1 C at the start, the depth growing from 5 m at
+ * the west wall to 30 m at the east one (shallow water freezes first),
+ * the salinity restored to 30 psu in 10 days. Air temperature over the
+ * season T(d) = -2 - 12 sin(pi d / 70) for days 0-70 (coldest -14 C on
+ * day 35), then +1 C per day up to +18 C on day 90; a diurnal +-2 C;
+ * dark, longwave 0.75 sigma T^4, specific humidity 2e-3 (1e-3 below
+ * -5 C); wind 2 m/s from the west, turning to the west-north-west every
+ * ten days for three days at 5 m/s: the ice is pushed against the east
+ * wall, open water opens in the west and freezes again, so new particles
+ * keep being created next to older ones. Dynamics every 900 s (mEVP;
+ * kernel radius 2 h as the scene, P0 2.75e4 N/m^2, up to 192
+ * neighbours), thermodynamics every 3600 s, mass per area by summation.
+ *
+ * Why summation: with the default continuity density (the scene's) both
+ * runs stop between days 33 and 46. The particle at the west wall that
+ * the wind pulls away from it loses density without bound, its footprint
+ * m / (rho_i A h) grows to 12-800 mixed-layer cells, the cell it sits in
+ * gets no open water of its own (its particles' footprint exceeds it) and
+ * the particle's leads freeze the whole polynya's ice out of that one
+ * cell: water 0.41-0.45 of its start, 61-62 psu, below -3 C
+ * ("sea_surface_temperature outside the physical range"); without
+ * merging, with 3 m/s, the same on day 33; with 2 m/s, "mean thickness
+ * exceeds the thickness limit" on day 39 (docs/ocean.md, Cost). The
+ * salinity restoring is there for the same reason (without it: day 34).
  *
  * Measured: the particle count every 12 h (written to
  * $BENCH_OUT/season_counts.dat: day, count with merging, without), its
  * peak and the day of the peak, particles created, merged and melted out,
  * the smoothing lengths at the peak and at the end (min, 10th, 50th,
  * 90th percentile, max, in lattice spacings), and the cost: CPU and wall
- * time of each run, per step, and the ratio with / without merging
- * measured in the same invocation (the two runs one after the other in
- * this process; peak_rss_mb is the process's peak so far). Rows of bench/out/results.csv:
+ * time of each run, CPU per step, and the ratio of CPU per step with /
+ * without merging measured in the same invocation (the two runs one
+ * after the other in this process; peak_rss_mb is the process's peak so
+ * far). Rows of bench/out/results.csv:
  * problem season, method merge / nomerge, err = the peak count, err2 =
- * the count at day 90, err3 = the cost ratio merge / nomerge (wall).
+ * the count at the end, err3 = the cost ratio merge / nomerge (CPU per
+ * step); status fatal with the day and reason on stderr when a run stops.
  * Usage: bench_season [days] (default 90; BENCH_QUICK=1: 30).
  * Run: BENCH_ONLY=season sh bench/run.sh (not in the default list). */
 #include "bench_common.h"
@@ -53,7 +64,7 @@ typedef struct season_arg {
 } season_arg;
 
 typedef struct season_result {
-    double peak, peak_day, end, created, merged, removed, steps, wall;
+    double peak, peak_day, end, created, merged, removed, steps, wall, cpu;
     double sml_peak[5], sml_end[5];
 } season_result;
 
@@ -71,7 +82,7 @@ static void forcing(sph_model *m, double day)
     sph_particles *P = sph_model_particles(m);
     sph_ocean *o = sph_model_ocean(m);
     double ta = air_temp(day), tk = ta + 273.15;
-    double ph = fmod(day, 10.0), ws = ph >= 7.0 ? 6.0 : 3.0, dir = ph >= 7.0 ? -M_PI / 6.0 : 0.0;
+    double ph = fmod(day, 10.0), ws = ph >= 7.0 ? 5.0 : 2.0, dir = ph >= 7.0 ? -M_PI / 6.0 : 0.0;
     const double val[7] = {ta, ta < -5.0 ? 1e-3 : 2e-3, ws * cos(dir), ws * sin(dir), 0.0,
                            0.75 * SIGMA * tk * tk * tk * tk, 40.0};
     double *const dst[2][7] = {{P->tair, P->qair, P->ua, P->va, P->swdn, P->lwdn, P->lat},
@@ -118,6 +129,7 @@ static void run_season(const void *argp, bench_row *row)
     p.kernel_radius = 2.0; /* as the freeze-up scene (etc/liaodong-season.json) */
     p.P0 = 2.75e4;         /* Hibler's P*: thin new ice pushed into a closed box must hold */
     p.max_neighbours = 192;
+    p.summation_density = 1; /* a lonely particle at a wall keeps a bounded footprint (above) */
     p.ocean.mixed_layer = 1;
     p.ocean.create = 1;
     p.ocean.merge = a->merge;
@@ -158,6 +170,13 @@ static void run_season(const void *argp, bench_row *row)
             fprintf(stderr, "bench_season: merge %d: step %ld (day %.2f): %s %s\n", a->merge, s,
                     s * p.dt / 86400.0, st.quantity, st.what);
             snprintf(row->status, sizeof row->status, "fatal");
+            size_t cm = 0; /* the coldest cell says why */
+            for (size_t c = 1; c < o->ncell; c++)
+                if (o->temp[c] < o->temp[cm])
+                    cm = c;
+            fprintf(stderr, "bench_season: coldest cell %zu: %.3f C, %.2f psu, depth %.1f m, water %.3f of its start, "
+                    "ice footprint %.2f of the cell\n", cm, o->temp[cm], o->sal[cm], o->depth[cm],
+                    o->water[cm] / (SPH_OCEAN_RHO_WATER * o->depth[cm] * CELL * CELL), o->cfoot[cm] / (CELL * CELL));
             break;
         }
         const sph_particles *P = sph_model_particles(m);
@@ -173,6 +192,7 @@ static void run_season(const void *argp, bench_row *row)
     row->cpu_s = bench_cpu() - c0;
     row->wall_s = bench_wall() - w0;
     r->wall = row->wall_s;
+    r->cpu = row->cpu_s;
     const sph_budget *b = sph_model_budget(m);
     r->end = (double)sph_model_particles(m)->n;
     r->created = (double)b->created_particles;
@@ -210,9 +230,14 @@ int main(int argc, char **argv)
         run_season(&a, &rows[merge]);
         rows[merge].rss_mb = bench_peak_rss_mb();
     }
-    double ratio = shared_res[0].wall > 0.0 ? shared_res[1].wall / shared_res[0].wall : NAN;
+    /* CPU time per step: the wall time of a shared machine moves with its
+     * load, and a run that stops early has fewer steps */
+    double cps[2];
+    for (int i = 0; i < 2; i++)
+        cps[i] = shared_res[i].steps > 0.0 ? shared_res[i].cpu / shared_res[i].steps : NAN;
+    double ratio = cps[0] > 0.0 ? cps[1] / cps[0] : NAN;
     for (int merge = 1; merge >= 0; merge--) {
-        rows[merge].err_name[2] = "wall_ratio_merge_over_nomerge";
+        rows[merge].err_name[2] = "cpu_per_step_ratio_merge_over_nomerge";
         rows[merge].err[2] = ratio;
         bench_row_print(&rows[merge]);
     }
@@ -242,14 +267,14 @@ int main(int argc, char **argv)
         const season_result *r = &shared_res[merge];
         fprintf(stderr,
                 "season %s: peak %.0f particles on day %.2f, %.0f at the end; created %.0f, merged %.0f, "
-                "melted out %.0f; %.0f steps in %.1f s wall (%.2f ms/step)\n"
+                "melted out %.0f; %.0f steps in %.1f s wall, %.1f s CPU (%.2f ms CPU/step)\n"
                 "season %s: smoothing length / lattice spacing at the peak: min %.2f p10 %.2f median %.2f "
                 "p90 %.2f max %.2f; at the end: %.2f %.2f %.2f %.2f %.2f\n",
                 merge ? "merge" : "nomerge", r->peak, r->peak_day, r->end, r->created, r->merged, r->created - r->merged - r->end,
-                r->steps, r->wall, r->steps > 0 ? 1e3 * r->wall / r->steps : NAN, merge ? "merge" : "nomerge",
+                r->steps, r->wall, r->cpu, r->steps > 0 ? 1e3 * r->cpu / r->steps : NAN, merge ? "merge" : "nomerge",
                 r->sml_peak[0], r->sml_peak[1], r->sml_peak[2], r->sml_peak[3], r->sml_peak[4], r->sml_end[0],
                 r->sml_end[1], r->sml_end[2], r->sml_end[3], r->sml_end[4]);
     }
-    fprintf(stderr, "season: cost with / without merging (wall) %.3f; counts in %s\n", ratio, path);
+    fprintf(stderr, "season: cost with / without merging (CPU per step) %.3f; counts in %s\n", ratio, path);
     return 0;
 }
