@@ -50,6 +50,7 @@
 #include "bench_common.h"
 #include "core/model.h"
 #include "core/ocean.h"
+#include "../tests/ocean_column.h" /* oc_fill_atm: the atmosphere over particles and cells */
 
 #define DS 1000.0 /* lattice spacing, m */
 #define NXL 32
@@ -80,18 +81,10 @@ static double air_temp(double day)
 static void forcing(sph_model *m, double day)
 {
     sph_particles *P = sph_model_particles(m);
-    sph_ocean *o = sph_model_ocean(m);
     double ta = air_temp(day), tk = ta + 273.15;
     double ph = fmod(day, 10.0), ws = ph >= 7.0 ? 5.0 : 2.0, dir = ph >= 7.0 ? -M_PI / 6.0 : 0.0;
-    const double val[7] = {ta, ta < -5.0 ? 1e-3 : 2e-3, ws * cos(dir), ws * sin(dir), 0.0,
-                           0.75 * SIGMA * tk * tk * tk * tk, 40.0};
-    double *const dst[2][7] = {{P->tair, P->qair, P->ua, P->va, P->swdn, P->lwdn, P->lat},
-                               {o->tair, o->qair, o->ua, o->va, o->swdn, o->lwdn, o->lat}};
-    const size_t n[2] = {P->n, o->ncell};
-    for (int s = 0; s < 2; s++)
-        for (int q = 0; q < 7; q++)
-            for (size_t k = 0; k < n[s]; k++)
-                dst[s][q][k] = val[q];
+    oc_fill_atm(m, ta, ta < -5.0 ? 1e-3 : 2e-3, ws * cos(dir), ws * sin(dir), 0.0, 0.75 * SIGMA * tk * tk * tk * tk,
+                40.0);
     for (size_t k = 0; k < P->n; k++)
         P->uw[k] = P->vw[k] = P->sshx[k] = P->sshy[k] = 0.0;
 }
