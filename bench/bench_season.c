@@ -2,9 +2,11 @@
  * (issue 20, "Speed and memory"): one synthetic season from open water,
  * run twice in one invocation, model.new_ice.merge on and off, everything
  * else equal. A synthetic case, not the freeze-up scene
- * (etc/liaodong-season.json): that scene's forcing covers 30 days and one
- * 30-day run of it takes about 6 minutes on the shared two-core machine
- * (docs/season.md), so two 90-day runs would take over half an hour.
+ * (etc/liaodong-season.json): that scene's forcing covers 30 days
+ * (tools/gen_season.c writes at most 60) and one 30-day run of it takes
+ * about 6 minutes on the shared two-core machine (docs/season.md), so two
+ * 90-day runs would take over half an hour. This case: both runs in
+ * about 13 minutes there (docs/ocean.md, Cost).
  *
  * Case: a closed box of 32 x 20 km of sea, lattice 1 km (the seeding
  * lattice of new particles: 640 points; capacity 2560), mixed layer on
