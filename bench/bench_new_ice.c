@@ -3,7 +3,7 @@
  * the same state stepped with the mixed layer off and on, in one run, so
  * the fraction is a ratio of two times measured on the same machine at the
  * same load: (t_on - t_off) / t_on. (The particle count over a 90-day
- * season with and without merging is not measured yet.)
+ * season with and without merging: bench/bench_season.c.)
  *
  * Case: a square of particles on a lattice (0.4 m ice, concentration 0.9,
  * leads freeze) over the west four fifths of a closed box, open water in

@@ -6,7 +6,10 @@
 #   BENCH_OUT=dir  output folder (default bench/out)
 #   BENCH_ONLY="neighbours reference stability auto demo hyperslab"  a subset
 #              (box2001: CICE's box2001 side by side, not in the default list;
-#              loads: the station DEM's cost on the demo, bench/bench_loads.sh, neither)
+#              loads: the station DEM's cost on the demo, bench/bench_loads.sh, neither;
+#              season: the particle count over a 90-day season with and
+#              without merging, bench/bench_season.c, not in the default
+#              list; writes $BENCH_OUT/season_counts.dat; SEASON_DAYS=d)
 #   DEMO_HOURS=h   the demo problem's forecast length (bench/bench_demo.sh; 96)
 # Writes $BENCH_OUT/results.csv (one row per run, see bench/bench_common.h),
 # $BENCH_OUT/machine.txt, and the charts (bench/plot.sh, needs gnuplot).
@@ -43,6 +46,8 @@ for b in $ONLY; do
         BENCH_AUTO_PACKED=1 OMP_NUM_THREADS=1 "$BUILD/bench/bench_auto" >> "$CSV" ;;
     box2001) # CICE's box2001 (issue 26): 10 days at 16 km, the residual rule at 1e-3
         B01_RELTOL=1e-3 B01_DT=432 B01_DAYS=10 OMP_NUM_THREADS=1 "$BUILD/bench/bench_box2001" >> "$CSV" ;;
+    season) # the 90-day season, merging on and off in one run
+        BENCH_OUT="$OUT" OMP_NUM_THREADS=1 "$BUILD/bench/bench_season" ${SEASON_DAYS:-} >> "$CSV" ;;
     *) OMP_NUM_THREADS=1 "$BUILD/bench/bench_$b" >> "$CSV" ;;
     esac
     echo "bench: $b took $(( $(date +%s) - t0 )) s" >&2

@@ -10,6 +10,7 @@
 
 #include "core/model.h"
 #include "core/ocean.h"
+#include "lattice.h"
 
 #define OC_RHO_A 1.3
 #define OC_CP_A 1005.0
@@ -75,6 +76,36 @@ static inline double oc_slab_step(oc_slab *s, double F, double dt, int n)
     s->salt -= dm * bl_mean_salinity(n) / 1000.0;
     s->T = tf;
     return dm;
+}
+
+/* The fluxes tests' model (tests/test_ocean_fluxes_mixed.c, _meltout.c):
+ * free drift without Coriolis or wind drag (the wind enters the bulk
+ * formulas only), the multi-layer column, ocean fluxes accumulated, time
+ * step dt, a mixed layer of three 10 km cells in a row from (0, 0), each
+ * 20 m deep at 32 psu and temperature T[c], and a 2 x 2 lattice of ice
+ * particles 2 km apart from (24, 4) km in cell 2 (0.5 m, concentration
+ * 0.9, latitude 40), capacity 64. *p gets the parameters. NULL on failure. */
+static inline sph_model *oc_row_model(sph_params *p, double dt, const double T[3])
+{
+    sph_params_default(p);
+    p->dt = dt;
+    p->thermo_dt = dt;
+    p->physics = SPH_PHYSICS_FREE_DRIFT;
+    p->coriolis = 0;
+    p->Ca = 0.0;
+    p->thermo.model = SPH_THERMO_MULTI_LAYER;
+    p->thermo.ocean_fluxes = 1;
+    p->ocean.mixed_layer = 1;
+    sph_model *m = sph_model_create(p, 64, NULL);
+    sph_ocean_grid g = {3, 1, 0.0, 0.0, 1e4, 1e4, 1250.0, 1250.0, 2500.0};
+    if (!m || sph_model_ocean_create(m, &g) != SPH_STEP_OK) {
+        sph_model_free(m);
+        return NULL;
+    }
+    for (size_t c = 0; c < 3; c++)
+        sph_ocean_set_cell(sph_model_ocean(m), c, 20.0, 32.0, T[c]);
+    lattice_fill(sph_model_particles(m), p, 2, 2, 24000.0, 4000.0, 2000.0, 0.5, 0.9, 40.0);
+    return m;
 }
 
 /* The same atmosphere (air temperature deg C, specific humidity, wind

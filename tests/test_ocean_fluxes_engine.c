@@ -236,8 +236,30 @@ static void ocean_grid(void)
         free(hf);
         nc_close(nc);
     }
+    /* a curvilinear ocean (2-D lat/lon, rotated 20 degrees: a ROMS- or
+     * NEMO-like grid the forcing reads) is refused with one line naming
+     * the file and the key, and nothing is written */
+    tgrid cg;
+    ec_ocean_grid(&cg);
+    cg.curvilinear = 1;
+    cg.rot_deg = 20.0;
+    cg.clat = 40.3;
+    cg.lon0 = 121.5;
+    tvar cv[2];
+    memset(cv, 0, sizeof cv);
+    cv[0] = (tvar){"uo", "eastward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ocean_open_fn, 0};
+    cv[1] = (tvar){"vo", "northward_sea_water_velocity", "m s-1", NC_FLOAT, 0, 0, 1, -999.0, 0, ocean_open_fn, 1};
+    snprintf(p, sizeof p, "%s/ocean_curv.nc", dir);
+    tnc_write(p, &cg, cv, 2, 0, 13, ec_ocean_format);
     char stage[1024];
-    int rc = run(1, "ocean", "", "no-ocean", stage, sizeof stage, &res);
+    CHECK(run(1, "output", "ocean_curv.nc", "curv-output", stage, sizeof stage, &res) == 0,
+          "a curvilinear ocean with the output grid: %s", last_error);
+    int rc = run(1, "ocean", "ocean_curv.nc", "curv-ocean", stage, sizeof stage, &res);
+    CHECK(rc == SPH_ERR_CONFIG && strstr(last_error, "output.ocean_fluxes_grid") && strstr(last_error, "ocean_curv.nc") &&
+              strstr(last_error, "curvilinear") && !strchr(last_error, '\n'),
+          "a curvilinear ocean's grid: one line naming the file and the key: %s", last_error);
+    CHECK(ec_count_entries(stage) <= 0, "nothing written");
+    rc = run(1, "ocean", "", "no-ocean", stage, sizeof stage, &res);
     CHECK(rc == SPH_ERR_CONFIG && strstr(last_error, "output.ocean_fluxes_grid") && !strchr(last_error, '\n'),
           "\"ocean\" without an ocean source: one line naming the key: %s", last_error);
     CHECK(ec_count_entries(stage) <= 0, "nothing written");

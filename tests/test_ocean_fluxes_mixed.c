@@ -27,10 +27,8 @@
 #include "io/ocean_fluxes.h"
 #include "lattice.h"
 #include "ocean_column.h"
+#include "ofx_plane.h"
 
-#define NXG 10
-#define NYG 4
-#define DXG 3000.0
 
 /* |got - want| <= tol (absolute), with a printf-style message */
 #define NEAR(got, want, tol, ...)                                                          \
@@ -43,26 +41,6 @@
 
 static char dir[] = "/tmp/sphice-ofxm-XXXXXX";
 
-/* Record 0 of variable name: the sum of value x areacello over water, and
- * the value of cell c into *at. */
-static double file_integral(const char *path, const char *name, size_t c, double *at)
-{
-    int nc, v, va;
-    double s = NAN, val[NXG * NYG], area[NXG * NYG];
-    if (nc_open(path, NC_NOWRITE, &nc) != NC_NOERR)
-        return NAN;
-    size_t start[3] = {0, 0, 0}, count[3] = {1, NYG, NXG};
-    if (nc_inq_varid(nc, name, &v) == NC_NOERR && nc_inq_varid(nc, "areacello", &va) == NC_NOERR &&
-        nc_get_vara_double(nc, v, start, count, val) == NC_NOERR && nc_get_var_double(nc, va, area) == NC_NOERR) {
-        s = 0.0;
-        for (size_t k = 0; k < NXG * NYG; k++)
-            if (val[k] < 1e19)
-                s += val[k] * area[k];
-        *at = val[c] * area[c];
-    }
-    nc_close(nc);
-    return s;
-}
 
 int main(void)
 {
@@ -71,27 +49,14 @@ int main(void)
         return 1;
     }
     sph_params p;
-    sph_params_default(&p);
-    p.dt = 3600.0;
-    p.thermo_dt = 3600.0;
-    p.physics = SPH_PHYSICS_FREE_DRIFT;
-    p.coriolis = 0;
-    p.Ca = 0.0; /* the wind enters the bulk formulas only */
-    p.thermo.model = SPH_THERMO_MULTI_LAYER;
-    p.thermo.ocean_fluxes = 1;
-    p.ocean.mixed_layer = 1;
-    const int nl = p.thermo.nlayers;
-    sph_model *m = sph_model_create(&p, 64, NULL);
-    sph_ocean_grid g = {3, 1, 0.0, 0.0, 1e4, 1e4, 1250.0, 1250.0, 2500.0};
-    CHECK(m && sph_model_ocean_create(m, &g) == SPH_STEP_OK, "model");
+    const double Tf = -0.054 * 32.0, T0[3] = {2.0, Tf, Tf};
+    sph_model *m = oc_row_model(&p, 3600.0, T0);
+    CHECK(m != NULL, "model");
     if (!m)
         return check_summary("test_ocean_fluxes_mixed");
+    const int nl = p.thermo.nlayers;
     sph_ocean *o = sph_model_ocean(m);
-    const double Tf = -0.054 * 32.0, T0[3] = {2.0, Tf, Tf};
-    for (size_t c = 0; c < 3; c++)
-        sph_ocean_set_cell(o, c, 20.0, 32.0, T0[c]);
     sph_particles *P = sph_model_particles(m);
-    lattice_fill(P, &p, 2, 2, 24000.0, 4000.0, 2000.0, 0.5, 0.9, 40.0);
     for (size_t k = 0; k < P->n; k++)
         sph_thermo_init_particle(&p.thermo, P, k, -20.0);
     const double ta = -20.0, q = 6e-4, ua = 5.0, va = 5.0, lw = 180.0;
@@ -138,53 +103,24 @@ int main(void)
     printf("cell 0: %.6e J (bulk formula %.6e); cell 1: water %.6e kg (frazil formula %.6e), heat %.3e J\n",
            o->ofx_heat[0], want_e[0], o->ofx_water[1], want_w[1], o->ofx_heat[1]);
     /* 2. the file: a projected grid of 3 km cells, cell (5, 1) land */
-    static double xa[NXG], ya[NYG], cx[NXG * NYG], cy[NXG * NYG], ar[NXG * NYG], lon[NXG * NYG],
-        lat[NXG * NYG];
-    static unsigned char land[NXG * NYG];
-    for (int i = 0; i < NXG; i++)
-        xa[i] = (i + 0.5) * DXG;
-    for (int j = 0; j < NYG; j++)
-        ya[j] = (j + 0.5) * DXG;
-    for (size_t c = 0; c < NXG * NYG; c++) { /* centres, areas; lon/lat only as attributes */
-        cx[c] = xa[c % NXG];
-        cy[c] = ya[c / NXG];
-        ar[c] = DXG * DXG;
-        lon[c] = 121.0 + cx[c] / 85000.0;
-        lat[c] = 40.0 + cy[c] / 111000.0;
-    }
-    land[1 * NXG + 5] = 1;
-    ofx_grid og = {.kind = OFX_GRID_PLANE, .nx = NXG, .ny = NYG, .xaxis = xa, .yaxis = ya, .lon = lon,
-                   .lat = lat, .cx = cx, .cy = cy, .area = ar, .land = land, .projection = "+proj=test"};
-    ofx_meta meta = {.title = "test", .institution = "test", .model_version = "0", .git_revision = "0",
-                     .cycle_time = 1e9};
     char path[1024];
-    snprintf(path, sizeof path, "%s/ofx.nc", dir);
+    long to[3];
     sph_error err;
-    sph_error_clear(&err);
-    ofx_writer *w = NULL;
-    CHECK(ofx_open(&w, &og, &meta, path, &err) == SPH_OK, "open: %s", err.msg);
+    ofx_writer *w = ofx_plane_open(dir, path, sizeof path, to, &err);
+    CHECK(w != NULL, "open: %s", err.msg);
     if (!w)
         return check_summary("test_ocean_fluxes_mixed");
-    long to[3];
-    for (size_t c = 0; c < 3; c++)
-        to[c] = ofx_locate(w, NAN, NAN, (c + 0.5) * 1e4, 5000.0, hypot(1e4, 1e4) + DXG);
     CHECK(to[0] == 1 * NXG + 1, "cell 0's centre (5, 5) km is in file cell (1, 1): %ld", to[0]);
     CHECK(to[1] == 1 * NXG + 4, "cell 1's centre (15, 5) km is on land: nearest water (4, 1): %ld", to[1]);
     CHECK(to[2] == 1 * NXG + 8, "cell 2's centre (25, 5) km is in (8, 1): %ld", to[2]);
     CHECK(ofx_locate(w, NAN, NAN, 1e6, 5000.0, 1e4) == -1, "far outside: none");
     double rad[4], tx[4] = {0}, ty[4] = {0}, ia[4], iv[4], sp_e = 0.0, sp_w = 0.0, sp_s = 0.0;
+    ofx_particles op = ofx_plane_particles(P, p.rho_i, rad, ia, iv, tx, ty);
     for (size_t k = 0; k < P->n; k++) {
-        double fp = P->mass[k] / (p.rho_i * P->conc[k] * P->thick[k]);
-        rad[k] = sqrt(3.0 * fp / M_PI);
-        ia[k] = P->conc[k] * fp;
-        iv[k] = P->mass[k] / p.rho_i;
         sp_e += P->ofx_heat_ice[k] + P->ofx_heat_lead[k];
         sp_w += P->ofx_water[k];
         sp_s += P->ofx_salt[k];
     }
-    ofx_particles op = {.n = P->n, .x = P->x, .y = P->y, .radius = rad, .heat_ice = P->ofx_heat_ice,
-                        .heat_lead = P->ofx_heat_lead, .water = P->ofx_water, .salt = P->ofx_salt,
-                        .taux = tx, .tauy = ty, .swbase = P->ofx_swbase, .ice_area = ia, .ice_volume = iv};
     const double dt = nstep * 3600.0;
     double lost[3];
     CHECK(ofx_add_particles(w, &op, &err) == SPH_OK, "particles: %s", err.msg);
@@ -207,9 +143,9 @@ int main(void)
     const double cell0[3] = {H * area * o->temp[0] - E0[0], o->water[0] - W0[0], o->salt[0] - S0[0]};
     const double cell1[3] = {H * area * o->temp[1] - E0[1], o->water[1] - W0[1], o->salt[1] - S0[1]};
     for (int f = 0; f < 3; f++) {
-        double a0, a1;
-        double s = file_integral(path, names[f], (size_t)to[0], &a0) * dt;
-        file_integral(path, names[f], (size_t)to[1], &a1);
+        double a0 = NAN, a1 = NAN;
+        double s = ofx_plane_integral(path, names[f], (size_t)to[0], &a0) * dt;
+        ofx_plane_integral(path, names[f], (size_t)to[1], &a1);
         a0 *= dt;
         a1 *= dt;
         printf("%s: file %.12e, particles + cells %.12e\n", names[f], s, tot[f]);

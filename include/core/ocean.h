@@ -99,6 +99,13 @@ typedef struct sph_ocean {
      * freezing point that loses heat gives 0, as the particles' leads);
      * fresh water and salt into it, kg (minus the frazil formed). */
     double *ofx_heat, *ofx_water, *ofx_salt;
+    /* a particle removed between two records (melted out, or left at an
+     * open boundary) hands its seven accumulators (core/particles.h ofx_*)
+     * to its cell before it goes (sph_ocean_take_particle): heat_lead to
+     * ofx_heat, water and salt to ofx_water and ofx_salt, and these: the
+     * heat under its ice, J (hfsithermds, also part of hfds); its stress
+     * on the ocean, N s, plane x/y; the shortwave at its base, J. */
+    double *ofx_heat_ice, *ofx_taux, *ofx_tauy, *ofx_swbase;
     /* workspace: particles binned by cell */
     size_t cap;
     int *bin_start; /* ncell + 1 */
@@ -138,8 +145,9 @@ void sph_ocean_set_cell(sph_ocean *o, size_t c, double depth, double S, double T
 size_t sph_ocean_open_water_fluxes(const sph_ocean *o, const double **heat, const double **fresh,
                                    const double **salt);
 
-/* Zeroes the open water's accumulators (ofx_heat, ofx_water, ofx_salt):
- * the driver, after each record of the fluxes file (not inside a step). */
+/* Zeroes the cells' accumulators (ofx_heat, ofx_water, ofx_salt and the
+ * removed particles' ofx_heat_ice, ofx_taux, ofx_tauy, ofx_swbase): the
+ * driver, after each record of the fluxes file (not inside a step). */
 void sph_ocean_clear_fluxes(sph_ocean *o);
 
 #endif

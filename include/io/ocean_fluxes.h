@@ -112,6 +112,16 @@ long ofx_locate(const ofx_writer *w, double lon, double lat, double x, double y,
  * is -1. */
 int ofx_add_cell_amounts(ofx_writer *w, int k, size_t n, const long *to, const double *amount, double dt,
                          double *lost, sph_error *err);
+/* The mixed layer's cells (core/ocean.h sph_ocean, n cells): their open
+ * water (ofx_heat, ofx_water, ofx_salt) and what the particles removed
+ * since the last record left in them (ofx_heat_ice to hfsithermds, its
+ * plane stress turned to the grid's x/y by cos/sin rot[c], rot[n + c] to
+ * tauuo/tauvo, ofx_swbase to siflswdbot), each cell whole to to[c], over
+ * the record's interval dt s. lost[3] (may be NULL): the heat (J), water
+ * and salt (kg) of cells with to[c] == -1. */
+int ofx_add_ocean_cells(ofx_writer *w, size_t n, const long *to, const double *rot, const double *heat,
+                        const double *water, const double *salt, const double *heat_ice, const double *taux,
+                        const double *tauy, const double *swbase, double dt, double lost[3], sph_error *err);
 /* Writes the current record: means over [t_start, t_end] (s since 1970,
  * t_end > t_start), time = t_end with bounds; then clears the record. */
 int ofx_write_record(ofx_writer *w, double t_start, double t_end, sph_error *err);

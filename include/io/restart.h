@@ -62,8 +62,9 @@ int restart_write(const char *path, const sph_particles *P, const restart_header
                   sph_error *err);
 
 /* restart_write with the mixed layer's state (o not NULL): its temperature,
- * salinity, depth, water, salt, waiting frazil and its enthalpy and the
- * open water's flux accumulators, variables ocean_* on the dimension
+ * salinity, depth, water, salt, waiting frazil and its enthalpy, the
+ * open water's flux accumulators and (when not all zero; absent reads as
+ * zero) the removed particles' ones, variables ocean_* on the dimension
  * ocean_cell, and its grid (attributes ocean_x0, ocean_y0, ocean_dx,
  * ocean_dy, ocean_nx, ocean_ny), so that a restart continues it bit for bit. */
 int restart_write_ocean(const char *path, const sph_particles *P, const restart_header *h, const sph_ocean *o,

@@ -382,6 +382,8 @@ void sph_remove_outflow(sph_model *m)
             m->budget.outflow += P->mass[k];
             m->budget.snow_to_ocean += sph_particle_snow_mass(&m->prm.thermo, P, k);
             m->budget.removed_particles++;
+            if (sph_ocean_on(m)) /* its fluxes so far to the edge cell */
+                sph_ocean_take_particle(m, k);
             sph_particles_remove(P, k);
         }
     }

@@ -224,6 +224,9 @@ void sph_ocean_totals(const sph_model *m, double *energy, double *water, double 
 void sph_ocean_before(sph_model *m, double dt);
 /* After it: cells, frazil, removal, creation, merging. */
 int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_status *st);
+/* Hands particle k's accumulated fluxes into the ocean (ofx_*) to its
+ * cell's accumulators and zeroes them, before k is removed mid-record. */
+void sph_ocean_take_particle(sph_model *m, size_t k);
 
 /* ------------------------------------------------------------------ */
 /* SPH passes (operators.c)                                            */

@@ -63,6 +63,7 @@ typedef struct engine {
     char ofx_grid_from[4200]; /* "output grid" or "ocean forcing PATH" */
     size_t ofx_ncell;         /* the file's cells */
     long *ofx_to;             /* the mixed layer's cell -> the file's cell (ofx_locate), -1: none; NULL: no layer */
+    double *ofx_rot;          /* 2 x its cells: cos, sin of the plane's angle at each centre */
     char restart_path[4200];
     int restart_written;
     char start_mode[16];

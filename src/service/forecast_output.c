@@ -346,7 +346,9 @@ void fc_free_ocean_fluxes(engine *e)
     free(e->ofx_lat);
     free(e->ofx_land);
     free(e->ofx_to);
+    free(e->ofx_rot);
     e->ofx_to = NULL;
+    e->ofx_rot = NULL;
     e->ofx_buf = e->ofx_area = e->ofx_lon = e->ofx_lat = NULL;
     e->ofx_land = NULL;
 }
@@ -403,9 +405,9 @@ static int ofx_ocean_grid(engine *e, const char *path, int *nx, int *ny, double 
     if (landmask_is_native(m)) {
         landmask_free(m);
         return sph_err_set(err, SPH_ERR_CONFIG,
-                           "output.ocean_fluxes_grid: the ocean forcing %s is not on a regular lon/lat grid, "
-                           "which the ocean-fluxes file does not take yet: set output.ocean_fluxes_grid to "
-                           "\"output\"", path);
+                           "output.ocean_fluxes_grid: the ocean forcing %s is not on a regular lon/lat grid "
+                           "(2-D latitude and longitude, a curvilinear grid, or unevenly spaced axes), which the ocean-fluxes "
+                           "file does not take yet: set output.ocean_fluxes_grid to \"output\"", path);
     }
     int gx, gy;
     double lon0, lat0, dlon, dlat;
@@ -490,6 +492,7 @@ static int ofx_map_mixed_layer(engine *e, sph_error *err)
     int ok = 1;
     size_t nc = o->ncell;
     e->ofx_to = xcalloc(nc, sizeof(long), &ok);
+    e->ofx_rot = xcalloc(2 * nc, sizeof(double), &ok);
     double *lon = xcalloc(2 * nc, sizeof(double), &ok);
     if (!ok) {
         free(lon);
@@ -506,8 +509,15 @@ static int ofx_map_mixed_layer(engine *e, sph_error *err)
     for (size_t c = 0; c < ncells; c++)
         amax = fmax(amax, e->ofx_area[c]);
     double reach = hypot(o->g.dx, o->g.dy) + sqrt(amax);
-    for (size_t c = 0; c < nc; c++)
+    for (size_t c = 0; c < nc; c++) {
         e->ofx_to[c] = ofx_locate(e->ofx, lon[c], lat[c], e->ocean_pts->x[c], e->ocean_pts->y[c], reach);
+        /* plane x/y -> east/north at the centre, as for the particles (ofx_record) */
+        double a = isfinite(lon[c]) ? geo_grid_angle(e->proj, lon[c], lat[c]) : 0.0;
+        if (!isfinite(a))
+            a = 0.0;
+        e->ofx_rot[c] = cos(a);
+        e->ofx_rot[nc + c] = sin(a);
+    }
     free(lon);
     return SPH_OK;
 }
@@ -603,12 +613,9 @@ static int ofx_record(engine *e, double t, sph_error *err)
     int rc = ofx_add_particles(e->ofx, &op, err);
     sph_ocean *o = e->ofx_to ? sph_model_ocean(e->m) : NULL;
     double lost[3] = {0.0, 0.0, 0.0};
-    if (!rc && o) { /* the mixed layer's open water with no particle */
-        const double *amt[3] = {o->ofx_heat, o->ofx_water, o->ofx_salt};
-        const int field[3] = {OFX_HFDS, OFX_SIFLFWBOT, OFX_SIFLSALTBOT};
-        for (int q = 0; q < 3 && !rc; q++)
-            rc = ofx_add_cell_amounts(e->ofx, field[q], o->ncell, e->ofx_to, amt[q], t - e->ofx_t0, &lost[q], err);
-    }
+    if (!rc && o) /* the mixed layer's open water with no particle, and the removed particles */
+        rc = ofx_add_ocean_cells(e->ofx, o->ncell, e->ofx_to, e->ofx_rot, o->ofx_heat, o->ofx_water, o->ofx_salt,
+                                 o->ofx_heat_ice, o->ofx_taux, o->ofx_tauy, o->ofx_swbase, t - e->ofx_t0, lost, err);
     if (!rc)
         rc = ofx_write_record(e->ofx, e->ofx_t0, t, err);
     if (rc)

@@ -22,7 +22,8 @@ void sph_ocean_free(sph_ocean *o)
     double **d[] = {&o->temp, &o->sal, &o->depth, &o->water, &o->salt, &o->frazil, &o->frazil_enth,
                     &o->tair, &o->qair, &o->ua, &o->va, &o->swdn, &o->lwdn, &o->lat,
                     &o->sst_restore, &o->sss_restore, &o->ow_heat, &o->ow_fresh, &o->ow_salt,
-                    &o->ofx_heat, &o->ofx_water, &o->ofx_salt, &o->pfoot, &o->penth, &o->pmass, &o->cfoot, &o->seafrac, &o->acc_e, &o->acc_w};
+                    &o->ofx_heat, &o->ofx_water, &o->ofx_salt, &o->ofx_heat_ice, &o->ofx_taux, &o->ofx_tauy,
+                    &o->ofx_swbase, &o->pfoot, &o->penth, &o->pmass, &o->cfoot, &o->seafrac, &o->acc_e, &o->acc_w};
     for (size_t i = 0; i < sizeof d / sizeof d[0]; i++)
         free(*d[i]);
     free(o->bin_start);
@@ -46,7 +47,8 @@ sph_ocean *sph_ocean_create(const sph_ocean_grid *g, size_t cap, double depth, d
     double **cells[] = {&o->temp, &o->sal, &o->depth, &o->water, &o->salt, &o->frazil, &o->frazil_enth,
                         &o->tair, &o->qair, &o->ua, &o->va, &o->swdn, &o->lwdn, &o->lat,
                         &o->sst_restore, &o->sss_restore, &o->ow_heat, &o->ow_fresh, &o->ow_salt,
-                        &o->ofx_heat, &o->ofx_water, &o->ofx_salt, &o->cfoot, &o->seafrac, &o->acc_e, &o->acc_w};
+                        &o->ofx_heat, &o->ofx_water, &o->ofx_salt, &o->ofx_heat_ice, &o->ofx_taux,
+                        &o->ofx_tauy, &o->ofx_swbase, &o->cfoot, &o->seafrac, &o->acc_e, &o->acc_w};
     int ok = 1;
     for (size_t i = 0; i < sizeof cells / sizeof cells[0]; i++)
         ok &= (*cells[i] = calloc(nc, sizeof(double))) != NULL;
@@ -105,6 +107,8 @@ void sph_ocean_clear_fluxes(sph_ocean *o)
 {
     if (!o)
         return;
-    for (size_t c = 0; c < o->ncell; c++)
+    for (size_t c = 0; c < o->ncell; c++) {
         o->ofx_heat[c] = o->ofx_water[c] = o->ofx_salt[c] = 0.0;
+        o->ofx_heat_ice[c] = o->ofx_taux[c] = o->ofx_tauy[c] = o->ofx_swbase[c] = 0.0;
+    }
 }

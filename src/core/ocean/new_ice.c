@@ -289,6 +289,21 @@ static int create_in_cell(sph_model *m, size_t c, double reach, long *next_id, s
     return SPH_STEP_OK;
 }
 
+void sph_ocean_take_particle(sph_model *m, size_t k)
+{
+    sph_ocean *o = m->ocean;
+    sph_particles *P = m->P;
+    size_t c = sph_ocean_cell(o, P->x[k], P->y[k]);
+    double *const from[7] = {P->ofx_heat_lead, P->ofx_water, P->ofx_salt, P->ofx_heat_ice,
+                             P->ofx_taux, P->ofx_tauy, P->ofx_swbase};
+    double *const to[7] = {o->ofx_heat, o->ofx_water, o->ofx_salt, o->ofx_heat_ice,
+                           o->ofx_taux, o->ofx_tauy, o->ofx_swbase};
+    for (int q = 0; q < 7; q++) {
+        to[q][c] += from[q][k];
+        from[q][k] = 0.0;
+    }
+}
+
 /* Merges particle j into k: mass, momentum, ice volume, enthalpy, snow
  * volume and footprint are summed; position mass-weighted. */
 static void merge_into(sph_model *m, size_t k, size_t j)
@@ -472,10 +487,14 @@ int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_stat
         o->ofx_water[c] -= dmf;
         o->ofx_salt[c] -= dmf * sb;
     }
-    /* 3. particles whose ice melted away (their water is already in the cell) */
+    /* 3. particles whose ice melted away (their water is already in the
+     * cell; what they gave the ocean since the last record goes to the
+     * cell's accumulators) */
     for (size_t k = P->n; k-- > 0;)
-        if (!(P->mass[k] > 0.0))
+        if (!(P->mass[k] > 0.0)) {
+            sph_ocean_take_particle(m, k);
             sph_particles_remove(P, k);
+        }
     /* 4. new particles from the frazil */
     int rc = SPH_STEP_OK;
     if (p->ocean.create) {

@@ -585,6 +585,37 @@ int ofx_add_cell_amounts(ofx_writer *w, int k, size_t n, const long *to, const d
     return rc;
 }
 
+int ofx_add_ocean_cells(ofx_writer *w, size_t n, const long *to, const double *rot, const double *heat,
+                        const double *water, const double *salt, const double *heat_ice, const double *taux,
+                        const double *tauy, const double *swbase, double dt, double lost[3], sph_error *err)
+{
+    double *tx = calloc(2 * (n > 0 ? n : 1), sizeof(double));
+    if (!tx)
+        return sph_err_set(err, SPH_ERR_NOMEM, "ocean fluxes: out of memory (%zu cells)", n);
+    double *ty = tx + n;
+    for (size_t c = 0; c < n; c++) {
+        double cs = rot ? rot[c] : 1.0, sn = rot ? rot[n + c] : 0.0;
+        tx[c] = taux[c] * cs - tauy[c] * sn;
+        ty[c] = taux[c] * sn + tauy[c] * cs;
+    }
+    const double *amt[7] = {heat, water, salt, heat_ice, tx, ty, swbase};
+    const int field[7] = {OFX_HFDS, OFX_SIFLFWBOT, OFX_SIFLSALTBOT, OFX_HFSITHERMDS, OFX_TAUUO, OFX_TAUVO,
+                          OFX_SIFLSWDBOT};
+    double miss[3] = {0.0, 0.0, 0.0};
+    int rc = SPH_OK;
+    for (int q = 0; q < 7 && rc == SPH_OK; q++) {
+        double l = 0.0;
+        rc = ofx_add_cell_amounts(w, field[q], n, to, amt[q], dt, &l, err);
+        if (q < 4)
+            miss[q == 3 ? 0 : q] += l;
+    }
+    free(tx);
+    if (lost)
+        for (int q = 0; q < 3; q++)
+            lost[q] = miss[q];
+    return rc;
+}
+
 /* Field k of the current record into w->out. */
 static void record_field(ofx_writer *w, int k, double dt)
 {

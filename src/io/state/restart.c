@@ -105,6 +105,9 @@ static int rv_written(const sph_particles *P, int k)
     return 0;
 }
 
+/* the removed particles' accumulators the mixed layer's cells hold (core/ocean.h) */
+#define OCEAN_REMOVED(v, what, units) \
+    {"ocean_ofx_" #v, "removed particles' " what " since the last fluxes record", units, offsetof(sph_ocean, ofx_##v)}
 /* The mixed layer's state in the file (restart_write_ocean): variables
  * on the dimension ocean_cell, in this order. */
 static const struct {
@@ -124,14 +127,32 @@ static const struct {
      offsetof(sph_ocean, ofx_water)},
     {"ocean_ofx_salt", "open water's salt into the ocean since the last fluxes record", "kg",
      offsetof(sph_ocean, ofx_salt)},
+    /* from OCEAN_REQUIRED on: optional, written only when not all zero, absent reads as zero */
+    OCEAN_REMOVED(heat_ice, "heat under their ice", "J"),
+    OCEAN_REMOVED(taux, "stress on the ocean, plane x", "N s"),
+    OCEAN_REMOVED(tauy, "stress on the ocean, plane y", "N s"),
+    OCEAN_REMOVED(swbase, "shortwave at their base", "J"),
 };
 #define NOCEAN (sizeof ocean_vars / sizeof ocean_vars[0])
+#define OCEAN_REQUIRED 10
 static const char *const ocean_grid_atts[6] = {"ocean_x0", "ocean_y0", "ocean_dx", "ocean_dy", "ocean_nx",
                                                "ocean_ny"};
 
 static double *ocean_array(const sph_ocean *o, size_t k)
 {
     return *(double *const *)((const char *)o + ocean_vars[k].offset);
+}
+
+/* 0 for an optional ocean variable that is zero everywhere (not written). */
+static int ocean_written(const sph_ocean *o, size_t k)
+{
+    if (k < OCEAN_REQUIRED)
+        return 1;
+    const double *a = ocean_array(o, k);
+    for (size_t c = 0; c < o->ncell; c++)
+        if (a[c] != 0.0)
+            return 1;
+    return 0;
 }
 
 static void ocean_grid_values(const sph_ocean *o, double g[6])
@@ -202,6 +223,8 @@ static int write_body(int nc, const sph_particles *P, const restart_header *h, c
         for (int a = 0; a < 6; a++)
             NC(nc_put_att_double(nc, NC_GLOBAL, ocean_grid_atts[a], NC_DOUBLE, 1, &g[a]), "write attribute");
         for (size_t k = 0; k < NOCEAN; k++) {
+            if (!ocean_written(o, k))
+                continue;
             NC(nc_def_var(nc, ocean_vars[k].name, NC_DOUBLE, 1, &d_o, &vo[k]), "define variable");
             NC(put_text(nc, vo[k], "long_name", ocean_vars[k].long_name), "write attribute");
             NC(put_text(nc, vo[k], "units", ocean_vars[k].units), "write attribute");
@@ -210,7 +233,8 @@ static int write_body(int nc, const sph_particles *P, const restart_header *h, c
     NC(nc_enddef(nc), "end definitions");
     if (o)
         for (size_t k = 0; k < NOCEAN; k++)
-            NC(nc_put_var_double(nc, vo[k], ocean_array(o, k)), "write");
+            if (ocean_written(o, k))
+                NC(nc_put_var_double(nc, vo[k], ocean_array(o, k)), "write");
     if (n == 0)
         return SPH_OK;
     size_t start[2] = {0, 0}, count[2] = {n, (size_t)nl};
@@ -557,7 +581,10 @@ int restart_read_ocean(const char *path, sph_ocean *o, int *found, sph_error *er
     for (size_t k = 0; k < NOCEAN && rc == SPH_OK; k++) {
         nc_type t;
         int nd, dim;
-        if (nc_inq_varid(nc, ocean_vars[k].name, &v[k]) != NC_NOERR)
+        int have = nc_inq_varid(nc, ocean_vars[k].name, &v[k]) == NC_NOERR;
+        if (!have && k >= OCEAN_REQUIRED)
+            v[k] = -1; /* absent: zero */
+        else if (!have)
             rc = sph_err_set(err, SPH_ERR_MISSING_VAR, "restart %s: variable %s: missing (the file has "
                              "the dimension ocean_cell)", path, ocean_vars[k].name);
         else if (nc_inq_vartype(nc, v[k], &t) || nc_inq_varndims(nc, v[k], &nd) || nd != 1 ||
@@ -570,6 +597,10 @@ int restart_read_ocean(const char *path, sph_ocean *o, int *found, sph_error *er
         rc = sph_err_set(err, SPH_ERR_NOMEM, "restart %s: out of memory (mixed layer)", path);
     for (size_t k = 0; k < NOCEAN && rc == SPH_OK; k++) {
         double *a = tmp + k * o->ncell;
+        if (v[k] < 0) {
+            memset(a, 0, o->ncell * sizeof(double));
+            continue;
+        }
         if (nc_get_var_double(nc, v[k], a) != NC_NOERR)
             rc = sph_err_set(err, SPH_ERR_BAD_DATA, "restart %s: variable %s: cannot be read", path,
                              ocean_vars[k].name);
