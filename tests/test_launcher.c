@@ -19,6 +19,7 @@
 #include "check.h"
 #include "exec_case.h"
 #include "service/cycle.h"
+#include "service/config.h"
 #include "service/history.h"
 #include "service/launch.h"
 #include "service/schedule.h"
@@ -153,6 +154,28 @@ static int gone(long pid)
 static void show_log(const char *log) { xc_show_log(log); }
 
 static double this_cycle(void) { return floor(time_now() / 3600.0) * 3600.0; }
+
+/* The job reads the configuration in force as sph_config_to_json wrote it:
+ * that text must load to the same configuration (every key, every table). */
+static void test_snapshot_round_trip(void)
+{
+    static const char *const files[] = {"etc/liaodong-demo.json", "etc/liaodong-season.json", "etc/sphice.json"};
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        struct sph_config *a = NULL, *b = NULL;
+        sph_error e;
+        sph_error_clear(&e);
+        int ok = sph_config_load(files[i], &a, &e) == 0;
+        char *ta = ok ? sph_config_to_json(a) : NULL;
+        ok = ok && ta && sph_config_parse(ta, "snapshot", &b, &e) == 0;
+        char *tb = ok ? sph_config_to_json(b) : NULL;
+        CHECK(ok && tb && !strcmp(ta, tb), "%s: the snapshot loads to the same configuration (%s)", files[i],
+              e.msg);
+        free(ta);
+        free(tb);
+        sph_config_free(a);
+        sph_config_free(b);
+    }
+}
 
 static void test_split(void)
 {
@@ -371,6 +394,7 @@ int main(void)
     sph_error e;
     sph_error_clear(&e);
     atomic_write_file(atm, "forcing", 7, &e);
+    test_snapshot_round_trip();
     test_split();
     test_ok();
     test_cancel("cancel", 0);
