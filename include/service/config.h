@@ -164,6 +164,11 @@ struct sph_config {
         double connect_timeout_s, timeout_s, low_speed_s, backoff_s;
         int low_speed_bytes, retries;
     } fetch;                    /* downloads (io/fetch.h) */
+    struct {
+        char *command;          /* "" : serve runs cycles in its own process */
+        char *program;          /* "" : this executable */
+        double grace_s;         /* SIGTERM to SIGKILL on cancel */
+    } launcher;                 /* serve: cycles as a launched job (service/launch.h) */
 };
 
 /* Reads and validates a configuration file. On failure *out is NULL and err

@@ -350,6 +350,13 @@ static const cfg_key tail_keys[] = {
     C_("paths.hindcast_dir", CT_STRING, paths.hindcast_dir, "\"\"", 0, 4095, R, NULL,
        "Hindcast products; empty: output.dir/hindcast."),
 
+    C_("launcher.command", CT_STRING, launcher.command, "\"\"", 0, 1023, R, NULL,
+       "serve only: run each cycle as a job, `COMMAND PROGRAM run CONFIG --cycle TIME`, e.g. \"mpirun -np 8\" or \"srun -n 8\" (split at blanks; quotes group words); empty: in the service's own process. The job is cancelled as a whole (its process group) on SIGTERM (docs/ensemble.md)."),
+    C_("launcher.program", CT_STRING, launcher.program, "\"\"", 0, 4095, R, NULL,
+       "The sphice executable the launcher starts (e.g. build-mpi/sphice for MPI); empty: the running executable."),
+    C_("launcher.grace_s", CT_DOUBLE, launcher.grace_s, "30", 0, 3600, R, NULL,
+       "On cancellation, seconds between SIGTERM and SIGKILL to the launched job's process group."),
+
     C_("fetch.connect_timeout_s", CT_DOUBLE, fetch.connect_timeout_s, "30", 0.1, 3600, R, NULL,
        "Downloads: seconds to establish a connection."),
     C_("fetch.timeout_s", CT_DOUBLE, fetch.timeout_s, "600", 1, 86400, R, NULL,

@@ -18,6 +18,7 @@
 #include "service/config.h"
 #include "service/cycle.h"
 #include "service/history.h"
+#include "service/launch.h"
 #include "service/http.h"
 #include "service/schedule.h"
 #include "service/status_page.h"
@@ -145,6 +146,8 @@ static char *status_json(svc *s)
         json_add_time(cur, "cycle", s->current_cycle);
         json_add_time(cur, "started", s->current_started);
         cJSON_AddStringToObject(cur, "phase", phase_name(s->prog.phase));
+        if (s->cfg->launcher.command[0]) /* a launched job: its progress is in its own log */
+            cJSON_AddStringToObject(cur, "launcher", s->cfg->launcher.command);
         json_add_time(cur, "model_time", s->prog.model_time > 0 ? s->prog.model_time : NAN);
         cJSON_AddNumberToObject(cur, "percent", s->prog.percent);
         cJSON_AddNumberToObject(cur, "particles", (double)s->prog.particles);
@@ -373,7 +376,11 @@ static void *worker_main(void *arg)
 {
     svc *s = arg;
     sph_error_clear(&s->werr);
-    s->wrc = cycle_run(s->cfg, &s->wopts, &s->prog, &s->cancel, &s->wrep, &s->werr);
+    /* the configuration cannot change under the worker: a reload waits for it (apply_pending) */
+    if (s->cfg->launcher.command[0])
+        s->wrc = launch_cycle(s->cfg, &s->wopts, &s->prog, &s->cancel, &s->wrep, &s->werr);
+    else
+        s->wrc = cycle_run(s->cfg, &s->wopts, &s->prog, &s->cancel, &s->wrep, &s->werr);
     __atomic_store_n(&s->worker_done, 1, __ATOMIC_RELEASE);
     return NULL;
 }
