@@ -65,6 +65,10 @@ typedef struct forecast_result {
      * the end (0..1); why the forecast is flagged ("" none: issue 19 item
      * 7, initial.gate flag, or "open_water" for an ice-free raster) */
     double raster_ice_area_km2, raster_ice_volume_km3, seeded_ice_area_km2, seeded_ice_volume_km3;
+    /* a lattice start: what its sampling gave before its scaling to the
+     * raster's (NaN otherwise); the raster's figures are then over the
+     * plane area the lattice's footprints tile */
+    double lattice_raw_area_km2, lattice_raw_volume_km3;
     double land_fraction;
     int open_water;              /* cold start from a raster without ice in the domain */
     char quality_flag[256];

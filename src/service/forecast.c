@@ -205,6 +205,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     res->edge_distance_nm = NAN;
     res->raster_ice_area_km2 = res->raster_ice_volume_km3 = NAN;
     res->seeded_ice_area_km2 = res->seeded_ice_volume_km3 = NAN;
+    res->lattice_raw_area_km2 = res->lattice_raw_volume_km3 = NAN;
     engine eng;
     memset(&eng, 0, sizeof eng);
     engine *e = &eng;

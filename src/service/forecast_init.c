@@ -360,12 +360,19 @@ int fc_seed(engine *e, const seed_options *so, sph_particles *P, fc_seeded *out,
             sph_particles_remove(P, k);
             out->dropped++;
         }
-    /* the raster's ice over the model's plane box (its sea cells above the
-     * threshold) against the seeded particles' */
-    double box[4] = {e->plane.x0, x1, e->plane.y0, y1};
-    if ((rc = seed_raster_totals(e->raster, e->proj, e->lm, so, box, &out->raster_area, &out->raster_volume,
-                                 err)))
-        return rc;
+    /* the raster's ice against the seeded particles': a lattice's over the
+     * plane area its footprints tile (within half a spacing of the plane
+     * box at each edge; the region its scaling matched), per cell over the
+     * model's plane box (its sea cells above the threshold) */
+    if (st.rescaled) {
+        out->raster_area = st.raster_area_m2;
+        out->raster_volume = st.raster_volume_m3;
+    } else {
+        double box[4] = {e->plane.x0, x1, e->plane.y0, y1};
+        if ((rc = seed_raster_totals(e->raster, e->proj, e->lm, so, box, &out->raster_area,
+                                     &out->raster_volume, err)))
+            return rc;
+    }
     for (size_t k = 0; k < P->n; k++) {
         out->volume += P->mass[k] / so->rho_ice;
         out->area += P->mass[k] / (so->rho_ice * P->thick[k]);
@@ -388,6 +395,10 @@ static int seed_gate(engine *e, const seed_options *so, const fc_seeded *s, sph_
         e->res->raster_ice_volume_km3 = rv / 1e9;
         e->res->seeded_ice_area_km2 = sa / 1e6;
         e->res->seeded_ice_volume_km3 = sv / 1e9;
+        if (s->rescaled) {
+            e->res->lattice_raw_area_km2 = ga / 1e6;
+            e->res->lattice_raw_volume_km3 = gv / 1e9;
+        }
         snprintf(e->res->raster_assumed, sizeof e->res->raster_assumed, "%s", e->raster->assumed);
     }
     char msg[sizeof e->raster_path + 400];

@@ -331,8 +331,17 @@ int seed_raster_totals(const ice_raster *r, const geo_proj *p, const landmask *m
             double c = r->conc[k], lon, lat;
             if (!(c > o->threshold) || !(r->thick[k] > 0))
                 continue;
-            /* the lattice: by the cell's centre; per cell: by its sub-cells' */
+            /* the lattice: by the cell's centre, or, for a cell more than
+             * twice the lattice spacing across, by the fraction of it inside
+             * the box (a coarse cell at the box's edge is partly sampled,
+             * and the centre alone would count it whole or not at all);
+             * per cell: by its sub-cells' */
             int sub = o->spacing_m > 0 || o->cell_n <= 1 ? 1 : o->cell_n, in = 0;
+            if (o->spacing_m > 0 && box) {
+                double size = sqrt(ice_raster_area(r, i, j));
+                if (size > 2.0 * o->spacing_m)
+                    sub = (int)fmin(16.0, ceil(size / o->spacing_m));
+            }
             for (int b = 0; b < sub; b++)
                 for (int q = 0; q < sub; q++) {
                     if (!sub_lonlat(r, i, j, sub, q, b, &lon, &lat) || !is_sea(mask, lon, lat))
