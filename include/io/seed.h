@@ -62,6 +62,14 @@ typedef struct seed_options {
     /* plane-lattice bounds (spacing_m > 0): the raster's projected
      * bounding box when all four are 0 */
     double xmin, xmax, ymin, ymax;
+    /* the model's own land on its plane (the land mask as the model draws
+     * it; NULL: none): no particle is placed on it, and the raster's
+     * totals leave it out, so what is seeded is what the model calls sea.
+     * plane_land[j * plane_nx + i] for the cell [x0 + i dx, x0 + (i+1) dx)
+     * x [y0 + j dy, ...) */
+    const unsigned char *plane_land;
+    double plane_x0, plane_y0, plane_dx, plane_dy;
+    long plane_nx, plane_ny;
 } seed_options;
 
 void seed_options_default(seed_options *o);

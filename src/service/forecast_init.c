@@ -338,6 +338,13 @@ void fc_seed_options(const engine *e, seed_options *so)
     so->sml_factor = cfg->model.sml_factor;
     so->rho_ice = cfg->model.rho_i;
     so->first_id = 0;
+    so->plane_land = e->plane.land; /* what the model calls land */
+    so->plane_x0 = e->plane.x0;
+    so->plane_y0 = e->plane.y0;
+    so->plane_dx = e->plane.dx;
+    so->plane_dy = e->plane.dy;
+    so->plane_nx = e->plane.nx;
+    so->plane_ny = e->plane.ny;
     if (so->spacing_m > 0) { /* lattice over the model's plane box */
         so->xmin = e->plane.x0;
         so->ymin = e->plane.y0;

@@ -97,11 +97,30 @@ static int sub_lonlat(const ice_raster *r, int i, int j, int n, int a, int b, do
     return 1;
 }
 
+/* 1 where the model's plane land (o->plane_land) holds (x, y). */
+static int plane_is_land(const seed_options *o, double x, double y)
+{
+    if (!o->plane_land)
+        return 0;
+    long i = (long)floor((x - o->plane_x0) / o->plane_dx), j = (long)floor((y - o->plane_y0) / o->plane_dy);
+    return i >= 0 && j >= 0 && i < o->plane_nx && j < o->plane_ny && o->plane_land[(size_t)j * o->plane_nx + i];
+}
+
+/* The same for a point given in lon/lat (projected with p; no p or a point
+ * that does not project: not land by the plane). */
+static int lonlat_plane_land(const seed_options *o, const geo_proj *p, double lon, double lat)
+{
+    double x, y;
+    if (!o->plane_land || !p || geo_forward(p, 1, &lon, &lat, &x, &y, NULL) != SPH_OK)
+        return 0;
+    return plane_is_land(o, x, y);
+}
+
 /* Per cell (spacing_m == 0): cell_n x cell_n particles (at least one) per
  * cell above the threshold, each with the cell's concentration and
  * thickness and 1 / cell_n^2 of its area; a sub-cell whose centre is land
  * (mask) is left out. */
-static int walk_cells(const ice_raster *r, const landmask *mask, const seed_options *o,
+static int walk_cells(const ice_raster *r, const geo_proj *p, const landmask *mask, const seed_options *o,
                       emit_fn emit, void *ctx, size_t *count)
 {
     *count = 0;
@@ -115,7 +134,8 @@ static int walk_cells(const ice_raster *r, const landmask *mask, const seed_opti
             double a = ice_raster_area(r, i, j) / ((double)n * n);
             for (int b = 0; b < n; b++)
                 for (int q = 0; q < n; q++) {
-                    if (!sub_lonlat(r, i, j, n, q, b, &lon, &lat) || !is_sea(mask, lon, lat))
+                    if (!sub_lonlat(r, i, j, n, q, b, &lon, &lat) || !is_sea(mask, lon, lat) ||
+                        lonlat_plane_land(o, p, lon, lat))
                         continue;
                     seed_point s = {lon, lat, c, r->thick[k], a};
                     if (emit) {
@@ -302,7 +322,7 @@ static int walk_lattice(const ice_raster *r, const geo_proj *p, const landmask *
                 !ice_raster_sample(&vol, lon[i], lat[i], &s.conc, &ah))
                 continue;
             if (!(s.conc > o->threshold) || !(ah > 0) || !is_sea(mask, lon[i], lat[i]) ||
-                raster_flags_land(r, lon[i], lat[i]))
+                raster_flags_land(r, lon[i], lat[i]) || plane_is_land(o, x[i], y[i]))
                 continue;
             s.thick = ah / s.conc; /* thickness of the ice, not of ice and water */
             if (emit)
@@ -344,7 +364,8 @@ int seed_raster_totals(const ice_raster *r, const geo_proj *p, const landmask *m
             }
             for (int b = 0; b < sub; b++)
                 for (int q = 0; q < sub; q++) {
-                    if (!sub_lonlat(r, i, j, sub, q, b, &lon, &lat) || !is_sea(mask, lon, lat))
+                    if (!sub_lonlat(r, i, j, sub, q, b, &lon, &lat) || !is_sea(mask, lon, lat) ||
+                        lonlat_plane_land(o, p, lon, lat))
                         continue;
                     if (box) {
                         double x, y;
@@ -373,7 +394,7 @@ int seed_count(const ice_raster *r, const geo_proj *p, const landmask *mask,
         return rc;
     if (o->spacing_m > 0)
         return walk_lattice(r, p, mask, o, NULL, NULL, count, NULL, err);
-    return walk_cells(r, mask, o, NULL, NULL, count);
+    return walk_cells(r, p, mask, o, NULL, NULL, count);
 }
 
 typedef struct {
@@ -432,7 +453,7 @@ int seed_from_raster_totals(const ice_raster *r, const geo_proj *p, const landma
     if (o->spacing_m > 0)
         rc = walk_lattice(r, p, mask, o, emit_particle, &c, &got, box, err);
     else
-        rc = walk_cells(r, mask, o, emit_particle, &c, &got);
+        rc = walk_cells(r, p, mask, o, emit_particle, &c, &got);
     if (rc == SPH_OK)
         rc = seed_raster_totals(r, p, mask, o, o->spacing_m > 0 ? box : NULL, &t.raster_area_m2,
                                 &t.raster_volume_m3, err);
