@@ -14,7 +14,7 @@
 #           runs `promtool check metrics` on a real /metrics answer
 #           (skipped with one line without it)
 set -eu
-PKGS="build-essential make pkg-config libnetcdf-dev netcdf-bin libcurl4-openssl-dev \
+PKGS="build-essential make pkg-config libnetcdf-dev libhdf5-dev netcdf-bin libcurl4-openssl-dev \
 libcjson-dev libgsl-dev libproj-dev proj-data libudunits2-dev libmicrohttpd-dev \
 libsqlite3-dev sqlite3 libssl-dev libcairo2-dev libsystemd-dev gmt-gshhg-high gnuplot-nox \
 libgdal-dev gdal-bin \

@@ -17,4 +17,11 @@ int ncfile_close(int *ncid);
 /* How many files this process could not close (see above). */
 int ncfile_abandoned(void);
 
+/* Hands the memory HDF5 keeps on its free lists back to the allocator
+ * (H5garbage_collect). netCDF-4 leaves the blocks each nc_enddef and
+ * nc_close freed on HDF5's free lists, which grow up to tens of MiB by
+ * default; a long-running process calls this once per cycle, with no
+ * NetCDF file open, so that its resident memory stays flat. */
+void ncfile_release_memory(void);
+
 #endif

@@ -1,6 +1,7 @@
 /* Closing NetCDF files that may not close (io/ncfile.h). */
 #include "io/ncfile.h"
 
+#include <hdf5.h>
 #include <netcdf.h>
 #include <stdatomic.h>
 
@@ -25,3 +26,5 @@ int ncfile_close(int *ncid)
 }
 
 int ncfile_abandoned(void) { return atomic_load(&abandoned); }
+
+void ncfile_release_memory(void) { (void)H5garbage_collect(); }
