@@ -37,6 +37,12 @@ int nc_guard_check(const char *path, const char *label, sph_error *err);
  * is one line with the library's reason. */
 int nc_guard_open(const char *path, const char *label, int *ncid, sph_error *err);
 
+/* nc_open(path, NC_NOWRITE, ncid) with 128 KiB of stack below the
+ * caller cleared first, as the checking child opens the file: a reader
+ * opens a checked file with this, so that an uninitialised pointer HDF5
+ * frees holds the same value in both (see nc_guard.c). */
+int nc_guard_nc_open(const char *path, int *ncid);
+
 /* The classic header validator on a buffer holding the file's first n
  * bytes (the whole header must be in it) of a file of file_size bytes.
  * 0 if valid, with *need the size a complete file has (0 when streaming);

@@ -746,7 +746,7 @@ static int nc_open_file(fsource *s, int file, void **fh, sph_error *err)
     int *box = malloc(sizeof *box);
     if (!box)
         return forcing_fail(err, s, s->paths[file], SPH_ERR_NOMEM, "out of memory");
-    int rc = nc_open(s->paths[file], NC_NOWRITE, box);
+    int rc = nc_guard_nc_open(s->paths[file], box);
     if (rc != NC_NOERR) {
         free(box);
         return forcing_fail(err, s, s->paths[file], SPH_ERR_NETCDF, "cannot open: %s",
@@ -1092,7 +1092,7 @@ static int nc_tide(fsource *s, int *harmonic, cf_units *units, double t_ref, int
     sph_error_clear(&e);
     if (nc_guard_check(s->paths[0], s->paths[0], &e)) /* io/nc_guard.h */
         return sph_err_set(err, e.code, "forcing '%s': %s", s->name, e.msg);
-    int rc = nc_open(s->paths[0], NC_NOWRITE, &ncid);
+    int rc = nc_guard_nc_open(s->paths[0], &ncid);
     if (rc != NC_NOERR)
         return forcing_fail(err, s, s->paths[0], SPH_ERR_NETCDF, "cannot open: %s",
                             nc_strerror(rc));

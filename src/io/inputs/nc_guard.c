@@ -517,12 +517,30 @@ static void child_start(int keep)
     close_others(keep);
 }
 
+/* nc_open with the stack below this frame cleared first. HDF5 1.10.8
+ * frees pointers it never set (H5G__link_release_table under nc_open):
+ * what it frees is whatever the stack held there, so the checking child
+ * and this process would see different garbage; cleared, they see the
+ * same zeros (and free(NULL) is harmless). */
+__attribute__((noinline)) static void clear_stack_below(void)
+{
+    volatile unsigned char pad[128 * 1024];
+    explicit_bzero((void *)pad, sizeof pad);
+    __asm__ volatile("" : : "r"(pad) : "memory");
+}
+
+int nc_guard_nc_open(const char *path, int *ncid)
+{
+    clear_stack_below();
+    return nc_open(path, NC_NOWRITE, ncid);
+}
+
 /* One file: 0 walked, 3 nc_open refused it, 4 an inquiry failed (both
  * left to the caller's own open, which reports the library's reason) */
 static int probe_one(const char *path, uint64_t size)
 {
     int nc;
-    if (nc_open(path, NC_NOWRITE, &nc) != NC_NOERR)
+    if (nc_guard_nc_open(path, &nc) != NC_NOERR)
         return 3;
     int rc = probe_group(nc, size <= PROBE_DATA_FILE, 0);
     nc_close(nc);
@@ -687,7 +705,7 @@ int nc_guard_open(const char *path, const char *label, int *ncid, sph_error *err
     int rc = nc_guard_check(path, label, err);
     if (rc)
         return rc;
-    int st = nc_open(path, NC_NOWRITE, ncid);
+    int st = nc_guard_nc_open(path, ncid);
     if (st != NC_NOERR)
         return sph_err_set(err, SPH_ERR_NETCDF, "%s: cannot open as NetCDF: %s", label,
                            nc_strerror(st));

@@ -66,7 +66,7 @@ int fetch_check_netcdf(const char *path, const char *label, const char *const *v
     int grc = nc_guard_check(path, label, err);
     if (grc != SPH_OK)
         return grc;
-    int ncid, status = nc_open(path, NC_NOWRITE, &ncid);
+    int ncid, status = nc_guard_nc_open(path, &ncid);
     if (status != NC_NOERR)
         return sph_err_set(err, SPH_ERR_NETCDF, "%s: cannot open as NetCDF (truncated or corrupt?): %s",
                            label, nc_strerror(status));
