@@ -16,7 +16,7 @@
  *   refused naming the count. Replayed here in a child whose address
  *   space is limited to what it uses plus 256 MiB, so that the allocation
  *   fails as under the fuzzer.
- *   fuzz_restart (tests/fuzz/corpus/restart/regress-hdf5-xfree, -2): a
+ *   fuzz_restart (tests/fuzz/corpus/restart/regress-hdf5-xfree, -2, -3): a
  *   netCDF-4 restart on which HDF5 1.10.8 frees an invalid pointer inside
  *   nc_open (H5MM_xfree under H5Literate, netcdf-c #2667) under ASan.
  *   It is now opened first in a checking child and refused when that
@@ -185,9 +185,10 @@ static void crash_seeds(void)
               strstr(msg, "16712704") && !strchr(msg, '\n'),
           "forcing seed: refused in one line naming file and count (rc %d): %s", rc, msg);
     free(b);
-    const char *rseeds[2] = {"tests/fuzz/corpus/restart/regress-hdf5-xfree",
-                             "tests/fuzz/corpus/restart/regress-hdf5-xfree-2"};
-    for (int k = 0; k < 2; k++) {
+    const char *rseeds[3] = {"tests/fuzz/corpus/restart/regress-hdf5-xfree",
+                             "tests/fuzz/corpus/restart/regress-hdf5-xfree-2",
+                             "tests/fuzz/corpus/restart/regress-hdf5-xfree-3"};
+    for (int k = 0; k < 3; k++) {
         b = read_seed(rseeds[k], &n);
         CHECK(n > 8 && !memcmp(b, "\211HDF", 4), "restart seed read (%zu bytes)", n);
         fd = open(path, O_WRONLY | O_TRUNC);
