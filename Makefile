@@ -14,7 +14,7 @@
 PREFIX  ?= /usr/local
 DESTDIR ?=
 CC      ?= cc
-PKGS    := netcdf libcurl libcjson gsl proj udunits libmicrohttpd sqlite3 cairo libsystemd libcrypto gdal
+PKGS    := netcdf hdf5 libcurl libcjson gsl proj udunits libmicrohttpd sqlite3 cairo libsystemd libcrypto gdal
 PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 PKG_LIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null)
 OPT     ?= -O2

@@ -8,12 +8,29 @@
  *   360 until it passed its neighbour, for ever (the cycle hung). A
  *   longitude outside -720..720 degrees is now refused naming its value
  *   and index; an alarm turns a hang into a failure.
+ *   fuzz_forcing (tests/fuzz/corpus/forcing/regress-classic-ndims): a
+ *   classic header declaring 16.7 million dimensions, read as a tide
+ *   source; libnetcdf 4.9.0 allocated 890 MB for them and, when that
+ *   failed, freed a NULL table (SEGV in NC_hashmapfree under nc_open).
+ *   The header is now validated before nc_open (io/nc_guard.h) and
+ *   refused naming the count. Replayed here in a child whose address
+ *   space is limited to what it uses plus 256 MiB, so that the allocation
+ *   fails as under the fuzzer.
+ *   fuzz_restart (tests/fuzz/corpus/restart/regress-hdf5-xfree, -2, -3): a
+ *   netCDF-4 restart on which HDF5 1.10.8 frees an invalid pointer inside
+ *   nc_open (H5MM_xfree under H5Literate, netcdf-c #2667) under ASan.
+ *   It is now opened first in a checking child and refused when that
+ *   child dies.
  * (fuzz_raster's huge ESRI ncols is checked in test_raster.) */
 #include <math.h>
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "io/forcing.h"
+#include "io/restart.h"
 #include "util/timeutil.h"
 
 #include "check.h"
@@ -73,9 +90,129 @@ static void huge_longitude(void)
     unlink(path);
 }
 
+/* the bytes of a regression seed */
+static unsigned char *read_seed(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    unsigned char *b = malloc(1 << 20);
+    *n = f && b ? fread(b, 1, 1 << 20, f) : 0;
+    if (f)
+        fclose(f);
+    return b;
+}
+
+static long vm_size_kb(void)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    long kb = 0;
+    while (f && fgets(line, sizeof line, f))
+        if (sscanf(line, "VmSize: %ld", &kb) == 1)
+            break;
+    if (f)
+        fclose(f);
+    return kb;
+}
+
+/* Runs one reader on `file` in a child with the address space limited to
+ * what it maps now plus 256 MiB; the child sends back the reader's status
+ * and message. Returns the child's wait status. */
+static int replay(const char *file, int kind, int *rc, char *msg, size_t msgsz)
+{
+    int fds[2];
+    *rc = -1;
+    msg[0] = '\0';
+    if (pipe(fds) != 0)
+        return -1;
+    fflush(NULL);
+    pid_t pid = fork();
+    if (pid == 0) {
+        close(fds[0]);
+        struct rlimit rl;
+        rl.rlim_cur = rl.rlim_max = (rlim_t)(vm_size_kb() + 256 * 1024) * 1024;
+        setrlimit(RLIMIT_AS, &rl);
+        sph_error err;
+        sph_error_clear(&err);
+        int r;
+        if (kind >= 0) {
+            const char *files[1] = {file};
+            forcing_source_spec sp = {0};
+            sp.name = "regress";
+            sp.kind = (forcing_kind)kind;
+            sp.files = files;
+            sp.nfiles = 1;
+            forcing *f = NULL;
+            r = forcing_open(&f, &sp, 1, 918453600.0, 918457200.0, 121.0, 121.5, 40.0, 40.5, &err);
+            forcing_close(f);
+        } else {
+            restart_header h;
+            r = restart_read_header(file, &h, &err);
+        }
+        if (write(fds[1], &r, sizeof r) != (ssize_t)sizeof r ||
+            write(fds[1], err.msg, strlen(err.msg) + 1) < 0)
+            _exit(2);
+        _exit(0);
+    }
+    close(fds[1]);
+    if (read(fds[0], rc, sizeof *rc) == (ssize_t)sizeof *rc) {
+        ssize_t n = read(fds[0], msg, msgsz - 1);
+        msg[n > 0 ? n : 0] = '\0';
+    }
+    close(fds[0]);
+    int st = 0;
+    waitpid(pid, &st, 0);
+    return st;
+}
+
+static void crash_seeds(void)
+{
+    char path[] = "/tmp/sphice-fuzz-regress-seed-XXXXXX";
+    int fd = mkstemp(path);
+    CHECK(fd >= 0, "temporary file");
+    if (fd < 0)
+        return;
+    size_t n;
+    unsigned char *b = read_seed("tests/fuzz/corpus/forcing/regress-classic-ndims", &n);
+    CHECK(n > 1, "forcing seed read (%zu bytes)", n);
+    /* the harness's first byte picks the kind (tests/fuzz/fuzz_forcing.c) */
+    CHECK(n > 1 && write(fd, b + 1, n - 1) == (ssize_t)(n - 1), "seed written");
+    close(fd);
+    int rc;
+    char msg[1100];
+    int st = n > 1 ? replay(path, b[0] % 3, &rc, msg, sizeof msg) : -1;
+    CHECK(WIFEXITED(st) && WEXITSTATUS(st) == 0, "forcing seed: the reader lives (wait status %d)", st);
+    CHECK(rc == SPH_ERR_NETCDF && strstr(msg, path) && strstr(msg, "corrupt NetCDF header") &&
+              strstr(msg, "16712704") && !strchr(msg, '\n'),
+          "forcing seed: refused in one line naming file and count (rc %d): %s", rc, msg);
+    free(b);
+    const char *rseeds[3] = {"tests/fuzz/corpus/restart/regress-hdf5-xfree",
+                             "tests/fuzz/corpus/restart/regress-hdf5-xfree-2",
+                             "tests/fuzz/corpus/restart/regress-hdf5-xfree-3"};
+    for (int k = 0; k < 3; k++) {
+        b = read_seed(rseeds[k], &n);
+        CHECK(n > 8 && !memcmp(b, "\211HDF", 4), "restart seed read (%zu bytes)", n);
+        fd = open(path, O_WRONLY | O_TRUNC);
+        CHECK(fd >= 0 && write(fd, b, n) == (ssize_t)n, "seed written");
+        if (fd >= 0)
+            close(fd);
+        st = replay(path, -1, &rc, msg, sizeof msg);
+        CHECK(WIFEXITED(st) && WEXITSTATUS(st) == 0, "restart seed: the reader lives (wait status %d)", st);
+        /* Under ASan (make sanitize, the fuzzer) HDF5's free of an
+         * uninitialised pointer is caught and the checking child dies: the
+         * guard refuses the file. With glibc's allocator the same open ends
+         * in HDF5's own error: either way one line naming the file. */
+        CHECK(rc == SPH_ERR_NETCDF && strstr(msg, path) && !strchr(msg, '\n') &&
+                  (strstr(msg, "refused: the NetCDF/HDF5 library") || strstr(msg, "HDF error")),
+              "restart seed: refused in one line naming the file (rc %d): %s", rc, msg);
+        free(b);
+    }
+    unlink(path);
+}
+
 int main(void)
 {
     huge_longitude();
+    crash_seeds();
     char buf[64];
     time_format_iso(-1.12435e212, buf, sizeof buf);
     CHECK(strstr(buf, "-1.12435e+212") && strstr(buf, "since 1970"), "huge time: %s", buf);

@@ -3,15 +3,18 @@
 # Idempotent: does nothing when every package is already present. Works as
 # root (apt-get directly) or as a user with sudo (asks sudo for apt-get
 # only); says in one line what to do when it can be neither.
-# Usage: sh tools/install-deps.sh [--fuzz] [--browser] [--mpi]
+# Usage: sh tools/install-deps.sh [--fuzz] [--browser] [--mpi] [--promtool]
 #   --fuzz  also clang, llvm (symbolizer) and libomp-dev: the libFuzzer
 #           harnesses of `make fuzz` and the fuzz smoke of `make check`
 #   --browser  also chromium: test_daemon loads the status page in headless
 #           chromium (skipped with one line without it)
 #   --mpi   also OpenMPI (libopenmpi-dev, openmpi-bin): `make MPI=1`, the
 #           ensemble over ranks and its test in `make check`
+#   --promtool  also prometheus (Debian ships promtool in it): test_daemon
+#           runs `promtool check metrics` on a real /metrics answer
+#           (skipped with one line without it)
 set -eu
-PKGS="build-essential make pkg-config libnetcdf-dev netcdf-bin libcurl4-openssl-dev \
+PKGS="build-essential make pkg-config libnetcdf-dev libhdf5-dev netcdf-bin libcurl4-openssl-dev \
 libcjson-dev libgsl-dev libproj-dev proj-data libudunits2-dev libmicrohttpd-dev \
 libsqlite3-dev sqlite3 libssl-dev libcairo2-dev libsystemd-dev gmt-gshhg-high gnuplot-nox \
 libgdal-dev gdal-bin \
@@ -19,6 +22,7 @@ valgrind curl systemd"
 case " $* " in *" --fuzz "*) PKGS="$PKGS clang llvm libomp-dev" ;; esac
 case " $* " in *" --browser "*) PKGS="$PKGS chromium" ;; esac
 case " $* " in *" --mpi "*) PKGS="$PKGS libopenmpi-dev openmpi-bin" ;; esac
+case " $* " in *" --promtool "*) PKGS="$PKGS prometheus" ;; esac
 missing=""
 for p in $PKGS; do
     dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"

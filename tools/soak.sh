@@ -5,7 +5,9 @@
 # forecasts, output.retention_cycles = SOAK_KEEP). Samples the daemon's
 # resident memory (VmRSS in /proc/PID/status) and open descriptors
 # (/proc/PID/fd) after each published cycle and checks at the end:
-#   - RSS growth between cycle SOAK_FROM (default 20) and the last < 10 %,
+#   - RSS flat from cycle SOAK_FROM (default 20): its least-squares trend
+#     under SOAK_SLOPE_KB (default 1) kB per cycle, and the last sample
+#     under SOAK_GROWTH_PCT (default 2) % above the one at SOAK_FROM,
 #   - the open descriptors do not grow: neither the fewest nor the most
 #     seen over the last 20 samples exceeds those over the 20 from SOAK_FROM
 #     (a sample may fall while a cycle still has its files open, so single
@@ -20,6 +22,8 @@ N=${SOAK_CYCLES:-200}
 EVERY=${SOAK_EVERY:-3}
 KEEP=${SOAK_KEEP:-5}
 FROM=${SOAK_FROM:-20}
+SLOPE=${SOAK_SLOPE_KB:-1}
+GROWTH=${SOAK_GROWTH_PCT:-2}
 [ "$FROM" -ge "$N" ] && FROM=$((N / 2))
 D=${SOAK_DIR:-$(mktemp -d /tmp/sphice-soak-XXXXXX)}
 mkdir -p "$D"
@@ -75,7 +79,13 @@ fi
 growth=$(awk -v a="$r0" -v b="$r1" 'BEGIN { printf "%.2f", 100 * (b - a) / a }')
 echo "soak: RSS $r0 kB at cycle $c0, $r1 kB at cycle $c1 ($growth %); min $(awk '{ print $2 }' "$D/samples.txt" | sort -n | head -n 1) kB, max $(awk '{ print $2 }' "$D/samples.txt" | sort -n | tail -n 1) kB"
 echo "soak: open descriptors $f0 at cycle $c0, $f1 at cycle $c1 (range $(awk '{ print $3 }' "$D/samples.txt" | sort -n | head -n 1)..$(awk '{ print $3 }' "$D/samples.txt" | sort -n | tail -n 1))"
-awk -v g="$growth" 'BEGIN { exit !(g < 10) }' || { echo "soak: FAIL: RSS grew $growth % (limit 10 %)"; fail=1; }
+# flat: the least-squares slope of RSS over the samples from cycle FROM
+# (a single sample may catch a cycle's peak, so no one pair decides)
+slope=$(awk -v c="$c0" '$1 >= c { n++; sx += $1; sy += $2; sxx += $1 * $1; sxy += $1 * $2 }
+    END { d = n * sxx - sx * sx; printf "%.2f", (d > 0 ? (n * sxy - sx * sy) / d : 0) }' "$D/samples.txt")
+echo "soak: RSS trend from cycle $c0: $slope kB per cycle (least squares; limit $SLOPE kB per cycle)"
+awk -v s="$slope" -v l="$SLOPE" 'BEGIN { exit !(s < l) }' || { echo "soak: FAIL: RSS grows $slope kB per cycle (limit $SLOPE)"; fail=1; }
+awk -v g="$growth" -v l="$GROWTH" 'BEGIN { exit !(g < l) }' || { echo "soak: FAIL: RSS grew $growth % (limit $GROWTH %)"; fail=1; }
 early=$(awk -v c="$c0" '$1 >= c' "$D/samples.txt" | head -n 20 | awk '{ print $3 }' | sort -n)
 late=$(tail -n 20 "$D/samples.txt" | awk '{ print $3 }' | sort -n)
 e0=$(echo "$early" | head -n 1); e1=$(echo "$early" | tail -n 1)

@@ -1,6 +1,7 @@
 /* The forecast cycle state machine (service/cycle.h). */
 #include "service/cycle.h"
 #include "io/fetch.h"
+#include "io/ncfile.h"
 
 #include <cjson/cJSON.h>
 #include <dirent.h>
@@ -983,5 +984,6 @@ done:
     release_lock(lockp, cyc_fd);
     if (run_fd >= 0)
         close(run_fd);
+    ncfile_release_memory(); /* HDF5's free lists: flat memory over cycles (make soak) */
     return rc;
 }

@@ -13,8 +13,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <fcntl.h>
+#include <sanitizer/common_interface_defs.h>
 #include <udunits2.h>
 #include <unistd.h>
+
+#include "io/nc_guard.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -69,6 +72,32 @@ static inline const char *fuzz_file(int slot, const uint8_t *data, size_t size)
         abort();
     }
     return fuzz_path_[slot];
+}
+
+/* The readers check a netCDF-4 input in a forked child first (io/nc_guard.h).
+ * In the child a sanitizer report (an invalid free inside HDF5) must end
+ * the child, which gets the input refused, and not run libFuzzer's crash
+ * handler (which would write the input as a crash of this process); the
+ * deadline stays under libFuzzer's -timeout. At exit, one line counts the
+ * inputs refused that way. */
+static inline void fuzz_child_died_(void) { _exit(86); }
+static inline void fuzz_child_hook_(void) { __sanitizer_set_death_callback(fuzz_child_died_); }
+static inline void fuzz_guard_report_(void)
+{
+    long probed = 0, died = 0, late = 0;
+    nc_guard_stats(&probed, &died, &late);
+    fprintf(stderr, "nc_guard: %ld netCDF-4 inputs checked in a child: %ld refused as the child died, "
+            "%ld as it ran past the deadline\n", probed, died, late);
+}
+static inline void fuzz_guard_setup(void)
+{
+    static int done;
+    if (done)
+        return;
+    done = 1;
+    nc_guard_set_timeout(5.0);
+    nc_guard_set_child_hook(fuzz_child_hook_);
+    atexit(fuzz_guard_report_);
 }
 
 #endif

@@ -14,6 +14,7 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
+    fuzz_guard_setup();
     if (size < 1)
         return 0;
     const char *path = fuzz_file(0, data + 1, size - 1);

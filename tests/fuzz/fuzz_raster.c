@@ -11,6 +11,7 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
+    fuzz_guard_setup();
     if (size < 1)
         return 0;
     int with_thick = data[0] & 1;

@@ -7,6 +7,7 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
+    fuzz_guard_setup();
     const char *path = fuzz_file(0, data, size);
     restart_header h;
     sph_error err;

@@ -6,6 +6,7 @@
  * format ("harmonic-1", docs/forcing.md). */
 #include "forcing_impl.h"
 #include "io/fetch.h"
+#include "io/nc_guard.h"
 #include "io/geo.h"
 
 #include <ctype.h>
@@ -746,17 +747,17 @@ static int nc_open_file(fsource *s, int file, void **fh, sph_error *err)
     size_t got = fp ? fread(m, 1, sizeof m, fp) : 0;
     if (fp)
         fclose(fp);
-    if (got == 4 && memcmp(m, "CDF", 3) == 0) {
+    if (got == 4) {
         sph_error e;
         sph_error_clear(&e);
-        int crc = fetch_check_netcdf(s->paths[file], s->paths[file], NULL, 0, &e);
+        int crc = nc_guard_check(s->paths[file], s->paths[file], &e); /* io/nc_guard.h */
         if (crc)
             return sph_err_set(err, crc, "forcing '%s': %s", s->name, e.msg);
     }
     int *box = malloc(sizeof *box);
     if (!box)
         return forcing_fail(err, s, s->paths[file], SPH_ERR_NOMEM, "out of memory");
-    int rc = nc_open(s->paths[file], NC_NOWRITE, box);
+    int rc = nc_guard_nc_open(s->paths[file], box);
     if (rc != NC_NOERR) {
         free(box);
         return forcing_fail(err, s, s->paths[file], SPH_ERR_NETCDF, "cannot open: %s",
@@ -1129,7 +1130,11 @@ static int nc_tide(fsource *s, int *harmonic, cf_units *units, double t_ref, int
 {
     *harmonic = 0;
     int ncid;
-    int rc = nc_open(s->paths[0], NC_NOWRITE, &ncid);
+    sph_error e;
+    sph_error_clear(&e);
+    if (nc_guard_check(s->paths[0], s->paths[0], &e)) /* io/nc_guard.h */
+        return sph_err_set(err, e.code, "forcing '%s': %s", s->name, e.msg);
+    int rc = nc_guard_nc_open(s->paths[0], &ncid);
     if (rc != NC_NOERR)
         return forcing_fail(err, s, s->paths[0], SPH_ERR_NETCDF, "cannot open: %s",
                             nc_strerror(rc));

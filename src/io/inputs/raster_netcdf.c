@@ -1,6 +1,7 @@
 /* The NetCDF driver of the initial ice raster (raster_impl.h): CF
  * concentration and thickness on 1-D regular lon/lat coordinates. */
 #include "raster_impl.h"
+#include "io/nc_guard.h"
 
 #include <math.h>
 #include <netcdf.h>
@@ -681,7 +682,7 @@ static int read_netcdf(const char *path, const ice_raster_options *o, ice_raster
     int ncid, status = fetch_check_netcdf(path, label, NULL, 0, err);
     if (status != SPH_OK)
         return status;
-    status = nc_open(path, NC_NOWRITE, &ncid);
+    status = nc_guard_nc_open(path, &ncid);
     if (status != NC_NOERR)
         return sph_err_set(err, SPH_ERR_NETCDF, "ice raster %s: cannot open as NetCDF: %s "
                            "(truncated or corrupt file?)", path, nc_strerror(status));

@@ -17,6 +17,7 @@
 #include <unistd.h>
 #include <utime.h>
 
+#include "io/nc_guard.h"
 #include "util/fileio.h"
 #include "util/log.h"
 #include "util/timeutil.h"
@@ -35,148 +36,6 @@ void fetch_options_default(fetch_options *o)
 
 /* ------------------------------------------------- NetCDF completeness */
 
-/* Minimal reader of the classic header (NetCDF classic format spec): we
- * need only each variable's size and begin offset, to know how long a
- * complete file is. Big-endian throughout. */
-typedef struct {
-    const unsigned char *p, *end;
-    int version; /* 1, 2 or 5 */
-    int bad;
-} hdr;
-
-static uint64_t get_be(hdr *h, int bytes)
-{
-    if (h->bad || h->end - h->p < bytes) {
-        h->bad = 1;
-        return 0;
-    }
-    uint64_t v = 0;
-    for (int k = 0; k < bytes; k++)
-        v = (v << 8) | *h->p++;
-    return v;
-}
-
-static uint64_t get_count(hdr *h) { return get_be(h, h->version == 5 ? 8 : 4); }
-
-static void skip(hdr *h, uint64_t n)
-{
-    uint64_t padded = (n + 3) & ~(uint64_t)3;
-    if (h->bad || (uint64_t)(h->end - h->p) < padded) {
-        h->bad = 1;
-        return;
-    }
-    h->p += padded;
-}
-
-static int type_size(uint64_t t)
-{
-    switch (t) {
-    case 1: case 2: case 7: return 1;  /* byte, char, ubyte */
-    case 3: case 8: return 2;          /* short, ushort */
-    case 4: case 5: case 9: return 4;  /* int, float, uint */
-    case 6: case 10: case 11: return 8; /* double, int64, uint64 */
-    default: return 0;
-    }
-}
-
-static void skip_attrs(hdr *h)
-{
-    uint64_t tag = get_be(h, 4), n = get_count(h);
-    if (tag == 0)
-        return;
-    if (tag != 0x0C || n > 1000000) {
-        h->bad = 1;
-        return;
-    }
-    for (uint64_t a = 0; a < n && !h->bad; a++) {
-        skip(h, get_count(h)); /* name */
-        int ts = type_size(get_be(h, 4));
-        uint64_t nv = get_count(h);
-        if (!ts || nv > (1ull << 40)) {
-            h->bad = 1;
-            return;
-        }
-        skip(h, nv * (uint64_t)ts);
-    }
-}
-
-/* Length a complete classic file must have; 0 if unknown (streaming). */
-static int classic_expected_size(const unsigned char *buf, size_t n, uint64_t *size)
-{
-    hdr h = {buf + 4, buf + n, buf[3], 0};
-    *size = 0;
-    uint64_t numrecs = get_count(&h);
-    int streaming = h.version == 5 ? numrecs == UINT64_MAX : numrecs == 0xFFFFFFFFu;
-    uint64_t tag = get_be(&h, 4), ndims = get_count(&h);
-    uint64_t dimlen[1024];
-    if ((tag != 0 && tag != 0x0A) || ndims > 1024)
-        return -1;
-    for (uint64_t d = 0; d < ndims && !h.bad; d++) {
-        skip(&h, get_count(&h));
-        dimlen[d] = get_count(&h);
-    }
-    skip_attrs(&h);
-    tag = get_be(&h, 4);
-    uint64_t nvars = get_count(&h);
-    if ((tag != 0 && tag != 0x0B) || nvars > 1000000)
-        return -1;
-    uint64_t recsize = 0, need = 0;
-    typedef struct { uint64_t begin, bytes; int rec; } vinfo;
-    vinfo *v = calloc(nvars ? nvars : 1, sizeof *v);
-    if (!v)
-        return -1;
-    for (uint64_t k = 0; k < nvars && !h.bad; k++) {
-        skip(&h, get_count(&h));
-        uint64_t nd = get_count(&h), bytes = 1;
-        int rec = 0;
-        for (uint64_t d = 0; d < nd && !h.bad; d++) {
-            uint64_t id = get_count(&h);
-            if (id >= ndims) {
-                h.bad = 1;
-                break;
-            }
-            if (dimlen[id] == 0 && d == 0)
-                rec = 1;
-            else
-                bytes *= dimlen[id];
-        }
-        skip_attrs(&h);
-        int ts = type_size(get_be(&h, 4));
-        get_count(&h); /* vsize: may be capped for huge variables, recomputed below */
-        uint64_t begin = get_be(&h, h.version == 1 ? 4 : 8);
-        if (!ts)
-            h.bad = 1;
-        v[k].begin = begin;
-        v[k].bytes = bytes * (uint64_t)ts;
-        v[k].rec = rec;
-        if (rec)
-            recsize += (v[k].bytes + 3) & ~(uint64_t)3;
-    }
-    int nrec = 0;
-    for (uint64_t k = 0; k < nvars; k++)
-        nrec += v[k].rec;
-    if (nrec == 1)
-        for (uint64_t k = 0; k < nvars; k++)
-            if (v[k].rec)
-                recsize = v[k].bytes; /* a lone record variable is not padded */
-    for (uint64_t k = 0; k < nvars && !h.bad; k++) {
-        uint64_t end;
-        if (!v[k].rec)
-            end = v[k].begin + v[k].bytes;
-        else if (streaming || numrecs == 0)
-            continue;
-        else
-            end = v[k].begin + (numrecs - 1) * recsize + v[k].bytes;
-        if (end > need)
-            need = end;
-    }
-    free(v);
-    if (h.bad)
-        return -1;
-    *size = need;
-    return 0;
-}
-
 int fetch_check_netcdf(const char *path, const char *label, const char *const *vars,
                        size_t nvars, sph_error *err)
 {
@@ -185,14 +44,8 @@ int fetch_check_netcdf(const char *path, const char *label, const char *const *v
     FILE *f = fopen(path, "rb");
     if (!f)
         return sph_err_set(err, SPH_ERR_IO, "%s: cannot open %s: %s", label, path, strerror(errno));
-    /* The classic header is at most a few hundred kB for any sane file. */
-    size_t cap = 1 << 20;
-    unsigned char *buf = malloc(cap);
-    if (!buf) {
-        fclose(f);
-        return sph_err_set(err, SPH_ERR_NOMEM, "%s: out of memory", label);
-    }
-    size_t got = fread(buf, 1, cap, f);
+    unsigned char buf[16];
+    size_t got = fread(buf, 1, sizeof buf, f);
     struct stat st;
     int have_stat = fstat(fileno(f), &st) == 0;
     fclose(f);
@@ -205,24 +58,15 @@ int fetch_check_netcdf(const char *path, const char *label, const char *const *v
         for (k = 0; k < got && k < 16; k++)
             shown[k] = buf[k] >= 32 && buf[k] < 127 ? (char)buf[k] : '.';
         shown[k] = '\0';
-        free(buf);
         return sph_err_set(err, SPH_ERR_NETCDF, "%s: not a NetCDF file (%lld bytes starting \"%s\")",
                            label, have_stat ? (long long)st.st_size : -1LL, shown);
     }
-    if (classic) {
-        uint64_t need = 0;
-        int prc = classic_expected_size(buf, got, &need);
-        free(buf);
-        if (prc != 0)
-            return sph_err_set(err, SPH_ERR_NETCDF, "%s: truncated or corrupt NetCDF header", label);
-        if (have_stat && (uint64_t)st.st_size < need)
-            return sph_err_set(err, SPH_ERR_NETCDF,
-                               "%s: truncated NetCDF file: %lld bytes, the header needs %llu",
-                               label, (long long)st.st_size, (unsigned long long)need);
-    } else {
-        free(buf);
-    }
-    int ncid, status = nc_open(path, NC_NOWRITE, &ncid);
+    /* the whole classic header against the format and the file's size; a
+     * netCDF-4 file first opened in a checking process (io/nc_guard.h) */
+    int grc = nc_guard_check(path, label, err);
+    if (grc != SPH_OK)
+        return grc;
+    int ncid, status = nc_guard_nc_open(path, &ncid);
     if (status != NC_NOERR)
         return sph_err_set(err, SPH_ERR_NETCDF, "%s: cannot open as NetCDF (truncated or corrupt?): %s",
                            label, nc_strerror(status));

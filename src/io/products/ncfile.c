@@ -1,6 +1,8 @@
 /* Closing NetCDF files that may not close (io/ncfile.h). */
 #include "io/ncfile.h"
 
+#include <hdf5.h>
+#include <malloc.h>
 #include <netcdf.h>
 #include <stdatomic.h>
 
@@ -25,3 +27,19 @@ int ncfile_close(int *ncid)
 }
 
 int ncfile_abandoned(void) { return atomic_load(&abandoned); }
+
+void ncfile_release_memory(void)
+{
+    /* Only with nothing of HDF5's open (an abandoned file counts): closing
+     * the library closes every file and object. */
+    if (H5Fget_obj_count((hid_t)H5F_OBJ_ALL, H5F_OBJ_ALL) == 0) {
+        (void)H5close();
+        /* netCDF-4 turns HDF5's error printing off once, when it first
+         * initialises HDF5; the library starts again on its next call with
+         * printing on, so it is turned off again here */
+        (void)H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    } else {
+        (void)H5garbage_collect();
+    }
+    (void)malloc_trim(0);
+}

@@ -1,6 +1,7 @@
 /* Restart particle files: see io/restart.h. */
 #include "io/restart.h"
 #include "io/ncfile.h"
+#include "io/nc_guard.h"
 
 #include <limits.h>
 #include <math.h>
@@ -415,11 +416,10 @@ static int open_restart(const char *path, int *nc, sph_error *err)
 {
     if (access(path, R_OK) != 0)
         return sph_err_set(err, SPH_ERR_IO, "restart %s: cannot read the file", path);
-    int st = nc_open(path, NC_NOWRITE, nc);
-    if (st != NC_NOERR)
-        return sph_err_set(err, SPH_ERR_NETCDF, "restart %s: cannot open as NetCDF: %s", path,
-                           nc_strerror(st));
-    return SPH_OK;
+    /* a malformed header is refused before libnetcdf or HDF5 sees it */
+    char label[4200];
+    snprintf(label, sizeof label, "restart %s", path);
+    return nc_guard_open(path, label, nc, err);
 }
 
 int restart_read_header(const char *path, restart_header *h, sph_error *err)
