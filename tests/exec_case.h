@@ -13,6 +13,7 @@
 #include <string.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "util/fileio.h"
@@ -92,6 +93,34 @@ static inline void xc_show_log(const char *log)
     char *text = xc_slurp(log);
     fprintf(stderr, "--- %s\n%s---\n", log, text ? text : "(unreadable)\n");
     free(text);
+}
+
+/* Sleeps s seconds. */
+static inline void xc_nap(double s)
+{
+    struct timespec ts = {(time_t)s, (long)((s - (double)(time_t)s) * 1e9)};
+    nanosleep(&ts, NULL);
+}
+
+/* Waits for pid to exit; returns its exit status (128 + the signal when
+ * killed), or -1 on timeout (then kills it). */
+static inline int xc_wait_exit(pid_t pid, double timeout)
+{
+    struct timespec t0;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    int st;
+    for (;;) {
+        if (waitpid(pid, &st, WNOHANG) == pid)
+            return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+        struct timespec t;
+        clock_gettime(CLOCK_MONOTONIC, &t);
+        if ((double)(t.tv_sec - t0.tv_sec) + 1e-9 * (double)(t.tv_nsec - t0.tv_nsec) >= timeout)
+            break;
+        xc_nap(0.05);
+    }
+    kill(pid, SIGKILL);
+    waitpid(pid, &st, 0);
+    return -1;
 }
 
 #endif

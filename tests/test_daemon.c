@@ -29,6 +29,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "exec_case.h"
 #include "service/cycle.h"
 #include "service/history.h"
 #include "service/schedule.h"
@@ -37,11 +38,7 @@
 
 static char tmp[256], exe[512];
 
-static void nap(double s)
-{
-    struct timespec ts = {(time_t)s, (long)((s - floor(s)) * 1e9)};
-    nanosleep(&ts, NULL);
-}
+static void nap(double s) { xc_nap(s); }
 
 static int free_port(void)
 {
@@ -194,20 +191,6 @@ static int wait_up(int port, double timeout)
     return 0;
 }
 
-/* Waits for exit; returns the exit status, or -1 on timeout (then kills). */
-static int wait_exit(pid_t pid, double timeout)
-{
-    double end = time_monotonic() + timeout;
-    int st;
-    while (time_monotonic() < end) {
-        if (waitpid(pid, &st, WNOHANG) == pid)
-            return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-        nap(0.05);
-    }
-    kill(pid, SIGKILL);
-    waitpid(pid, &st, 0);
-    return -1;
-}
 
 static int count_ok_runs(int port)
 {
@@ -498,7 +481,7 @@ static void scenario_cycles_status_http_reload(void)
     CHECK(cleared, "a valid reload clears the error");
 
     kill(pid, SIGTERM);
-    int rc = wait_exit(pid, 5);
+    int rc = xc_wait_exit(pid, 5);
     CHECK(rc == 0, "SIGTERM exit 0: %d", rc);
     if (check_failed_)
         dump_log(log);
@@ -540,7 +523,7 @@ static void scenario_term_and_kill(void)
     cJSON_Delete(s);
     double t0 = time_monotonic();
     kill(pid, SIGTERM);
-    int rc = wait_exit(pid, 5);
+    int rc = xc_wait_exit(pid, 5);
     CHECK(rc == 0, "SIGTERM during a run: exit %d", rc);
     CHECK(time_monotonic() - t0 < 5, "within a few seconds");
     CHECK(count_stage_dirs(out) == 0, "no stage dir left");
@@ -605,7 +588,7 @@ static void scenario_term_and_kill(void)
     CHECK(!strcmp(target, slot_name), "latest now the re-run cycle");
     CHECK(count_stage_dirs(out) == 0, "the killed run's stage dir was swept");
     kill(pid, SIGTERM);
-    CHECK(wait_exit(pid, 5) == 0, "D exits 0");
+    CHECK(xc_wait_exit(pid, 5) == 0, "D exits 0");
     free(before);
     if (check_failed_)
         dump_log(log);
@@ -632,7 +615,7 @@ static void scenario_late_data(void)
     cJSON_Delete(s);
     CHECK(http(port, "GET", "/health", NULL) == 503, "unhealthy after a failed cycle");
     kill(pid, SIGTERM);
-    CHECK(wait_exit(pid, 5) == 0, "E exits 0");
+    CHECK(xc_wait_exit(pid, 5) == 0, "E exits 0");
 
     /* stale policy: only the issues of 2 and 3 days ago exist (so even the
      * oldest cycle catch-up may pick, up to 24 h back, lacks its own issue,
@@ -667,7 +650,7 @@ static void scenario_late_data(void)
           cJSON_IsNumber(age) ? age->valuedouble : -1);
     cJSON_Delete(s);
     kill(pid, SIGTERM);
-    CHECK(wait_exit(pid, 5) == 0, "F exits 0");
+    CHECK(xc_wait_exit(pid, 5) == 0, "F exits 0");
 }
 
 /* The history row of cycle (parsed from ISO), or "" (static buffer). */
@@ -741,7 +724,7 @@ static void scenario_second_serve(void)
     CHECK(!strcmp(row_result(db, cycle), "running"), "G's row is running");
 
     pid_t second = spawn(cfg, "sleep:0.1", log2);
-    int rc = wait_exit(second, 10);
+    int rc = xc_wait_exit(second, 10);
     CHECK(rc == 1, "a second serve on the same state dir exits 1: %d", rc);
     CHECK(log_has(log2, "serve.lock: held by another sphice serve (pid "), "it names the lock and the holder");
     CHECK(!strcmp(row_result(db, cycle), "running"), "the first one's live run is not marked: %s",
@@ -750,7 +733,7 @@ static void scenario_second_serve(void)
     CHECK(st != NULL && kill(first, 0) == 0, "G still runs its cycle");
     cJSON_Delete(st);
     kill(first, SIGTERM);
-    CHECK(wait_exit(first, 5) == 0, "G exits 0");
+    CHECK(xc_wait_exit(first, 5) == 0, "G exits 0");
     CHECK(!strcmp(row_result(db, cycle), "cancelled"), "G's run recorded cancelled");
 
     /* `sphice run` holds run.lock for its cycle: a daemon starting meanwhile
@@ -775,7 +758,7 @@ static void scenario_second_serve(void)
         nap(0.1);
     CHECK(!strcmp(row_result(db, slot), "ok"), "sphice run records ok: %s", row_result(db, slot));
     kill(first, SIGTERM);
-    CHECK(wait_exit(first, 5) == 0, "G' exits 0");
+    CHECK(xc_wait_exit(first, 5) == 0, "G' exits 0");
     if (check_failed_) {
         dump_log(log);
         dump_log(log2);
@@ -810,7 +793,7 @@ static void scenario_listen(void)
     atomic_write_file(cfg_off, off, strlen(off), &e);
     snprintf(listen, sizeof listen, "127.0.0.1:%d", port);
     pid_t pid = spawn_listen(cfg_off, "sleep:0.1", log, listen);
-    int rc = wait_exit(pid, 10);
+    int rc = xc_wait_exit(pid, 10);
     CHECK(rc == 2, "serve --listen with status.enabled false: exit 2 (%d)", rc);
     CHECK(log_has(log, "status.enabled is false") && log_has(log, listen), "one line naming the key and --listen");
     CHECK(http(port, "GET", "/health", NULL) == 0, "nothing listens");
@@ -844,7 +827,7 @@ static void scenario_listen(void)
     CHECK(system(cmd) == 0, "sphice status --url http://[::1]:PORT");
     CHECK(http(port, "GET", "/health", NULL) == 0, "--listen replaces status.listen");
     kill(pid, SIGTERM);
-    CHECK(wait_exit(pid, 5) == 0, "H exits 0");
+    CHECK(xc_wait_exit(pid, 5) == 0, "H exits 0");
     if (check_failed_)
         dump_log(log);
 }
@@ -1060,7 +1043,7 @@ static void status_page_running(void)
     free(dom);
     cJSON_Delete(st);
     kill(pid, SIGTERM);
-    CHECK(wait_exit(pid, 10) == 0, "daemon exits 0 on SIGTERM during the cycle");
+    CHECK(xc_wait_exit(pid, 10) == 0, "daemon exits 0 on SIGTERM during the cycle");
 }
 
 static void scenario_status_page(void)
@@ -1179,7 +1162,7 @@ static void scenario_status_page(void)
     }
     cJSON_Delete(st);
     kill(pid, SIGTERM);
-    CHECK(wait_exit(pid, 10) == 0, "daemon exits 0 on SIGTERM");
+    CHECK(xc_wait_exit(pid, 10) == 0, "daemon exits 0 on SIGTERM");
     if (browser)
         status_page_running();
 }

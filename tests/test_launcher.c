@@ -28,11 +28,7 @@
 
 static char tmp[] = "/tmp/sphice-launcher-XXXXXX", exe[600];
 
-static void nap(double s)
-{
-    struct timespec ts = {(time_t)s, (long)((s - floor(s)) * 1e9)};
-    nanosleep(&ts, NULL);
-}
+static void nap(double s) { xc_nap(s); }
 
 /* A configuration for scenario NAME whose launcher.command is launcher
  * (a JSON string's contents) and extra keys. */
@@ -106,19 +102,6 @@ static void wait_row(const char *name, double cycle, const char *want, double ti
     }
 }
 
-static int wait_exit(pid_t pid, double timeout)
-{
-    double end = time_monotonic() + timeout;
-    int st;
-    while (time_monotonic() < end) {
-        if (waitpid(pid, &st, WNOHANG) == pid)
-            return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-        nap(0.05);
-    }
-    kill(pid, SIGKILL);
-    waitpid(pid, &st, 0);
-    return -1;
-}
 
 static long read_pid(const char *path, double timeout)
 {
@@ -214,7 +197,7 @@ static void test_ok(void)
     CHECK(access(prod, R_OK) == 0, "the job published %s", prod);
     history_run_clear(&r);
     kill(pid, SIGTERM);
-    int rc = wait_exit(pid, 10);
+    int rc = xc_wait_exit(pid, 10);
     CHECK(rc == 0, "serve exits 0 on SIGTERM when idle (%d)", rc);
     char snap[900];
     snprintf(snap, sizeof snap, "%s/ok/state/launch-%s.json", tmp, name);
@@ -247,7 +230,7 @@ static void test_cancel(const char *name, int ignore_term)
         (void)wait_row(name, cyc, "running", 20, &(history_run){0});
     double t0 = time_monotonic();
     kill(pid, SIGTERM);
-    int rc = wait_exit(pid, 15);
+    int rc = xc_wait_exit(pid, 15);
     double took = time_monotonic() - t0;
     CHECK(rc == 0, "%s: serve exits 0 after cancelling (%d)", name, rc);
     CHECK(took < (ignore_term ? 1 + 5 : 5), "%s: within %.1f s", name, took);
@@ -285,7 +268,7 @@ static void test_failures(void)
               "%s: recorded failed in one line naming the cause (%s: %s)", c[i].name, r.result, r.message);
         history_run_clear(&r);
         kill(pid, SIGTERM);
-        CHECK(wait_exit(pid, 10) == 0, "%s: serve exits 0", c[i].name);
+        CHECK(xc_wait_exit(pid, 10) == 0, "%s: serve exits 0", c[i].name);
         snprintf(latest, sizeof latest, "%s/%s/out/latest", tmp, c[i].name);
         struct stat st;
         CHECK(lstat(latest, &st) != 0, "%s: nothing published", c[i].name);
@@ -356,7 +339,7 @@ static void test_mpirun(void)
     CHECK(!strcmp(r.result, "ok"), "cycle under mpirun -np 2 recorded ok (%s: %s)", r.result, r.message);
     history_run_clear(&r);
     kill(pid, SIGTERM);
-    CHECK(wait_exit(pid, 20) == 0, "serve exits 0");
+    CHECK(xc_wait_exit(pid, 20) == 0, "serve exits 0");
 
     /* SIGTERM to serve while the MPI job runs: every rank goes */
     scene_config("mpicancel", launcher, extra, cfg, sizeof cfg);
@@ -372,7 +355,7 @@ static void test_mpirun(void)
     int before = count_procs(what);
     CHECK(before >= 3, "mpirun and its ranks run (%d processes)", before);
     kill(pid, SIGTERM);
-    CHECK(wait_exit(pid, 40) == 0, "serve exits 0 after cancelling the MPI job");
+    CHECK(xc_wait_exit(pid, 40) == 0, "serve exits 0 after cancelling the MPI job");
     end = time_monotonic() + 5;
     while (count_procs(what) > 0 && time_monotonic() < end)
         nap(0.05);
