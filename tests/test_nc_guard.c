@@ -18,6 +18,7 @@
  * past the deadline gets the file refused in one line; a file with the
  * HDF5 signature and garbage after it is left to nc_open's own error.
  * Prints the cost of the check per file against a plain nc_open. */
+#include <glob.h>
 #include <netcdf.h>
 #include <signal.h>
 #include <stdint.h>
@@ -393,6 +394,107 @@ static void netcdf4(void)
     unlink(path);
 }
 
+/* nc_guard_open_isolated: a flat netCDF-4 file (compressed, with an
+ * unlimited dimension, several types and attributes) is read through a
+ * CDF-5 copy made by a separate process: the handle this process gets is
+ * classic (HDF5 never opened the file here), the data and attributes are
+ * the file's bit for bit; a dying copier, groups, and garbage after the
+ * HDF5 signature are refused in one line; a classic file opens as before. */
+static void isolated(void)
+{
+    setenv("TMPDIR", dir, 1);
+    char path[512];
+    snprintf(path, sizeof path, "%s/flat4.nc", dir);
+    int nc, dt, dn, vx, vi, vb;
+    double x[3][5];
+    long long ids[5] = {1, -2, 3000000000LL, 4, 5};
+    unsigned char fl[5] = {0, 1, 2, 255, 7};
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 5; k++)
+            x[i][k] = 0.1 * i + 1e-3 * k - 7.25;
+    int dims[2];
+    int ok = nc_create(path, NC_CLOBBER | NC_NETCDF4, &nc) == NC_NOERR && nc_def_dim(nc, "time", NC_UNLIMITED, &dt) == NC_NOERR &&
+             nc_def_dim(nc, "n", 5, &dn) == NC_NOERR;
+    dims[0] = dt;
+    dims[1] = dn;
+    ok = ok && nc_def_var(nc, "x", NC_DOUBLE, 2, dims, &vx) == NC_NOERR && nc_def_var_deflate(nc, vx, 1, 1, 4) == NC_NOERR &&
+         nc_def_var(nc, "id", NC_INT64, 1, &dn, &vi) == NC_NOERR && nc_def_var(nc, "flag", NC_UBYTE, 1, &dn, &vb) == NC_NOERR &&
+         nc_put_att_text(nc, vx, "units", 1, "m") == NC_NOERR && nc_put_att_text(nc, NC_GLOBAL, "title", 4, "flat") == NC_NOERR;
+    double fill = -9e33;
+    ok = ok && nc_put_att_double(nc, vx, "_FillValue", NC_DOUBLE, 1, &fill) == NC_NOERR && nc_enddef(nc) == NC_NOERR;
+    size_t st[2] = {0, 0}, ct[2] = {3, 5};
+    ok = ok && nc_put_vara_double(nc, vx, st, ct, &x[0][0]) == NC_NOERR && nc_put_var_longlong(nc, vi, ids) == NC_NOERR &&
+         nc_put_var_uchar(nc, vb, fl) == NC_NOERR;
+    ok = nc_close(nc) == NC_NOERR && ok;
+    CHECK(ok, "flat netCDF-4 file written");
+    sph_error e;
+    sph_error_clear(&e);
+    int id = -1;
+    int rc = nc_guard_open_isolated(path, "restart r.nc", &id, &e);
+    CHECK(rc == SPH_OK, "isolated open: %s", e.msg);
+    if (rc == SPH_OK) {
+        int fmt = -1;
+        nc_inq_format(id, &fmt);
+        CHECK(fmt == NC_FORMAT_CDF5, "the handle here is a CDF-5 copy (format %d), not the HDF5 file", fmt);
+        double y[3][5];
+        long long gi[5];
+        unsigned char gf[5];
+        char units[8] = "", title[8] = "";
+        size_t len = 0;
+        int vy, vj, vc, ul = -1;
+        ok = nc_inq_varid(id, "x", &vy) == NC_NOERR && nc_get_var_double(id, vy, &y[0][0]) == NC_NOERR &&
+             nc_inq_varid(id, "id", &vj) == NC_NOERR && nc_get_var_longlong(id, vj, gi) == NC_NOERR &&
+             nc_inq_varid(id, "flag", &vc) == NC_NOERR && nc_get_var_uchar(id, vc, gf) == NC_NOERR &&
+             nc_get_att_text(id, vy, "units", units) == NC_NOERR && nc_get_att_text(id, NC_GLOBAL, "title", title) == NC_NOERR &&
+             nc_inq_unlimdim(id, &ul) == NC_NOERR && nc_inq_dimlen(id, ul, &len) == NC_NOERR;
+        CHECK(ok && !memcmp(x, y, sizeof x) && !memcmp(ids, gi, sizeof ids) && !memcmp(fl, gf, sizeof fl) &&
+                  !strcmp(units, "m") && !strcmp(title, "flat") && len == 3,
+              "data, attributes and the unlimited dimension are the file's bit for bit");
+        nc_close(id);
+    }
+    /* the copier dies: refused, this process lives */
+    nc_guard_set_child_hook(die_in_child);
+    sph_error_clear(&e);
+    rc = nc_guard_open_isolated(path, "restart r.nc", &id, &e);
+    nc_guard_set_child_hook(NULL);
+    CHECK(rc == SPH_ERR_NETCDF && strstr(e.msg, "restart r.nc: refused") && strstr(e.msg, "crashed (signal 11") &&
+              !strchr(e.msg, '\n'),
+          "a dying copier refuses the file in one line: %s", e.msg);
+    /* groups (the netCDF-4 file of netcdf4()): refused, named */
+    char grp[512];
+    snprintf(grp, sizeof grp, "%s/grp4.nc", dir);
+    int g, gd, gv;
+    ok = nc_create(grp, NC_CLOBBER | NC_NETCDF4, &nc) == NC_NOERR && nc_def_grp(nc, "sub", &g) == NC_NOERR &&
+         nc_def_dim(g, "x", 2, &gd) == NC_NOERR && nc_def_var(g, "t", NC_INT, 1, &gd, &gv) == NC_NOERR;
+    ok = nc_close(nc) == NC_NOERR && ok;
+    sph_error_clear(&e);
+    rc = ok ? nc_guard_open_isolated(grp, "restart g.nc", &id, &e) : -1;
+    CHECK(rc == SPH_ERR_NETCDF && strstr(e.msg, "restart g.nc: refused: groups"), "groups refused: %s", e.msg);
+    /* HDF5's signature then garbage */
+    char junk[512];
+    snprintf(junk, sizeof junk, "%s/junk4.nc", dir);
+    unsigned char b[4096];
+    memcpy(b, "\211HDF\r\n\032\n", 8);
+    for (size_t k = 8; k < sizeof b; k++)
+        b[k] = (unsigned char)(k * 53u + 5u);
+    write_file(junk, b, sizeof b);
+    sph_error_clear(&e);
+    rc = nc_guard_open_isolated(junk, NULL, &id, &e);
+    CHECK(rc == SPH_ERR_NETCDF && strstr(e.msg, junk) && strstr(e.msg, "refused") && !strchr(e.msg, '\n'),
+          "HDF5 garbage refused in one line: %s", e.msg);
+    /* no temporary copy left behind (TMPDIR is this test's folder) */
+    char pat[600];
+    snprintf(pat, sizeof pat, "%s/sphice-ncread-*", dir);
+    glob_t gl;
+    int left = glob(pat, 0, NULL, &gl) == 0 ? (int)gl.gl_pathc : 0;
+    if (left)
+        globfree(&gl);
+    CHECK(left == 0, "no temporary copy left (%d)", left);
+    unlink(junk);
+    unlink(grp);
+    unlink(path);
+}
+
 int main(void)
 {
     snprintf(dir, sizeof dir, "/tmp/test_nc_guard.%d", (int)getpid());
@@ -404,6 +506,7 @@ int main(void)
     broken_headers(good, &L);
     library_written();
     netcdf4();
+    isolated();
     char cmd[300];
     snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
     if (system(cmd) != 0)

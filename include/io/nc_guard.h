@@ -39,6 +39,17 @@ int nc_guard_check(const char *path, const char *label, sph_error *err);
  * is one line with the library's reason. */
 int nc_guard_open(const char *path, const char *label, int *ncid, sph_error *err);
 
+/* For files the service reads whole and that are not large (restarts):
+ * a netCDF-4 file is never opened by HDF5 in this process. A separate
+ * process forked for the file copies it to a temporary CDF-5 file
+ * (dimensions, attributes, variables; no groups, string or user types),
+ * which is then validated like any classic file and opened here (and
+ * unlinked: the open file stays readable). A child that dies, hangs or
+ * cannot copy: the file is refused in one line. Classic files: as
+ * nc_guard_open. The data are those of the file; chunking and
+ * compression do not survive (the reader does not need them). */
+int nc_guard_open_isolated(const char *path, const char *label, int *ncid, sph_error *err);
+
 /* nc_open(path, NC_NOWRITE, ncid) with 128 KiB of stack below the
  * caller cleared first, as the checking child opens the file: a reader
  * opens a checked file with this, so that an uninitialised pointer HDF5

@@ -711,3 +711,195 @@ int nc_guard_open(const char *path, const char *label, int *ncid, sph_error *err
                            nc_strerror(st));
     return SPH_OK;
 }
+
+/* ------------------------------------------------- isolated reading */
+
+#define COPY_MAX_BYTES ((size_t)4 << 30) /* one variable's data, at most */
+
+/* Exit codes of the copying child (status bytes): 0 copied; 3 nc_open
+ * refused the file; 6 not copyable to CDF-5 (groups, user or string
+ * types, several unlimited dimensions); 7 the copy failed (an inquiry or a
+ * write, a variable too large). */
+static int copy_atts(int in, int iv, int out, int ov, int natts)
+{
+    for (int a = 0; a < natts; a++) {
+        char name[NC_MAX_NAME + 1];
+        nc_type t;
+        size_t len;
+        if (nc_inq_attname(in, iv, a, name) || nc_inq_att(in, iv, name, &t, &len))
+            return 7;
+        if (t > NC_UINT64 || t == NC_NAT)
+            return 6;
+        size_t sz;
+        if (nc_inq_type(in, t, NULL, &sz) || (len && sz > COPY_MAX_BYTES / len))
+            return 7;
+        void *b = malloc(len * sz + 1);
+        if (!b)
+            return 7;
+        int rc = nc_get_att(in, iv, name, b) || nc_put_att(out, ov, name, t, len, b) ? 7 : 0;
+        free(b);
+        if (rc)
+            return rc;
+    }
+    return 0;
+}
+
+static int copy_file(const char *path, const char *to)
+{
+    int in, out;
+    if (nc_guard_nc_open(path, &in) != NC_NOERR)
+        return 3;
+    int rc = 7, ngrps = 0, ndims = 0, nvars = 0, natts = 0, nunlim = 0;
+    if (nc_inq_grps(in, &ngrps, NULL) || ngrps > 0 || nc_inq_unlimdims(in, &nunlim, NULL) || nunlim > 1) {
+        nc_close(in);
+        return ngrps > 0 || nunlim > 1 ? 6 : 7;
+    }
+    if (nc_create(to, NC_CLOBBER | NC_64BIT_DATA, &out) != NC_NOERR) {
+        nc_close(in);
+        return 7;
+    }
+    nc_set_fill(out, NC_NOFILL, NULL);
+    int unlim = -1;
+    if (nc_inq(in, &ndims, &nvars, &natts, &unlim))
+        goto done;
+    /* dimension ids of a flat netCDF-4 file are 0 .. ndims-1 in order */
+    for (int d = 0; d < ndims; d++) {
+        char name[NC_MAX_NAME + 1];
+        size_t len;
+        int od;
+        if (nc_inq_dim(in, d, name, &len) || nc_def_dim(out, name, d == unlim ? NC_UNLIMITED : len, &od) ||
+            od != d)
+            goto done;
+    }
+    if ((rc = copy_atts(in, NC_GLOBAL, out, NC_GLOBAL, natts)))
+        goto done;
+    rc = 7;
+    for (int v = 0; v < nvars; v++) {
+        char name[NC_MAX_NAME + 1];
+        nc_type t;
+        int nd, dims[NC_MAX_VAR_DIMS], na, ov;
+        if (nc_inq_var(in, v, name, &t, &nd, dims, &na))
+            goto done;
+        if (t > NC_UINT64 || t == NC_NAT) {
+            rc = 6;
+            goto done;
+        }
+        if (nc_def_var(out, name, t, nd, dims, &ov) || ov != v)
+            goto done;
+        if ((rc = copy_atts(in, v, out, ov, na)))
+            goto done;
+        rc = 7;
+    }
+    if (nc_enddef(out))
+        goto done;
+    for (int v = 0; v < nvars; v++) {
+        nc_type t;
+        int nd, dims[NC_MAX_VAR_DIMS];
+        size_t sz, n = 1, start[NC_MAX_VAR_DIMS], count[NC_MAX_VAR_DIMS];
+        if (nc_inq_var(in, v, NULL, &t, &nd, dims, NULL) || nc_inq_type(in, t, NULL, &sz))
+            goto done;
+        for (int k = 0; k < nd; k++) {
+            size_t len;
+            if (nc_inq_dimlen(in, dims[k], &len) || (len && n > COPY_MAX_BYTES / sz / len))
+                goto done;
+            n *= len;
+            start[k] = 0;
+            count[k] = len; /* explicit: a record variable of the copy has no records yet */
+        }
+        if (n == 0)
+            continue;
+        void *b = malloc(n * sz);
+        if (!b)
+            goto done;
+        int bad = nc_get_var(in, v, b) || nc_put_vara(out, v, start, count, b);
+        free(b);
+        if (bad)
+            goto done;
+    }
+    rc = 0;
+done:
+    nc_close(in);
+    if (nc_close(out))
+        rc = rc ? rc : 7;
+    return rc;
+}
+
+int nc_guard_open_isolated(const char *path, const char *label, int *ncid, sph_error *err)
+{
+    if (!label)
+        label = path;
+    unsigned char m[8];
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return sph_err_set(err, SPH_ERR_IO, "%s: cannot open %s: %s", label, path, strerror(errno));
+    ssize_t got = pread(fd, m, sizeof m, 0);
+    close(fd);
+    if (!(got == (ssize_t)sizeof m && memcmp(m, "\x89HDF\r\n\x1a\n", 8) == 0))
+        return nc_guard_open(path, label, ncid, err); /* classic (validated here) or not NetCDF */
+    const char *td = getenv("TMPDIR");
+    char tmp[PATH_MAX];
+    snprintf(tmp, sizeof tmp, "%s/sphice-ncread-XXXXXX", td && *td ? td : "/tmp");
+    int tfd = mkstemp(tmp);
+    if (tfd < 0)
+        return sph_err_set(err, SPH_ERR_IO, "%s: cannot create a file for its isolated reading in %s: %s", label,
+                           td && *td ? td : "/tmp", strerror(errno));
+    close(tfd);
+    int sv[2];
+    if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0) {
+        unlink(tmp);
+        return sph_err_set(err, SPH_ERR_IO, "%s: cannot read it in a separate process: %s", label, strerror(errno));
+    }
+    char abs[PATH_MAX];
+    if (!realpath(path, abs))
+        snprintf(abs, sizeof abs, "%s", path);
+    n_probed++;
+    pid_t pid = fork();
+    if (pid < 0) {
+        close(sv[0]);
+        close(sv[1]);
+        unlink(tmp);
+        return sph_err_set(err, SPH_ERR_IO, "%s: cannot read it in a separate process: %s", label, strerror(errno));
+    }
+    if (pid == 0) {
+        child_start(sv[1]);
+        unsigned char c = (unsigned char)copy_file(abs, tmp);
+        _exit(write(sv[1], &c, 1) == 1 ? 0 : 5);
+    }
+    close(sv[1]);
+    int r = wait_byte(sv[0], now_s() + probe_timeout), st = 0;
+    close(sv[0]);
+    if (r == -2)
+        kill(pid, SIGKILL);
+    while (waitpid(pid, &st, 0) < 0 && errno == EINTR)
+        ;
+    int rc;
+    if (r == 0) {
+        /* the copy is CDF-5: validated and read here without HDF5 */
+        rc = nc_guard_open(tmp, label, ncid, err);
+    } else if (r == 3) {
+        rc = sph_err_set(err, SPH_ERR_NETCDF, "%s: refused: the NetCDF/HDF5 library cannot open this netCDF-4 "
+                         "file (in a separate process)", label);
+    } else if (r == 6) {
+        rc = sph_err_set(err, SPH_ERR_NETCDF, "%s: refused: groups, string or user types or several unlimited "
+                         "dimensions, which this reader does not take", label);
+    } else if (r == 7) {
+        rc = sph_err_set(err, SPH_ERR_NETCDF, "%s: refused: its netCDF-4 data could not be read (malformed file?)",
+                         label);
+    } else if (r == -2) {
+        n_timed_out++;
+        rc = sph_err_set(err, SPH_ERR_NETCDF, "%s: refused: the NetCDF/HDF5 library did not finish reading this "
+                         "netCDF-4 file within %g s in a separate process (malformed file?)", label,
+                         (double)probe_timeout);
+    } else {
+        n_died++;
+        rc = WIFSIGNALED(st)
+                 ? sph_err_set(err, SPH_ERR_NETCDF, "%s: refused: the NetCDF/HDF5 library crashed (signal %d, %s) "
+                               "reading this netCDF-4 file in a separate process: the file is malformed", label,
+                               WTERMSIG(st), strsignal(WTERMSIG(st)))
+                 : sph_err_set(err, SPH_ERR_NETCDF, "%s: refused: the NetCDF/HDF5 library failed (status %d) "
+                               "reading this netCDF-4 file in a separate process: the file is malformed", label,
+                               r == -1 && WIFEXITED(st) ? WEXITSTATUS(st) : r);
+    }
+    unlink(tmp); /* an open file stays readable */
+    return rc;
+}

@@ -416,10 +416,11 @@ static int open_restart(const char *path, int *nc, sph_error *err)
 {
     if (access(path, R_OK) != 0)
         return sph_err_set(err, SPH_ERR_IO, "restart %s: cannot read the file", path);
-    /* a malformed header is refused before libnetcdf or HDF5 sees it */
+    /* a malformed header is refused before libnetcdf sees it, and HDF5
+     * reads the file only in a separate process (nc_guard.h) */
     char label[4200];
     snprintf(label, sizeof label, "restart %s", path);
-    return nc_guard_open(path, label, nc, err);
+    return nc_guard_open_isolated(path, label, nc, err);
 }
 
 int restart_read_header(const char *path, restart_header *h, sph_error *err)
