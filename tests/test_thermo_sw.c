@@ -14,7 +14,7 @@
  *  - Brine-rich ice within millikelvins of its melting point under strong
  *    penetration: BL99's conductivity k0 + beta S / T turns negative
  *    between -beta S / k0 and Tm (-0.205 and -0.173 C at 3.2 ppt) and is
- *    floored at Icepack's 0.10 W/m/K; before the floor the column's
+ *    floored at CICE's 0.10 W/m/K; before the floor the column's
  *    iteration diverged, the surface balance lost its bracket (step rc 1)
  *    and the energy did not close. Now no layer ends above Tm (q <= 0),
  *    the iteration converges and the energy closes: the excess is not
@@ -160,8 +160,8 @@ static void melting_surface(sph_column_solver *s)
 }
 
 /* Brine-rich ice near its melting point: BL99's k0 + beta S / T reaches
- * zero at T = -beta S / k0, above Tm = -mu S for beta / k0 > mu; Icepack
- * floors it at 0.10 W/m/K (kimin). */
+ * zero at T = -beta S / k0, above Tm = -mu S for beta / k0 > mu; CICE's
+ * Bitz-Lipscomb column floors it at 0.10 W/m/K (kimin). */
 static void conductivity_floor(void)
 {
     sph_thermo_params p;

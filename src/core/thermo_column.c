@@ -56,9 +56,9 @@ double sph_bl_heat_capacity(const sph_thermo_params *p, double S, double T)
 
 /* k0 + beta S / T falls to zero at T = -beta S / k0 (-0.205 C for 3.2 ppt,
  * above Tm = -0.173 C): brine-rich ice near its melting point would
- * conduct with a negative conductivity. Floored as in Icepack's
- * Bitz-Lipscomb column (kimin, 0.10 W/m/K, the minimum conductivity of
- * saline ice). */
+ * conduct with a negative conductivity. Floored as in CICE's
+ * Bitz-Lipscomb column (ice_therm_bl99: kimin, 0.10 W/m/K, the minimum
+ * conductivity of saline ice). */
 #define SPH_BL_K_MIN 0.10
 
 double sph_bl_conductivity(const sph_thermo_params *p, double S, double T)
