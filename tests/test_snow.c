@@ -24,6 +24,7 @@
 
 #include <string.h>
 
+#include "column_energy.h"
 #include "mu71_forcing.h"
 
 #define AREA 1.0e6 /* footprint, m^2 */
@@ -238,16 +239,7 @@ static void check_budgets(const sph_thermo_params *p)
 
 #define SIGMA 5.670374419e-8
 
-/* Snow enthalpy per volume, from its definition (not the code's). */
-static double q_snow(const sph_thermo_params *p, double T) { return -p->rho_s * (p->L0 - p->c0 * fmin(T, 0.0)); }
-
-static double column_energy_here(const sph_thermo_params *p, const sph_column *c)
-{
-    double e = 0.0;
-    for (int k = 0; k < c->nlayers; k++)
-        e += c->enth[k] * c->thick / c->nlayers;
-    return e + q_snow(p, c->tsnow) * c->snow;
-}
+/* Snow enthalpy and column energy from their definitions: column_energy.h. */
 
 static void check_snow_heat_capacity(void)
 {

@@ -23,7 +23,11 @@
  * Asserted under SPHICE_LONG (make check-long): the multi-layer mean in
  * BL99's range and its cycle within MU71's maximum and minimum. Measured
  * (docs/thermo.md): the multi-layer mean is 3.40 m, above BL99's range;
- * without SPHICE_LONG the gap is printed as a KNOWN GAP line instead. */
+ * without SPHICE_LONG the gap is printed as a KNOWN GAP line instead.
+ * Also under SPHICE_LONG: where the penetrating shortwave goes (one year
+ * with i0 = 0.17 against i0 = 0 from the same converged column), with the
+ * energy difference between the two equal to the difference of the
+ * atmospheric flux taken up. */
 #include "check.h"
 #include "core/thermo.h"
 
@@ -58,6 +62,71 @@ static cycle run(const sph_thermo_params *p, int multi, int with_snow, int years
     }
     sph_column_solver_free(s);
     return y;
+}
+
+/* Where the penetrating shortwave goes (SPHICE_LONG): from the converged
+ * multi-layer column without it (i0 = 0), one more year with i0 = 0 and
+ * one with i0 = 0.17, side by side. Fluxes in MJ/m^2, summed over the
+ * melt season (day 150-230) and the autumn after it (day 230-365). The
+ * only difference between the runs is where the absorbed shortwave is
+ * put, so the difference of the column's energy at the end equals the
+ * difference of the atmospheric flux the surface took up (both runs
+ * close their budgets per step: test_snow, test_thermo_sw). */
+static void attribution(const sph_thermo_params *pc, int years, double dt)
+{
+    sph_thermo_params p0 = *pc;
+    p0.sw_pen_frac = 0.0;
+    sph_column_solver *s = sph_column_solver_create();
+    sph_column c;
+    sph_column_init(&p0, &c, 3.0, 0.0, -25.0);
+    sph_column_forcing f;
+    sph_column_forcing_default(&f);
+    f.fw = 2.0;
+    const int steps = (int)(365 * 86400.0 / dt);
+    for (int yr = 0; yr < years; yr++)
+        for (int i = 0; i < steps; i++)
+            mu71_step(&p0, &c, &f, 1, 1, (i + 0.5) * dt / 86400.0, dt, s);
+    const sph_column start = c;
+    double fm[2][2] = {{0}}, fa[2][2] = {{0}}, ft[2][2] = {{0}}, top[2] = {0}, grow[2] = {0}, bot[2] = {0};
+    double E[2], h[2];
+    for (int run = 0; run < 2; run++) {
+        const sph_thermo_params *p = run ? pc : &p0;
+        c = start;
+        double E0 = sph_column_energy(p, &c);
+        for (int i = 0; i < steps; i++) {
+            double day = (i + 0.5) * dt / 86400.0;
+            f.swdn = monthly(SW, day);
+            f.lwdn = monthly(LW, day);
+            f.fsens = monthly(SENS, day);
+            f.flat = monthly(LAT, day);
+            f.albedo = monthly(ALB, day);
+            f.snowfall = snowfall(day);
+            sph_column_result r;
+            sph_column_step_multi_layer(p, &c, &f, dt, s, &r);
+            int season = day >= 150.0 && day < 230.0 ? 0 : day >= 230.0 ? 1 : -1;
+            if (season >= 0) {
+                fm[run][season] += r.fmelt * dt / 1e6;
+                fa[run][season] += r.fatm * dt / 1e6;
+                ft[run][season] += r.fcond_top * dt / 1e6;
+            }
+            top[run] += r.melt_top;
+            grow[run] += r.growth;
+            bot[run] += r.melt_bottom;
+        }
+        E[run] = sph_column_energy(p, &c) - E0;
+        h[run] = c.thick;
+    }
+    sph_column_solver_free(s);
+    double dfatm = (fa[1][0] + fa[1][1]) - (fa[0][0] + fa[0][1]); /* day 0-150: the same (snow, i0 = 0) */
+    printf("  i0 0.17 vs 0 for one year from the converged i0 = 0 column (%.3f m): day 150-230 surface melt "
+           "%.1f vs %.1f MJ/m^2, conduction into the ice %.1f vs %.1f, absorbed at the surface and below %.1f vs "
+           "%.1f; day 230-365 atmospheric flux %.1f vs %.1f; top melt %.3f vs %.3f m, growth %.3f vs %.3f, "
+           "bottom melt %.3f vs %.3f; thickness after the year %.4f vs %.4f m (%+.4f m)\n",
+           start.thick, fm[1][0], fm[0][0], ft[1][0], ft[0][0], fa[1][0], fa[0][0], fa[1][1], fa[0][1], top[1],
+           top[0], grow[1], grow[0], bot[1], bot[0], h[1], h[0], h[1] - h[0]);
+    CHECK(fabs((E[1] - E[0]) / 1e6 - dfatm) < 1e-6 * fabs(fa[0][0]),
+          "the penetrating shortwave changes the column's energy by the change of the atmospheric flux: "
+          "%.4f vs %.4f MJ/m^2", (E[1] - E[0]) / 1e6, dfatm);
 }
 
 /* A published range check: a CHECK under SPHICE_LONG, else a KNOWN GAP line. */
@@ -117,5 +186,7 @@ int main(void)
         CHECK(z0.hmax > z.hmax && m0.hmax > m.hmax, "snow insulates: winter maximum without snow "
               "%.3f / %.3f m above %.3f / %.3f m with", z0.hmax, m0.hmax, z.hmax, m.hmax);
     }
+    if (hard)
+        attribution(&pc, years, dt);
     return check_summary("test_snow_mu71");
 }

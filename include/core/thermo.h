@@ -154,7 +154,7 @@ double sph_thermo_energy_atm(const sph_thermo_work *w, size_t k);
 double sph_bl_salinity(const sph_thermo_params *p, double z);
 double sph_bl_melting_temperature(const sph_thermo_params *p, double S);
 double sph_bl_heat_capacity(const sph_thermo_params *p, double S, double T);  /* J/kg/K */
-double sph_bl_conductivity(const sph_thermo_params *p, double S, double T);   /* W/m/K */
+double sph_bl_conductivity(const sph_thermo_params *p, double S, double T);   /* W/m/K, at least 0.10 */
 /* q(S,T) = -rho_i [c0 (Tm - T) + L0 (1 - Tm / T)], J/m^3 (T <= Tm < 0; S = 0: -rho_i (L0 - c0 T)) */
 double sph_bl_enthalpy(const sph_thermo_params *p, double S, double T);
 /* Inverse of sph_bl_enthalpy in T (T <= Tm). */

@@ -54,11 +54,19 @@ double sph_bl_heat_capacity(const sph_thermo_params *p, double S, double T)
     return p->c0 + p->L0 * p->mu * S / (T * T);
 }
 
+/* k0 + beta S / T falls to zero at T = -beta S / k0 (-0.205 C for 3.2 ppt,
+ * above Tm = -0.173 C): brine-rich ice near its melting point would
+ * conduct with a negative conductivity. Floored as in CICE's
+ * Bitz-Lipscomb column (ice_therm_bl99: kimin, 0.10 W/m/K, the minimum
+ * conductivity of saline ice). */
+#define SPH_BL_K_MIN 0.10
+
 double sph_bl_conductivity(const sph_thermo_params *p, double S, double T)
 {
     if (S <= 0.0 || T >= 0.0)
         return p->k0;
-    return p->k0 + p->beta * S / T;
+    double k = p->k0 + p->beta * S / T;
+    return k > SPH_BL_K_MIN ? k : SPH_BL_K_MIN;
 }
 
 double sph_bl_enthalpy(const sph_thermo_params *p, double S, double T)
