@@ -1,0 +1,509 @@
+/* The fluxes file on a curvilinear ocean grid (issue 20 item 4,
+ * OFX_GRID_CURV, docs/ocean-coupling.md):
+ *  - conservation: on a grid rotated by 30 degrees and on a bent grid (a
+ *    polar sector, i radial, j along the arc, like a ROMS grid following a
+ *    coast) with land, the area integrals of heat, water, salt, shortwave,
+ *    ice area and volume equal the particles' sums within 1e-10 relative,
+ *    and the stress turned back from the file's i/j components with the
+ *    file's angle equals the particles' stress; particles on land only
+ *    reach the nearest water cell, particles off the grid are counted;
+ *  - orientation: a uniform eastward stress on the 30-degree grid gives
+ *    (cos 30, -sin 30) of its magnitude in every cell (ROMS's rule
+ *    u_xi = u_E cos(angle) + v_N sin(angle), v_eta = v_N cos(angle) -
+ *    u_E sin(angle)) within 1e-12, and angle = 30 degrees; on the bent
+ *    grid angle = the polar angle of each cell's centre;
+ *  - the stress is minus the water drag on the ice (steady free drift):
+ *    the file's components turned back to the plane, times the cell
+ *    areas, over the footprint equal -rho_w C_w |U_w - u| R(theta) (U_w - u)
+ *    computed here within 1e-10;
+ *  - grids the writer cannot orient (left-handed corners, a skewed grid)
+ *    are refused with one line. */
+#include <math.h>
+#include <netcdf.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "check.h"
+#include "core/model.h"
+#include "io/ocean_fluxes.h"
+#include "lattice.h"
+
+#define DEG (M_PI / 180.0)
+#define CLOSE(got, want, tol, ...)                       \
+    do {                                                 \
+        char m_[200];                                    \
+        snprintf(m_, sizeof m_, __VA_ARGS__);            \
+        CHECK_CLOSE(got, want, tol, 0, m_);              \
+    } while (0)
+
+static char dir[] = "/tmp/sphice-ofxc-XXXXXX";
+static unsigned long long rs = 0x9E3779B97F4A7C15ull;
+static double rnd(void)
+{
+    rs ^= rs << 13;
+    rs ^= rs >> 7;
+    rs ^= rs << 17;
+    return (double)(rs >> 11) / 9007199254740992.0;
+}
+
+/* A grid built on the plane: centres, corners (anticlockwise), polygon
+ * areas, lon/lat of a local map in which plane x is east (east = 0). */
+enum { MAXC = 40 * 30 };
+typedef struct {
+    int nx, ny;
+    double cx[MAXC], cy[MAXC], bx[4 * MAXC], by[4 * MAXC], lon[MAXC], lat[MAXC], blon[4 * MAXC],
+        blat[4 * MAXC], area[MAXC];
+    unsigned char land[MAXC];
+} cgrid;
+
+static void lonlat_of(double x, double y, double *lon, double *lat)
+{
+    *lon = 121.0 + x / (6371000.0 * cos(40.0 * DEG) * DEG);
+    *lat = 40.0 + y / (6371000.0 * DEG);
+}
+
+static void finish(cgrid *g)
+{
+    for (int c = 0; c < g->nx * g->ny; c++) {
+        double s = 0.0;
+        for (int v = 0, u = 3; v < 4; u = v++) {
+            s += g->bx[4 * c + u] * g->by[4 * c + v] - g->bx[4 * c + v] * g->by[4 * c + u];
+            lonlat_of(g->bx[4 * c + v], g->by[4 * c + v], &g->blon[4 * c + v], &g->blat[4 * c + v]);
+        }
+        g->area[c] = 0.5 * s;
+        lonlat_of(g->cx[c], g->cy[c], &g->lon[c], &g->lat[c]);
+    }
+}
+
+/* nx x ny cells of side d, i axis at rot degrees from plane x (= east). */
+static void rotated(cgrid *g, int nx, int ny, double d, double rot)
+{
+    g->nx = nx;
+    g->ny = ny;
+    double cr = cos(rot * DEG), sr = sin(rot * DEG);
+    static const double off[4][2] = {{-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++) {
+            int c = j * nx + i;
+            double u = (i - 0.5 * (nx - 1)) * d, v = (j - 0.5 * (ny - 1)) * d;
+            g->cx[c] = u * cr - v * sr;
+            g->cy[c] = u * sr + v * cr;
+            for (int k = 0; k < 4; k++) {
+                double uu = u + off[k][0] * d, vv = v + off[k][1] * d;
+                g->bx[4 * c + k] = uu * cr - vv * sr;
+                g->by[4 * c + k] = uu * sr + vv * cr;
+            }
+            g->land[c] = 0;
+        }
+    finish(g);
+}
+
+/* A polar sector: i along the radius r0 + i dr, j along the angle
+ * th0 + j dth (degrees); corners at the half steps. */
+static void bent(cgrid *g, int nx, int ny, double r0, double dr, double th0, double dth)
+{
+    g->nx = nx;
+    g->ny = ny;
+    static const double off[4][2] = {{-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}};
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++) {
+            int c = j * nx + i;
+            double r = r0 + i * dr, t = (th0 + j * dth) * DEG;
+            g->cx[c] = r * cos(t);
+            g->cy[c] = r * sin(t);
+            for (int k = 0; k < 4; k++) {
+                double rr = r + off[k][0] * dr, tt = t + off[k][1] * dth * DEG;
+                g->bx[4 * c + k] = rr * cos(tt);
+                g->by[4 * c + k] = rr * sin(tt);
+            }
+            g->land[c] = 0;
+        }
+    finish(g);
+}
+
+static ofx_grid as_ofx(cgrid *g, const char *corners)
+{
+    ofx_grid o = {.kind = OFX_GRID_CURV, .nx = g->nx, .ny = g->ny, .lon = g->lon, .lat = g->lat, .cx = g->cx,
+                  .cy = g->cy, .area = g->area, .land = g->land, .projection = "+proj=test (x east)",
+                  .grid_source = "test grid", .blon = g->blon, .blat = g->blat, .bx = g->bx, .by = g->by,
+                  .east = NULL, .corners = corners};
+    return o;
+}
+
+/* One record of variable `name` (ny * nx values) into out; 0 on success. */
+static int read_record(const char *path, const char *name, size_t r, size_t ncell, double *out)
+{
+    int nc, v, nd, rc = -1;
+    if (nc_open(path, NC_NOWRITE, &nc) != NC_NOERR)
+        return -1;
+    if (nc_inq_varid(nc, name, &v) == NC_NOERR && nc_inq_varndims(nc, v, &nd) == NC_NOERR) {
+        size_t st[3] = {r, 0, 0}, ct[3] = {1, 0, 0};
+        int dims[3];
+        nc_inq_vardimid(nc, v, dims);
+        if (nd == 3) {
+            nc_inq_dimlen(nc, dims[1], &ct[1]);
+            nc_inq_dimlen(nc, dims[2], &ct[2]);
+            rc = ct[1] * ct[2] == ncell && nc_get_vara_double(nc, v, st, ct, out) == NC_NOERR ? 0 : -1;
+        } else if (nd == 2) {
+            rc = nc_get_var_double(nc, v, out) == NC_NOERR ? 0 : -1;
+        }
+    }
+    nc_close(nc);
+    return rc;
+}
+
+#define NP 300
+static double px[NP], py[NP], prad[NP], phi[NP], phl[NP], pw[NP], psl[NP], ptx[NP], pty[NP], psw[NP], pia[NP],
+    piv[NP];
+static double f1[MAXC], f2[MAXC], ang[MAXC];
+
+static ofx_particles particles(size_t n)
+{
+    ofx_particles o = {.n = n, .x = px, .y = py, .radius = prad, .heat_ice = phi, .heat_lead = phl, .water = pw,
+                       .salt = psl, .taux = ptx, .tauy = pty, .swbase = psw, .ice_area = pia, .ice_volume = piv};
+    return o;
+}
+
+static double total(const double *a, int n)
+{
+    double s = 0.0;
+    for (int k = 0; k < n; k++)
+        s += a[k];
+    return s;
+}
+
+/* sum over the water cells of field x area (x dt) */
+static double integral(const char *path, const char *name, const cgrid *g, double dt)
+{
+    size_t n = (size_t)g->nx * g->ny;
+    if (read_record(path, name, 0, n, f1))
+        return NAN;
+    double s = 0.0;
+    for (size_t c = 0; c < n; c++)
+        if (f1[c] < 1e19)
+            s += f1[c] * g->area[c] * dt;
+    return s;
+}
+
+/* A random point inside cell c (bilinear in its corners). */
+static void inside(const cgrid *g, int c, double *x, double *y)
+{
+    double a = rnd(), b = rnd();
+    const double *X = g->bx + 4 * c, *Y = g->by + 4 * c;
+    *x = (1 - a) * (1 - b) * X[0] + a * (1 - b) * X[1] + a * b * X[2] + (1 - a) * b * X[3];
+    *y = (1 - a) * (1 - b) * Y[0] + a * (1 - b) * Y[1] + a * b * Y[2] + (1 - a) * b * Y[3];
+}
+
+/* Random particles in random cells (land too; footprints from a twentieth
+ * of a cell to several cells, reaching beyond the grid's edge), the last
+ * `off` far off the grid; writes one record and checks its integrals. */
+static int conservation(cgrid *g, const char *name, double cell, int off, char *path, size_t len)
+{
+    for (int k = 0; k < NP; k++) {
+        inside(g, (int)(rnd() * g->nx * g->ny) % (g->nx * g->ny), &px[k], &py[k]);
+        if (k >= NP - off)
+            px[k] += 100.0 * cell * g->nx;
+        prad[k] = cell * (k % 9 == 0 ? 0.05 : 0.3 + 3.0 * rnd());
+        phi[k] = -1e9 * rnd();
+        phl[k] = 1e9 * (rnd() - 0.6);
+        pw[k] = 1e5 * (rnd() - 0.5);
+        psl[k] = 1e3 * (rnd() - 0.5);
+        ptx[k] = 1e7 * (rnd() - 0.5);
+        pty[k] = 1e7 * (rnd() - 0.5);
+        psw[k] = 1e8 * rnd();
+        pia[k] = 1e6 * rnd();
+        piv[k] = 0.7 * pia[k] * rnd();
+    }
+    ofx_grid og = as_ofx(g, "test corners");
+    ofx_meta m = {.title = name, .cycle_time = 0.0};
+    snprintf(path, len, "%s/%s.nc", dir, name);
+    ofx_writer *w = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    ofx_particles o = particles(NP);
+    const double dt = 1800.0;
+    int ok = ofx_open(&w, &og, &m, path, &err) == SPH_OK && ofx_add_particles(w, &o, &err) == SPH_OK &&
+             ofx_write_record(w, 0.0, dt, &err) == SPH_OK;
+    size_t lost = ofx_lost(w);
+    ok = ok && ofx_close(w, &err) == SPH_OK;
+    CHECK(ok, "%s: file written: %s", name, err.msg);
+    if (!ok)
+        return -1;
+    CHECK(lost == (size_t)off, "%s: the %d particles off the grid are counted, not placed (%zu)", name, off, lost);
+    int n1 = NP - off;
+    const double tol = 1e-10;
+    CLOSE(integral(path, "hfds", g, dt), total(phi, n1) + total(phl, n1), tol, "%s: hfds conserves", name);
+    CLOSE(integral(path, "hfsithermds", g, dt), total(phi, n1), tol, "%s: hfsithermds conserves", name);
+    CLOSE(integral(path, "siflfwbot", g, dt), total(pw, n1), tol, "%s: fresh water conserves", name);
+    CLOSE(integral(path, "siflsaltbot", g, dt), total(psl, n1), tol, "%s: salt conserves", name);
+    CLOSE(integral(path, "siflswdbot", g, dt), total(psw, n1), tol, "%s: shortwave conserves", name);
+    CLOSE(integral(path, "siconc", g, 1.0), total(pia, n1), tol, "%s: ice area conserves", name);
+    CLOSE(integral(path, "sivol", g, 1.0), total(piv, n1), tol, "%s: ice volume conserves", name);
+    /* the stress: the file's i/j components turned back by its angle (east = plane x here) */
+    size_t n = (size_t)g->nx * g->ny;
+    double sx = 0.0, sy = 0.0, bx = 0.0, by = 0.0;
+    int rd = read_record(path, "tauuo", 0, n, f1) || read_record(path, "tauvo", 0, n, f2) ||
+             read_record(path, "angle", 0, n, ang);
+    int land_fill = 1;
+    for (size_t c = 0; !rd && c < n; c++) {
+        if (g->land[c]) {
+            land_fill &= f1[c] > 1e19 && f2[c] > 1e19;
+            continue;
+        }
+        sx += (f1[c] * cos(ang[c]) - f2[c] * sin(ang[c])) * g->area[c] * dt;
+        sy += (f1[c] * sin(ang[c]) + f2[c] * cos(ang[c])) * g->area[c] * dt;
+    }
+    CHECK(!rd && land_fill, "%s: stress read, land cells are fill", name);
+    CLOSE(sx, total(ptx, n1), tol, "%s: stress x conserves (turned back from i/j)", name);
+    CLOSE(sy, total(pty, n1), tol, "%s: stress y conserves (turned back from i/j)", name);
+    rd = read_record(path, "sistrxubot", 0, n, f2);
+    for (size_t c = 0; !rd && c < n; c++) {
+        read_record(path, "tauuo", 0, n, f1);
+        break;
+    }
+    int opposite = !rd;
+    for (size_t c = 0; !rd && c < n; c++)
+        opposite &= g->land[c] || f2[c] == -f1[c];
+    CHECK(opposite, "%s: sistrxubot = -tauuo", name);
+    bx = integral(path, "hfds", g, dt);
+    by = total(phi, n1) + total(phl, n1);
+    printf("  %s: hfds %.17g J vs particles %.17g J; stress x %.17g vs %.17g N s\n", name, bx, by, sx,
+           total(ptx, n1));
+    return 0;
+}
+
+static void rotated_grid(void)
+{
+    static cgrid g;
+    const double d = 2000.0;
+    rotated(&g, 30, 20, d, 30.0);
+    for (int c = 0; c < g.nx * g.ny; c++) /* a land block in one corner and a strip */
+        g.land[c] = (c % g.nx >= 27 && c / g.nx >= 17) || (c % g.nx == 10 && c / g.nx < 8);
+    char path[1024];
+    if (conservation(&g, "rotated", d, 12, path, sizeof path))
+        return;
+    size_t n = (size_t)g.nx * g.ny;
+    int ok = !read_record(path, "angle", 0, n, ang);
+    double worst = 0.0;
+    for (size_t c = 0; ok && c < n; c++)
+        worst = fmax(worst, fabs(ang[c] - 30.0 * DEG));
+    CHECK(ok && worst <= 1e-12, "rotated: angle = 30 degrees in every cell (worst %.3g rad)", worst);
+
+    /* a uniform eastward stress: tau_i = |tau| cos 30, tau_j = -|tau| sin 30 per cell */
+    for (int k = 0; k < NP; k++) {
+        ptx[k] = 2.5e6 * (0.5 + rnd()); /* N s, eastward */
+        pty[k] = 0.0;
+        pw[k] = ptx[k]; /* the same amount as a scalar: its gridded value is the cell's magnitude */
+        inside(&g, (int)(rnd() * g.nx * g.ny) % (g.nx * g.ny), &px[k], &py[k]);
+        prad[k] = d * (0.3 + 2.0 * rnd());
+    }
+    ofx_grid og = as_ofx(&g, "test corners");
+    ofx_meta m = {.title = "east", .cycle_time = 0.0};
+    snprintf(path, sizeof path, "%s/east.nc", dir);
+    ofx_writer *w = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    ofx_particles o = particles(NP);
+    ok = ofx_open(&w, &og, &m, path, &err) == SPH_OK && ofx_add_particles(w, &o, &err) == SPH_OK &&
+         ofx_write_record(w, 0.0, 600.0, &err) == SPH_OK && ofx_close(w, &err) == SPH_OK;
+    CHECK(ok, "eastward stress file: %s", err.msg);
+    static double mag[MAXC];
+    ok = ok && !read_record(path, "tauuo", 0, n, f1) && !read_record(path, "tauvo", 0, n, f2) &&
+         !read_record(path, "siflfwbot", 0, n, mag);
+    double e1 = 0.0, e2 = 0.0;
+    size_t cells = 0;
+    for (size_t c = 0; ok && c < n; c++) {
+        if (g.land[c] || mag[c] == 0.0)
+            continue;
+        cells++;
+        e1 = fmax(e1, fabs(f1[c] - mag[c] * cos(30.0 * DEG)) / mag[c]);
+        e2 = fmax(e2, fabs(f2[c] + mag[c] * sin(30.0 * DEG)) / mag[c]);
+    }
+    printf("  eastward stress on a 30-degree grid: %zu cells, worst |tau_i/|tau| - cos 30| %.3g, "
+           "|tau_j/|tau| + sin 30| %.3g\n", cells, e1, e2);
+    CHECK(ok && cells > 100 && e1 <= 1e-12 && e2 <= 1e-12,
+          "eastward stress: grid components (cos 30, -sin 30) of its magnitude within 1e-12 (%.3g, %.3g)", e1, e2);
+}
+
+static void bent_grid(void)
+{
+    static cgrid g;
+    const double r0 = 20000.0, dr = 1500.0;
+    bent(&g, 24, 30, r0, dr, 10.0, 2.5);
+    for (int c = 0; c < g.nx * g.ny; c++) /* the coast: the outer radii of the first rows */
+        g.land[c] = c % g.nx >= 23 && c / g.nx < 12;
+    char path[1024];
+    if (conservation(&g, "bent", dr, 7, path, sizeof path))
+        return;
+    size_t n = (size_t)g.nx * g.ny;
+    int ok = !read_record(path, "angle", 0, n, ang);
+    double worst = 0.0;
+    for (size_t c = 0; ok && c < n; c++)
+        worst = fmax(worst, fabs(ang[c] - atan2(g.cy[c], g.cx[c])));
+    CHECK(ok && worst <= 1e-12, "bent: angle = the polar angle of each centre (worst %.3g rad)", worst);
+
+    /* one particle wholly inside a land cell next to the water: the
+     * nearest water cell takes all */
+    size_t land_cell = 5 * g.nx + 23;
+    px[0] = g.cx[land_cell];
+    py[0] = g.cy[land_cell];
+    prad[0] = 0.2 * dr;
+    pw[0] = 1234.5;
+    phi[0] = phl[0] = psl[0] = ptx[0] = pty[0] = psw[0] = pia[0] = piv[0] = 0.0;
+    ofx_grid og = as_ofx(&g, "test corners");
+    ofx_meta m = {.title = "land", .cycle_time = 0.0};
+    snprintf(path, sizeof path, "%s/land.nc", dir);
+    ofx_writer *w = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    ofx_particles o = particles(1);
+    ok = ofx_open(&w, &og, &m, path, &err) == SPH_OK && ofx_add_particles(w, &o, &err) == SPH_OK &&
+         ofx_write_record(w, 0.0, 100.0, &err) == SPH_OK && ofx_lost(w) == 0 && ofx_close(w, &err) == SPH_OK;
+    CHECK(ok, "a particle on land: placed: %s", err.msg);
+    ok = ok && !read_record(path, "siflfwbot", 0, n, f1);
+    size_t got = (size_t)-1, nz = 0;
+    double best = HUGE_VAL;
+    size_t nearest = 0;
+    for (size_t c = 0; ok && c < n; c++) {
+        if (!g.land[c] && f1[c] != 0.0) {
+            got = c;
+            nz++;
+        }
+        double dd = hypot(g.cx[c] - px[0], g.cy[c] - py[0]);
+        if (!g.land[c] && dd < best) {
+            best = dd;
+            nearest = c;
+        }
+    }
+    CHECK(ok && nz == 1 && got == nearest, "a particle on land goes whole to the nearest water cell (%zu, want %zu)",
+          got, nearest);
+    CHECK(ok && got < n && fabs(f1[got] * g.area[got] * 100.0 - 1234.5) <= 1e-10 * 1234.5,
+          "and it conserves: %.17g kg", ok && got < n ? f1[got] * g.area[got] * 100.0 : NAN);
+}
+
+/* Steady free drift, then the particle's stress on a rotated grid around it. */
+static void drag(void)
+{
+    sph_params p;
+    sph_params_default(&p);
+    p.physics = SPH_PHYSICS_FREE_DRIFT;
+    p.thermo_dt = 0;
+    p.coriolis = 0;
+    p.turn_water = 25.0;
+    p.thermo.ocean_fluxes = 1;
+    sph_model *m = sph_model_create(&p, 1, NULL);
+    sph_particles *P = sph_model_particles(m);
+    lattice_fill(P, &p, 1, 1, 0, 0, 2000.0, 0.5, 0.9, 40.0);
+    const double uw = -0.08, vw = 0.12;
+    lattice_set_forcing(P, 4.0, 9.0, uw, vw, 0, 0);
+    sph_status st;
+    CHECK(sph_model_init(m, &st) == 0, "init");
+    int ok = 1;
+    for (int s = 0; s < 3000 && ok; s++)
+        ok = sph_model_step(m, &st) == 0;
+    P->ofx_taux[0] = P->ofx_tauy[0] = 0.0;
+    const int nsum = 40;
+    for (int s = 0; s < nsum && ok; s++)
+        ok = sph_model_step(m, &st) == 0;
+    CHECK(ok, "steps: %s", st.what);
+    double fp = P->mass[0] / P->dens[0], T = nsum * p.dt;
+    double dux = uw - P->u[0], duy = vw - P->v[0], sp = hypot(dux, duy), th = 25.0 * DEG;
+    double dx_ = p.rho_w * p.Cw * sp * (cos(th) * dux - sin(th) * duy);
+    double dy_ = p.rho_w * p.Cw * sp * (sin(th) * dux + cos(th) * duy);
+    static cgrid g;
+    rotated(&g, 9, 9, 1000.0, -20.0);
+    for (int c = 0; c < g.nx * g.ny; c++) { /* centred on the particle */
+        g.cx[c] += P->x[0];
+        g.cy[c] += P->y[0];
+        for (int v = 0; v < 4; v++) {
+            g.bx[4 * c + v] += P->x[0];
+            g.by[4 * c + v] += P->y[0];
+        }
+    }
+    ofx_grid og = as_ofx(&g, "test corners");
+    ofx_meta meta = {.title = "drag", .cycle_time = 0.0};
+    char path[1024];
+    snprintf(path, sizeof path, "%s/drag.nc", dir);
+    ofx_writer *w = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    double rad = 2500.0, zero = 0.0, ia = fp, iv = fp;
+    ofx_particles o = {.n = 1, .x = P->x, .y = P->y, .radius = &rad, .heat_ice = &zero, .heat_lead = &zero,
+                       .water = &zero, .salt = &zero, .taux = P->ofx_taux, .tauy = P->ofx_tauy, .swbase = &zero,
+                       .ice_area = &ia, .ice_volume = &iv};
+    ok = ofx_open(&w, &og, &meta, path, &err) == SPH_OK && ofx_add_particles(w, &o, &err) == SPH_OK &&
+         ofx_write_record(w, 0.0, T, &err) == SPH_OK && ofx_close(w, &err) == SPH_OK;
+    CHECK(ok, "drag file: %s", err.msg);
+    size_t n = (size_t)g.nx * g.ny;
+    ok = ok && !read_record(path, "tauuo", 0, n, f1) && !read_record(path, "tauvo", 0, n, f2) &&
+         !read_record(path, "angle", 0, n, ang);
+    double sx = 0.0, sy = 0.0;
+    for (size_t c = 0; ok && c < n; c++) {
+        sx += (f1[c] * cos(ang[c]) - f2[c] * sin(ang[c])) * g.area[c];
+        sy += (f1[c] * sin(ang[c]) + f2[c] * cos(ang[c])) * g.area[c];
+    }
+    CHECK(ok, "drag file read");
+    CHECK_CLOSE(sx / fp, -dx_, 1e-10, 0, "file on a rotated grid: stress on the ocean x = minus the water drag");
+    CHECK_CLOSE(sy / fp, -dy_, 1e-10, 0, "file on a rotated grid: stress on the ocean y = minus the water drag");
+    printf("  stress on the ocean (%.12g, %.12g) N/m2, minus the drag (%.12g, %.12g)\n", sx / fp, sy / fp, -dx_,
+           -dy_);
+    sph_model_free(m);
+}
+
+/* Grids the writer cannot orient: one line, nothing written. */
+static void refused(void)
+{
+    static cgrid g;
+    rotated(&g, 6, 5, 1000.0, 0.0);
+    for (int c = 0; c < g.nx * g.ny; c++) { /* corners clockwise: a left-handed grid */
+        double t = g.bx[4 * c + 1];
+        g.bx[4 * c + 1] = g.bx[4 * c + 3];
+        g.bx[4 * c + 3] = t;
+        t = g.by[4 * c + 1];
+        g.by[4 * c + 1] = g.by[4 * c + 3];
+        g.by[4 * c + 3] = t;
+    }
+    ofx_grid og = as_ofx(&g, "test corners");
+    ofx_meta m = {.title = "bad", .cycle_time = 0.0};
+    char path[1024];
+    snprintf(path, sizeof path, "%s/bad.nc", dir);
+    ofx_writer *w = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    int rc = ofx_open(&w, &og, &m, path, &err);
+    CHECK(rc != SPH_OK && strstr(err.msg, "anticlockwise") && strstr(err.msg, "output.ocean_fluxes_grid") &&
+              !strchr(err.msg, '\n') && access(path, F_OK) != 0,
+          "clockwise corners refused in one line: %s", err.msg);
+    /* a skewed grid: j at 45 degrees from i */
+    rotated(&g, 6, 5, 1000.0, 0.0);
+    for (int c = 0; c < g.nx * g.ny; c++) {
+        double sh = 1.0; /* x += y: the j axis at 45 degrees */
+        g.cx[c] += sh * g.cy[c];
+        for (int v = 0; v < 4; v++)
+            g.bx[4 * c + v] += sh * g.by[4 * c + v];
+    }
+    sph_error_clear(&err);
+    og = as_ofx(&g, "test corners");
+    rc = ofx_open(&w, &og, &m, path, &err);
+    CHECK(rc != SPH_OK && strstr(err.msg, "45.0 degrees") && !strchr(err.msg, '\n') && access(path, F_OK) != 0,
+          "a skewed grid refused in one line: %s", err.msg);
+}
+
+int main(void)
+{
+    if (!mkdtemp(dir)) {
+        perror("mkdtemp");
+        return 1;
+    }
+    rotated_grid();
+    bent_grid();
+    drag();
+    refused();
+    char cmd[256];
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    if (system(cmd) != 0)
+        fprintf(stderr, "could not remove %s\n", dir);
+    return check_summary("test_ocean_fluxes_curv");
+}
