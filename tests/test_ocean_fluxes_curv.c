@@ -17,7 +17,15 @@
  *    areas, over the footprint equal -rho_w C_w |U_w - u| R(theta) (U_w - u)
  *    computed here within 1e-10;
  *  - grids the writer cannot orient (left-handed corners, a skewed grid)
- *    are refused with one line. */
+ *    are refused with one line;
+ *  - the reader (io/ocean_grid.h): a NEMO/XIOS-style file (nav_lon/nav_lat
+ *    with bounds_nav_lon/bounds_nav_lat (y, x, nvertex), zos with
+ *    _FillValue 1e20 on land) gives the file's corners, its land, the
+ *    cells over a box, and areas of the sphere R^2 dlon (sin lat_n -
+ *    sin lat_s) within 1e-4 (the corners joined by great circles, not
+ *    parallels); a file without coordinates and a rotated-pole file
+ *    without 2-D latitude/longitude are refused in one line naming the
+ *    file, the variable and the key. */
 #include <math.h>
 #include <netcdf.h>
 #include <stdio.h>
@@ -28,6 +36,7 @@
 #include "check.h"
 #include "core/model.h"
 #include "io/ocean_fluxes.h"
+#include "io/ocean_grid.h"
 #include "lattice.h"
 
 #define DEG (M_PI / 180.0)
@@ -491,6 +500,168 @@ static void refused(void)
           "a skewed grid refused in one line: %s", err.msg);
 }
 
+
+/* NEMO output as XIOS writes it: 8 x 6 cells of 0.1 degree from
+ * (121.0 E, 40.0 N), land from x = 6 east. */
+static void nemo_file(const char *path)
+{
+    enum { NX = 8, NY = 6 };
+    int nc, dx, dy, dv, dt, vlon, vlat, vbl, vbb, vt, vz;
+    nc_create(path, NC_NETCDF4 | NC_CLOBBER, &nc);
+    nc_def_dim(nc, "x", NX, &dx);
+    nc_def_dim(nc, "y", NY, &dy);
+    nc_def_dim(nc, "nvertex", 4, &dv);
+    nc_def_dim(nc, "time_counter", NC_UNLIMITED, &dt);
+    int d2[2] = {dy, dx}, d3[3] = {dy, dx, dv}, dz[3] = {dt, dy, dx};
+    nc_def_var(nc, "nav_lat", NC_DOUBLE, 2, d2, &vlat);
+    nc_put_att_text(nc, vlat, "standard_name", 8, "latitude");
+    nc_put_att_text(nc, vlat, "units", 13, "degrees_north");
+    nc_put_att_text(nc, vlat, "bounds", 14, "bounds_nav_lat");
+    nc_def_var(nc, "nav_lon", NC_DOUBLE, 2, d2, &vlon);
+    nc_put_att_text(nc, vlon, "standard_name", 9, "longitude");
+    nc_put_att_text(nc, vlon, "units", 12, "degrees_east");
+    nc_put_att_text(nc, vlon, "bounds", 14, "bounds_nav_lon");
+    nc_def_var(nc, "bounds_nav_lat", NC_DOUBLE, 3, d3, &vbb);
+    nc_def_var(nc, "bounds_nav_lon", NC_DOUBLE, 3, d3, &vbl);
+    nc_def_var(nc, "time_counter", NC_DOUBLE, 1, &dt, &vt);
+    nc_put_att_text(nc, vt, "standard_name", 4, "time");
+    nc_put_att_text(nc, vt, "units", 33, "seconds since 1900-01-01 00:00:00");
+    nc_def_var(nc, "zos", NC_FLOAT, 3, dz, &vz);
+    nc_put_att_text(nc, vz, "standard_name", 30, "sea_surface_height_above_geoid");
+    nc_put_att_text(nc, vz, "units", 1, "m");
+    nc_put_att_text(nc, vz, "coordinates", 29, "time_centered nav_lat nav_lon");
+    float fv = 1e20f;
+    nc_put_att_float(nc, vz, "_FillValue", NC_FLOAT, 1, &fv);
+    nc_put_att_float(nc, vz, "missing_value", NC_FLOAT, 1, &fv);
+    nc_enddef(nc);
+    double lon[NY * NX], lat[NY * NX], bl[NY * NX * 4], bb[NY * NX * 4], t = 3.1e9;
+    float z[NY * NX];
+    static const double off[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    for (int c = 0; c < NX * NY; c++) {
+        lon[c] = 121.05 + 0.1 * (c % NX);
+        lat[c] = 40.05 + 0.1 * (c / NX);
+        for (int v = 0; v < 4; v++) {
+            bl[4 * c + v] = lon[c] + 0.05 * off[v][0];
+            bb[4 * c + v] = lat[c] + 0.05 * off[v][1];
+        }
+        z[c] = c % NX >= 6 ? 1e20f : 0.1f;
+    }
+    size_t st[3] = {0, 0, 0}, ct[3] = {1, NY, NX}, t0 = 0;
+    nc_put_var_double(nc, vlat, lat);
+    nc_put_var_double(nc, vlon, lon);
+    nc_put_var_double(nc, vbb, bb);
+    nc_put_var_double(nc, vbl, bl);
+    nc_put_var1_double(nc, vt, &t0, &t);
+    nc_put_vara_float(nc, vz, st, ct, z);
+    nc_close(nc);
+}
+
+/* A 2-D field without coordinates, or on a CF rotated pole (the CF
+ * conventions' example: grid_north_pole_latitude 39.25,
+ * grid_north_pole_longitude -162) with only its 1-D rlon/rlat. */
+static void bad_file(const char *path, int rotated)
+{
+    int nc, dx, dy, vx, vy, vg, vu;
+    nc_create(path, NC_NETCDF4 | NC_CLOBBER, &nc);
+    nc_def_dim(nc, rotated ? "rlon" : "x", 6, &dx);
+    nc_def_dim(nc, rotated ? "rlat" : "y", 5, &dy);
+    int d2[2] = {dy, dx};
+    if (rotated) {
+        nc_def_var(nc, "rlon", NC_DOUBLE, 1, &dx, &vx);
+        nc_put_att_text(nc, vx, "standard_name", 14, "grid_longitude");
+        nc_put_att_text(nc, vx, "units", 7, "degrees");
+        nc_def_var(nc, "rlat", NC_DOUBLE, 1, &dy, &vy);
+        nc_put_att_text(nc, vy, "standard_name", 13, "grid_latitude");
+        nc_put_att_text(nc, vy, "units", 7, "degrees");
+        nc_def_var(nc, "rotated_pole", NC_CHAR, 0, NULL, &vg);
+        nc_put_att_text(nc, vg, "grid_mapping_name", 26, "rotated_latitude_longitude");
+        double plat = 39.25, plon = -162.0;
+        nc_put_att_double(nc, vg, "grid_north_pole_latitude", NC_DOUBLE, 1, &plat);
+        nc_put_att_double(nc, vg, "grid_north_pole_longitude", NC_DOUBLE, 1, &plon);
+    }
+    nc_def_var(nc, "uo", NC_FLOAT, 2, d2, &vu);
+    nc_put_att_text(nc, vu, "standard_name", 27, "eastward_sea_water_velocity");
+    nc_put_att_text(nc, vu, "units", 5, "m s-1");
+    if (rotated)
+        nc_put_att_text(nc, vu, "grid_mapping", 12, "rotated_pole");
+    nc_enddef(nc);
+    float u[30];
+    for (int k = 0; k < 30; k++)
+        u[k] = 0.1f;
+    nc_put_var_float(nc, vu, u);
+    if (rotated) {
+        double a[6];
+        for (int k = 0; k < 6; k++)
+            a[k] = -1.0 + 0.44 * k;
+        nc_put_var_double(nc, vx, a);
+        nc_put_var_double(nc, vy, a);
+    }
+    nc_close(nc);
+}
+
+static void reader(void)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/nemo_T.nc", dir);
+    nemo_file(path);
+    const double all[4] = {120.0, 123.0, 39.0, 41.5};
+    ocean_grid *g = NULL;
+    sph_error err;
+    sph_error_clear(&err);
+    int rc = ocean_grid_read(path, all, "output.ocean_fluxes_grid", &g, &err);
+    CHECK(rc == SPH_OK && g && g->nx == 8 && g->ny == 6, "NEMO file read: %s", err.msg);
+    if (rc == SPH_OK && g) {
+        CHECK(strstr(g->corners, "bounds_nav_lon") != NULL, "corners from the CF bounds: %s", g->corners);
+        int corners = 1, land = 1;
+        double worst = 0.0;
+        static const double off[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+        for (int c = 0; c < 48; c++) {
+            double lo = 121.05 + 0.1 * (c % 8), la = 40.05 + 0.1 * (c / 8);
+            for (int v = 0; v < 4; v++)
+                corners &= fabs(g->blon[4 * c + v] - (lo + 0.05 * off[v][0])) < 1e-12 &&
+                           fabs(g->blat[4 * c + v] - (la + 0.05 * off[v][1])) < 1e-12;
+            land &= g->land[c] == (c % 8 >= 6);
+            double want = 6371000.0 * 6371000.0 * 0.1 * DEG * (sin((la + 0.05) * DEG) - sin((la - 0.05) * DEG));
+            worst = fmax(worst, fabs(g->area[c] - want) / want);
+        }
+        CHECK(corners, "the cells' corners are the file's bounds");
+        CHECK(land, "land where zos is fill");
+        printf("  NEMO file: areas against R^2 dlon (sin lat_n - sin lat_s): worst %.3g relative (%s)\n", worst,
+               g->area_from);
+        CHECK(worst <= 1e-4, "areas of the sphere within 1e-4 (%.3g)", worst);
+    }
+    ocean_grid_free(g);
+    /* the cells whose centres lie within the box widened by 0.1 degree
+     * (the neighbours' spacing): box 121.26..121.34 E, 40.16..40.24 N
+     * widened to 121.16..121.44, 40.06..40.34: centres 121.25, 121.35 (i 2,
+     * 3) and 40.15, 40.25 (j 1, 2); box 121.21..121.24 E: 121.11..121.34, i 1, 2 */
+    const double box[4] = {121.26, 121.34, 40.16, 40.24}, box2[4] = {121.21, 121.24, 40.16, 40.24};
+    g = NULL;
+    rc = ocean_grid_read(path, box, "output.ocean_fluxes_grid", &g, &err);
+    CHECK(rc == SPH_OK && g && g->i0 == 2 && g->j0 == 1 && g->nx == 2 && g->ny == 2,
+          "the cells over a box: i %d +%d, j %d +%d", g ? g->i0 : -1, g ? g->nx : -1, g ? g->j0 : -1, g ? g->ny : -1);
+    ocean_grid_free(g);
+    g = NULL;
+    rc = ocean_grid_read(path, box2, "output.ocean_fluxes_grid", &g, &err);
+    CHECK(rc == SPH_OK && g && g->i0 == 1 && g->j0 == 1 && g->nx == 2 && g->ny == 2,
+          "the cells over a box: i %d +%d, j %d +%d", g ? g->i0 : -1, g ? g->nx : -1, g ? g->j0 : -1, g ? g->ny : -1);
+    ocean_grid_free(g);
+
+    const char *names[2] = {"nocoords.nc", "rotpole.nc"};
+    for (int k = 0; k < 2; k++) {
+        snprintf(path, sizeof path, "%s/%s", dir, names[k]);
+        bad_file(path, k);
+        g = NULL;
+        sph_error_clear(&err);
+        rc = ocean_grid_read(path, all, "output.ocean_fluxes_grid", &g, &err);
+        CHECK(rc != SPH_OK && !g && strstr(err.msg, path) && strstr(err.msg, "variable uo") &&
+                  strstr(err.msg, "output.ocean_fluxes_grid") && !strchr(err.msg, '\n') &&
+                  (k == 0 || strstr(err.msg, "rotated_latitude_longitude")),
+              "%s refused in one line naming the file, the variable and the key: %s", names[k], err.msg);
+        printf("  %s: %s\n", names[k], err.msg);
+    }
+}
+
 int main(void)
 {
     if (!mkdtemp(dir)) {
@@ -501,6 +672,7 @@ int main(void)
     bent_grid();
     drag();
     refused();
+    reader();
     char cmd[256];
     snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
     if (system(cmd) != 0)

@@ -21,10 +21,11 @@
  * Land: landmask_read_model's choice (a mask variable whose flags or ROMS
  * name say which value is land, else the fill of a current or sea-surface
  * height), on the same dimensions as the centres.
- * Only the cells over the box (lon_min, lon_max, lat_min, lat_max; a cell
- * whose corners' extent meets it), as the rectangle of indices holding
- * them, are kept; longitudes are moved by whole turns to within 180
- * degrees of the box's centre. */
+ * Only the cells over the box (lon_min, lon_max, lat_min, lat_max: a cell
+ * whose centre lies within the box widened by the largest longitude or
+ * latitude difference to its neighbouring centres), as the rectangle of
+ * indices holding them, are kept; longitudes are moved by whole turns to
+ * within 180 degrees of the box's centre. */
 #ifndef SPHICE_IO_OCEAN_GRID_H
 #define SPHICE_IO_OCEAN_GRID_H
 
