@@ -26,6 +26,7 @@
  *    parallels); a file without coordinates and a rotated-pole file
  *    without 2-D latitude/longitude are refused in one line naming the
  *    file, the variable and the key. */
+#include <dirent.h>
 #include <math.h>
 #include <netcdf.h>
 #include <stdio.h>
@@ -37,7 +38,7 @@
 #include "core/model.h"
 #include "io/ocean_fluxes.h"
 #include "io/ocean_grid.h"
-#include "lattice.h"
+#include "ofx_drift.h"
 
 #define DEG (M_PI / 180.0)
 #define CLOSE(got, want, tol, ...)                       \
@@ -48,13 +49,13 @@
     } while (0)
 
 static char dir[] = "/tmp/sphice-ofxc-XXXXXX";
-static unsigned long long rs = 0x9E3779B97F4A7C15ull;
-static double rnd(void)
+static unsigned long long rs = 12345u;
+static double rnd(void) /* splitmix64 */
 {
-    rs ^= rs << 13;
-    rs ^= rs >> 7;
-    rs ^= rs << 17;
-    return (double)(rs >> 11) / 9007199254740992.0;
+    unsigned long long z = (rs += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return (double)((z ^ (z >> 31)) >> 11) / 9007199254740992.0;
 }
 
 /* A grid built on the plane: centres, corners (anticlockwise), polygon
@@ -196,6 +197,35 @@ static double integral(const char *path, const char *name, const cgrid *g, doubl
     return s;
 }
 
+/* The first np particles into one record of dt s in DIR/NAME.nc (path);
+ * *lost: those the writer could not place. 1 on success. */
+/* Opens DIR/NAME.nc (path) on g: ofx_open's status, *w, *err. */
+static int open_on(cgrid *g, const char *name, char *path, size_t len, ofx_writer **w, sph_error *err)
+{
+    ofx_grid og = as_ofx(g, "test corners");
+    ofx_meta m = {.title = name, .cycle_time = 0.0};
+    snprintf(path, len, "%s/%s.nc", dir, name);
+    *w = NULL;
+    sph_error_clear(err);
+    return ofx_open(w, &og, &m, path, err);
+}
+
+static int write_one(cgrid *g, const char *name, size_t np, double dt, char *path, size_t len, size_t *lost)
+{
+    ofx_writer *w;
+    sph_error err;
+    ofx_particles o = particles(np);
+    int ok = open_on(g, name, path, len, &w, &err) == SPH_OK && ofx_add_particles(w, &o, &err) == SPH_OK &&
+             ofx_write_record(w, 0.0, dt, &err) == SPH_OK;
+    *lost = ofx_lost(w);
+    if (ok)
+        ok = ofx_close(w, &err) == SPH_OK;
+    else
+        ofx_abort(w);
+    CHECK(ok, "%s: file written: %s", name, err.msg);
+    return ok;
+}
+
 /* A random point inside cell c (bilinear in its corners). */
 static void inside(const cgrid *g, int c, double *x, double *y)
 {
@@ -225,20 +255,9 @@ static int conservation(cgrid *g, const char *name, double cell, int off, char *
         pia[k] = 1e6 * rnd();
         piv[k] = 0.7 * pia[k] * rnd();
     }
-    ofx_grid og = as_ofx(g, "test corners");
-    ofx_meta m = {.title = name, .cycle_time = 0.0};
-    snprintf(path, len, "%s/%s.nc", dir, name);
-    ofx_writer *w = NULL;
-    sph_error err;
-    sph_error_clear(&err);
-    ofx_particles o = particles(NP);
     const double dt = 1800.0;
-    int ok = ofx_open(&w, &og, &m, path, &err) == SPH_OK && ofx_add_particles(w, &o, &err) == SPH_OK &&
-             ofx_write_record(w, 0.0, dt, &err) == SPH_OK;
-    size_t lost = ofx_lost(w);
-    ok = ok && ofx_close(w, &err) == SPH_OK;
-    CHECK(ok, "%s: file written: %s", name, err.msg);
-    if (!ok)
+    size_t lost = 0;
+    if (!write_one(g, name, NP, dt, path, len, &lost))
         return -1;
     CHECK(lost == (size_t)off, "%s: the %d particles off the grid are counted, not placed (%zu)", name, off, lost);
     int n1 = NP - off;
@@ -283,6 +302,31 @@ static int conservation(cgrid *g, const char *name, double cell, int off, char *
     return 0;
 }
 
+/* The file's angle against 30 degrees (polar: each centre's polar angle,
+ * the bent grid's radial i axis); the worst difference, HUGE_VAL unread. */
+static double angle_worst(const char *path, const cgrid *g, int polar)
+{
+    size_t n = (size_t)g->nx * g->ny;
+    if (read_record(path, "angle", 0, n, ang))
+        return HUGE_VAL;
+    double worst = 0.0;
+    for (size_t c = 0; c < n; c++)
+        worst = fmax(worst, fabs(ang[c] - (polar ? atan2(g->cy[c], g->cx[c]) : 30.0 * DEG)));
+    return worst;
+}
+
+/* conservation() and the file's angle: 30 degrees, or (polar) each
+ * centre's polar angle, within 1e-12. 0 when the file was written. */
+static int grid_case(cgrid *g, const char *name, double cell, int off, int polar, char *path, size_t len)
+{
+    if (conservation(g, name, cell, off, path, len))
+        return -1;
+    double worst = angle_worst(path, g, polar);
+    CHECK(worst <= 1e-12, "%s: angle = %s in every cell (worst %.3g rad)", name,
+          polar ? "the polar angle of the centre" : "30 degrees", worst);
+    return 0;
+}
+
 static void rotated_grid(void)
 {
     static cgrid g;
@@ -291,14 +335,10 @@ static void rotated_grid(void)
     for (int c = 0; c < g.nx * g.ny; c++) /* a land block in one corner and a strip */
         g.land[c] = (c % g.nx >= 27 && c / g.nx >= 17) || (c % g.nx == 10 && c / g.nx < 8);
     char path[1024];
-    if (conservation(&g, "rotated", d, 12, path, sizeof path))
+    if (grid_case(&g, "rotated", d, 12, 0, path, sizeof path))
         return;
     size_t n = (size_t)g.nx * g.ny;
-    int ok = !read_record(path, "angle", 0, n, ang);
-    double worst = 0.0;
-    for (size_t c = 0; ok && c < n; c++)
-        worst = fmax(worst, fabs(ang[c] - 30.0 * DEG));
-    CHECK(ok && worst <= 1e-12, "rotated: angle = 30 degrees in every cell (worst %.3g rad)", worst);
+    int ok;
 
     /* a uniform eastward stress: tau_i = |tau| cos 30, tau_j = -|tau| sin 30 per cell */
     for (int k = 0; k < NP; k++) {
@@ -308,16 +348,8 @@ static void rotated_grid(void)
         inside(&g, (int)(rnd() * g.nx * g.ny) % (g.nx * g.ny), &px[k], &py[k]);
         prad[k] = d * (0.3 + 2.0 * rnd());
     }
-    ofx_grid og = as_ofx(&g, "test corners");
-    ofx_meta m = {.title = "east", .cycle_time = 0.0};
-    snprintf(path, sizeof path, "%s/east.nc", dir);
-    ofx_writer *w = NULL;
-    sph_error err;
-    sph_error_clear(&err);
-    ofx_particles o = particles(NP);
-    ok = ofx_open(&w, &og, &m, path, &err) == SPH_OK && ofx_add_particles(w, &o, &err) == SPH_OK &&
-         ofx_write_record(w, 0.0, 600.0, &err) == SPH_OK && ofx_close(w, &err) == SPH_OK;
-    CHECK(ok, "eastward stress file: %s", err.msg);
+    size_t lost = 0;
+    ok = write_one(&g, "east", NP, 600.0, path, sizeof path, &lost);
     static double mag[MAXC];
     ok = ok && !read_record(path, "tauuo", 0, n, f1) && !read_record(path, "tauvo", 0, n, f2) &&
          !read_record(path, "siflfwbot", 0, n, mag);
@@ -344,14 +376,10 @@ static void bent_grid(void)
     for (int c = 0; c < g.nx * g.ny; c++) /* the coast: the outer radii of the first rows */
         g.land[c] = c % g.nx >= 23 && c / g.nx < 12;
     char path[1024];
-    if (conservation(&g, "bent", dr, 7, path, sizeof path))
+    if (grid_case(&g, "bent", dr, 7, 1, path, sizeof path))
         return;
     size_t n = (size_t)g.nx * g.ny;
-    int ok = !read_record(path, "angle", 0, n, ang);
-    double worst = 0.0;
-    for (size_t c = 0; ok && c < n; c++)
-        worst = fmax(worst, fabs(ang[c] - atan2(g.cy[c], g.cx[c])));
-    CHECK(ok && worst <= 1e-12, "bent: angle = the polar angle of each centre (worst %.3g rad)", worst);
+    int ok;
 
     /* one particle wholly inside a land cell next to the water: the
      * nearest water cell takes all */
@@ -361,16 +389,9 @@ static void bent_grid(void)
     prad[0] = 0.2 * dr;
     pw[0] = 1234.5;
     phi[0] = phl[0] = psl[0] = ptx[0] = pty[0] = psw[0] = pia[0] = piv[0] = 0.0;
-    ofx_grid og = as_ofx(&g, "test corners");
-    ofx_meta m = {.title = "land", .cycle_time = 0.0};
-    snprintf(path, sizeof path, "%s/land.nc", dir);
-    ofx_writer *w = NULL;
-    sph_error err;
-    sph_error_clear(&err);
-    ofx_particles o = particles(1);
-    ok = ofx_open(&w, &og, &m, path, &err) == SPH_OK && ofx_add_particles(w, &o, &err) == SPH_OK &&
-         ofx_write_record(w, 0.0, 100.0, &err) == SPH_OK && ofx_lost(w) == 0 && ofx_close(w, &err) == SPH_OK;
-    CHECK(ok, "a particle on land: placed: %s", err.msg);
+    size_t lost = 1;
+    ok = write_one(&g, "land", 1, 100.0, path, sizeof path, &lost) && lost == 0;
+    CHECK(ok, "a particle on land: placed (lost %zu)", lost);
     ok = ok && !read_record(path, "siflfwbot", 0, n, f1);
     size_t got = (size_t)-1, nz = 0;
     double best = HUGE_VAL;
@@ -395,32 +416,12 @@ static void bent_grid(void)
 /* Steady free drift, then the particle's stress on a rotated grid around it. */
 static void drag(void)
 {
-    sph_params p;
-    sph_params_default(&p);
-    p.physics = SPH_PHYSICS_FREE_DRIFT;
-    p.thermo_dt = 0;
-    p.coriolis = 0;
-    p.turn_water = 25.0;
-    p.thermo.ocean_fluxes = 1;
-    sph_model *m = sph_model_create(&p, 1, NULL);
-    sph_particles *P = sph_model_particles(m);
-    lattice_fill(P, &p, 1, 1, 0, 0, 2000.0, 0.5, 0.9, 40.0);
-    const double uw = -0.08, vw = 0.12;
-    lattice_set_forcing(P, 4.0, 9.0, uw, vw, 0, 0);
-    sph_status st;
-    CHECK(sph_model_init(m, &st) == 0, "init");
-    int ok = 1;
-    for (int s = 0; s < 3000 && ok; s++)
-        ok = sph_model_step(m, &st) == 0;
-    P->ofx_taux[0] = P->ofx_tauy[0] = 0.0;
-    const int nsum = 40;
-    for (int s = 0; s < nsum && ok; s++)
-        ok = sph_model_step(m, &st) == 0;
-    CHECK(ok, "steps: %s", st.what);
-    double fp = P->mass[0] / P->dens[0], T = nsum * p.dt;
-    double dux = uw - P->u[0], duy = vw - P->v[0], sp = hypot(dux, duy), th = 25.0 * DEG;
-    double dx_ = p.rho_w * p.Cw * sp * (cos(th) * dux - sin(th) * duy);
-    double dy_ = p.rho_w * p.Cw * sp * (sin(th) * dux + cos(th) * duy);
+    ofx_drift dr;
+    int ok = ofx_drift_run(&dr, 4.0, 9.0, -0.08, 0.12, 40) == 0;
+    CHECK(ok, "free drift");
+    sph_model *m = dr.m;
+    sph_particles *P = dr.P;
+    double fp = dr.fp, T = dr.T, dx_ = dr.drag[0], dy_ = dr.drag[1];
     static cgrid g;
     rotated(&g, 9, 9, 1000.0, -20.0);
     for (int c = 0; c < g.nx * g.ny; c++) { /* centred on the particle */
@@ -431,20 +432,16 @@ static void drag(void)
             g.by[4 * c + v] += P->y[0];
         }
     }
-    ofx_grid og = as_ofx(&g, "test corners");
-    ofx_meta meta = {.title = "drag", .cycle_time = 0.0};
     char path[1024];
-    snprintf(path, sizeof path, "%s/drag.nc", dir);
-    ofx_writer *w = NULL;
-    sph_error err;
-    sph_error_clear(&err);
-    double rad = 2500.0, zero = 0.0, ia = fp, iv = fp;
-    ofx_particles o = {.n = 1, .x = P->x, .y = P->y, .radius = &rad, .heat_ice = &zero, .heat_lead = &zero,
-                       .water = &zero, .salt = &zero, .taux = P->ofx_taux, .tauy = P->ofx_tauy, .swbase = &zero,
-                       .ice_area = &ia, .ice_volume = &iv};
-    ok = ofx_open(&w, &og, &meta, path, &err) == SPH_OK && ofx_add_particles(w, &o, &err) == SPH_OK &&
-         ofx_write_record(w, 0.0, T, &err) == SPH_OK && ofx_close(w, &err) == SPH_OK;
-    CHECK(ok, "drag file: %s", err.msg);
+    px[0] = P->x[0];
+    py[0] = P->y[0];
+    prad[0] = 2500.0;
+    ptx[0] = P->ofx_taux[0];
+    pty[0] = P->ofx_tauy[0];
+    phi[0] = phl[0] = pw[0] = psl[0] = psw[0] = 0.0;
+    pia[0] = piv[0] = fp;
+    size_t lost = 1;
+    ok = write_one(&g, "drag", 1, T, path, sizeof path, &lost) && lost == 0;
     size_t n = (size_t)g.nx * g.ny;
     ok = ok && !read_record(path, "tauuo", 0, n, f1) && !read_record(path, "tauvo", 0, n, f2) &&
          !read_record(path, "angle", 0, n, ang);
@@ -474,14 +471,10 @@ static void refused(void)
         g.by[4 * c + 1] = g.by[4 * c + 3];
         g.by[4 * c + 3] = t;
     }
-    ofx_grid og = as_ofx(&g, "test corners");
-    ofx_meta m = {.title = "bad", .cycle_time = 0.0};
     char path[1024];
-    snprintf(path, sizeof path, "%s/bad.nc", dir);
-    ofx_writer *w = NULL;
+    ofx_writer *w;
     sph_error err;
-    sph_error_clear(&err);
-    int rc = ofx_open(&w, &og, &m, path, &err);
+    int rc = open_on(&g, "bad", path, sizeof path, &w, &err);
     CHECK(rc != SPH_OK && strstr(err.msg, "anticlockwise") && strstr(err.msg, "output.ocean_fluxes_grid") &&
               !strchr(err.msg, '\n') && access(path, F_OK) != 0,
           "clockwise corners refused in one line: %s", err.msg);
@@ -493,9 +486,7 @@ static void refused(void)
         for (int v = 0; v < 4; v++)
             g.bx[4 * c + v] += sh * g.by[4 * c + v];
     }
-    sph_error_clear(&err);
-    og = as_ofx(&g, "test corners");
-    rc = ofx_open(&w, &og, &m, path, &err);
+    rc = open_on(&g, "bad", path, sizeof path, &w, &err);
     CHECK(rc != SPH_OK && strstr(err.msg, "45.0 degrees") && !strchr(err.msg, '\n') && access(path, F_OK) != 0,
           "a skewed grid refused in one line: %s", err.msg);
 }
@@ -513,14 +504,16 @@ static void nemo_file(const char *path)
     nc_def_dim(nc, "nvertex", 4, &dv);
     nc_def_dim(nc, "time_counter", NC_UNLIMITED, &dt);
     int d2[2] = {dy, dx}, d3[3] = {dy, dx, dv}, dz[3] = {dt, dy, dx};
-    nc_def_var(nc, "nav_lat", NC_DOUBLE, 2, d2, &vlat);
-    nc_put_att_text(nc, vlat, "standard_name", 8, "latitude");
-    nc_put_att_text(nc, vlat, "units", 13, "degrees_north");
-    nc_put_att_text(nc, vlat, "bounds", 14, "bounds_nav_lat");
-    nc_def_var(nc, "nav_lon", NC_DOUBLE, 2, d2, &vlon);
-    nc_put_att_text(nc, vlon, "standard_name", 9, "longitude");
-    nc_put_att_text(nc, vlon, "units", 12, "degrees_east");
-    nc_put_att_text(nc, vlon, "bounds", 14, "bounds_nav_lon");
+    /* name, standard_name, units, bounds */
+    static const char *const co[2][4] = {{"nav_lat", "latitude", "degrees_north", "bounds_nav_lat"},
+                                         {"nav_lon", "longitude", "degrees_east", "bounds_nav_lon"}};
+    for (int k = 0; k < 2; k++) {
+        int *v = k ? &vlon : &vlat;
+        nc_def_var(nc, co[k][0], NC_DOUBLE, 2, d2, v);
+        for (int a = 1; a < 4; a++)
+            nc_put_att_text(nc, *v, a == 1 ? "standard_name" : a == 2 ? "units" : "bounds", strlen(co[k][a]),
+                            co[k][a]);
+    }
     nc_def_var(nc, "bounds_nav_lat", NC_DOUBLE, 3, d3, &vbb);
     nc_def_var(nc, "bounds_nav_lon", NC_DOUBLE, 3, d3, &vbl);
     nc_def_var(nc, "time_counter", NC_DOUBLE, 1, &dt, &vt);
@@ -671,14 +664,10 @@ static void cells(void)
     rotated(&g, 8, 6, 1000.0, 30.0);
     for (int c = 0; c < 48; c++)
         g.land[c] = c == 13;
-    ofx_grid og = as_ofx(&g, "test corners");
-    ofx_meta m = {.title = "cells", .cycle_time = 0.0};
     char path[1024];
-    snprintf(path, sizeof path, "%s/cells.nc", dir);
-    ofx_writer *w = NULL;
+    ofx_writer *w;
     sph_error err;
-    sph_error_clear(&err);
-    CHECK(ofx_open(&w, &og, &m, path, &err) == SPH_OK, "open: %s", err.msg);
+    CHECK(open_on(&g, "cells", path, sizeof path, &w, &err) == SPH_OK, "open: %s", err.msg);
     if (!w)
         return;
     int found = 1;
@@ -718,19 +707,22 @@ static void cells(void)
 
 int main(void)
 {
-    if (!mkdtemp(dir)) {
-        perror("mkdtemp");
-        return 1;
+    int made = mkdtemp(dir) != NULL;
+    CHECK(made, "a temporary directory");
+    void (*const parts[])(void) = {rotated_grid, bent_grid, drag, refused, reader, cells};
+    for (size_t k = 0; made && k < sizeof parts / sizeof parts[0]; k++)
+        parts[k]();
+    /* the files are all directly in dir */
+    DIR *dd = made ? opendir(dir) : NULL;
+    for (struct dirent *de = dd ? readdir(dd) : NULL; de; de = readdir(dd)) {
+        char f[1024];
+        snprintf(f, sizeof f, "%s/%s", dir, de->d_name);
+        if (de->d_name[0] != '.')
+            unlink(f);
     }
-    rotated_grid();
-    bent_grid();
-    drag();
-    refused();
-    reader();
-    cells();
-    char cmd[256];
-    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
-    if (system(cmd) != 0)
-        fprintf(stderr, "could not remove %s\n", dir);
+    if (dd)
+        closedir(dd);
+    if (made)
+        rmdir(dir);
     return check_summary("test_ocean_fluxes_curv");
 }
