@@ -517,12 +517,14 @@ static void nemo_file(const char *path)
     nc_def_var(nc, "bounds_nav_lat", NC_DOUBLE, 3, d3, &vbb);
     nc_def_var(nc, "bounds_nav_lon", NC_DOUBLE, 3, d3, &vbl);
     nc_def_var(nc, "time_counter", NC_DOUBLE, 1, &dt, &vt);
-    nc_put_att_text(nc, vt, "standard_name", 4, "time");
-    nc_put_att_text(nc, vt, "units", 33, "seconds since 1900-01-01 00:00:00");
     nc_def_var(nc, "zos", NC_FLOAT, 3, dz, &vz);
-    nc_put_att_text(nc, vz, "standard_name", 30, "sea_surface_height_above_geoid");
-    nc_put_att_text(nc, vz, "units", 1, "m");
-    nc_put_att_text(nc, vz, "coordinates", 29, "time_centered nav_lat nav_lon");
+    static const char *const at[5][2] = {{"standard_name", "time"},
+                                         {"units", "seconds since 1900-01-01 00:00:00"},
+                                         {"standard_name", "sea_surface_height_above_geoid"},
+                                         {"units", "m"},
+                                         {"coordinates", "time_centered nav_lat nav_lon"}};
+    for (int a = 0; a < 5; a++)
+        nc_put_att_text(nc, a < 2 ? vt : vz, at[a][0], strlen(at[a][1]), at[a][1]);
     float fv = 1e20f;
     nc_put_att_float(nc, vz, "_FillValue", NC_FLOAT, 1, &fv);
     nc_put_att_float(nc, vz, "missing_value", NC_FLOAT, 1, &fv);

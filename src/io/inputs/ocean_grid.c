@@ -15,15 +15,11 @@
 
 void ocean_grid_free(ocean_grid *g)
 {
-    if (!g)
-        return;
-    free(g->lon);
-    free(g->lat);
-    free(g->blon);
-    free(g->blat);
-    free(g->area);
-    free(g->land);
-    free(g);
+    if (g) {
+        void *owned[] = {g->lon, g->lat, g->blon, g->blat, g->area, g->land, g};
+        for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++)
+            free(owned[k]);
+    }
 }
 
 /* The text attribute `name` of variable v into buf; 1 when it is there. */

@@ -119,28 +119,37 @@ int ofx_reserve(ofx_writer *w, size_t n, sph_error *err)
     return SPH_OK;
 }
 
+/* The centre bins within reach of (x, y): [i0, i1] x [j0, j1]. */
+static void centre_bins(const ofx_writer *w, double x, double y, double reach, int b[4])
+{
+    b[0] = (int)floor((x - reach - w->bx0) / w->bin);
+    b[1] = (int)floor((x + reach - w->bx0) / w->bin);
+    b[2] = (int)floor((y - reach - w->by0) / w->bin);
+    b[3] = (int)floor((y + reach - w->by0) / w->bin);
+    b[0] = b[0] < 0 ? 0 : b[0];
+    b[2] = b[2] < 0 ? 0 : b[2];
+    b[1] = b[1] >= w->nbx ? w->nbx - 1 : b[1];
+    b[3] = b[3] >= w->nby ? w->nby - 1 : b[3];
+}
+
 long ofx_nearest_water(const ofx_writer *w, double x, double y, double reach)
 {
     long best = -1;
     double bd = reach * reach;
-    int i0 = (int)floor((x - reach - w->bx0) / w->bin), i1 = (int)floor((x + reach - w->bx0) / w->bin);
-    int j0 = (int)floor((y - reach - w->by0) / w->bin), j1 = (int)floor((y + reach - w->by0) / w->bin);
-    i0 = i0 < 0 ? 0 : i0;
-    j0 = j0 < 0 ? 0 : j0;
-    i1 = i1 >= w->nbx ? w->nbx - 1 : i1;
-    j1 = j1 >= w->nby ? w->nby - 1 : j1;
-    for (int j = j0; j <= j1; j++)
-        for (int i = i0; i <= i1; i++) {
-            size_t b = (size_t)j * w->nbx + i;
-            for (size_t q = w->bstart[b]; q < w->bstart[b + 1]; q++) {
-                size_t c = w->bcell[q];
-                double dx = w->cx[c] - x, dy = w->cy[c] - y, d = dx * dx + dy * dy;
-                if (water(w, c) && (d < bd || (d == bd && best >= 0 && (long)c < best))) {
-                    bd = d;
-                    best = (long)c;
-                }
+    int b4[4];
+    centre_bins(w, x, y, reach, b4);
+    /* a row's bins i0..i1 hold consecutive cells of the index */
+    for (int j = b4[2]; j <= b4[3] && b4[0] <= b4[1]; j++) {
+        size_t row = (size_t)j * w->nbx, q1 = w->bstart[row + b4[1] + 1];
+        for (size_t q = w->bstart[row + b4[0]]; q < q1; q++) {
+            size_t c = w->bcell[q];
+            double d = (w->cx[c] - x) * (w->cx[c] - x) + (w->cy[c] - y) * (w->cy[c] - y);
+            if (water(w, c) && (d < bd || (d == bd && best >= 0 && (long)c < best))) {
+                bd = d;
+                best = (long)c;
             }
         }
+    }
     return best;
 }
 
@@ -446,16 +455,9 @@ static size_t place(ofx_writer *w, double x, double y, double R, sph_error *err,
     size_t cnt = 0;
     double sum = 0.0, reach = R + 2.0 * w->bin, best = HUGE_VAL, best_any = HUGE_VAL;
     size_t bestc = 0, bestc_any = 0;
-    int i0 = (int)floor((x - reach - w->bx0) / w->bin), i1 = (int)floor((x + reach - w->bx0) / w->bin);
-    int j0 = (int)floor((y - reach - w->by0) / w->bin), j1 = (int)floor((y + reach - w->by0) / w->bin);
-    if (i0 < 0)
-        i0 = 0;
-    if (j0 < 0)
-        j0 = 0;
-    if (i1 >= w->nbx)
-        i1 = w->nbx - 1;
-    if (j1 >= w->nby)
-        j1 = w->nby - 1;
+    int b4[4];
+    centre_bins(w, x, y, reach, b4);
+    int i0 = b4[0], i1 = b4[1], j0 = b4[2], j1 = b4[3];
     for (int j = j0; j <= j1; j++)
         for (int i = i0; i <= i1; i++) {
             size_t b = (size_t)j * w->nbx + i;
