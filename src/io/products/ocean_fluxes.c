@@ -153,6 +153,20 @@ long ofx_nearest_water(const ofx_writer *w, double x, double y, double reach)
     return best;
 }
 
+void ofx_fit_bins(double wx, double wy, size_t n, double *bin, int *nbx, int *nby)
+{
+    double fx = wx / *bin + 1.0, fy = wy / *bin + 1.0;
+    /* at most ~4 bins per cell: a plane far wider than its cells (a grid
+     * crossing the projection's edge) gets coarser bins */
+    while (fx * fy > 4.0 * (double)n + 16.0) {
+        *bin *= 2.0;
+        fx = wx / *bin + 1.0;
+        fy = wy / *bin + 1.0;
+    }
+    *nbx = (int)fx;
+    *nby = (int)fy;
+}
+
 /* Bins over the cells' centres (land too: it tells inside from outside),
  * side ~ the mean cell size. */
 static int build_index(ofx_writer *w, sph_error *err)
@@ -175,16 +189,7 @@ static int build_index(ofx_writer *w, sph_error *err)
     }
     w->bx0 = x0;
     w->by0 = y0;
-    double fx = (x1 - x0) / w->bin + 1.0, fy = (y1 - y0) / w->bin + 1.0;
-    /* at most ~4 bins per cell: a plane far wider than its cells (a grid
-     * crossing the projection's edge) gets coarser bins */
-    while (fx * fy > 4.0 * (double)w->n + 16.0) {
-        w->bin *= 2.0;
-        fx = (x1 - x0) / w->bin + 1.0;
-        fy = (y1 - y0) / w->bin + 1.0;
-    }
-    w->nbx = (int)fx;
-    w->nby = (int)fy;
+    ofx_fit_bins(x1 - x0, y1 - y0, w->n, &w->bin, &w->nbx, &w->nby);
     size_t nb = (size_t)w->nbx * (size_t)w->nby;
     w->bstart = calloc(nb + 1, sizeof *w->bstart);
     w->bcell = malloc((nw ? nw : 1) * sizeof *w->bcell);

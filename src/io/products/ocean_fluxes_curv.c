@@ -132,14 +132,7 @@ int ofxc_setup(ofx_writer *w, const ofx_grid *g, sph_error *err)
         x0 = x1 = y0 = y1 = 0.0;
     w->cbx0 = x0;
     w->cby0 = y0;
-    double fx = (x1 - x0) / w->cbin + 1.0, fy = (y1 - y0) / w->cbin + 1.0;
-    while (fx * fy > 4.0 * (double)n + 16.0) {
-        w->cbin *= 2.0;
-        fx = (x1 - x0) / w->cbin + 1.0;
-        fy = (y1 - y0) / w->cbin + 1.0;
-    }
-    w->cnbx = (int)fx;
-    w->cnby = (int)fy;
+    ofx_fit_bins(x1 - x0, y1 - y0, n, &w->cbin, &w->cnbx, &w->cnby);
     size_t nb = (size_t)w->cnbx * (size_t)w->cnby;
     w->cbstart = calloc(nb + 1, sizeof *w->cbstart);
     if (!w->cbstart)

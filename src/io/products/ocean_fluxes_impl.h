@@ -46,6 +46,9 @@ struct ofx_writer {
 int ofx_water_cell(const ofx_writer *w, size_t c);
 /* Room for n weights in w->w / w->wc; SPH_OK or an error. */
 int ofx_reserve(ofx_writer *w, size_t n, sph_error *err);
+/* Bins of side *bin (doubled until at most ~4 per cell) over a wx x wy
+ * box of n cells: *nbx x *nby. */
+void ofx_fit_bins(double wx, double wy, size_t n, double *bin, int *nbx, int *nby);
 /* The water cell whose plane centre is nearest (x, y) within reach, -1: none. */
 long ofx_nearest_water(const ofx_writer *w, double x, double y, double reach);
 
