@@ -45,7 +45,10 @@ typedef struct ocean_grid {
 } ocean_grid;
 
 /* Reads path's grid over box[4] = {lon_min, lon_max, lat_min, lat_max}.
- * Errors: one line naming the file, the variable and `key`. */
+ * Errors: one line naming the file, the variable and `key`;
+ * SPH_ERR_MISSING_VAR when the file has nothing to place cells by (no
+ * 2-D coordinates and no grid_mapping), SPH_ERR_CONFIG for a mapping
+ * without coordinates. */
 int ocean_grid_read(const char *path, const double box[4], const char *key, ocean_grid **out, sph_error *err);
 void ocean_grid_free(ocean_grid *g); /* NULL does nothing */
 

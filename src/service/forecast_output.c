@@ -453,9 +453,17 @@ static int ofx_ocean_grid(engine *e, const char *path, int *nx, int *ny, double 
     o.land_value = NAN;
     landmask *m = landmask_read_model(path, &o, err);
     if (!m || landmask_is_native(m)) { /* not a regular lon/lat grid: the curvilinear reader decides */
+        sph_error regular = *err;
+        int read = m != NULL;
         landmask_free(m);
         sph_error_clear(err);
-        return ofx_ocean_curv(e, path, nx, ny, cx, cy, land, err);
+        int rc = ofx_ocean_curv(e, path, nx, ny, cx, cy, land, err);
+        if (rc == SPH_ERR_MISSING_VAR && !read) { /* neither reader understood it: both reasons */
+            char mine[700];
+            snprintf(mine, sizeof mine, "%.690s", err->msg);
+            rc = sph_err_set(err, SPH_ERR_CONFIG, "%s (as a regular lon/lat grid: %.300s)", mine, regular.msg);
+        }
+        return rc;
     }
     int gx, gy;
     double lon0, lat0, dlon, dlat;

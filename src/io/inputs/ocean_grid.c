@@ -117,7 +117,7 @@ static int find_centres(int nc, int *vlon, int *vlat, char *data, size_t dlen, c
     }
     snprintf(why, wlen, "has no coordinates attribute naming 2-D latitude/longitude, and the file has no "
              "lon_rho/lat_rho or nav_lon/nav_lat and no grid_mapping");
-    return -1;
+    return -2;
 }
 
 static void unit(double lon, double lat, double *u)
@@ -309,8 +309,10 @@ int ocean_grid_read(const char *path, const double box[4], const char *key, ocea
     double *lon = NULL, *lat = NULL;
     ocean_grid *g = NULL;
     landmask *m = NULL;
-    if (find_centres(c.nc, &vlon, &vlat, data, sizeof data, why, sizeof why)) {
-        rc = sph_err_set(err, SPH_ERR_CONFIG, "%s: %s: variable %s %s: set %s to \"output\"", key, path,
+    int found = find_centres(c.nc, &vlon, &vlat, data, sizeof data, why, sizeof why);
+    if (found) { /* -1: a mapping without coordinates; -2: nothing to read positions from */
+        rc = sph_err_set(err, found == -2 ? SPH_ERR_MISSING_VAR : SPH_ERR_CONFIG,
+                         "%s: %s: variable %s %s: set %s to \"output\"", key, path,
                          data[0] ? data : "(none with two dimensions)", why, key);
         goto done;
     }
