@@ -25,6 +25,7 @@
 #include "core/model.h"
 #include "io/ocean_fluxes.h"
 #include "lattice.h"
+#include "ofx_drift.h"
 
 #define R_EARTH 6371000.0 /* the sphere of io/edge.h's cell areas */
 #define DEG (M_PI / 180.0)
@@ -279,35 +280,16 @@ static void plane_grid(void)
 /* Steady free drift without Coriolis: wind stress + water drag = 0. */
 static void stress(void)
 {
-    sph_params p;
-    sph_params_default(&p);
-    p.physics = SPH_PHYSICS_FREE_DRIFT;
-    p.thermo_dt = 0;
-    p.coriolis = 0;
-    p.turn_water = 25.0;
-    p.thermo.ocean_fluxes = 1;
-    sph_model *m = sph_model_create(&p, 1, NULL);
-    sph_particles *P = sph_model_particles(m);
-    lattice_fill(P, &p, 1, 1, 0, 0, 2000.0, 0.5, 0.9, 40.0);
     const double ua = 8.0, va = -3.0, uw = 0.10, vw = 0.05;
-    lattice_set_forcing(P, ua, va, uw, vw, 0, 0);
-    sph_status st;
-    CHECK(sph_model_init(m, &st) == 0, "init");
-    int ok = 1;
-    for (int s = 0; s < 3000 && ok; s++)
-        ok = sph_model_step(m, &st) == 0;
-    P->ofx_taux[0] = P->ofx_tauy[0] = 0.0;
-    const int nsum = 50;
-    for (int s = 0; s < nsum && ok; s++)
-        ok = sph_model_step(m, &st) == 0;
-    CHECK(ok, "steps: %s", st.what);
-    double area = P->mass[0] / P->dens[0], T = nsum * p.dt;
+    ofx_drift d;
+    CHECK(ofx_drift_run(&d, ua, va, uw, vw, 50) == 0, "free drift");
+    sph_params p = d.p;
+    sph_model *m = d.m;
+    sph_particles *P = d.P;
+    double area = d.fp, T = d.T;
     double tx = P->ofx_taux[0] / (area * T), ty = P->ofx_tauy[0] / (area * T);
     /* the water's drag on the ice, from the formula */
-    double dux = uw - P->u[0], duy = vw - P->v[0], sp = hypot(dux, duy);
-    double th = 25.0 * DEG;
-    double dx_ = p.rho_w * p.Cw * sp * (cos(th) * dux - sin(th) * duy);
-    double dy_ = p.rho_w * p.Cw * sp * (sin(th) * dux + cos(th) * duy);
+    double dx_ = d.drag[0], dy_ = d.drag[1];
     CHECK_CLOSE(tx, -dx_, 1e-12, 0, "stress on the ocean x = minus the water drag");
     CHECK_CLOSE(ty, -dy_, 1e-12, 0, "stress on the ocean y = minus the water drag");
     /* steady free drift: the ocean takes the wind's stress (turn_air 0) */

@@ -18,7 +18,17 @@
  * every water cell is counted in particles_lost and gives nothing. So
  * sum_c flux_c area_c dt equals the placed particles' sum to round-off.
  * Cell areas are the true ones (the sphere's for a lon/lat grid) and are
- * written as areacello. */
+ * written as areacello.
+ *
+ * A curvilinear grid (OFX_GRID_CURV, ocean_fluxes_curv.c): each cell is
+ * the polygon of its four corners on the model plane; a particle's
+ * footprint is the disc of area pi R^2 / 3 (what the kernel above
+ * integrates to), a regular 32-gon of that area, and its weights are the
+ * footprint's overlap with the water cells, normalised to sum to 1 (the
+ * rounding remainder to the largest weight). A footprint on land cells
+ * only goes whole to the nearest water centre within R + 2 bins; one that
+ * overlaps no cell is lost. Stress is accumulated in plane components and
+ * written along the grid's own i/j axes (docs/ocean-coupling.md). */
 #ifndef SPHICE_IO_OCEAN_FLUXES_H
 #define SPHICE_IO_OCEAN_FLUXES_H
 
@@ -27,20 +37,28 @@
 
 typedef enum {
     OFX_GRID_LONLAT, /* regular longitude/latitude axes */
-    OFX_GRID_PLANE   /* x/y axes on the model plane (a projected ocean grid) */
+    OFX_GRID_PLANE,  /* x/y axes on the model plane (a projected ocean grid) */
+    OFX_GRID_CURV    /* curvilinear: 2-D lon/lat, cells the polygons of their corners */
 } ofx_grid_kind;
 
 typedef struct ofx_grid {
     ofx_grid_kind kind;
     int nx, ny;               /* cells; cell c = j * nx + i */
-    const double *xaxis;      /* [nx]: LONLAT longitude, degrees_east; PLANE x, m */
-    const double *yaxis;      /* [ny]: LONLAT latitude, degrees_north; PLANE y, m */
-    const double *lon, *lat;  /* PLANE: cell-centre longitude/latitude [ny*nx]; LONLAT: unused */
+    const double *xaxis;      /* [nx]: LONLAT longitude, degrees_east; PLANE x, m; CURV unused */
+    const double *yaxis;      /* [ny]: LONLAT latitude, degrees_north; PLANE y, m; CURV unused */
+    const double *lon, *lat;  /* PLANE, CURV: cell-centre longitude/latitude [ny*nx]; LONLAT: unused */
     const double *cx, *cy;    /* cell centres on the model plane, m [ny*nx]; not finite: never reached */
     const double *area;       /* true cell area, m^2 [ny*nx], > 0 */
     const unsigned char *land;/* NULL, or [ny*nx] with 1 for land: receives nothing, written as fill */
     const char *projection;   /* the model plane's definition, written as an attribute; may be NULL */
     const char *grid_source;  /* where the grid comes from, written as an attribute; may be NULL */
+    /* CURV only: the 4 corners of cell c at [4 c + v], anticlockwise (CF
+     * bounds order), in degrees (written as lon_bnds/lat_bnds) and on the
+     * model plane (m; the cell polygons the footprints are clipped to) */
+    const double *blon, *blat, *bx, *by;
+    const double *east;       /* CURV: angle from east to the plane's x axis at each centre, rad
+                               * (geo_grid_angle); NULL: 0 */
+    const char *corners;      /* CURV: how the corners were made, written as an attribute */
 } ofx_grid;
 
 /* The file's data variables, in file order. Fluxes are means over the
@@ -66,7 +84,8 @@ const char *ofx_field_name(int k);
 
 /* Per-particle amounts of one record, all extensive (see above). Stress
  * components are on the grid's x/y (east/north for a lon/lat grid): the
- * caller rotates the plane's components. */
+ * caller rotates the plane's components; on a CURV grid they are the
+ * plane's x/y and the writer turns them to the grid's i/j per cell. */
 typedef struct ofx_particles {
     size_t n;
     const double *x, *y;         /* plane position, m */
@@ -116,7 +135,8 @@ int ofx_add_cell_amounts(ofx_writer *w, int k, size_t n, const long *to, const d
  * water (ofx_heat, ofx_water, ofx_salt) and what the particles removed
  * since the last record left in them (ofx_heat_ice to hfsithermds, its
  * plane stress turned to the grid's x/y by cos/sin rot[c], rot[n + c] to
- * tauuo/tauvo, ofx_swbase to siflswdbot), each cell whole to to[c], over
+ * tauuo/tauvo (on a CURV grid rot is not used: the plane stress turns to
+ * the target cell's i/j), ofx_swbase to siflswdbot), each cell whole to to[c], over
  * the record's interval dt s. lost[3] (may be NULL): the heat (J), water
  * and salt (kg) of cells with to[c] == -1. */
 int ofx_add_ocean_cells(ofx_writer *w, size_t n, const long *to, const double *rot, const double *heat,
@@ -125,6 +145,9 @@ int ofx_add_ocean_cells(ofx_writer *w, size_t n, const long *to, const double *r
 /* Writes the current record: means over [t_start, t_end] (s since 1970,
  * t_end > t_start), time = t_end with bounds; then clears the record. */
 int ofx_write_record(ofx_writer *w, double t_start, double t_end, sph_error *err);
+/* CURV: the angle (rad, anticlockwise) from east to the grid's i axis of
+ * cell c, as written in the file's `angle`; NAN for another grid. */
+double ofx_grid_angle(const ofx_writer *w, size_t c);
 /* Particles the last written record could not place (no water cell near). */
 size_t ofx_lost(const ofx_writer *w);
 size_t ofx_records(const ofx_writer *w);

@@ -230,9 +230,10 @@ static const cfg_key tail_keys[] = {
        "concentration and volume) as means over each output interval on output.ocean_fluxes_grid, in "
        "sphice_ocean_fluxes.nc: what a coupled ocean model reads (docs/ocean-coupling.md)."),
     C_("output.ocean_fluxes_grid", CT_ENUM, output.ocean_fluxes_grid, "\"auto\"", 0, 0, R, ofx_grid_names,
-       "Grid of the ocean-fluxes file: ocean (the first ocean forcing file's regular lon/lat grid and its "
-       "land, the cells over the domain), output (the output grid) or auto (ocean when an ocean source has "
-       "files, else output). A curvilinear ocean grid is refused: set output."),
+       "Grid of the ocean-fluxes file: ocean (the first ocean forcing file's grid, regular lon/lat or "
+       "curvilinear with 2-D lon/lat, and its land, the cells over the domain; on a curvilinear grid the "
+       "stress is along the grid's own axes), output (the output grid) or auto (ocean when an ocean source "
+       "has files, else output). A grid given by its mapping alone, or not orthogonal, is refused: set output."),
     C_("output.edge_threshold", CT_DOUBLE, output.edge_threshold, "0.15", 0.01, 0.99, R, NULL,
        "Concentration defining the ice edge."),
     C_("output.edge_reference.lon", CT_DOUBLE, output.edge_reference.lon, "0", -180, 360, R, NULL,

@@ -64,6 +64,9 @@ typedef struct engine {
     size_t ofx_ncell;         /* the file's cells */
     long *ofx_to;             /* the mixed layer's cell -> the file's cell (ofx_locate), -1: none; NULL: no layer */
     double *ofx_rot;          /* 2 x its cells: cos, sin of the plane's angle at each centre */
+    struct ocean_grid *ofx_curv; /* a curvilinear ocean grid (io/ocean_grid.h), else NULL */
+    double *ofx_bxy;          /* its cell corners on the plane: x [4 n], then y [4 n] */
+    double *ofx_east;         /* its angle from east to the plane's x axis per cell */
     char restart_path[4200];
     int restart_written;
     char start_mode[16];

@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "core/ocean.h"
+#include "io/ocean_grid.h"
 #include "io/restart.h"
 #include "util/log.h"
 #include "util/version.h"
@@ -347,6 +348,11 @@ void fc_free_ocean_fluxes(engine *e)
     free(e->ofx_land);
     free(e->ofx_to);
     free(e->ofx_rot);
+    free(e->ofx_bxy);
+    free(e->ofx_east);
+    ocean_grid_free(e->ofx_curv);
+    e->ofx_curv = NULL;
+    e->ofx_bxy = e->ofx_east = NULL;
     e->ofx_to = NULL;
     e->ofx_rot = NULL;
     e->ofx_buf = e->ofx_area = e->ofx_lon = e->ofx_lat = NULL;
@@ -387,6 +393,52 @@ static double ofx_near(double lon, double lonc)
     return lon;
 }
 
+/* A curvilinear ocean grid (io/ocean_grid.h) over the domain: its
+ * cells, corners and areas; centres and corners on the plane, the plane's
+ * angle from east at each centre (e->ofx_curv, e->ofx_area with cx/cy in
+ * its tail, e->ofx_bxy, e->ofx_east). */
+static int ofx_ocean_curv(engine *e, const char *path, int *nx, int *ny, double **cx, double **cy,
+                          unsigned char **land, sph_error *err)
+{
+    const struct sph_config *cfg = e->cfg;
+    double box[4] = {cfg->domain.lon_min, cfg->domain.lon_max, cfg->domain.lat_min, cfg->domain.lat_max};
+    int rc = ocean_grid_read(path, box, "output.ocean_fluxes_grid", &e->ofx_curv, err);
+    if (rc)
+        return rc;
+    const ocean_grid *g = e->ofx_curv;
+    size_t n = (size_t)g->nx * (size_t)g->ny;
+    int ok = 1;
+    e->ofx_area = xcalloc(3 * n, sizeof(double), &ok);
+    e->ofx_bxy = xcalloc(8 * n, sizeof(double), &ok);
+    e->ofx_east = xcalloc(n, sizeof(double), &ok);
+    if (!ok)
+        return sph_err_set(err, SPH_ERR_NOMEM, "output.ocean_fluxes: out of memory (%zu cells)", n);
+    memcpy(e->ofx_area, g->area, n * sizeof(double));
+    *cx = e->ofx_area + n;
+    *cy = e->ofx_area + 2 * n;
+    sph_error local;
+    sph_error_clear(&local);
+    /* points that do not project stay NaN: never reached */
+    if (geo_forward(e->proj, n, g->lon, g->lat, *cx, *cy, &local) != SPH_OK)
+        for (size_t c = 0; c < n; c++)
+            if (!isfinite((*cx)[c]) || !isfinite((*cy)[c]))
+                (*cx)[c] = (*cy)[c] = NAN;
+    sph_error_clear(&local);
+    if (geo_forward(e->proj, 4 * n, g->blon, g->blat, e->ofx_bxy, e->ofx_bxy + 4 * n, &local) != SPH_OK)
+        for (size_t c = 0; c < 4 * n; c++)
+            if (!isfinite(e->ofx_bxy[c]) || !isfinite(e->ofx_bxy[4 * n + c]))
+                e->ofx_bxy[c] = e->ofx_bxy[4 * n + c] = NAN;
+    for (size_t c = 0; c < n; c++) {
+        double a = geo_grid_angle(e->proj, g->lon[c], g->lat[c]);
+        e->ofx_east[c] = isfinite(a) ? a : 0.0;
+    }
+    *nx = g->nx;
+    *ny = g->ny;
+    *land = g->land;
+    log_info("forecast %s: ocean fluxes on the ocean's grid %s: %s", e->cname, path, g->desc);
+    return SPH_OK;
+}
+
 /* The ocean forcing's regular lon/lat grid over the domain (cells whose
  * centres lie within one cell of the domain box), its land from the fill
  * pattern of the file's current: e->ofx_lon/lat/area, e->ofx_land, cx/cy
@@ -400,14 +452,18 @@ static int ofx_ocean_grid(engine *e, const char *path, int *nx, int *ny, double 
     o.from = LANDMASK_FROM_FILL;
     o.land_value = NAN;
     landmask *m = landmask_read_model(path, &o, err);
-    if (!m)
-        return err->code ? err->code : SPH_ERR_IO;
-    if (landmask_is_native(m)) {
+    if (!m || landmask_is_native(m)) { /* not a regular lon/lat grid: the curvilinear reader decides */
+        sph_error regular = *err;
+        int read = m != NULL;
         landmask_free(m);
-        return sph_err_set(err, SPH_ERR_CONFIG,
-                           "output.ocean_fluxes_grid: the ocean forcing %s is not on a regular lon/lat grid "
-                           "(2-D latitude and longitude, a curvilinear grid, or unevenly spaced axes), which the ocean-fluxes "
-                           "file does not take yet: set output.ocean_fluxes_grid to \"output\"", path);
+        sph_error_clear(err);
+        int rc = ofx_ocean_curv(e, path, nx, ny, cx, cy, land, err);
+        if (rc == SPH_ERR_MISSING_VAR && !read) { /* neither reader understood it: both reasons */
+            char mine[700];
+            snprintf(mine, sizeof mine, "%.690s", err->msg);
+            rc = sph_err_set(err, SPH_ERR_CONFIG, "%s (as a regular lon/lat grid: %.300s)", mine, regular.msg);
+        }
+        return rc;
     }
     int gx, gy;
     double lon0, lat0, dlon, dlat;
@@ -567,6 +623,19 @@ int fc_open_ocean_fluxes(engine *e, sph_error *err)
     ofx_grid og = {.kind = OFX_GRID_LONLAT, .nx = nx, .ny = ny, .xaxis = e->ofx_lon, .yaxis = e->ofx_lat,
                    .cx = cx, .cy = cy, .area = e->ofx_area, .land = land,
                    .projection = geo_proj_definition(e->proj), .grid_source = e->ofx_grid_from};
+    if (e->ofx_curv) { /* the ocean's curvilinear grid: cells the polygons of their corners */
+        size_t n = e->ofx_ncell;
+        og.kind = OFX_GRID_CURV;
+        og.lon = e->ofx_curv->lon;
+        og.lat = e->ofx_curv->lat;
+        og.blon = e->ofx_curv->blon;
+        og.blat = e->ofx_curv->blat;
+        og.bx = e->ofx_bxy;
+        og.by = e->ofx_bxy + 4 * n;
+        og.east = e->ofx_east;
+        og.corners = e->ofx_curv->corners;
+        snprintf(e->ofx_grid_from, sizeof e->ofx_grid_from, "ocean forcing %s (%s)", ocean, e->ofx_curv->desc);
+    }
     char title[160];
     snprintf(title, sizeof title, "sphice fluxes into the ocean, %s",
              e->cfg->domain.name ? e->cfg->domain.name : "domain");
@@ -592,8 +661,9 @@ static int ofx_record(engine *e, double t, sph_error *err)
     double *rad = e->ofx_buf, *tx = rad + e->cap, *ty = tx + e->cap, *ia = ty + e->cap,
            *iv = ia + e->cap;
     for (size_t k = 0; k < n; k++) {
-        /* plane x/y -> east/north, as the velocities in fc_write_output */
-        double a = geo_grid_angle(e->proj, e->olon[k], e->olat[k]);
+        /* plane x/y -> east/north, as the velocities in fc_write_output; a
+         * curvilinear grid takes the plane's and turns them to its i/j */
+        double a = e->ofx_curv ? 0.0 : geo_grid_angle(e->proj, e->olon[k], e->olat[k]);
         if (!isfinite(a))
             a = 0.0;
         double c = cos(a), s = sin(a);

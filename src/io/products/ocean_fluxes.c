@@ -12,15 +12,9 @@
 #include <unistd.h>
 
 #include "io/ncfile.h"
+#include "ocean_fluxes_impl.h"
 #include "util/fileio.h"
 #include "util/timeutil.h"
-
-#define OFX_FILL 1.0e20
-#define OFX_PATH 4200
-
-/* The extensive amounts gathered from the particles. */
-enum { ACC_HEAT_ICE, ACC_HEAT_LEAD, ACC_WATER, ACC_SALT, ACC_TAUX, ACC_TAUY, ACC_SWBASE,
-       ACC_ICE_AREA, ACC_ICE_VOLUME, NACC };
 
 static const struct {
     const char *name, *standard_name, *long_name, *units, *cell_methods, *positive;
@@ -62,27 +56,6 @@ static const struct {
                      "area: mean where sea_ice time: point", NULL},
 };
 
-struct ofx_writer {
-    ofx_grid_kind kind;
-    int nx, ny;
-    size_t n;
-    double *cx, *cy, *area;
-    double *xaxis, *yaxis;      /* copies of the grid's axes (ofx_locate) */
-    unsigned char *land;
-    double *acc[NACC];          /* extensive amounts of the current record */
-    double *add[OFX_NFIELDS];   /* per-cell fluxes added by ofx_add_cells */
-    double *out;                /* one field of a record */
-    /* index of the water cells on the plane: bins of side `bin` */
-    double bx0, by0, bin;
-    int nbx, nby;
-    size_t *bstart, *bcell;
-    double *w;                  /* weights of one particle's cells */
-    size_t *wc;
-    size_t wcap;
-    size_t lost, lost_record, nrec;
-    char path[OFX_PATH], tmp[OFX_PATH];
-    int nc, v_time, v_bnds, v_lost, v_data[OFX_NFIELDS];
-};
 
 const char *ofx_field_name(int k) { return k >= 0 && k < OFX_NFIELDS ? specs[k].name : NULL; }
 size_t ofx_lost(const ofx_writer *w) { return w ? w->lost_record : 0; }
@@ -105,6 +78,7 @@ static void writer_free(ofx_writer *w)
     free(w->bcell);
     free(w->w);
     free(w->wc);
+    ofxc_free(w);
     free(w);
 }
 
@@ -120,6 +94,78 @@ void ofx_abort(ofx_writer *w)
 
 static int on_plane(const ofx_writer *w, size_t c) { return isfinite(w->cx[c]) && isfinite(w->cy[c]); }
 static int water(const ofx_writer *w, size_t c) { return !(w->land && w->land[c]) && on_plane(w, c); }
+int ofx_water_cell(const ofx_writer *w, size_t c) { return water(w, c); }
+
+double ofx_grid_angle(const ofx_writer *w, size_t c)
+{
+    return w && w->kind == OFX_GRID_CURV && c < w->n ? w->alpha[c] : NAN;
+}
+
+int ofx_reserve(ofx_writer *w, size_t n, sph_error *err)
+{
+    if (n <= w->wcap)
+        return SPH_OK;
+    size_t nc = w->wcap ? w->wcap : 64;
+    while (nc < n)
+        nc *= 2;
+    double *nw = realloc(w->w, nc * sizeof *nw);
+    if (nw)
+        w->w = nw;
+    size_t *nwc = nw ? realloc(w->wc, nc * sizeof *nwc) : NULL;
+    if (!nw || !nwc)
+        return sph_err_set(err, SPH_ERR_NOMEM, "ocean fluxes %s: out of memory", w->path);
+    w->wc = nwc;
+    w->wcap = nc;
+    return SPH_OK;
+}
+
+/* The centre bins within reach of (x, y): [i0, i1] x [j0, j1]. */
+static void centre_bins(const ofx_writer *w, double x, double y, double reach, int b[4])
+{
+    b[0] = (int)floor((x - reach - w->bx0) / w->bin);
+    b[1] = (int)floor((x + reach - w->bx0) / w->bin);
+    b[2] = (int)floor((y - reach - w->by0) / w->bin);
+    b[3] = (int)floor((y + reach - w->by0) / w->bin);
+    b[0] = b[0] < 0 ? 0 : b[0];
+    b[2] = b[2] < 0 ? 0 : b[2];
+    b[1] = b[1] >= w->nbx ? w->nbx - 1 : b[1];
+    b[3] = b[3] >= w->nby ? w->nby - 1 : b[3];
+}
+
+long ofx_nearest_water(const ofx_writer *w, double x, double y, double reach)
+{
+    long best = -1;
+    double bd = reach * reach;
+    int b4[4];
+    centre_bins(w, x, y, reach, b4);
+    /* a row's bins i0..i1 hold consecutive cells of the index */
+    for (int j = b4[2]; j <= b4[3] && b4[0] <= b4[1]; j++) {
+        size_t row = (size_t)j * w->nbx, q1 = w->bstart[row + b4[1] + 1];
+        for (size_t q = w->bstart[row + b4[0]]; q < q1; q++) {
+            size_t c = w->bcell[q];
+            double d = (w->cx[c] - x) * (w->cx[c] - x) + (w->cy[c] - y) * (w->cy[c] - y);
+            if (water(w, c) && (d < bd || (d == bd && best >= 0 && (long)c < best))) {
+                bd = d;
+                best = (long)c;
+            }
+        }
+    }
+    return best;
+}
+
+void ofx_fit_bins(double wx, double wy, size_t n, double *bin, int *nbx, int *nby)
+{
+    double fx = wx / *bin + 1.0, fy = wy / *bin + 1.0;
+    /* at most ~4 bins per cell: a plane far wider than its cells (a grid
+     * crossing the projection's edge) gets coarser bins */
+    while (fx * fy > 4.0 * (double)n + 16.0) {
+        *bin *= 2.0;
+        fx = wx / *bin + 1.0;
+        fy = wy / *bin + 1.0;
+    }
+    *nbx = (int)fx;
+    *nby = (int)fy;
+}
 
 /* Bins over the cells' centres (land too: it tells inside from outside),
  * side ~ the mean cell size. */
@@ -143,16 +189,7 @@ static int build_index(ofx_writer *w, sph_error *err)
     }
     w->bx0 = x0;
     w->by0 = y0;
-    double fx = (x1 - x0) / w->bin + 1.0, fy = (y1 - y0) / w->bin + 1.0;
-    /* at most ~4 bins per cell: a plane far wider than its cells (a grid
-     * crossing the projection's edge) gets coarser bins */
-    while (fx * fy > 4.0 * (double)w->n + 16.0) {
-        w->bin *= 2.0;
-        fx = (x1 - x0) / w->bin + 1.0;
-        fy = (y1 - y0) / w->bin + 1.0;
-    }
-    w->nbx = (int)fx;
-    w->nby = (int)fy;
+    ofx_fit_bins(x1 - x0, y1 - y0, w->n, &w->bin, &w->nbx, &w->nby);
     size_t nb = (size_t)w->nbx * (size_t)w->nby;
     w->bstart = calloc(nb + 1, sizeof *w->bstart);
     w->bcell = malloc((nw ? nw : 1) * sizeof *w->bcell);
@@ -204,7 +241,8 @@ static int def_coord(int nc, const char *name, int ndims, const int *dims, const
 static int define_file(ofx_writer *w, const ofx_grid *g, const ofx_meta *m, sph_error *err)
 {
     int nc = w->nc, d_t, d_nv, d_y, d_x, v_x, v_y, v_area, v_lon = -1, v_lat = -1;
-    int lonlat = g->kind == OFX_GRID_LONLAT;
+    int lonlat = g->kind == OFX_GRID_LONLAT, curv = g->kind == OFX_GRID_CURV;
+    int d_v4 = -1, v_blon = -1, v_blat = -1, v_ang = -1;
     NCW(nc_def_dim(nc, "time", NC_UNLIMITED, &d_t), "define dimension");
     NCW(nc_def_dim(nc, "nv", 2, &d_nv), "define dimension");
     NCW(nc_def_dim(nc, lonlat ? "lat" : "y", (size_t)g->ny, &d_y), "define dimension");
@@ -220,14 +258,34 @@ static int define_file(ofx_writer *w, const ofx_grid *g, const ofx_meta *m, sph_
     NCW(nc_def_var(nc, "time_bnds", NC_DOUBLE, 2, dtb, &w->v_bnds), "define variable");
     NCW(put_text(nc, w->v_bnds, "units", "seconds since 1970-01-01 00:00:00"), "write attribute");
     int d2[2] = {d_y, d_x}, d3[3] = {d_t, d_y, d_x};
-    /* lon/lat axes, or x/y axes with 2-D lat/lon auxiliary coordinates */
-    NCW(def_coord(nc, lonlat ? "lat" : "y", 1, &d_y, lonlat ? "latitude" : "projection_y_coordinate",
-                  lonlat ? "degrees_north" : "m", "Y", &v_y), "define variable");
-    NCW(def_coord(nc, lonlat ? "lon" : "x", 1, &d_x, lonlat ? "longitude" : "projection_x_coordinate",
-                  lonlat ? "degrees_east" : "m", "X", &v_x), "define variable");
+    /* lon/lat axes, or x/y axes with 2-D lat/lon auxiliary coordinates;
+     * a curvilinear grid: index dimensions y, x, 2-D lat/lon with bounds */
+    if (!curv) {
+        NCW(def_coord(nc, lonlat ? "lat" : "y", 1, &d_y, lonlat ? "latitude" : "projection_y_coordinate",
+                      lonlat ? "degrees_north" : "m", "Y", &v_y), "define variable");
+        NCW(def_coord(nc, lonlat ? "lon" : "x", 1, &d_x, lonlat ? "longitude" : "projection_x_coordinate",
+                      lonlat ? "degrees_east" : "m", "X", &v_x), "define variable");
+    }
     if (!lonlat) {
         NCW(def_coord(nc, "lat", 2, d2, "latitude", "degrees_north", NULL, &v_lat), "define variable");
         NCW(def_coord(nc, "lon", 2, d2, "longitude", "degrees_east", NULL, &v_lon), "define variable");
+    }
+    if (curv) {
+        NCW(nc_def_dim(nc, "nv4", 4, &d_v4), "define dimension");
+        int d4[3] = {d_y, d_x, d_v4};
+        NCW(put_text(nc, v_lat, "bounds", "lat_bnds"), "write attribute");
+        NCW(put_text(nc, v_lon, "bounds", "lon_bnds"), "write attribute");
+        NCW(nc_def_var(nc, "lat_bnds", NC_DOUBLE, 3, d4, &v_blat), "define variable");
+        NCW(nc_def_var(nc, "lon_bnds", NC_DOUBLE, 3, d4, &v_blon), "define variable");
+        NCW(put_text(nc, v_blat, "units", "degrees_north"), "write attribute");
+        NCW(put_text(nc, v_blon, "units", "degrees_east"), "write attribute");
+        NCW(put_text(nc, v_blon, "comment", g->corners), "write attribute");
+        NCW(nc_def_var(nc, "angle", NC_DOUBLE, 2, d2, &v_ang), "define variable");
+        NCW(put_text(nc, v_ang, "standard_name", "angle_of_rotation_from_east_to_x"), "write attribute");
+        NCW(put_text(nc, v_ang, "long_name", "angle between the grid's i (x) axis and east, anticlockwise, "
+                                             "computed from the grid's cell centres"), "write attribute");
+        NCW(put_text(nc, v_ang, "units", "radians"), "write attribute");
+        NCW(put_text(nc, v_ang, "coordinates", "lat lon"), "write attribute");
     }
     NCW(nc_def_var(nc, "areacello", NC_DOUBLE, 2, d2, &v_area), "define variable");
     NCW(put_text(nc, v_area, "standard_name", "cell_area"), "write attribute");
@@ -255,6 +313,14 @@ static int define_file(ofx_writer *w, const ofx_grid *g, const ofx_meta *m, sph_
         NCW(put_text(nc, v, "positive", specs[k].positive), "write attribute");
         if (!lonlat)
             NCW(put_text(nc, v, "coordinates", "lat lon"), "write attribute");
+        if (curv && k >= OFX_TAUUO && k <= OFX_SISTRYUBOT)
+            NCW(put_text(nc, v, "comment",
+                         k == OFX_TAUUO || k == OFX_SISTRXUBOT
+                             ? "grid-relative: the component along the grid's i (x) axis, which points `angle` "
+                               "anticlockwise from east; eastward = x cos(angle) - y sin(angle)"
+                             : "grid-relative: the component along the grid's j (y) axis, `angle` + 90 degrees "
+                               "anticlockwise from east; northward = x sin(angle) + y cos(angle)"),
+                "write attribute");
         w->v_data[k] = v;
     }
     char iso[32];
@@ -275,9 +341,29 @@ static int define_file(ofx_writer *w, const ofx_grid *g, const ofx_meta *m, sph_
         NCW(put_text(nc, NC_GLOBAL, "model_plane_projection", g->projection), "write attribute");
     if (g->grid_source)
         NCW(put_text(nc, NC_GLOBAL, "grid_source", g->grid_source), "write attribute");
+    if (curv) {
+        NCW(put_text(nc, NC_GLOBAL, "cell_corners", g->corners), "write attribute");
+        NCW(put_text(nc, NC_GLOBAL, "stress_orientation",
+                     "grid: tauuo, tauvo, sistrxubot, sistryubot are along the grid's i (x) and j (y) axes "
+                     "(ROMS xi/eta), turned from east/north by the variable angle"), "write attribute");
+        NCW(put_text(nc, NC_GLOBAL, "regridding",
+                     "each particle's footprint (a disc, as a regular 32-gon of its area) clipped to the cell "
+                     "polygons on the model plane; weights normalised to 1 over the water cells"),
+            "write attribute");
+    } else {
+        NCW(put_text(nc, NC_GLOBAL, "stress_orientation",
+                     lonlat ? "east/north: tauuo, tauvo, sistrxubot, sistryubot are eastward and northward"
+                            : "the model plane's x/y axes"), "write attribute");
+    }
     NCW(nc_enddef(nc), "end definitions");
-    NCW(nc_put_var_double(nc, v_x, g->xaxis), "write");
-    NCW(nc_put_var_double(nc, v_y, g->yaxis), "write");
+    if (!curv) {
+        NCW(nc_put_var_double(nc, v_x, g->xaxis), "write");
+        NCW(nc_put_var_double(nc, v_y, g->yaxis), "write");
+    } else {
+        NCW(nc_put_var_double(nc, v_blat, g->blat), "write");
+        NCW(nc_put_var_double(nc, v_blon, g->blon), "write");
+        NCW(nc_put_var_double(nc, v_ang, w->alpha), "write");
+    }
     if (!lonlat) {
         NCW(nc_put_var_double(nc, v_lat, g->lat), "write");
         NCW(nc_put_var_double(nc, v_lon, g->lon), "write");
@@ -289,8 +375,10 @@ static int define_file(ofx_writer *w, const ofx_grid *g, const ofx_meta *m, sph_
 int ofx_open(ofx_writer **out, const ofx_grid *g, const ofx_meta *m, const char *path, sph_error *err)
 {
     *out = NULL;
-    if (!g || !m || !path || g->nx < 1 || g->ny < 1 || !g->xaxis || !g->yaxis || !g->cx || !g->cy ||
-        !g->area || (g->kind == OFX_GRID_PLANE && (!g->lon || !g->lat)))
+    int curv = g && g->kind == OFX_GRID_CURV;
+    if (!g || !m || !path || g->nx < 1 || g->ny < 1 || (!curv && (!g->xaxis || !g->yaxis)) || !g->cx || !g->cy ||
+        !g->area || (g->kind != OFX_GRID_LONLAT && (!g->lon || !g->lat)) ||
+        (curv && (!g->blon || !g->blat || !g->bx || !g->by || !g->corners)))
         return sph_err_set(err, SPH_ERR_PARAM, "ocean fluxes %s: incomplete grid", path ? path : "(no path)");
     ofx_writer *w = calloc(1, sizeof *w);
     if (!w)
@@ -332,11 +420,15 @@ int ofx_open(ofx_writer **out, const ofx_grid *g, const ofx_meta *m, const char 
     memcpy(w->cx, g->cx, bytes);
     memcpy(w->cy, g->cy, bytes);
     memcpy(w->area, g->area, bytes);
-    memcpy(w->xaxis, g->xaxis, (size_t)g->nx * sizeof(double));
-    memcpy(w->yaxis, g->yaxis, (size_t)g->ny * sizeof(double));
+    if (!curv) {
+        memcpy(w->xaxis, g->xaxis, (size_t)g->nx * sizeof(double));
+        memcpy(w->yaxis, g->yaxis, (size_t)g->ny * sizeof(double));
+    }
     if (g->land)
         memcpy(w->land, g->land, w->n);
     int rc = build_index(w, err);
+    if (!rc && curv)
+        rc = ofxc_setup(w, g, err);
     if (rc) {
         writer_free(w);
         return rc;
@@ -368,16 +460,9 @@ static size_t place(ofx_writer *w, double x, double y, double R, sph_error *err,
     size_t cnt = 0;
     double sum = 0.0, reach = R + 2.0 * w->bin, best = HUGE_VAL, best_any = HUGE_VAL;
     size_t bestc = 0, bestc_any = 0;
-    int i0 = (int)floor((x - reach - w->bx0) / w->bin), i1 = (int)floor((x + reach - w->bx0) / w->bin);
-    int j0 = (int)floor((y - reach - w->by0) / w->bin), j1 = (int)floor((y + reach - w->by0) / w->bin);
-    if (i0 < 0)
-        i0 = 0;
-    if (j0 < 0)
-        j0 = 0;
-    if (i1 >= w->nbx)
-        i1 = w->nbx - 1;
-    if (j1 >= w->nby)
-        j1 = w->nby - 1;
+    int b4[4];
+    centre_bins(w, x, y, reach, b4);
+    int i0 = b4[0], i1 = b4[1], j0 = b4[2], j1 = b4[3];
     for (int j = j0; j <= j1; j++)
         for (int i = i0; i <= i1; i++) {
             size_t b = (size_t)j * w->nbx + i;
@@ -458,7 +543,9 @@ int ofx_add_particles(ofx_writer *w, const ofx_particles *p, sph_error *err)
                                    w->path, k, a);
         int rc = SPH_OK;
         double R = p->radius[k] > 0.0 && isfinite(p->radius[k]) ? p->radius[k] : 0.0;
-        size_t cnt = isfinite(p->x[k]) && isfinite(p->y[k]) ? place(w, p->x[k], p->y[k], R, err, &rc) : 0;
+        size_t cnt = !(isfinite(p->x[k]) && isfinite(p->y[k])) ? 0
+                   : w->kind == OFX_GRID_CURV ? ofxc_place(w, p->x[k], p->y[k], R, err, &rc)
+                   : place(w, p->x[k], p->y[k], R, err, &rc);
         if (rc)
             return rc;
         if (cnt == 0) {
@@ -532,6 +619,12 @@ long ofx_locate(const ofx_writer *w, double lon, double lat, double x, double y,
 {
     if (!w)
         return -1;
+    if (w->kind == OFX_GRID_CURV) { /* the cell polygon holding (x, y), else the nearest water */
+        long c = isfinite(x) && isfinite(y) ? ofxc_cell_at(w, x, y) : -1;
+        if (c >= 0 && water(w, (size_t)c))
+            return c;
+        return isfinite(x) && isfinite(y) && reach > 0.0 ? ofx_nearest_water(w, x, y, reach) : -1;
+    }
     double u = w->kind == OFX_GRID_LONLAT ? lon : x, v = w->kind == OFX_GRID_LONLAT ? lat : y;
     if (w->kind == OFX_GRID_LONLAT && isfinite(u) && w->nx > 1 && w->xaxis[1] > w->xaxis[0]) {
         /* the longitude on the axis' side of the seam: [first west edge, + 360) */
@@ -595,6 +688,11 @@ int ofx_add_ocean_cells(ofx_writer *w, size_t n, const long *to, const double *r
     double *ty = tx + n;
     for (size_t c = 0; c < n; c++) {
         double cs = rot ? rot[c] : 1.0, sn = rot ? rot[n + c] : 0.0;
+        if (w && w->kind == OFX_GRID_CURV) { /* plane x/y -> the target cell's i/j */
+            double b = to && to[c] >= 0 && (size_t)to[c] < w->n ? w->beta[to[c]] : 0.0;
+            cs = cos(b);
+            sn = -sin(b);
+        }
         tx[c] = taux[c] * cs - tauy[c] * sn;
         ty[c] = taux[c] * sn + tauy[c] * cs;
     }
@@ -624,16 +722,21 @@ static void record_field(ofx_writer *w, int k, double dt)
             w->out[c] = OFX_FILL;
             continue;
         }
-        double r = 1.0 / (w->area[c] * dt), v;
+        double r = 1.0 / (w->area[c] * dt), v, tx = w->acc[ACC_TAUX][c], ty = w->acc[ACC_TAUY][c];
+        if (w->kind == OFX_GRID_CURV) { /* plane x/y -> the cell's i/j axes */
+            double cb = cos(w->beta[c]), sb = sin(w->beta[c]), ti = tx * cb + ty * sb;
+            ty = -tx * sb + ty * cb;
+            tx = ti;
+        }
         switch (k) {
         case OFX_HFDS: v = (w->acc[ACC_HEAT_ICE][c] + w->acc[ACC_HEAT_LEAD][c]) * r; break;
         case OFX_HFSITHERMDS: v = w->acc[ACC_HEAT_ICE][c] * r; break;
         case OFX_SIFLFWBOT: v = w->acc[ACC_WATER][c] * r; break;
         case OFX_SIFLSALTBOT: v = w->acc[ACC_SALT][c] * r; break;
-        case OFX_TAUUO: v = w->acc[ACC_TAUX][c] * r; break;
-        case OFX_TAUVO: v = w->acc[ACC_TAUY][c] * r; break;
-        case OFX_SISTRXUBOT: v = -w->acc[ACC_TAUX][c] * r; break;
-        case OFX_SISTRYUBOT: v = -w->acc[ACC_TAUY][c] * r; break;
+        case OFX_TAUUO: v = tx * r; break;
+        case OFX_TAUVO: v = ty * r; break;
+        case OFX_SISTRXUBOT: v = -tx * r; break;
+        case OFX_SISTRYUBOT: v = -ty * r; break;
         case OFX_SIFLSWDBOT: v = w->acc[ACC_SWBASE][c] * r; break;
         /* the particles' footprints m/M need not tile the plane exactly, so
          * the regridded ice area may exceed a cell: the fraction is capped
