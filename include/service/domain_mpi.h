@@ -33,15 +33,16 @@ typedef struct dd_options {
     int rebalance_every;    /* steps between repartitions (0: only at the start) */
 } dd_options;
 
-/* Statistics of the last step, summed over the ranks (same on every rank). */
+/* Statistics since dd_scatter or dd_reset_stats, summed over the steps
+ * and the ranks by dd_run_stats. */
 typedef struct dd_stats {
-    long owned;            /* particles */
-    long halo;             /* halo copies received */
-    long migrated;         /* particles that changed rank before the step */
-    long iterations;       /* halo refreshes (mEVP iterations) */
+    long owned;            /* particles now */
+    long halo;             /* halo copies received, all steps */
+    long migrated;         /* particles that changed rank, all steps */
+    long iterations;       /* halo refreshes (mEVP iterations), all steps */
     double halo_bytes;     /* bytes sent for the halo: copies + refreshes */
     double migrate_bytes;  /* bytes sent for migration */
-    long owned_max;        /* the most particles one rank owns */
+    long owned_max;        /* the most particles one rank owns now */
     int ghosts_merging;    /* a rank merged crowded coast ghosts (order not canonical) */
 } dd_stats;
 
@@ -59,9 +60,12 @@ void dd_free(dd_ctx *d);
  * its share. SPH_STEP_OK or the first rank's failure. */
 int dd_scatter(dd_ctx *d, const sph_particles *all, const sph_model_clock *c, sph_status *st);
 /* One step: migration, repartition when due, halo, sph_model_step, halo
- * dropped. Returns the worst status over the ranks. */
+ * dropped. Returns the worst status over the ranks (a rank that cannot
+ * hold its particles aborts the job with one line). */
 int dd_step(dd_ctx *d, sph_status *st);
-const dd_stats *dd_last_stats(const dd_ctx *d);
+/* Collective: the statistics over the ranks into out. */
+void dd_run_stats(dd_ctx *d, dd_stats *out);
+void dd_reset_stats(dd_ctx *d);
 void dd_budget_global(dd_ctx *d, dd_budget *b);
 /* The same budgets of particles [0, n) of one set (the serial reference). */
 void dd_budget_of(const sph_particles *P, size_t n, double rho_i, dd_budget *b);

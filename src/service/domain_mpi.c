@@ -5,6 +5,7 @@
 #ifdef SPHICE_MPI
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -34,7 +35,9 @@ struct dd_ctx {
     int nreq;  /* requests in flight */
     int *mark; /* per rank: the last particle that chose it (halo) */
     sph_dd_hooks hooks;
-    dd_stats stats;
+    MPI_Op op;       /* red_op */
+    double hmax;     /* largest smoothing length over the ranks, after the last step */
+    dd_stats stats;  /* this rank's, summed over the run */
     /* packing scratch */
     unsigned char *pk, *upk;
     size_t pk_cap, upk_cap;
@@ -259,8 +262,8 @@ static int migrate(dd_ctx *d)
     }
     P->n = w;
     free(gone);
-    d->stats.migrated = (long)np;
-    d->stats.migrate_bytes = bytes;
+    d->stats.migrated += (long)np;
+    d->stats.migrate_bytes += bytes;
     return 0;
 }
 
@@ -327,8 +330,8 @@ static int build_halo(dd_ctx *d, double H)
     for (long i = 0; i < got; i++)
         d->hr_ids[i] = d->hr_sorted[i] = P->id[n + (size_t)i];
     qsort(d->hr_sorted, (size_t)got, sizeof(long), cmp_long);
-    d->stats.halo = got;
-    d->stats.halo_bytes = bytes;
+    d->stats.halo += got;
+    d->stats.halo_bytes += bytes;
     return 0;
 }
 
@@ -416,14 +419,42 @@ static void hook_exchange(void *ctx, sph_model *m, int stage)
         iter_wait(d, m);
 }
 
+/* One reduction per call: the accumulators' digits summed and the maxima
+ * (non-negative doubles, whose bit patterns order like int64) taken, by
+ * one user operation over int64. */
+static int red_nmax; /* maxima at the end of the buffer (the operation has no context) */
+static int64_t *red_buf;
+static size_t red_cap;
+
+static void red_op(void *in, void *inout, int *len, MPI_Datatype *type)
+{
+    (void)type;
+    const int64_t *a = in;
+    int64_t *b = inout;
+    int ns = *len - red_nmax;
+    for (int i = 0; i < ns; i++)
+        b[i] += a[i];
+    for (int i = ns; i < *len; i++)
+        b[i] = a[i] > b[i] ? a[i] : b[i];
+}
+
 static void hook_reduce(void *ctx, sph_xsum *sums, int nsum, double *maxes, int nmax)
 {
     dd_ctx *d = ctx;
-    if (nsum > 0)
-        MPI_Allreduce(MPI_IN_PLACE, sums, nsum * (int)(sizeof(sph_xsum) / sizeof(int64_t)), MPI_INT64_T,
-                      MPI_SUM, d->comm);
-    if (nmax > 0)
-        MPI_Allreduce(MPI_IN_PLACE, maxes, nmax, MPI_DOUBLE, MPI_MAX, d->comm);
+    int per = (int)(sizeof(sph_xsum) / sizeof(int64_t));
+    int len = nsum * per + nmax;
+    if (grow((void **)&red_buf, &red_cap, (size_t)len, sizeof(int64_t)))
+        MPI_Abort(d->comm, 3);
+    memcpy(red_buf, sums, (size_t)nsum * sizeof(sph_xsum));
+    for (int i = 0; i < nmax; i++) {
+        double v = maxes[i] > 0.0 ? maxes[i] : 0.0; /* NaN or -0 as 0: fmax's own rule */
+        memcpy(&red_buf[nsum * per + i], &v, sizeof v);
+    }
+    red_nmax = nmax;
+    MPI_Allreduce(MPI_IN_PLACE, red_buf, len, MPI_INT64_T, d->op, d->comm);
+    memcpy(sums, red_buf, (size_t)nsum * sizeof(sph_xsum));
+    for (int i = 0; i < nmax; i++)
+        memcpy(&maxes[i], &red_buf[nsum * per + i], sizeof(double));
 }
 
 /* ------------------------------------------------------------------ */
@@ -477,6 +508,7 @@ dd_ctx *dd_create(MPI_Comm comm, sph_model *m, const dd_options *o)
     for (long c = 0; c < d->ncells; c++)
         d->by_curve[c] = d->by_curve[2 * c + 1];
     d->rowbytes = row_bytes(sph_model_particles(m));
+    MPI_Op_create(red_op, 1, &d->op);
     d->hooks.ctx = d;
     d->hooks.exchange = hook_exchange;
     d->hooks.reduce = hook_reduce;
@@ -490,6 +522,8 @@ void dd_free(dd_ctx *d)
         return;
     if (d->m)
         sph_model_set_dd(d->m, NULL);
+    if (d->op != MPI_OP_NULL && d->op != 0)
+        MPI_Op_free(&d->op);
     free(d->by_curve);
     free(d->owner);
     free(d->cost);
@@ -526,6 +560,14 @@ static int worst(dd_ctx *d, int rc, sph_status *st)
     return w;
 }
 
+static double local_hmax(const sph_particles *P)
+{
+    double h = 0.0;
+    for (size_t k = 0; k < P->n; k++)
+        h = fmax(h, P->sml[k]);
+    return h;
+}
+
 int dd_scatter(dd_ctx *d, const sph_particles *all, const sph_model_clock *c, sph_status *st)
 {
     sph_particles *P = sph_model_particles(d->m);
@@ -558,6 +600,9 @@ int dd_scatter(dd_ctx *d, const sph_particles *all, const sph_model_clock *c, sp
     if (rc == SPH_STEP_OK)
         sph_model_dd_coast(d->m, s0);
     d->steps = 0;
+    d->hmax = local_hmax(P);
+    MPI_Allreduce(MPI_IN_PLACE, &d->hmax, 1, MPI_DOUBLE, MPI_MAX, d->comm);
+    dd_reset_stats(d);
     return worst(d, rc, st);
 }
 
@@ -566,44 +611,55 @@ int dd_step(dd_ctx *d, sph_status *st)
     sph_model *m = d->m;
     sph_particles *P = sph_model_particles(m);
     sph_status_clear(st);
-    memset(&d->stats, 0, sizeof d->stats);
-    double hmax = 0.0;
-    for (size_t k = 0; k < P->n; k++)
-        hmax = fmax(hmax, P->sml[k]);
-    MPI_Allreduce(MPI_IN_PLACE, &hmax, 1, MPI_DOUBLE, MPI_MAX, d->comm);
-    double H = 3.0 * sph_model_kernel_radius(m) * hmax;
+    double H = 3.0 * sph_model_kernel_radius(m) * d->hmax;
     if (d->o.rebalance_every > 0 && d->steps > 0 && d->steps % d->o.rebalance_every == 0) {
         measure_cost(d, P, P->n);
         partition(d);
     }
-    int rc = SPH_STEP_OK;
-    if (migrate(d) || build_halo(d, H))
-        rc = SPH_STEP_FATAL;
-    if (worst(d, rc, st) != SPH_STEP_OK)
-        return SPH_STEP_FATAL;
-    rc = sph_model_step(m, st);
+    if (migrate(d) || build_halo(d, H)) {
+        fprintf(stderr, "sphice: domain decomposition: out of memory or capacity on rank %d "
+                        "(%zu particles, capacity %zu)\n", d->rank, P->n, P->cap);
+        MPI_Abort(d->comm, 3);
+    }
+    int rc = sph_model_step(m, st);
     for (size_t k = P->n; k-- > 0;)
         if (is_halo(d, P->id[k]))
             sph_particles_remove(P, k);
     d->steps++;
-    long loc[3] = {(long)P->n, sph_model_ghosts_merging(m), 0};
-    long glob[3];
-    MPI_Allreduce(loc, glob, 2, MPI_LONG, MPI_SUM, d->comm);
-    MPI_Allreduce(&loc[0], &d->stats.owned_max, 1, MPI_LONG, MPI_MAX, d->comm);
-    d->stats.owned = glob[0];
-    d->stats.ghosts_merging = glob[1] > 0;
-    long cnt[3] = {d->stats.halo, d->stats.migrated, 0};
-    MPI_Allreduce(MPI_IN_PLACE, cnt, 2, MPI_LONG, MPI_SUM, d->comm);
-    d->stats.halo = cnt[0];
-    d->stats.migrated = cnt[1];
-    double by[2] = {d->stats.halo_bytes, d->stats.migrate_bytes};
-    MPI_Allreduce(MPI_IN_PLACE, by, 2, MPI_DOUBLE, MPI_SUM, d->comm);
-    d->stats.halo_bytes = by[0];
-    d->stats.migrate_bytes = by[1];
-    return worst(d, rc, st);
+    d->stats.owned = (long)P->n;
+    d->stats.ghosts_merging |= sph_model_ghosts_merging(m);
+    /* the worst status and the next step's halo width, in one reduction */
+    double v[2] = {(double)rc, local_hmax(P)};
+    MPI_Allreduce(MPI_IN_PLACE, v, 2, MPI_DOUBLE, MPI_MAX, d->comm);
+    d->hmax = v[1];
+    int w = (int)v[0];
+    if (w != SPH_STEP_OK && rc == SPH_STEP_OK)
+        sph_status_set(st, w, SPH_FAULT_INVALID, -1, "domain decomposition", (double)w, 0.0,
+                       "another rank's step failed");
+    return w;
 }
 
-const dd_stats *dd_last_stats(const dd_ctx *d) { return &d->stats; }
+void dd_run_stats(dd_ctx *d, dd_stats *out)
+{
+    long l[5] = {d->stats.owned, d->stats.halo, d->stats.migrated, d->stats.iterations,
+                 d->stats.ghosts_merging};
+    long g[5];
+    MPI_Allreduce(l, g, 5, MPI_LONG, MPI_SUM, d->comm);
+    double b[2] = {d->stats.halo_bytes, d->stats.migrate_bytes};
+    MPI_Allreduce(MPI_IN_PLACE, b, 2, MPI_DOUBLE, MPI_SUM, d->comm);
+    long mx = d->stats.owned;
+    MPI_Allreduce(MPI_IN_PLACE, &mx, 1, MPI_LONG, MPI_MAX, d->comm);
+    out->owned = g[0];
+    out->halo = g[1];
+    out->migrated = g[2];
+    out->iterations = g[3] / d->size; /* every rank counts each refresh */
+    out->ghosts_merging = g[4] > 0;
+    out->halo_bytes = b[0];
+    out->migrate_bytes = b[1];
+    out->owned_max = mx;
+}
+
+void dd_reset_stats(dd_ctx *d) { memset(&d->stats, 0, sizeof d->stats); }
 
 static void budget_acc(const sph_particles *P, size_t n, double rho_i, sph_xsum acc[6])
 {
