@@ -37,6 +37,7 @@ struct dd_ctx {
     sph_dd_hooks hooks;
     MPI_Op op;       /* red_op */
     double hmax;     /* largest smoothing length over the ranks, after the last step */
+    double gmass, gcount; /* global exact mass and particle count after the last step */
     dd_stats stats;  /* this rank's, summed over the run */
     /* packing scratch */
     unsigned char *pk, *upk;
@@ -568,6 +569,16 @@ static double local_hmax(const sph_particles *P)
     return h;
 }
 
+static void mass_count(const sph_particles *P, sph_xsum acc[2])
+{
+    sph_xsum_clear(&acc[0]);
+    sph_xsum_clear(&acc[1]);
+    for (size_t k = 0; k < P->n; k++) {
+        sph_xsum_add(&acc[0], P->mass[k]);
+        sph_xsum_add(&acc[1], 1.0);
+    }
+}
+
 int dd_scatter(dd_ctx *d, const sph_particles *all, const sph_model_clock *c, sph_status *st)
 {
     sph_particles *P = sph_model_particles(d->m);
@@ -600,8 +611,13 @@ int dd_scatter(dd_ctx *d, const sph_particles *all, const sph_model_clock *c, sp
     if (rc == SPH_STEP_OK)
         sph_model_dd_coast(d->m, s0);
     d->steps = 0;
-    d->hmax = local_hmax(P);
-    MPI_Allreduce(MPI_IN_PLACE, &d->hmax, 1, MPI_DOUBLE, MPI_MAX, d->comm);
+    sph_xsum acc[2];
+    double v[1] = {local_hmax(P)};
+    mass_count(P, acc);
+    hook_reduce(d, acc, 2, v, 1);
+    d->hmax = v[0];
+    d->gmass = sph_xsum_value(&acc[0]);
+    d->gcount = sph_xsum_value(&acc[1]);
     dd_reset_stats(d);
     return worst(d, rc, st);
 }
@@ -628,14 +644,27 @@ int dd_step(dd_ctx *d, sph_status *st)
     d->steps++;
     d->stats.owned = (long)P->n;
     d->stats.ghosts_merging |= sph_model_ghosts_merging(m);
-    /* the worst status and the next step's halo width, in one reduction */
+    /* the worst status, the next step's halo width and the global mass
+     * and count (exact), in one reduction */
+    sph_xsum acc[2];
     double v[2] = {(double)rc, local_hmax(P)};
-    MPI_Allreduce(MPI_IN_PLACE, v, 2, MPI_DOUBLE, MPI_MAX, d->comm);
+    mass_count(P, acc);
+    hook_reduce(d, acc, 2, v, 2);
     d->hmax = v[1];
     int w = (int)v[0];
     if (w != SPH_STEP_OK && rc == SPH_STEP_OK)
         sph_status_set(st, w, SPH_FAULT_INVALID, -1, "domain decomposition", (double)w, 0.0,
                        "another rank's step failed");
+    /* the dynamics never changes mass: with no particle removed (open
+     * boundary) and no thermodynamics the global sum stays exactly */
+    double gm = sph_xsum_value(&acc[0]), gc = sph_xsum_value(&acc[1]);
+    const sph_params *p = sph_model_params(m);
+    int thermo = p->thermo_dt > 0.0 && p->thermo.model != SPH_THERMO_OFF;
+    if (w == SPH_STEP_OK && !thermo && gc == d->gcount && gm != d->gmass)
+        w = sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "total mass", gm, d->gmass,
+                           "changed with no source or sink to explain it (domain decomposition)");
+    d->gmass = gm;
+    d->gcount = gc;
     return w;
 }
 
