@@ -93,6 +93,7 @@ typedef struct dd_case {
     int coast;     /* land beyond x = coast_x */
     double dt;
     int wind;      /* 0: uniform + shear, 1: onto the coast, 2: rotating */
+    int long_only; /* SPHICE_LONG only: above SPH_OMP_WORTH's 4096, so threads engage */
 } dd_case;
 
 static const double D = 1000.0;
@@ -115,7 +116,7 @@ static void forcing(const dd_case *c, sph_particles *P, size_t k)
     P->vw[k] = -0.02;
 }
 
-static unsigned char land[120 * 120];
+static unsigned char land[200 * 200];
 
 /* The serial model of a case, initialised (canonical mode). */
 static sph_model *make_model(const dd_case *c, size_t cap, sph_landmask *maskp)
@@ -129,7 +130,7 @@ static sph_model *make_model(const dd_case *c, size_t cap, sph_landmask *maskp)
     p.evp_iterations = check_long() ? 60 : 10; /* make check: 2 s */
     sph_landmask *mask = NULL;
     if (c->coast) {
-        int mx = 120, my = 120;
+        int mx = 2 * (c->nx + 20), my = 2 * (c->ny + 20); /* 0.5 km cells from -10 km */
         sph_landmask mk = {mx, my, -10 * D, -10 * D, D / 2, D / 2, land, 0};
         /* cell (0,0)'s corner at -10 km: shift the test's x by it */
         for (int j = 0; j < my; j++)
@@ -185,9 +186,10 @@ static inline int same_particles(const char *name, const sph_particles *a, const
 
 
 static const dd_case cases[] = {
-    {"free drift", SPH_PHYSICS_FREE_DRIFT, 16, 16, 0.8, 0, 600.0, 0},
-    {"packed ice on a coast", SPH_PHYSICS_FULL, 14, 10, 1.0, 1, 60.0, 1},
-    {"migration, packed and loose", SPH_PHYSICS_AUTO, 14, 14, 1.0, 0, 60.0, 2},
+    {"free drift", SPH_PHYSICS_FREE_DRIFT, 16, 16, 0.8, 0, 600.0, 0, 0},
+    {"packed ice on a coast", SPH_PHYSICS_FULL, 14, 10, 1.0, 1, 60.0, 1, 0},
+    {"migration, packed and loose", SPH_PHYSICS_AUTO, 14, 14, 1.0, 0, 60.0, 2, 0},
+    {"packed ice on a coast, 4320 particles", SPH_PHYSICS_FULL, 72, 60, 1.0, 1, 60.0, 1, 1},
 };
 enum { NCASES = sizeof cases / sizeof cases[0] };
 
@@ -223,6 +225,8 @@ static void write_refs(const char *dir)
 {
     for (size_t ci = 0; ci < NCASES; ci++) {
         const dd_case *c = &cases[ci];
+        if (c->long_only && !check_long())
+            continue;
         sph_model *mm[2];
         sph_landmask mk[2];
         sph_status st;
@@ -283,25 +287,28 @@ int main(void)
         printf("test_mpi_dd: skipped the MPI runs: needs mpirun and build-mpi/tests/test_mpi_dd "
                "(sh tools/install-deps.sh --mpi; make mpi-build)\n");
     } else {
-        /* -np 1 (the driver on one rank) only with SPHICE_LONG: make check's budget */
-        const int np[] = {2, 4, 1};
-        for (int i = 0; i < (check_long() ? 3 : 2); i++) {
+        /* -np 1 (the driver on one rank) and 2 threads per rank only with
+         * SPHICE_LONG: make check's budget */
+        const int np[] = {2, 4, 1, 2}, nt[] = {1, 1, 1, 2};
+        for (int i = 0; i < (check_long() ? 4 : 2); i++) {
             struct timespec t0, t1;
             clock_gettime(CLOCK_MONOTONIC, &t0);
             snprintf(cmd, sizeof cmd,
-                     "OMP_NUM_THREADS=1 OMP_WAIT_POLICY=passive mpirun %s --oversubscribe -np %d %s %s",
+                     "OMP_NUM_THREADS=%d OMP_WAIT_POLICY=passive mpirun %s --oversubscribe -np %d %s %s", nt[i],
                      geteuid() == 0 ? "--allow-run-as-root" : "", np[i], bin, dir);
             int rc = run(cmd);
             clock_gettime(CLOCK_MONOTONIC, &t1);
             double wall = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-            CHECK(rc == 0, "mpirun -np %d: the decomposed runs equal the serial one (exit %d)", np[i], rc);
-            printf("  -np %d: %.2f s wall\n", np[i], wall);
+            CHECK(rc == 0, "mpirun -np %d, %d threads: the decomposed runs equal the serial one (exit %d)", np[i],
+                  nt[i], rc);
+            printf("  -np %d, %d threads: %.2f s wall\n", np[i], nt[i], wall);
         }
     }
     for (size_t ci = 0; ci < NCASES; ci++) {
         char path[700];
         ref_path(path, sizeof path, dir, ci);
-        unlink(path);
+        if (!cases[ci].long_only || check_long())
+            unlink(path);
     }
     rmdir(dir);
     return check_summary("test_mpi_dd");
@@ -430,7 +437,8 @@ int main(int argc, char **argv)
         return 2;
     }
     for (size_t ci = 0; ci < NCASES; ci++)
-        run_case(ci, argv[1]);
+        if (!cases[ci].long_only || check_long())
+            run_case(ci, argv[1]);
     int fails = check_failed_;
     MPI_Allreduce(MPI_IN_PLACE, &fails, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
     if (rank == 0)

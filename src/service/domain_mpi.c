@@ -525,28 +525,11 @@ void dd_free(dd_ctx *d)
         sph_model_set_dd(d->m, NULL);
     if (d->op != MPI_OP_NULL && d->op != 0)
         MPI_Op_free(&d->op);
-    free(d->by_curve);
-    free(d->owner);
-    free(d->cost);
-    free(d->hs_count);
-    free(d->hr_count);
-    free(d->hs_off);
-    free(d->hr_off);
-    free(d->hs_ids);
-    free(d->hr_ids);
-    free(d->hr_sorted);
-    free(d->hs_slot);
-    free(d->hr_slot);
-    free(d->sbuf);
-    free(d->rbuf);
-    free(d->req);
-    free(d->mark);
-    free(d->pk);
-    free(d->upk);
-    free(d->scount);
-    free(d->rcount);
-    free(d->sdisp);
-    free(d->rdisp);
+    void *bufs[] = {d->by_curve, d->owner, d->cost, d->hs_count, d->hr_count, d->hs_off, d->hr_off,
+                    d->hs_ids, d->hr_ids, d->hr_sorted, d->hs_slot, d->hr_slot, d->sbuf, d->rbuf,
+                    d->req, d->mark, d->pk, d->upk, d->scount, d->rcount, d->sdisp, d->rdisp};
+    for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
+        free(bufs[i]);
     free(d->pairs);
     free(d);
 }
