@@ -237,17 +237,14 @@ static int migrate(dd_ctx *d)
             np++;
         }
     }
-    /* pack before compacting: exchange_rows packs first, then appends */
+    /* sent from their current slots, the arrivals appended after them;
+     * then the gaps of the sent ones closed (the order does not matter:
+     * canonical mode) */
     size_t keep_n = n;
     double bytes = 0;
-    /* compacting moves slots, so pack now into pk via exchange_rows after
-     * the kept ones are moved: simpler to exchange from the current slots
-     * and compact the received block down afterwards */
     long got = exchange_rows(d, P, np, P, &bytes);
     if (got < 0)
         return -1;
-    /* remove the sent ones (marked by slot) and close the gaps, keeping
-     * the received block */
     unsigned char *gone = calloc(P->n + 1, 1);
     if (!gone)
         return -1;
