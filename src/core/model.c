@@ -154,6 +154,8 @@ void sph_model_free(sph_model *m)
     free(m->loose);
     free(m->land);
     free(m->near_land);
+    free(m->dd_key);
+    free(m->dd_owned);
     sph_thermo_work_free(m->tw);
     sph_ocean_free(m->ocean);
     if (m->solver && m->solver->free)
@@ -292,6 +294,8 @@ static int prepare_lists(sph_model *m, sph_status *st)
         sph_build_ghosts(m);
         return prepare_lists(m, st);
     }
+    if (m->canonical && over < 0)
+        sph_dd_sort_lists(m);
     if (over >= 0)
         return sph_status_set(st, SPH_STEP_RECOVERABLE, SPH_FAULT_CLUMPING, over >= 0 ? P->id[over] : -1,
                               "neighbour count", (double)m->prm.max_neighbours,
@@ -310,6 +314,8 @@ static int prepare_lists(sph_model *m, sph_status *st)
         m->rheo->project_memory(m);
     sph_ghost_stress(m);
     sph_select_active(m);
+    if (m->canonical)
+        sph_dd_lists_ready(m);
     return SPH_STEP_OK;
 }
 
@@ -423,6 +429,8 @@ static int check_health(sph_model *m, sph_status *st)
                                   p->thickness_limit,
                                   "exceeds the thickness limit (numerical pile-up)");
     }
+    if (m->dd) /* a rank holds halo copies too: the driver checks the global budget */
+        return SPH_STEP_OK;
     const sph_budget *b = &m->budget;
     double expect = sph_budget_expected(b);
     /* the scale includes the sources: ice that formed and melted away
@@ -746,7 +754,8 @@ int sph_model_step(sph_model *m, sph_status *st)
         sph_parcels_drift_pass(m);
     else
         sph_free_drift_pass(m);
-    if (m->nactive > 0) {
+    /* decomposed: every rank iterates (the halo exchange is collective) */
+    if (m->nactive > 0 || (m->dd && p->physics != SPH_PHYSICS_FREE_DRIFT)) {
         rc = m->solver->solve(m, m->solver_ws, st);
         if (rc != SPH_STEP_OK)
             return rc;

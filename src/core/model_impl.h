@@ -93,6 +93,12 @@ struct sph_model {
     sph_step_stats stats;
     double time, thermo_accum;
     long steps;
+    /* domain decomposition (core/dd.h, dd.c): driver hooks (NULL: serial),
+     * canonical mode, the neighbour sort keys [2*cap], owned flags [2*cap] */
+    const struct sph_dd_hooks *dd;
+    int canonical;
+    long *dd_key;
+    unsigned char *dd_owned;
 };
 
 /* Array length of the per-particle workspaces: live particles and ghosts. */
@@ -227,6 +233,19 @@ int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_stat
 /* Hands particle k's accumulated fluxes into the ocean (ofx_*) to its
  * cell's accumulators and zeroes them, before k is removed mid-record. */
 void sph_ocean_take_particle(sph_model *m, size_t k);
+
+/* ------------------------------------------------------------------ */
+/* canonical mode for domain decomposition (dd.c, core/dd.h)          */
+
+/* Sorts every neighbour list by the particles' global keys. */
+void sph_dd_sort_lists(sph_model *m);
+/* After the lists, density and active set: the driver maps its particles
+ * (serial: all owned). */
+void sph_dd_lists_ready(sph_model *m);
+/* The mEVP norms over the owned active particles, exact and reduced over
+ * the ranks: max |du|, sum du^2, sum res2, sum |u|^2, the count. */
+void sph_dd_mevp_norms(sph_model *m, const int *act, size_t na, const double *res2, double *r,
+                       double *s2, double *q2, double *u2, double *nact);
 
 /* ------------------------------------------------------------------ */
 /* SPH passes (operators.c)                                            */

@@ -3,6 +3,7 @@
  * momentum equation. Its workspace holds the rheology's target stress of
  * each iteration; its step is bounded by the measured stability envelope. */
 #include "../model_impl.h"
+#include "core/dd.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -128,11 +129,18 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
             q2 += w->res2[k];
             u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
         }
+        double nna = (double)na;
+        if (m->dd)
+            m->dd->exchange(m->dd->ctx, m, SPH_DD_ITER_POST);
+        if (m->canonical) /* owned particles, exact, over the ranks (core/dd.h) */
+            sph_dd_mevp_norms(m, act, na, w->res2, &r, &s2, &q2, &u2, &nna);
+        if (m->dd)
+            m->dd->exchange(m->dd->ctx, m, SPH_DD_ITER_WAIT);
         resid = r;
         /* relative to the RMS speed, floored at SPH_MEVP_SPEED_FLOOR (ice
          * at rest has no scale of its own) */
-        double urms = sqrt(u2 / (double)na);
-        rel = sqrt(q2 / (double)na) / fmax(urms, SPH_MEVP_SPEED_FLOOR);
+        double urms = sqrt(u2 / nna);
+        rel = sqrt(q2 / nna) / fmax(urms, SPH_MEVP_SPEED_FLOOR);
         if (!isfinite(r))
             return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_NONFINITE, -1, "mEVP residual", r, 0.0,
                                   "is not finite (the stress iteration diverged)");
@@ -141,7 +149,7 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
             break;
         }
         if (win > 0) {
-            double rms = sqrt(s2 / (double)na);
+            double rms = sqrt(s2 / nna);
             if (it == 0 || rms < rms_ref) {
                 rms_ref = rms;
                 it_ref = it;

@@ -1,0 +1,79 @@
+/* Hooks for a spatial domain decomposition of one model (the driver:
+ * service/domain_mpi.c, make MPI=1; docs/domain.md). The core stays free
+ * of MPI: a driver gives each rank a model holding the particles it owns
+ * plus halo copies of other ranks' particles near its boundary, and the
+ * core calls the driver back where the halo must be refreshed.
+ *
+ * The answer must not depend on the decomposition, so a model in
+ * canonical mode (sph_model_set_canonical):
+ *  - sorts every neighbour list by a global key (particle id; a mirror
+ *    ghost after its source, in the order its walls were found), so every
+ *    sum over neighbours runs in an order that does not depend on which
+ *    rank holds which particle or in which slot;
+ *  - computes the stress solver's norms (mEVP residuals, RMS velocity
+ *    change) with an exact accumulator (sph_xsum), whose sum does not
+ *    depend on the order of the terms, over owned particles only, and
+ *    hands the accumulators to the driver's reduce hook to be summed over
+ *    the ranks (integer sums: associative).
+ * A serial model in canonical mode without hooks is the reference a
+ * decomposed run equals bit for bit (tests/test_mpi_dd.c). The default
+ * (non-canonical) path is unchanged.
+ */
+#ifndef SPHICE_CORE_DD_H
+#define SPHICE_CORE_DD_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/model.h"
+
+/* An exact sum of doubles: fixed-point digits of 32 bits (int64 with room
+ * for 2^31 additions) spanning the whole double range, so the value is
+ * exact whatever the order of the terms; rounded once by sph_xsum_value. */
+#define SPH_XSUM_DIGITS 68
+typedef struct sph_xsum {
+    int64_t d[SPH_XSUM_DIGITS];
+    int64_t nonfinite; /* terms that were NaN or infinite */
+} sph_xsum;
+void sph_xsum_clear(sph_xsum *a);
+void sph_xsum_add(sph_xsum *a, double x);
+/* Adds b's digits into a (what the driver's reduce does over ranks). */
+void sph_xsum_merge(sph_xsum *a, const sph_xsum *b);
+/* The sum, deterministic in the exact value (NaN if a term was not finite). */
+double sph_xsum_value(const sph_xsum *a);
+
+enum {
+    SPH_DD_LISTS = 1,    /* neighbour lists, density and the active set are ready
+                            (after any reordering of the step): map particles */
+    SPH_DD_ITER_POST = 2, /* an mEVP iteration updated u, v, s11, s22, s12:
+                             start sending the owned boundary values */
+    SPH_DD_ITER_WAIT = 3  /* before the next iteration: the halo must be current */
+};
+
+typedef struct sph_dd_hooks {
+    void *ctx;
+    /* Called by the core at the stages above. */
+    void (*exchange)(void *ctx, sph_model *m, int stage);
+    /* Sums nsum accumulators and takes the maximum of nmax doubles over
+     * the ranks, in place. */
+    void (*reduce)(void *ctx, sph_xsum *sums, int nsum, double *maxes, int nmax);
+} sph_dd_hooks;
+
+/* Canonical mode on (1) or off (0); allocates its workspace (outside a
+ * step). 0 on success. */
+int sph_model_set_canonical(sph_model *m, int on);
+/* Hooks of a decomposition driver (NULL: none; serial). Implies nothing
+ * about canonical mode, which the driver turns on itself. */
+void sph_model_set_dd(sph_model *m, const sph_dd_hooks *h);
+/* Per slot (live particles of this step, after its reordering): 1 where
+ * this rank owns the particle. The driver fills it at SPH_DD_LISTS; NULL
+ * unless canonical mode is on. Without hooks every particle is owned. */
+unsigned char *sph_model_dd_owned(sph_model *m);
+/* The kernel's support in units of the smoothing length. */
+double sph_model_kernel_radius(const sph_model *m);
+/* After sph_model_resume on a rank: marks the coast cells for mirror
+ * ghosts with the global largest sml0 (resume takes the largest of the
+ * particles it holds, which differs between ranks). */
+void sph_model_dd_coast(sph_model *m, double sml0_max);
+
+#endif
