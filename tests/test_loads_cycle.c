@@ -7,15 +7,22 @@
  *    kN/m (300 t, 5.0e5 kN/m);
  *  - /status's latest loads read back from the published cycle;
  *  - a DEM step beyond the stability limit: the cycle fails with one line
- *    naming the station and loads.dem_dt, nothing published. */
+ *    naming the station and loads.dem_dt, nothing published;
+ *  - a long DEM (600 s of simulated ice) cancelled while it runs: the
+ *    cycle ends within a second of the cancel flag, recorded "cancelled"
+ *    in the history, nothing published. */
 #include "engine_case.h"
 
 #include <cjson/cJSON.h>
 #include <netcdf.h>
+#include <pthread.h>
+#include <signal.h>
+#include <time.h>
 
 #include "check.h"
 #include "service/config.h"
 #include "service/cycle.h"
+#include "service/history.h"
 #include "service/status_page.h"
 #include "util/jsonutil.h"
 
@@ -57,6 +64,15 @@ static int cycle(const struct sph_config *cfg, const char *name, char *out, size
     return cycle_run(cfg, &o, NULL, NULL, rep, err);
 }
 
+/* the leg with the DEM forced on a small sheet for `duration` s */
+static struct sph_config *load_forced_dem(const char *duration)
+{
+    char loads[256];
+    snprintf(loads, sizeof loads, "\"model\": \"dem\", \"dem_duration\": %s, \"dem_sheet_length\": 0.4, "
+             "\"dem_sheet_width\": 0.5", duration);
+    return load(loads);
+}
+
 static double num(const cJSON *o, const char *k)
 {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, k);
@@ -65,8 +81,7 @@ static double num(const cJSON *o, const char *k)
 
 static void test_published(void)
 {
-    struct sph_config *cfg = load("\"model\": \"dem\", \"dem_duration\": 0.004, \"dem_sheet_length\": 0.4, "
-                                  "\"dem_sheet_width\": 0.5");
+    struct sph_config *cfg = load_forced_dem("0.004");
     if (!cfg)
         return;
     char out[1200], path[1400];
@@ -137,12 +152,100 @@ static void test_refused(void)
     sph_config_free(cfg);
 }
 
+static void nap_ms(long ms)
+{
+    struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
+    nanosleep(&ts, NULL);
+}
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+typedef struct cancel_job {
+    const struct sph_config *cfg;
+    cycle_opts o;
+    forecast_progress prog;
+    volatile sig_atomic_t cancel;
+    cycle_report rep;
+    sph_error err;
+    int rc;
+    volatile int done;
+} cancel_job;
+
+static void *cancel_worker(void *arg)
+{
+    cancel_job *j = arg;
+    j->rc = cycle_run(j->cfg, &j->o, &j->prog, &j->cancel, &j->rep, &j->err);
+    j->done = 1;
+    return NULL;
+}
+
+static void test_cancelled(void)
+{
+    /* 600 s of ice against the leg at the first output time: hours of work */
+    struct sph_config *cfg = load_forced_dem("600");
+    if (!cfg)
+        return;
+    char out[1200], path[1400];
+    snprintf(out, sizeof out, "%s/cancel", dir);
+    snprintf(path, sizeof path, "%s/history.sqlite", dir);
+    history *h = NULL;
+    sph_error e;
+    sph_error_clear(&e);
+    CHECK(history_open(&h, path, &e) == SPH_OK, "history: %s", e.msg);
+    static cancel_job j;
+    memset(&j, 0, sizeof j);
+    j.cfg = cfg;
+    j.o = (cycle_opts){.cycle_time = EC_CYCLE, .hours = 3, .out_dir = out, .force = 1, .hist = h};
+    pthread_t th;
+    CHECK(pthread_create(&th, NULL, cancel_worker, &j) == 0, "worker thread");
+    /* the time loop starts with the first output time, whose DEM then runs
+     * (it cannot end in the test's lifetime): cancel 0.5 s into it */
+    double t0 = now();
+    while (j.prog.phase != FC_PHASE_RUNNING && !j.done && now() - t0 < 60.0)
+        nap_ms(10);
+    nap_ms(500);
+    CHECK(!j.done, "the cycle is still running when cancelled (rc %d: %s)", j.rc, j.err.msg);
+    double tc = now();
+    j.cancel = 1;
+    while (!j.done && now() - tc < 10.0)
+        nap_ms(5);
+    double took = now() - tc;
+    if (!j.done) { /* the DEM does not stop: the worker would run for hours */
+        CHECK(0, "the cycle still runs %.1f s after the cancel", took);
+        exit(check_summary("test_loads_cycle"));
+    }
+    pthread_join(th, NULL);
+    printf("cancel: the cycle ended %.3f s after the flag: %s\n", took, j.err.msg);
+    CHECK(took < 1.0, "the cycle ends within a second of the cancel (%.3f s)", took);
+    CHECK(j.rc == SPH_ERR_CANCELLED && j.rep.result == CYCLE_CANCELLED, "the cycle is cancelled (rc %d, result %d)",
+          j.rc, j.rep.result);
+    CHECK(strstr(j.err.msg, "DEM cancelled") != NULL && strstr(j.err.msg, "\"centre\"") != NULL,
+          "the DEM run was the one stopped: %s", j.err.msg);
+    history_run r;
+    memset(&r, 0, sizeof r);
+    CHECK(history_get(h, EC_CYCLE, &r, &e) == 1 && !strcmp(r.result, "cancelled"),
+          "recorded \"%s\" in the history", r.result);
+    history_run_clear(&r);
+    snprintf(path, sizeof path, "%s/19990208T06Z", out);
+    CHECK(access(path, F_OK) != 0, "nothing published");
+    snprintf(path, sizeof path, "%s/latest", out);
+    CHECK(access(path, F_OK) != 0, "no latest");
+    history_close(h);
+    sph_config_free(cfg);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
     CHECK(ec_start(argv, dir) == 0, "mkdtemp");
     test_published();
     test_refused();
+    test_cancelled();
     char cmd[1200];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
     CHECK(system(cmd) == 0, "cleanup");

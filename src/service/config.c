@@ -313,6 +313,12 @@ static const cfg_key tail_keys[] = {
        "The DEM runs at the thickness rounded to this resolution, m, and a cycle reuses the result of an equal (thickness, speed, structure); 0: exact values only."),
     C_("loads.dem_cache_speed", CT_DOUBLE, loads.dem_cache_speed, "0.02", 0, 10, R, NULL,
        "The same rounding of the drift speed, m/s; 0: exact values only."),
+    C_("loads.dem_elastic_modulus", CT_DOUBLE, loads.dem_elastic_modulus, "1", 0.001, 100, R, NULL,
+       "Elastic modulus E of the DEM's bonded ice, GPa (the seed's 1 GPa). The stiffness follows Potyondy & Cundall (2004): contact K_n = A E / L = E pi r / 2 (A = pi r^2, L = 2 r), K_s = 0.6 K_n; parallel bond k_n = E / (r_i + r_j) per unit area, k_s = 0.6 k_n (docs/dem.md)."),
+    C_("loads.dem_bond_tensile", CT_DOUBLE, loads.dem_bond_tensile, "0.6", 0.001, 100, R, NULL,
+       "Tensile strength sigma_t of the DEM's parallel bonds, MPa (the flexural strength of Bohai ice, 0.5-0.7 MPa; docs/dem.md)."),
+    C_("loads.dem_bond_shear", CT_DOUBLE, loads.dem_bond_shear, "1", 0.001, 100, R, NULL,
+       "Shear strength tau_c of the DEM's parallel bonds, MPa (half the uniaxial compressive strength of Bohai ice, ~2 MPa, by Tresca; docs/dem.md)."),
     C_("loads.map_threshold_kn", CT_DOUBLE, loads.map_threshold_kn, "500", 0, 1e9, R, NULL,
        "Quick-look maps mark a station whose ice load (the model that ran) exceeds this, kN; 0: no marks."),
 
