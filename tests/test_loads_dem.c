@@ -4,7 +4,9 @@
  *  - above them the DEM, whose statistics equal bit for bit those of the
  *    same run built here from the core's API (core/dem.h) after the recipe
  *    of docs/dem.md "The station DEM" (not by calling the product's code);
- *    and the structure within its oscillator bound 2 F_max / k;
+ *    and the structure within its oscillator bound 2 F_max / k; the same
+ *    for a cone station (the core's cone); the ice's keys (modulus, bond
+ *    strengths) and K_n = A E / L;
  *  - loads.model forcing either model;
  *  - the cycle's cache: a thickness and speed equal after rounding reuse
  *    the run (same numbers, dem_cached 1), a new thickness runs again;

@@ -1,8 +1,9 @@
 /* The station DEM of the ice-load product (issue 25 items 3 and 4; docs/dem.md
  * "The station DEM"): a bonded close-packed ice sheet of the forecast's
  * thickness driven at the forecast's drift speed into the station's
- * vertical structure, with the DEM core's public API (core/dem.h) only;
- * and the cycle's cache of its results.
+ * vertical structure or cone, with the DEM core's public API (core/dem.h)
+ * only; the cycle's cache of its results; a stop at the next step once the
+ * cycle's cancel flag is set.
  *
  * The scene (all from the keys, so that a test can build the same run
  * from the core's API and compare bit for bit):
@@ -19,11 +20,15 @@
  *   the rear edge (x < 4r) and both side edges (y < 2r, y > y_max - 2r)
  *     move with the far-field ice at u (translation and rotation fixed),
  *     the rest starts at u;
- *   the structure: a vertical cylinder of the station's diameter, mass,
+ *   the ice: bonds of modulus E (K_n = E pi r / 2, Potyondy & Cundall)
+ *     and the keys' strengths; a cone's friction for every contact;
+ *   the structure: a vertical cylinder of the station's diameter, or its
+ *     cone (angle, waterline diameter at z = 0, neck), with its mass,
  *     stiffness and damping ratio, centred across the sheet (y0 = sqrt(3) r
  *     (ny - 1) / 2), touching the sheet without overlap: x0 = max over
- *     the spheres with |y - y0| < R + r of x + sqrt((R + r)^2 - (y - y0)^2),
- *     R = w / 2 (front + R where none is that close);
+ *     the spheres with |y - y0| < reach of x + sqrt(reach^2 - (y - y0)^2),
+ *     reach = R + r, or for the cone R - z / tan a + r / sin a at the
+ *     sphere's height z (R = w / 2; front + R where none is that close);
  *   step dt = loads.dem_dt, or 0.9 dt_safety dt_critical when 0; the
  *     number of steps ceil(duration / dt) (loads.dem_duration);
  *   the series: the structure's load along the drift (s.fx), its
