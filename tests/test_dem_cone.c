@@ -139,6 +139,9 @@ static void run_cone(const cone_case *c)
     int series = getenv("SPHICE_DEM_CONE_SERIES") != NULL;
     long every = (long)(0.01 / dt) + 1;
     double bh = 0, bv = 0;
+    /* the load spectrum: 1 kHz block means of H from the first contact */
+    long blk = (long)(1e-3 / dt) > 0 ? (long)(1e-3 / dt) : 1, nblk = 0, inblk = 0;
+    double *blocks = malloc((size_t)(steps / blk + 1) * sizeof *blocks), bsum = 0.0;
     for (long s = 0; s < steps; s++) {
         if (dem_step(d, dt, &st) != SPH_STEP_OK) {
             bad = 1;
@@ -151,6 +154,12 @@ static void run_cone(const cone_case *c)
             sv += -d->s.fz;
             ns++;
             hmax = fmax(hmax, d->s.fx);
+            bsum += d->s.fx;
+            if (++inblk == blk) {
+                blocks[nblk++] = bsum / (double)blk;
+                bsum = 0.0;
+                inblk = 0;
+            }
         }
         if (series) {
             bh += d->s.fx;
@@ -194,6 +203,12 @@ static void run_cone(const cone_case *c)
            " V %.2f kN; DEM mean / Ralston %.3f\n",
            mh / 1e3, hmax / 1e3, mv / 1e3, p.bond_tensile / 1e6, L.h / 1e3, L.h_break / 1e3,
            L.h_rideup / 1e3, L.v / 1e3, mh / L.h);
+    double bm = 0, bx = 0, bs = 0, freq = NAN;
+    if (nblk > 1)
+        dem_load_stats(blocks, (size_t)nblk, blk * dt, &bm, &bx, &bs, &freq);
+    printf("cone case: load spectrum of H (%ld blocks of 1 ms): dominant frequency %.2f Hz, std %.2f kN;"
+           " max / mean %.2f\n", nblk, freq, bs / 1e3, mh > 0 ? hmax / mh : NAN);
+    free(blocks);
     CHECK(mh > 0.0 && mv > 0.0, "the load pushes along the drift and down the cone");
     CHECK(d->bonds_broken_tension > 0, "the sheet failed in tension (bending)");
     CHECK(zmax > ztop + r, "ride-up: ice above the sheet's top at the cone (%.3f vs %.3f)",

@@ -4,7 +4,9 @@
  *  - above them the DEM, whose statistics equal bit for bit those of the
  *    same run built here from the core's API (core/dem.h) after the recipe
  *    of docs/dem.md "The station DEM" (not by calling the product's code);
- *    and the structure within its oscillator bound 2 F_max / k;
+ *    and the structure within its oscillator bound 2 F_max / k; the same
+ *    for a cone station (the core's cone); the ice's keys (modulus, bond
+ *    strengths) and K_n = A E / L;
  *  - loads.model forcing either model;
  *  - the cycle's cache: a thickness and speed equal after rounding reuse
  *    the run (same numbers, dem_cached 1), a new thickness runs again;
@@ -39,6 +41,9 @@ const char *__lsan_default_suppressions(void) { return "leak:libfontconfig\n"; }
 
 static prod_grid G = { 20, 20, 120.0, 38.0, 0.05, 0.05 };
 static const prod_structure LEG = { 1.6, 1.8e6, 300e3, 5.0e8, 0.03, 0, 0, 0, 0 }; /* the seed's leg */
+/* a 60 deg cone, waterline 1.2 m, neck 0.6 m (test_dem_cone's), on the seed's oscillator; mu 0.2 */
+static const prod_structure CONE = { 1.2, 0.0, 300e3, 5.0e8, 0.03, 60.0, 0.6, 0.6e6, 0.2 };
+static const prod_structure *RUN_STRUCTURE = &LEG; /* the structure run() gives station "A" */
 
 typedef struct scene {
     int nt;
@@ -63,7 +68,7 @@ static int run(const char *stage, const prod_loads_options *lo, const scene *sc,
     o.prefix = "t";
     o.stations = &st;
     o.nstations = 1;
-    o.structures = &LEG;
+    o.structures = RUN_STRUCTURE;
     o.loads = *lo;
     prod_meta m = { .title = "loads dem test", .config_sha256 = "abc", .cycle_time = T0, .start_mode = "cold" };
     sph_error_clear(err);
@@ -166,8 +171,18 @@ static void direct_dem(const prod_loads_options *o, const prod_structure *ps, do
     const size_t n = (size_t)(along * across * layers);
     dem_params prm;
     dem_params_default(&prm);
+    prm.bond_modulus = o->elastic_modulus;
+    prm.bond_tensile = o->bond_tensile;
+    prm.bond_shear = o->bond_shear;
+    const int cone = ps->cone_angle > 0.0;
+    if (cone)
+        prm.friction = ps->mu; /* one mu for the ice and the cone, Ralston's */
     dem *d = dem_create(n, 8 * n, &prm);
     CHECK(dem_add_sheet_hcp(d, 0.0, 0.0, (int)along, (int)across, (int)layers, r, u, 0.0) == 0, "direct sheet");
+    /* Potyondy & Cundall's deformability (docs/dem.md): K_n = A E / L, A = pi r^2, L = 2 r; bonds E / (2 r) */
+    CHECK(fabs(d->p.kn - o->elastic_modulus * M_PI * r * r / (2.0 * r)) <= 1e-12 * d->p.kn &&
+              fabs(d->bonds[0].kn - o->elastic_modulus / (2.0 * r)) <= 1e-12 * d->bonds[0].kn,
+          "K_n %.6g N/m = A E / L, bond k_n %.6g Pa/m = E / (2 r)", d->p.kn, d->bonds[0].kn);
     const double top = sqrt(3.0) * r * (double)(across - 1) + r;
     double xfront = 0.0;
     for (size_t i = 0; i < d->n; i++)
@@ -179,21 +194,36 @@ static void direct_dem(const prod_loads_options *o, const prod_structure *ps, do
             d->vy[i] = d->vz[i] = 0.0;
         }
     dem_structure *s = &d->s;
-    s->kind = DEM_STRUCT_CYLINDER;
+    s->kind = cone ? DEM_STRUCT_CONE : DEM_STRUCT_CYLINDER;
     s->diameter = ps->w;
+    s->cone_angle = cone ? ps->cone_angle : 0.0;
+    s->neck_diameter = cone ? ps->neck : 0.0;
+    s->z_waterline = 0.0;
     s->y0 = 0.5 * sqrt(3.0) * r * (double)(across - 1);
-    /* touching the sheet, no sphere overlapping it */
-    const double reach = 0.5 * ps->w + r;
+    /* touching the sheet, no sphere overlapping it: a sphere at height z
+     * touches the cone's face (radius R - z / tan a at z) when its centre is
+     * r / sin a further out horizontally (the normal distance to a face at
+     * angle a from the horizontal is the horizontal gap times sin a) */
+    const double sa = cone ? sin(ps->cone_angle * M_PI / 180.0) : 1.0;
+    const double ta = cone ? tan(ps->cone_angle * M_PI / 180.0) : 1.0;
     double x0 = -HUGE_VAL;
-    for (size_t i = 0; i < d->n; i++)
+    int above_neck = 0;
+    for (size_t i = 0; i < d->n; i++) {
+        above_neck += cone && !(d->z[i] < (0.5 * ps->w - 0.5 * ps->neck) * ta);
+        const double reach = cone ? 0.5 * ps->w - d->z[i] / ta + r / sa : 0.5 * ps->w + r;
         if (fabs(d->y[i] - s->y0) < reach)
             x0 = fmax(x0, d->x[i] + sqrt(reach * reach - (d->y[i] - s->y0) * (d->y[i] - s->y0)));
+    }
     s->x0 = x0 > -HUGE_VAL ? x0 : xfront + 0.5 * ps->w;
-    /* no sphere starts in contact, one touches */
+    CHECK(above_neck == 0, "the sheet lies below the cone's neck (%d spheres above)", above_neck);
+    /* no sphere starts in contact, one touches: the normal distance to the
+     * leg (rho - R) or to the cone's face ((rho - (R - z / tan a)) sin a) less r */
     double gap = HUGE_VAL;
-    for (size_t i = 0; i < d->n; i++)
-        gap = fmin(gap, hypot(d->x[i] - s->x0, d->y[i] - s->y0) - reach);
-    CHECK(gap >= -1e-12 && gap <= 1e-12, "the leg touches the sheet: gap %.3g m", gap);
+    for (size_t i = 0; i < d->n; i++) {
+        const double rho = hypot(d->x[i] - s->x0, d->y[i] - s->y0);
+        gap = fmin(gap, cone ? (rho - (0.5 * ps->w - d->z[i] / ta)) * sa - r : rho - 0.5 * ps->w - r);
+    }
+    CHECK(gap >= -1e-12 && gap <= 1e-12, "the %s touches the sheet: gap %.3g m", cone ? "cone" : "leg", gap);
     s->mass = ps->mass;
     s->stiffness = ps->stiffness;
     s->damping_ratio = ps->damping;
@@ -348,6 +378,69 @@ static void test_above_and_cache(const char *root)
           "resolution 0: exact values only (%ld runs)", sum.loads.dem_runs);
 }
 
+/* A cone station in the station DEM (issue 25): the scene above the
+ * thresholds runs the DEM against the cone, not Ralston's only; its
+ * statistics equal bit for bit the run built here from the core's API
+ * (direct_dem with the cone); the cheap load beside it stays Ralston's
+ * for the same ice and cone. */
+static void test_cone(const char *root)
+{
+    scene sc = { 1, { 0.9 }, { 0.26 }, { -0.2 } };
+    prod_loads_options lo;
+    quick_dem(&lo);
+    lo.sheet_width = 1.0;
+    prod_summary sum;
+    rows r;
+    RUN_STRUCTURE = &CONE;
+    int ok = run_read(root, "cone", &lo, &sc, &sum, &r);
+    RUN_STRUCTURE = &LEG;
+    if (!ok)
+        return;
+    CHECK(!strcmp(r.model[0], "dem") && strstr(r.why[0], "all DEM thresholds"), "cone: %s (%s)", r.model[0],
+          r.why[0]);
+    CHECK(r.cached[0] == 0 && sum.loads.dem_runs == 1, "cone: the DEM ran (%ld runs)", sum.loads.dem_runs);
+    double h = rounded(r.thick[0], lo.cache_thickness), u = rounded(r.speed[0], lo.cache_speed), want[8];
+    direct_dem(&lo, &CONE, h, u, want);
+    printf("station DEM cone %.0f deg, D %.1f m: %.2f m at %.2f m/s, %.0f ms: load mean %.3f kN, max %.3f kN\n",
+           CONE.cone_angle, CONE.w, h, u, lo.duration * 1e3, want[0] * 1e-3, want[1] * 1e-3);
+    for (int q = 0; q < 8; q++)
+        CHECK(memcmp(&r.dem[q][0], &want[q], sizeof(double)) == 0, "cone %s: file %.17g, direct %.17g", DEM_VARS[q],
+              r.dem[q][0], want[q]);
+    CHECK(r.dem[1][0] > 0.0 && r.stload[0] == r.dem[1][0], "cone: the ice pushes (max %.3f kN), the station load is "
+          "the DEM's max", r.dem[1][0] * 1e-3);
+    dem_cone_ice ci = { CONE.sigma_f, r.thick[0], r.thick[0], 900.0, CONE.mu, CONE.cone_angle, CONE.w, CONE.neck };
+    dem_cone_load cl;
+    const char *why = "";
+    CHECK(dem_ralston_cone(&ci, &cl, &why) == 0 && fabs(r.load[0] - cl.h) <= 1e-9 * cl.h,
+          "cone: the cheap load beside it is Ralston's (%.3f kN vs %.3f kN)", r.load[0] * 1e-3, cl.h * 1e-3);
+}
+
+/* loads.dem_elastic_modulus and the bond strengths reach the station DEM:
+ * a 0.1 GPa ice with 0.5 / 0.9 MPa bonds against the leg, bit for bit the
+ * direct run with those parameters, and not the default ice's numbers */
+static void test_ice_keys(const char *root)
+{
+    scene sc = { 1, { 0.9 }, { 0.26 }, { -0.2 } };
+    prod_loads_options lo, def;
+    quick_dem(&lo);
+    quick_dem(&def);
+    lo.elastic_modulus = 0.1e9;
+    lo.bond_tensile = 0.5e6;
+    lo.bond_shear = 0.9e6;
+    prod_summary sum;
+    rows r;
+    if (!run_read(root, "soft", &lo, &sc, &sum, &r))
+        return;
+    double h = rounded(r.thick[0], lo.cache_thickness), u = rounded(r.speed[0], lo.cache_speed), want[8], stiff[8];
+    direct_dem(&lo, &LEG, h, u, want);
+    direct_dem(&def, &LEG, h, u, stiff);
+    for (int q = 0; q < 8; q++)
+        CHECK(memcmp(&r.dem[q][0], &want[q], sizeof(double)) == 0, "soft ice %s: file %.17g, direct %.17g",
+              DEM_VARS[q], r.dem[q][0], want[q]);
+    CHECK(want[1] != stiff[1], "the modulus changes the load (max %.3f kN at 0.1 GPa, %.3f kN at 1 GPa)",
+          want[1] * 1e-3, stiff[1] * 1e-3);
+}
+
 static void test_force(const char *root)
 {
     prod_loads_options lo;
@@ -424,7 +517,7 @@ static void test_config(void)
     sph_error e;
     struct sph_config *c;
     int rc = parse("\"loads\": {\"model\": \"dem\", \"dem_min_speed\": 0.1, \"dem_duration\": 2, "
-                   "\"dem_cache_thickness\": 0.05}",
+                   "\"dem_cache_thickness\": 0.05, \"dem_elastic_modulus\": 0.5, \"dem_bond_tensile\": 0.7}",
                    "{\"name\": \"JZ20-2\", \"lon\": 121.37, \"lat\": 40.47, \"structure\": {\"kind\": "
                    "\"vertical\", \"mass\": 500, \"stiffness\": 1e5, \"damping\": 0.05}}",
                    &c, &e);
@@ -432,7 +525,9 @@ static void test_config(void)
     if (c) {
         CHECK(c->loads.model == PROD_LOADS_DEM && c->loads.dem_min_speed == 0.1 && c->loads.dem_duration == 2 &&
                   c->loads.dem_cache_thickness == 0.05 && c->loads.dem_min_thickness == 0.1 &&
-                  c->loads.dem_max_particles == 20000 && c->loads.map_threshold_kn == 500,
+                  c->loads.dem_max_particles == 20000 && c->loads.map_threshold_kn == 500 &&
+                  c->loads.dem_elastic_modulus == 0.5 && c->loads.dem_bond_tensile == 0.7 &&
+                  c->loads.dem_bond_shear == 1.0,
               "loads keys read, defaults kept");
         CHECK(c->stations[0].structure_mass == 500 && c->stations[0].structure_stiffness == 1e5 &&
                   c->stations[0].structure_damping == 0.05,
@@ -444,6 +539,9 @@ static void test_config(void)
     CHECK(rc == SPH_ERR_CONFIG && c == NULL && strstr(e.msg, "\"Loose\"") &&
               strstr(e.msg, "stations[0].structure.stiffness") && !strchr(e.msg, '\n'),
           "a structure of mass on no spring refused in one line: %s", e.msg);
+    rc = parse("\"loads\": {\"dem_elastic_modulus\": 0}", "", &c, &e);
+    CHECK(rc == SPH_ERR_CONFIG && c == NULL && strstr(e.msg, "loads.dem_elastic_modulus"),
+          "a zero modulus refused: %s", e.msg);
     rc = parse("\"loads\": {\"model\": \"sometimes\"}", "", &c, &e);
     CHECK(rc == SPH_ERR_CONFIG && c == NULL && strstr(e.msg, "loads.model"), "an unknown model refused: %s", e.msg);
 }
@@ -537,6 +635,8 @@ int main(void)
     }
     test_below(root);
     test_above_and_cache(root);
+    test_cone(root);
+    test_ice_keys(root);
     test_force(root);
     test_refusals(root);
     test_config();

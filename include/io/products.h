@@ -25,6 +25,7 @@
 #ifndef SPHICE_IO_PRODUCTS_H
 #define SPHICE_IO_PRODUCTS_H
 
+#include <signal.h>
 #include <stddef.h>
 #include "core/model.h"
 #include "io/edge.h"
@@ -70,6 +71,14 @@ typedef struct prod_loads_options {
     double cache_thickness;   /* the cache's (and the run's) thickness resolution, m; 0: exact */
     double cache_speed;       /* its speed resolution, m s-1; 0: exact */
     double map_threshold;     /* N: quick-look marks a station whose load exceeds it; 0: none */
+    /* the bonded-particle ice (Potyondy & Cundall 2004; docs/dem.md "Stiffness"):
+     * contact K_n = A E / L = E pi r / 2, bond k_n = E / (r_i + r_j) per area */
+    double elastic_modulus;   /* E, Pa (loads.dem_elastic_modulus) */
+    double bond_tensile;      /* sigma_t, Pa (loads.dem_bond_tensile) */
+    double bond_shear;        /* tau_c, Pa (loads.dem_bond_shear) */
+    /* the cycle's cancel flag (NULL: none): a DEM run stops at the next
+     * step once it is set, with SPH_ERR_CANCELLED */
+    const volatile sig_atomic_t *cancel;
 } prod_loads_options;
 void prod_loads_options_default(prod_loads_options *o);
 

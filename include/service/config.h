@@ -145,6 +145,7 @@ struct sph_config {
         int model;              /* PROD_LOADS_* */
         double dem_min_speed, dem_min_thickness, dem_duration, dem_particle_diameter, dem_sheet_length,
             dem_sheet_width, dem_dt, dem_cache_thickness, dem_cache_speed, map_threshold_kn;
+        double dem_elastic_modulus, dem_bond_tensile, dem_bond_shear; /* GPa, MPa, MPa */
         int dem_max_particles;
     } loads;
 

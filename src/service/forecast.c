@@ -212,6 +212,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     e->res = res;
     e->cfg = cfg;
     e->req = req;
+    e->cancel = cancel;
     e->t0 = req->cycle_time;
     double hours = req->hours > 0 ? req->hours : cfg->schedule.forecast_hours;
     e->t_end = e->t0 + hours * 3600.0;

@@ -29,6 +29,7 @@
 typedef struct engine {
     const struct sph_config *cfg;
     const forecast_request *req;
+    const volatile sig_atomic_t *cancel; /* the cycle's cancel flag (the station DEM reads it) */
     char cname[32];          /* cycle name, for messages */
     double t0, t_end;        /* forecast start and end, s since 1970 */
     geo_proj *proj;

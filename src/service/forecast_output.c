@@ -129,6 +129,10 @@ int fc_open_products(engine *e, prod_station *stations, sph_error *err)
     o.loads.cache_thickness = cfg->loads.dem_cache_thickness;
     o.loads.cache_speed = cfg->loads.dem_cache_speed;
     o.loads.map_threshold = cfg->loads.map_threshold_kn * 1e3;
+    o.loads.elastic_modulus = cfg->loads.dem_elastic_modulus * 1e9;
+    o.loads.bond_tensile = cfg->loads.dem_bond_tensile * 1e6;
+    o.loads.bond_shear = cfg->loads.dem_bond_shear * 1e6;
+    o.loads.cancel = e->cancel;
     o.write_particles = cfg->output.products.particles;
     o.write_snow = fc_snow_possible(cfg);
     if (cfg->output.products.maps) {

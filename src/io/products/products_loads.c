@@ -12,7 +12,7 @@
  * method's refusal as the reason outside its range. dem_scene_choose with
  * the loads.* keys says which model the scene needs and why; where it is
  * the DEM, the station DEM runs (products_loads_dem.c, cached within the
- * cycle; vertical legs only: a cone keeps Ralston's load and says so) and
+ * cycle; a vertical leg or the station's cone, docs/dem.md) and
  * its statistics are written beside the cheap load; station_load is the
  * load of the model that ran (the cheap ice_load, or the DEM's maximum).
  * Written only when a station has a structure. */
@@ -234,10 +234,6 @@ int prod_loads_add(prod_writer *p, size_t ti, double t, int s, double conc, doub
     v[LD_SPEED] = speed;
     v[LD_LOAD] = load;
     signed char cached = -1;
-    if (m == DEM_MODEL_DEM && ps->cone_angle > 0) { /* the station DEM builds a vertical leg only */
-        m = DEM_MODEL_CHEAP;
-        why = "a cone: the station DEM runs vertical legs only, Ralston's load is used";
-    }
     if (m == DEM_MODEL_DEM) {
         /* a forced DEM needs ice to push: none at the station, or a sheet
          * that rounds to nothing at the cache's resolution, runs nothing */

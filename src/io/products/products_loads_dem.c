@@ -1,8 +1,9 @@
 /* The station DEM of the ice-load product (issue 25 items 3 and 4; docs/dem.md
  * "The station DEM"): a bonded close-packed ice sheet of the forecast's
  * thickness driven at the forecast's drift speed into the station's
- * vertical structure, with the DEM core's public API (core/dem.h) only;
- * and the cycle's cache of its results.
+ * vertical structure or cone, with the DEM core's public API (core/dem.h)
+ * only; the cycle's cache of its results; a stop at the next step once the
+ * cycle's cancel flag is set.
  *
  * The scene (all from the keys, so that a test can build the same run
  * from the core's API and compare bit for bit):
@@ -19,11 +20,15 @@
  *   the rear edge (x < 4r) and both side edges (y < 2r, y > y_max - 2r)
  *     move with the far-field ice at u (translation and rotation fixed),
  *     the rest starts at u;
- *   the structure: a vertical cylinder of the station's diameter, mass,
+ *   the ice: bonds of modulus E (K_n = E pi r / 2, Potyondy & Cundall)
+ *     and the keys' strengths; a cone's friction for every contact;
+ *   the structure: a vertical cylinder of the station's diameter, or its
+ *     cone (angle, waterline diameter at z = 0, neck), with its mass,
  *     stiffness and damping ratio, centred across the sheet (y0 = sqrt(3) r
  *     (ny - 1) / 2), touching the sheet without overlap: x0 = max over
- *     the spheres with |y - y0| < R + r of x + sqrt((R + r)^2 - (y - y0)^2),
- *     R = w / 2 (front + R where none is that close);
+ *     the spheres with |y - y0| < reach of x + sqrt(reach^2 - (y - y0)^2),
+ *     reach = R + r, or for the cone R - z / tan a + r / sin a at the
+ *     sphere's height z (R = w / 2; front + R where none is that close);
  *   step dt = loads.dem_dt, or 0.9 dt_safety dt_critical when 0; the
  *     number of steps ceil(duration / dt) (loads.dem_duration);
  *   the series: the structure's load along the drift (s.fx), its
@@ -61,10 +66,15 @@ void prod_loads_options_default(prod_loads_options *o)
     o->cache_thickness = 0.02;
     o->cache_speed = 0.02;
     o->map_threshold = 500e3;
+    o->elastic_modulus = 1.0e9; /* the seed's E of sea ice (its section 2.1) */
+    o->bond_tensile = 0.6e6;    /* flexural strength of Bohai ice */
+    o->bond_shear = 1.0e6;      /* half its compressive strength (Tresca) */
+    o->cancel = NULL;
 }
 
 typedef struct prod_dem_cache {
     double w, mass, stiffness, damping, h, u; /* the run's structure and ice */
+    double cone_angle, neck, mu;              /* a cone's geometry and friction (0: a vertical leg) */
     prod_dem_result r;
 } prod_dem_cache;
 
@@ -105,18 +115,35 @@ static double drive_edges(dem *d, double rad, double ymax, double u)
     return front;
 }
 
-/* The axis x0 at which the cylinder of radius R, centred across at y0,
- * touches the sheet without overlapping it: max over the spheres with
- * |y - y0| < R + r of x + sqrt((R + r)^2 - (y - y0)^2); front + R if none. */
-static double touching_x0(const dem *d, double rad, double R, double y0, double front)
+/* The horizontal distance from the axis at which a sphere of radius rad
+ * centred at height z touches the structure: R + r for the cylinder; for
+ * the cone (angle a from the horizontal, waterline radius R at z = 0, neck
+ * radius R_n from z_n = (R - R_n) tan a up) the face's radius at z,
+ * R - z / tan a, plus r / sin a (the normal distance to the face is the
+ * horizontal gap times sin a), and R_n + r above z_n. */
+static double reach_at(const prod_structure *ps, double rad, double z)
 {
-    double x0 = -HUGE_VAL, reach = R + rad;
+    double R = 0.5 * ps->w;
+    if (!(ps->cone_angle > 0.0))
+        return R + rad;
+    double a = ps->cone_angle * M_PI / 180.0, ta = tan(a), rn = 0.5 * ps->neck;
+    if (z > (R - rn) * ta)
+        return rn + rad;
+    return R - z / ta + rad / sin(a);
+}
+
+/* The axis x0 at which the structure, centred across at y0, touches the
+ * sheet without overlapping it: max over the spheres with |y - y0| < reach
+ * (reach_at) of x + sqrt(reach^2 - (y - y0)^2); front + R if none. */
+static double touching_x0(const dem *d, const prod_structure *ps, double rad, double y0, double front)
+{
+    double x0 = -HUGE_VAL;
     for (size_t i = 0; i < d->n; i++) {
-        double dy = d->y[i] - y0;
+        double dy = d->y[i] - y0, reach = reach_at(ps, rad, d->z[i]);
         if (fabs(dy) < reach)
             x0 = fmax(x0, d->x[i] + sqrt(reach * reach - dy * dy));
     }
-    return x0 > -HUGE_VAL ? x0 : front + R;
+    return x0 > -HUGE_VAL ? x0 : front + 0.5 * ps->w;
 }
 
 static int dem_fail(sph_error *err, int code, const char *station, const char *key, const char *fmt, ...)
@@ -159,6 +186,14 @@ int products_loads_dem_run(const prod_loads_options *o, const prod_structure *ps
                         (double)o->max_particles);
     dem_params p;
     dem_params_default(&p);
+    /* Potyondy & Cundall's deformability: K_n = E pi r / 2 (dem_create, K_n
+     * 0), bonds E / (r_i + r_j); a cone's ice-structure friction is the
+     * contacts' mu (one mu in the seed's Fig. 18), as Ralston's load has it */
+    p.bond_modulus = o->elastic_modulus;
+    p.bond_tensile = o->bond_tensile;
+    p.bond_shear = o->bond_shear;
+    if (ps->cone_angle > 0.0)
+        p.friction = ps->mu;
     size_t n = (size_t)np;
     dem *d = dem_create(n, 8 * n, &p);
     if (!d)
@@ -171,19 +206,28 @@ int products_loads_dem_run(const prod_loads_options *o, const prod_structure *ps
                         "the DEM's ice sheet cannot be built (%.0f spheres, bond capacity %.0f)", np, 8.0 * np);
     }
     double front = drive_edges(d, rad, sqrt(3.0) * rad * (double)(ny - 1) + rad, u);
-    d->s.kind = DEM_STRUCT_CYLINDER;
+    d->s.kind = ps->cone_angle > 0.0 ? DEM_STRUCT_CONE : DEM_STRUCT_CYLINDER;
     d->s.diameter = ps->w;
+    if (ps->cone_angle > 0.0) {
+        d->s.cone_angle = ps->cone_angle;
+        d->s.neck_diameter = ps->neck;
+        d->s.z_waterline = 0.0;
+    }
     d->s.y0 = 0.5 * sqrt(3.0) * rad * (double)(ny - 1);
-    d->s.x0 = touching_x0(d, rad, 0.5 * ps->w, d->s.y0, front);
+    d->s.x0 = touching_x0(d, ps, rad, d->s.y0, front);
     d->s.mass = ps->mass;
     d->s.stiffness = ps->stiffness;
     d->s.damping_ratio = ps->damping;
     sph_status st;
     if (dem_check(d, &st) != 0) {
         dem_free(d);
-        return sph_err_set(err, SPH_ERR_CONFIG, "loads: station \"%s\": the DEM's structure cannot be built: %s %g %s: "
-                           "set stations[].structure.mass, .stiffness or .damping", station, st.quantity, st.value,
-                           st.what);
+        const char *key = strstr(st.quantity, "neck")    ? "stations[].structure.neck_diameter"
+                          : strstr(st.quantity, "angle") ? "stations[].structure.cone_angle"
+                          : strstr(st.quantity, "structure") ? "stations[].structure.mass, .stiffness or .damping"
+                                                             : "loads.dem_elastic_modulus, loads.dem_bond_tensile "
+                                                               "or loads.dem_bond_shear";
+        return sph_err_set(err, SPH_ERR_CONFIG, "loads: station \"%s\": the DEM cannot be built: %s %g %s: set %s",
+                           station, st.quantity, st.value, st.what, key);
     }
     double dt = o->dt > 0.0 ? o->dt : 0.9 * p.dt_safety * dem_dt_critical(d);
     long steps = (long)ceil(o->duration / dt);
@@ -197,6 +241,12 @@ int products_loads_dem_run(const prod_loads_options *o, const prod_structure *ps
     }
     double *ux = f + steps, *ax = ux + steps;
     for (long s = 0; s < steps; s++) {
+        if (o->cancel && *o->cancel) { /* the cycle was cancelled: nothing of this run is kept */
+            free(f);
+            dem_free(d);
+            return sph_err_set(err, SPH_ERR_CANCELLED, "loads: station \"%s\": the DEM cancelled after %.3g of %.3g s",
+                               station, (double)s * dt, o->duration);
+        }
         int rc = dem_step(d, dt, &st);
         if (rc != SPH_STEP_OK) {
             int tstep = st.kind == SPH_FAULT_TIMESTEP;
@@ -274,7 +324,7 @@ int prod_loads_dem(prod_writer *p, int s, double h, double u, prod_dem_result *r
     for (size_t c = 0; c < p->ld_ncache; c++) {
         const prod_dem_cache *e = &p->ld_cache[c];
         if (e->h == hr && e->u == ur && e->w == ps->w && e->mass == ps->mass && e->stiffness == ps->stiffness &&
-            e->damping == ps->damping) {
+            e->damping == ps->damping && e->cone_angle == ps->cone_angle && e->neck == ps->neck && e->mu == ps->mu) {
             *r = e->r;
             *cached = 1;
             p->ld_sum.dem_cached++;
@@ -298,6 +348,9 @@ int prod_loads_dem(prod_writer *p, int s, double h, double u, prod_dem_result *r
     e->mass = ps->mass;
     e->stiffness = ps->stiffness;
     e->damping = ps->damping;
+    e->cone_angle = ps->cone_angle;
+    e->neck = ps->neck;
+    e->mu = ps->mu;
     e->h = hr;
     e->u = ur;
     e->r = *r;
