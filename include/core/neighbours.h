@@ -41,6 +41,10 @@ typedef struct sph_nbr {
     int *sorted;       /* [cap] particle indices in cell order */
     int *cell_of;      /* [cap] */
     long pairs;        /* total pairs of the last build */
+    /* [cap_all * 4] a per-particle record the passes fill and gather
+     * through the lists (operators.c: the stress divergence's S / M^2 and
+     * mass), in particle order; 32-byte aligned, one cache line each */
+    double *pk;
 } sph_nbr;
 
 /* Lists for up to cap_query particles among up to cap_all gridded ones. */

@@ -108,58 +108,80 @@ void sph_select_active(sph_model *m)
 
 /* Strain rates (seed eq. 15, sign settled by the linear-field test) and
  * the fluctuating velocity for the collision rheology, for the listed
- * particles (list NULL: all live particles). */
-void sph_strain_pass(sph_model *m, const int *list, size_t count)
+ * particles (list NULL: all live particles). One particle's sums, with gc
+ * (gradient correction) and fluct (the collision rheology's v') constants
+ * in each instantiation, so the plain pair loop carries no branch; the
+ * operations and their order are those of a single loop with the flags
+ * tested per pair. */
+static inline __attribute__((always_inline)) void strain_one(sph_model *m, size_t k, int gc,
+                                                            int fluct)
 {
     sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
-    const double *u = P->u, *v = P->v, *mass = P->mass;
-    int want_fluct = (m->rheo->fields & SPH_RHEO_FIELD_VFLUCT) != 0;
-    const int gc = m->prm.gradient_correction;
-#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
-    for (size_t i = 0; i < count; i++) {
-        size_t k = list ? (size_t)list[i] : i;
-        const size_t base = nb->off[k];
-        double a11 = 0, a22 = 0, a12 = 0, a21 = 0, fl = 0, wsum = 0;
-        for (int q = 0; q < nb->count[k]; q++) {
-            size_t s = base + (size_t)q;
-            int j = nb->idx[s];
-            double du = u[j] - u[k], dv = v[j] - v[k];
-            double gx = nb->gx[s], gy = nb->gy[s];
-            a11 += mass[j] * du * gx;
-            a22 += mass[j] * dv * gy;
-            if (gc) { /* the two off-diagonal gradients apart */
-                a12 += mass[j] * dv * gx;
-                a21 += mass[j] * du * gy;
-            } else {
-                a12 += mass[j] * (dv * gx + du * gy);
-            }
-            if (want_fluct) {
-                double wj = mass[j] / P->dens[j] * nb->w[s];
-                fl += wj * (du * du + dv * dv);
-                wsum += wj;
-            }
+    const double *restrict u = P->u, *restrict v = P->v, *restrict mass = P->mass;
+    const double *restrict gxs = nb->gx, *restrict gys = nb->gy;
+    const int *restrict idx = nb->idx;
+    const size_t base = nb->off[k];
+    const int cnt = nb->count[k];
+    const double uk = u[k], vk = v[k];
+    double a11 = 0, a22 = 0, a12 = 0, a21 = 0, fl = 0, wsum = 0;
+    for (int q = 0; q < cnt; q++) {
+        size_t s = base + (size_t)q;
+        int j = idx[s];
+        double du = u[j] - uk, dv = v[j] - vk;
+        double gx = gxs[s], gy = gys[s];
+        double mj = mass[j];
+        a11 += mj * du * gx;
+        a22 += mj * dv * gy;
+        if (gc) { /* the two off-diagonal gradients apart */
+            a12 += mj * dv * gx;
+            a21 += mj * du * gy;
+        } else {
+            a12 += mj * (dv * gx + du * gy);
         }
-        double iM = 1.0 / P->dens[k];
-        if (gc) {
-            /* velocity gradient G_ab = sum_j m_j dv_a g_b / M_k, i.e.
-             * [[a11, a21], [a12, a22]]; corrected: G B_k^-1 */
-            const double *bi = m->binv + 6 * k;
-            double g11 = a11 * bi[0] + a21 * bi[1], g12 = a11 * bi[1] + a21 * bi[2];
-            double g21 = a12 * bi[0] + a22 * bi[1], g22 = a12 * bi[1] + a22 * bi[2];
-            a11 = g11;
-            a22 = g22;
-            a12 = g12 + g21;
-        }
-        P->e11[k] = a11 * iM;
-        P->e22[k] = a22 * iM;
-        P->e12[k] = 0.5 * a12 * iM;
-        if (want_fluct) {
-            double vf = wsum > 0 ? sqrt(fl / wsum) : 0.0;
-            m->vfluct[k] = fmax(vf, m->prm.coll_vfluct_min);
+        if (fluct) {
+            double wj = mj / P->dens[j] * nb->w[s];
+            fl += wj * (du * du + dv * dv);
+            wsum += wj;
         }
     }
+    double iM = 1.0 / P->dens[k];
+    if (gc) {
+        /* velocity gradient G_ab = sum_j m_j dv_a g_b / M_k, i.e.
+         * [[a11, a21], [a12, a22]]; corrected: G B_k^-1 */
+        const double *bi = m->binv + 6 * k;
+        double g11 = a11 * bi[0] + a21 * bi[1], g12 = a11 * bi[1] + a21 * bi[2];
+        double g21 = a12 * bi[0] + a22 * bi[1], g22 = a12 * bi[1] + a22 * bi[2];
+        a11 = g11;
+        a22 = g22;
+        a12 = g12 + g21;
+    }
+    P->e11[k] = a11 * iM;
+    P->e22[k] = a22 * iM;
+    P->e12[k] = 0.5 * a12 * iM;
+    if (fluct) {
+        double vf = wsum > 0 ? sqrt(fl / wsum) : 0.0;
+        m->vfluct[k] = fmax(vf, m->prm.coll_vfluct_min);
+    }
 }
+
+#define SPH_STRAIN_LOOP(GC, FL)                                                                \
+    _Pragma("omp parallel for schedule(static) if (SPH_OMP_WORTH(count))")                  \
+    for (size_t i = 0; i < count; i++)                                                         \
+        strain_one(m, list ? (size_t)list[i] : i, GC, FL)
+
+void sph_strain_pass(sph_model *m, const int *list, size_t count)
+{
+    int want_fluct = (m->rheo->fields & SPH_RHEO_FIELD_VFLUCT) != 0;
+    const int gc = m->prm.gradient_correction != 0;
+    switch (2 * gc + want_fluct) {
+    case 0: SPH_STRAIN_LOOP(0, 0); break;
+    case 1: SPH_STRAIN_LOOP(0, 1); break;
+    case 2: SPH_STRAIN_LOOP(1, 0); break;
+    default: SPH_STRAIN_LOOP(1, 1); break;
+    }
+}
+#undef SPH_STRAIN_LOOP
 
 /* The coast ghosts' part of particle k's velocity divergence (the strain
  * pass's sum restricted to ghost neighbours). */
@@ -181,38 +203,121 @@ static double coast_divergence(const sph_model *m, size_t k)
     return a / P->dens[k];
 }
 
-/* Symmetric stress divergence (seed eq. 13): a_k = [div(hbar sigma)/M]_k. */
+/* Symmetric stress divergence (seed eq. 13): a_k = [div(hbar sigma)/M]_k,
+ * a_k = sum_j m_j (S_j / M_j^2 + S_k / M_k^2) grad_k W_kj.
+ *
+ * S_j / M_j^2 is a property of particle j, not of the pair: where the
+ * lists visit more pairs than there are slots (live particles and ghosts)
+ * it is computed once per slot into nb->pk (t11, t22, t12, m_j: one
+ * 32-byte record, one cache line per gathered neighbour) and the pair loop
+ * reads it, instead of a division and four products per pair. The values
+ * are the same operations on the same operands (bit for bit), and each
+ * particle's sum runs over its list in the list's order either way. */
+static inline void pack_stress_slot(const sph_particles *P, double *pk, size_t j)
+{
+    double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
+    pk[0] = P->s11[j] * iMj2;
+    pk[1] = P->s22[j] * iMj2;
+    pk[2] = P->s12[j] * iMj2;
+    pk[3] = P->mass[j];
+}
+
+/* One particle's divergence from the packed records; gc: the kernel
+ * gradient correction (a constant in each instantiation, so the plain
+ * pair loop carries no branch). */
+static inline __attribute__((always_inline)) void divergence_packed(const sph_model *m, size_t k,
+                                                                   int gc)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    const double *restrict pk = nb->pk;
+    const double *restrict gxs = nb->gx, *restrict gys = nb->gy;
+    const int *restrict idx = nb->idx;
+    const size_t base = nb->off[k];
+    const int cnt = nb->count[k];
+    const double tk11 = pk[4 * k], tk22 = pk[4 * k + 1], tk12 = pk[4 * k + 2];
+    const double *bk = m->binv + 6 * k + 3;
+    double ax = 0, ay = 0;
+    for (int q = 0; q < cnt; q++) {
+        size_t s = base + (size_t)q;
+        const double *r = pk + 4 * (size_t)idx[s];
+        double t11 = r[0] + tk11, t22 = r[1] + tk22, t12 = r[2] + tk12;
+        double gx = gxs[s], gy = gys[s];
+        if (gc) { /* (B_k^-1 + B_j^-1)/2 grad W: still antisymmetric in k, j */
+            const double *bj = m->binv + 6 * (size_t)idx[s] + 3;
+            double cx = 0.5 * ((bk[0] + bj[0]) * gx + (bk[1] + bj[1]) * gy);
+            gy = 0.5 * ((bk[1] + bj[1]) * gx + (bk[2] + bj[2]) * gy);
+            gx = cx;
+        }
+        ax += r[3] * (t11 * gx + t12 * gy);
+        ay += r[3] * (t12 * gx + t22 * gy);
+    }
+    P->ax[k] = ax;
+    P->ay[k] = ay;
+}
+
+/* The same sum with S / M^2 evaluated per pair (few pairs: a small active
+ * set among many particles). */
+static void divergence_direct(const sph_model *m, size_t k)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    const int gc = m->prm.gradient_correction;
+    const size_t base = nb->off[k];
+    double iMk2 = 1.0 / (P->dens[k] * P->dens[k]);
+    double tk11 = P->s11[k] * iMk2, tk22 = P->s22[k] * iMk2, tk12 = P->s12[k] * iMk2;
+    double ax = 0, ay = 0;
+    const double *bk = m->binv + 6 * k + 3;
+    for (int q = 0; q < nb->count[k]; q++) {
+        size_t s = base + (size_t)q;
+        int j = nb->idx[s];
+        double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
+        double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
+               t12 = P->s12[j] * iMj2 + tk12;
+        double gx = nb->gx[s], gy = nb->gy[s];
+        if (gc) {
+            const double *bj = m->binv + 6 * (size_t)j + 3;
+            double cx = 0.5 * ((bk[0] + bj[0]) * gx + (bk[1] + bj[1]) * gy);
+            gy = 0.5 * ((bk[1] + bj[1]) * gx + (bk[2] + bj[2]) * gy);
+            gx = cx;
+        }
+        ax += P->mass[j] * (t11 * gx + t12 * gy);
+        ay += P->mass[j] * (t12 * gx + t22 * gy);
+    }
+    P->ax[k] = ax;
+    P->ay[k] = ay;
+}
+
 void sph_divergence_pass(sph_model *m, const int *list, size_t count)
 {
     sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
     const int gc = m->prm.gradient_correction;
+    const size_t nall = P->n + m->ng;
+    size_t pairs = 0;
+    for (size_t i = 0; i < count; i++)
+        pairs += (size_t)nb->count[list ? (size_t)list[i] : i];
+    if (pairs <= nall || !nb->pk) {
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
-    for (size_t i = 0; i < count; i++) {
-        size_t k = list ? (size_t)list[i] : i;
-        const size_t base = nb->off[k];
-        double iMk2 = 1.0 / (P->dens[k] * P->dens[k]);
-        double tk11 = P->s11[k] * iMk2, tk22 = P->s22[k] * iMk2, tk12 = P->s12[k] * iMk2;
-        double ax = 0, ay = 0;
-        const double *bk = m->binv + 6 * k + 3;
-        for (int q = 0; q < nb->count[k]; q++) {
-            size_t s = base + (size_t)q;
-            int j = nb->idx[s];
-            double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
-            double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
-                   t12 = P->s12[j] * iMj2 + tk12;
-            double gx = nb->gx[s], gy = nb->gy[s];
-            if (gc) { /* (B_k^-1 + B_j^-1)/2 grad W: still antisymmetric in k, j */
-                const double *bj = m->binv + 6 * (size_t)j + 3;
-                double cx = 0.5 * ((bk[0] + bj[0]) * gx + (bk[1] + bj[1]) * gy);
-                gy = 0.5 * ((bk[1] + bj[1]) * gx + (bk[2] + bj[2]) * gy);
-                gx = cx;
-            }
-            ax += P->mass[j] * (t11 * gx + t12 * gy);
-            ay += P->mass[j] * (t12 * gx + t22 * gy);
+        for (size_t i = 0; i < count; i++)
+            divergence_direct(m, list ? (size_t)list[i] : i);
+        return;
+    }
+    double *pk = nb->pk;
+#pragma omp parallel if (SPH_OMP_WORTH(count))
+    {
+#pragma omp for schedule(static)
+        for (size_t j = 0; j < nall; j++)
+            pack_stress_slot(P, pk + 4 * j, j);
+        if (gc) {
+#pragma omp for schedule(static)
+            for (size_t i = 0; i < count; i++)
+                divergence_packed(m, list ? (size_t)list[i] : i, 1);
+        } else {
+#pragma omp for schedule(static)
+            for (size_t i = 0; i < count; i++)
+                divergence_packed(m, list ? (size_t)list[i] : i, 0);
         }
-        P->ax[k] = ax;
-        P->ay[k] = ay;
     }
 }
 
