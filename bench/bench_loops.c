@@ -41,6 +41,35 @@ static uint64_t mix_bits(uint64_t h, const double *a, size_t n)
     return h;
 }
 
+/* The row's numbers from the final state: CPU per particle-iteration,
+ * interactions per CPU second, the checksum in the status. */
+static void loops_row(bench_row *r, sph_model *m, const sph_params *p, size_t n, double iters,
+                      double visits)
+{
+    const sph_particles *P = sph_model_particles(m);
+    /* neighbours per particle from the public state: the model's lists
+     * are private; the lattice's count is that of the pairs within the
+     * support, counted here directly (small cases) */
+    double R = p->kernel_radius * p->sml_factor * 1000.0;
+    long pairs = 0;
+    int ri = (int)(R / 1000.0) + 1;
+    for (int dy = -ri; dy <= ri; dy++)
+        for (int dx = -ri; dx <= ri; dx++)
+            pairs += (double)(dx * dx + dy * dy) * 1e6 < R * R;
+    uint64_t h = 1469598103934665603ull;
+    h = mix_bits(h, P->x, n);
+    h = mix_bits(h, P->y, n);
+    h = mix_bits(h, P->u, n);
+    h = mix_bits(h, P->v, n);
+    snprintf(r->status, sizeof r->status, "ok_%016llx", (unsigned long long)h);
+    r->err_name[0] = "ns_per_particle_iteration";
+    r->err[0] = 1e9 * r->cpu_s / (iters * (double)n);
+    r->err_name[1] = "interactions_per_cpu_s";
+    r->err[1] = visits * (double)pairs * (double)n / r->cpu_s;
+    r->err_name[2] = "interior_neighbours";
+    r->err[2] = (double)pairs;
+}
+
 static void run_loops(const void *arg, bench_row *r)
 {
     const loops_case *c = arg;
@@ -67,14 +96,7 @@ static void run_loops(const void *arg, bench_row *r)
     }
     sph_particles *P = sph_model_particles(m);
     lattice_fill(P, &p, c->side, c->side, 0, 0, 1000.0, 1.0, 1.0, 40.6);
-    unsigned s = 12345u;
-    for (size_t k = 0; k < P->n; k++) {
-        s = s * 1103515245u + 12345u;
-        P->u[k] = 0.02 * ((double)(s >> 8 & 0xffff) / 65535.0 - 0.5);
-        s = s * 1103515245u + 12345u;
-        P->v[k] = 0.02 * ((double)(s >> 8 & 0xffff) / 65535.0 - 0.5);
-        P->va[k] = -10.0;
-    }
+    lattice_random_velocities(P, 12345u, 0.02);
     if (sph_model_init(m, &st) != 0) {
         snprintf(r->status, sizeof r->status, "init_failed");
         sph_model_free(m);
@@ -83,65 +105,46 @@ static void run_loops(const void *arg, bench_row *r)
     size_t n = P->n;
     int steps = n <= 2000 ? 40 : n <= 20000 ? 6 : 1;
     int rc = sph_model_step(m, &st); /* untimed warm-up: page faults of the lists */
-    double iters = 0, visits = 0;
+    double iters = 0;
     double c0 = bench_cpu(), w0 = bench_wall();
     for (int i = 0; i < steps && rc == 0; i++) {
         rc = sph_model_step(m, &st);
-        const sph_step_stats *ss = sph_model_stats(m);
-        iters += ss->iterations;
-        visits += 2.0 * ss->iterations + 1.0;
+        iters += sph_model_stats(m)->iterations;
     }
+    double visits = 2.0 * iters + steps; /* two passes per iteration, the final strain rates */
     r->cpu_s = bench_cpu() - c0;
     r->wall_s = bench_wall() - w0;
-    if (rc != 0) {
+    if (rc == 0) {
+        loops_row(r, m, &p, n, iters, visits);
+    } else {
         snprintf(r->status, sizeof r->status, "step_failed");
-        sph_model_free(m);
-        return;
     }
-    /* neighbours per particle from the public state: the model's lists
-     * are private; the lattice's count is that of the pairs within the
-     * support, counted here directly (small cases) */
-    double R = 2.0 * p.sml_factor * 1000.0;
-    long pairs = 0;
-    int ri = (int)(R / 1000.0) + 1;
-    for (int dy = -ri; dy <= ri; dy++)
-        for (int dx = -ri; dx <= ri; dx++)
-            pairs += (double)(dx * dx + dy * dy) * 1e6 < R * R;
-    uint64_t h = 1469598103934665603ull;
-    h = mix_bits(h, P->x, n);
-    h = mix_bits(h, P->y, n);
-    h = mix_bits(h, P->u, n);
-    h = mix_bits(h, P->v, n);
-    snprintf(r->status, sizeof r->status, "ok_%016llx", (unsigned long long)h);
-    r->err_name[0] = "ns_per_particle_iteration";
-    r->err[0] = 1e9 * r->cpu_s / (iters * (double)n);
-    r->err_name[1] = "interactions_per_cpu_s";
-    r->err[1] = visits * (double)pairs * (double)n / r->cpu_s;
-    r->err_name[2] = "interior_neighbours";
-    r->err[2] = (double)pairs;
     sph_model_free(m);
 }
 
+/* side, kernel, variant: the demo's size in every variant, then plain */
+static const loops_case cases[] = {
+    {36, SPH_KERNEL_GAUSSIAN, 0},     {36, SPH_KERNEL_WENDLAND_C2, 0},
+    {36, SPH_KERNEL_GAUSSIAN, 1},     {36, SPH_KERNEL_WENDLAND_C2, 1},
+    {36, SPH_KERNEL_GAUSSIAN, 2},     {36, SPH_KERNEL_WENDLAND_C2, 2},
+    {100, SPH_KERNEL_GAUSSIAN, 0},    {100, SPH_KERNEL_WENDLAND_C2, 0},
+    {316, SPH_KERNEL_GAUSSIAN, 0},    {316, SPH_KERNEL_WENDLAND_C2, 0},
+};
+
 int main(int argc, char **argv)
 {
-    long maxn = bench_quick() ? 10000 : 100000;
-    if (argc > 1)
-        maxn = strtol(argv[1], NULL, 10);
-    const int sides[] = {36, 100, 316};
-    const sph_kernel_kind kernels[] = {SPH_KERNEL_GAUSSIAN, SPH_KERNEL_WENDLAND_C2};
-    const char *kname[] = {"gaussian_R2", "wendland_c2"};
+    long maxn = argc > 1 ? strtol(argv[1], NULL, 10) : bench_quick() ? 10000 : 100000;
     const char *vname[] = {"plain", "gradient_correction", "collision"};
-    for (int si = 0; si < 3; si++) {
-        if ((long)sides[si] * sides[si] > maxn)
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const loops_case *c = &cases[i];
+        if ((long)c->side * c->side > maxn)
             continue;
-        for (int vi = 0; vi < (si == 0 ? 3 : 1); vi++)
-            for (int ki = 0; ki < 2; ki++) {
-                loops_case c = {sides[si], kernels[ki], vi};
-                char cfg[128];
-                snprintf(cfg, sizeof cfg, "N=%d;threads=1;mevp_iterations=50;%s",
-                         sides[si] * sides[si], vname[vi]);
-                bench_run_forked_row("loops", run_loops, &c, kname[ki], cfg, NULL);
-            }
+        char cfg[128];
+        snprintf(cfg, sizeof cfg, "N=%d;threads=1;mevp_iterations=50;%s", c->side * c->side,
+                 vname[c->variant]);
+        bench_run_forked_row("loops", run_loops, c,
+                             c->kernel == SPH_KERNEL_GAUSSIAN ? "gaussian_R2" : "wendland_c2", cfg,
+                             NULL);
     }
     return 0;
 }

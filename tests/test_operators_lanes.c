@@ -31,7 +31,7 @@ static double urand(void)
     return (double)(rng >> 8 & 0xffff) / 65535.0 - 0.5;
 }
 
-static sph_model *jittered(sph_kernel_kind kind, int gc, double dx)
+static sph_params lanes_params(sph_kernel_kind kind, int gc)
 {
     sph_params p;
     sph_params_default(&p);
@@ -41,6 +41,12 @@ static sph_model *jittered(sph_kernel_kind kind, int gc, double dx)
     p.physics = SPH_PHYSICS_FULL;
     p.gradient_correction = gc;
     p.thermo_dt = 0;
+    return p;
+}
+
+static sph_model *jittered(sph_kernel_kind kind, int gc, double dx)
+{
+    sph_params p = lanes_params(kind, gc);
     sph_model *m = sph_model_create(&p, NX * NY, NULL);
     sph_particles *P = sph_model_particles(m);
     lattice_fill(P, &p, NX, NY, 0, 0, dx, 1.0, 1.0, 40.6);
@@ -78,13 +84,16 @@ static void ref_strain(const sph_model *m, size_t k, double *e11, double *e22, d
             a12 += P->mass[j] * (dv * nb->gx[s] + du * nb->gy[s]);
         }
     }
-    if (gc) {
+    if (gc) { /* the velocity gradient G = [[a11, a21], [a12, a22]] times B^-1 */
         const double *bi = m->binv + 6 * k;
-        double g11 = a11 * bi[0] + a21 * bi[1], g12 = a11 * bi[1] + a21 * bi[2];
-        double g21 = a12 * bi[0] + a22 * bi[1], g22 = a12 * bi[1] + a22 * bi[2];
-        a11 = g11;
-        a22 = g22;
-        a12 = g12 + g21;
+        const double G[2][2] = {{a11, a21}, {a12, a22}}, B[2][2] = {{bi[0], bi[1]}, {bi[1], bi[2]}};
+        double C[2][2];
+        for (int r = 0; r < 2; r++)
+            for (int c = 0; c < 2; c++)
+                C[r][c] = G[r][0] * B[0][c] + G[r][1] * B[1][c];
+        a11 = C[0][0];
+        a22 = C[1][1];
+        a12 = C[0][1] + C[1][0];
     }
     double iM = 1.0 / P->dens[k];
     *e11 = a11 * iM;
