@@ -12,9 +12,11 @@
  * scalar tails), the particle count is odd (the lone last particle), and
  * sub-lists exercise the active-set form and both divergence paths (a
  * short list: S / M^2 per pair; a long one: per slot).
+ * 1 and 2 threads above the threading threshold: the same bits.
  * Analytic: with the gradient correction a linear velocity field's strain
  * rates are exact (B^-1 cancels the kernel's moment), so e_11 = a,
  * e_22 = d, e_12 = (b + c) / 2 for u = a x + b y, v = c x + d y. */
+#include <omp.h>
 #include <string.h>
 
 #include "check.h"
@@ -23,6 +25,9 @@
 
 #define NX 23
 #define NY 19
+/* above the passes' threading threshold (SPH_OMP_WORTH: 4096) */
+#define TX 71
+#define TY 67
 
 static unsigned rng = 2024u;
 static double urand(void)
@@ -44,12 +49,18 @@ static sph_params lanes_params(sph_kernel_kind kind, int gc)
     return p;
 }
 
+static sph_model *jittered_n(sph_kernel_kind kind, int gc, double dx, int nx, int ny);
 static sph_model *jittered(sph_kernel_kind kind, int gc, double dx)
 {
+    return jittered_n(kind, gc, dx, NX, NY);
+}
+
+static sph_model *jittered_n(sph_kernel_kind kind, int gc, double dx, int nx, int ny)
+{
     sph_params p = lanes_params(kind, gc);
-    sph_model *m = sph_model_create(&p, NX * NY, NULL);
+    sph_model *m = sph_model_create(&p, (size_t)nx * (size_t)ny, NULL);
     sph_particles *P = sph_model_particles(m);
-    lattice_fill(P, &p, NX, NY, 0, 0, dx, 1.0, 1.0, 40.6);
+    lattice_fill(P, &p, nx, ny, 0, 0, dx, 1.0, 1.0, 40.6);
     for (size_t k = 0; k < P->n; k++) {
         P->x[k] += 0.3 * dx * urand();
         P->y[k] += 0.3 * dx * urand();
@@ -228,6 +239,38 @@ static void test_linear(sph_kernel_kind kind, const char *name)
     sph_model_free(m);
 }
 
+/* 1 and 2 threads: the same bits (each list is summed whole by one
+ * thread; the lanes pair list entries, whatever the split). */
+static void test_threads(int gc)
+{
+    double *out[2] = {NULL, NULL};
+    size_t n = 0;
+    for (int t = 0; t < 2; t++) {
+        omp_set_num_threads(t + 1);
+        rng = 77u;
+        sph_model *m = jittered_n(SPH_KERNEL_WENDLAND_C2, gc, 1000.0, TX, TY);
+        if (!m)
+            return;
+        sph_particles *P = sph_model_particles(m);
+        sph_status st;
+        CHECK(sph_model_diagnose(m, &st) == 0, "threads=%d gc=%d: diagnose", t + 1, gc);
+        n = P->n;
+        out[t] = malloc(5 * n * sizeof(double));
+        memcpy(out[t], P->e11, n * sizeof(double));
+        memcpy(out[t] + n, P->e22, n * sizeof(double));
+        memcpy(out[t] + 2 * n, P->e12, n * sizeof(double));
+        memcpy(out[t] + 3 * n, P->ax, n * sizeof(double));
+        memcpy(out[t] + 4 * n, P->ay, n * sizeof(double));
+        sph_model_free(m);
+    }
+    CHECK(n >= 4096, "above the threading threshold (%zu)", n);
+    CHECK(out[0] && out[1] && !memcmp(out[0], out[1], 5 * n * sizeof(double)),
+          "gc=%d: strain rates and divergence bit for bit the same on 1 and 2 threads", gc);
+    free(out[0]);
+    free(out[1]);
+    omp_set_num_threads(1);
+}
+
 int main(void)
 {
     test_passes(SPH_KERNEL_GAUSSIAN, 0, "gaussian");
@@ -236,5 +279,7 @@ int main(void)
     test_passes(SPH_KERNEL_WENDLAND_C2, 1, "wendland");
     test_linear(SPH_KERNEL_GAUSSIAN, "gaussian");
     test_linear(SPH_KERNEL_WENDLAND_C2, "wendland");
+    test_threads(0);
+    test_threads(1);
     return check_summary("test_operators_lanes");
 }
