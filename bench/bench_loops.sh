@@ -1,7 +1,8 @@
 #!/bin/sh
 # One rheology iteration's cost, this tree against a baseline tree, in one
 # run (issue 22, item 3): builds bench/bench_loops.c in both (the baseline
-# gets this tree's copy of the file; it uses only the public model API),
+# gets this tree's copy of it and of its header-only helper tests/lattice.h;
+# it uses only the public model API),
 # runs them alternately `rounds` times, one thread each, and prints the
 # CSV rows (the baseline's with problem loops_base) and then one summary
 # line per case on stderr: summed CPU seconds of both, their ratio, and
@@ -14,6 +15,7 @@ set -eu
 base=$1; maxn=${2:-10000}; rounds=${3:-2}
 BUILD=${BUILD:-build}
 cp bench/bench_loops.c "$base/bench/bench_loops.c"
+cp tests/lattice.h "$base/tests/lattice.h"
 make -C "$base" build/bench/bench_loops >/dev/null
 make "$BUILD/bench/bench_loops" >/dev/null
 export OMP_WAIT_POLICY=PASSIVE OMP_NUM_THREADS=1
