@@ -45,14 +45,7 @@ static sph_model *packed_lattice(const sph_params *p, int side, double dx)
         return NULL;
     sph_particles *P = sph_model_particles(m);
     lattice_fill(P, p, side, side, 0, 0, dx, 1.0, 1.0, 40.6);
-    unsigned s = 12345u;
-    for (size_t k = 0; k < P->n; k++) {
-        s = s * 1103515245u + 12345u;
-        P->u[k] = 0.02 * ((double)(s >> 8 & 0xffff) / 65535.0 - 0.5);
-        s = s * 1103515245u + 12345u;
-        P->v[k] = 0.02 * ((double)(s >> 8 & 0xffff) / 65535.0 - 0.5);
-        P->va[k] = -10.0;
-    }
+    lattice_random_velocities(P, 12345u, 0.02);
     return m;
 }
 

@@ -10,6 +10,9 @@
 #              season: the particle count over a 90-day season with and
 #              without merging, bench/bench_season.c, not in the default
 #              list; writes $BENCH_OUT/season_counts.dat; SEASON_DAYS=d)
+#              (loops: one rheology iteration's CPU cost and a state checksum,
+#              bench/bench_loops.c, not in the default list; against a baseline
+#              tree in one run: sh bench/bench_loops.sh BASE_TREE, docs/speed.md)
 #   DEMO_HOURS=h   the demo problem's forecast length (bench/bench_demo.sh; 96)
 # Writes $BENCH_OUT/results.csv (one row per run, see bench/bench_common.h),
 # $BENCH_OUT/machine.txt, and the charts (bench/plot.sh, needs gnuplot).

@@ -45,4 +45,19 @@ static inline void lattice_set_forcing(sph_particles *P, double ua, double va, d
     }
 }
 
+/* Small random velocities (uniform in +-amp/2 per component, a fixed
+ * linear congruential sequence from seed) and a wind va = -10 m/s: every
+ * strain rate of a packed lattice non-zero (the benchmarks' state). */
+static inline void lattice_random_velocities(sph_particles *P, unsigned seed, double amp)
+{
+    unsigned s = seed;
+    for (size_t k = 0; k < P->n; k++) {
+        s = s * 1103515245u + 12345u;
+        P->u[k] = amp * ((double)(s >> 8 & 0xffff) / 65535.0 - 0.5);
+        s = s * 1103515245u + 12345u;
+        P->v[k] = amp * ((double)(s >> 8 & 0xffff) / 65535.0 - 0.5);
+        P->va[k] = -10.0;
+    }
+}
+
 #endif

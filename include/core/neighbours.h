@@ -5,7 +5,29 @@
  *
  * Lists are per query particle, in a fixed order (cells scanned in a fixed
  * order, particles within a cell by index), so every sum over neighbours
- * is deterministic whatever the thread count. Per pair the kernel value
+ * is deterministic whatever the thread count.
+ *
+ * Ordering rules (every pass that sums over a list relies on them; a
+ * domain decomposition that must reproduce them needs the same keys):
+ *   1. cells are numbered row-major, c = cy * ncx + cx, from the grid's
+ *      origin (the particles' minimum x, y) and cell size;
+ *   2. sph_nbr_grid sorts particles by cell with a stable counting sort:
+ *      within a cell, ascending particle index;
+ *   3. a query's list visits the 3 x 3 cells around its own in the order
+ *      (cy-1, cx-1), (cy-1, cx), (cy-1, cx+1), (cy, cx-1), ... (cy+1, cx+1)
+ *      and each cell's particles in the order of rule 2; the query itself
+ *      is one of them (self pair, W(0));
+ *   4. the model calls sph_reorder before each build, so particle index
+ *      order is cell order of the previous reorder: the index a particle
+ *      has (and so its place within a cell) depends on its history, not
+ *      on its id; a decomposition-independent order would key rule 2 on
+ *      (global cell, particle id) instead;
+ *   5. nothing depends on the thread count: threads split the query
+ *      particles into contiguous blocks and each list is built whole by
+ *      one thread; the passes (operators.c) sum each particle's list in
+ *      list order (two particles at a time in vector lanes, each lane in
+ *      its own list's order).
+ * Per pair the kernel value
  * W_kj and gradient grad_k W_kj are cached (positions do not move within
  * a dynamic step, so the solver iterations reuse them).
  *
@@ -41,6 +63,10 @@ typedef struct sph_nbr {
     int *sorted;       /* [cap] particle indices in cell order */
     int *cell_of;      /* [cap] */
     long pairs;        /* total pairs of the last build */
+    /* [cap_all * 4] a per-particle record the passes fill and gather
+     * through the lists (operators.c: the stress divergence's S / M^2 and
+     * mass), in particle order; 32-byte aligned, one cache line each */
+    double *pk;
 } sph_nbr;
 
 /* Lists for up to cap_query particles among up to cap_all gridded ones. */

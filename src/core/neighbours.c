@@ -26,8 +26,10 @@ sph_nbr *sph_nbr_create(size_t cap, size_t cap_all, int max_nb)
     nb->cell_start = calloc(nb->max_cells + 1, sizeof(int));
     nb->sorted = calloc(cap_all, sizeof(int));
     nb->cell_of = calloc(cap_all, sizeof(int));
+    /* pages touched only as slots come into use (memory at 1e6 particles) */
+    nb->pk = aligned_alloc(32, (cap_all ? cap_all : 1) * 4 * sizeof(double));
     if (!nb->count || !nb->off || !nb->idx || !nb->w || !nb->gx || !nb->gy || !nb->cell_start ||
-        !nb->sorted || !nb->cell_of) {
+        !nb->sorted || !nb->cell_of || !nb->pk) {
         sph_nbr_free(nb);
         return NULL;
     }
@@ -47,6 +49,7 @@ void sph_nbr_free(sph_nbr *nb)
     free(nb->cell_start);
     free(nb->sorted);
     free(nb->cell_of);
+    free(nb->pk);
     free(nb);
 }
 

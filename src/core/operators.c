@@ -106,60 +106,171 @@ void sph_select_active(sph_model *m)
     m->nactive = na;
 }
 
+/* Two particles' sums side by side (GNU C vector extension: two doubles,
+ * SSE2 on x86-64, NEON on AArch64; no wider target assumed). A pair sum
+ * over neighbours is a reduction in list order; vectorising it along the
+ * list would reorder it (and change the last bits). Across particles it
+ * does not: lane 0 adds particle k0's pairs in k0's list order, lane 1
+ * those of k1, with the scalar code's operations in the scalar code's
+ * order (IEEE operations are exact per lane; no contraction under
+ * -std=c11). The common part of the two lists runs in the lanes, each
+ * longer list's rest in scalar code, so every particle's result is bit
+ * for bit the scalar pass's. */
+typedef double sph_v2d __attribute__((vector_size(16)));
+
+static inline sph_v2d ld2(const double *a, size_t i0, size_t i1)
+{
+    return (sph_v2d){a[i0], a[i1]};
+}
+
 /* Strain rates (seed eq. 15, sign settled by the linear-field test) and
  * the fluctuating velocity for the collision rheology, for the listed
- * particles (list NULL: all live particles). */
-void sph_strain_pass(sph_model *m, const int *list, size_t count)
+ * particles (list NULL: all live particles). gc (gradient correction)
+ * and fluct (the collision rheology's v') are constants in each
+ * instantiation, so the plain pair loop carries no branch; the operations
+ * and their order are those of a single loop testing the flags per pair.
+ * acc: a11, a22, a12, a21, fl, wsum; strain_sum adds pairs [q0, count). */
+static inline __attribute__((always_inline)) void strain_sum(const sph_model *m, size_t k, int gc,
+                                                            int fluct, int q0, double *acc)
 {
-    sph_particles *P = m->P;
+    const sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
-    const double *u = P->u, *v = P->v, *mass = P->mass;
-    int want_fluct = (m->rheo->fields & SPH_RHEO_FIELD_VFLUCT) != 0;
-    const int gc = m->prm.gradient_correction;
-#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
-    for (size_t i = 0; i < count; i++) {
-        size_t k = list ? (size_t)list[i] : i;
-        const size_t base = nb->off[k];
-        double a11 = 0, a22 = 0, a12 = 0, a21 = 0, fl = 0, wsum = 0;
-        for (int q = 0; q < nb->count[k]; q++) {
-            size_t s = base + (size_t)q;
-            int j = nb->idx[s];
-            double du = u[j] - u[k], dv = v[j] - v[k];
-            double gx = nb->gx[s], gy = nb->gy[s];
-            a11 += mass[j] * du * gx;
-            a22 += mass[j] * dv * gy;
-            if (gc) { /* the two off-diagonal gradients apart */
-                a12 += mass[j] * dv * gx;
-                a21 += mass[j] * du * gy;
-            } else {
-                a12 += mass[j] * (dv * gx + du * gy);
-            }
-            if (want_fluct) {
-                double wj = mass[j] / P->dens[j] * nb->w[s];
-                fl += wj * (du * du + dv * dv);
-                wsum += wj;
-            }
+    const double *restrict u = P->u, *restrict v = P->v, *restrict mass = P->mass;
+    const double *restrict gxs = nb->gx, *restrict gys = nb->gy;
+    const int *restrict idx = nb->idx;
+    const size_t base = nb->off[k];
+    const int cnt = nb->count[k];
+    const double uk = u[k], vk = v[k];
+    double a11 = acc[0], a22 = acc[1], a12 = acc[2], a21 = acc[3], fl = acc[4], wsum = acc[5];
+    for (int q = q0; q < cnt; q++) {
+        size_t s = base + (size_t)q;
+        int j = idx[s];
+        double du = u[j] - uk, dv = v[j] - vk;
+        double gx = gxs[s], gy = gys[s];
+        double mj = mass[j];
+        a11 += mj * du * gx;
+        a22 += mj * dv * gy;
+        if (gc) { /* the two off-diagonal gradients apart */
+            a12 += mj * dv * gx;
+            a21 += mj * du * gy;
+        } else {
+            a12 += mj * (dv * gx + du * gy);
         }
-        double iM = 1.0 / P->dens[k];
-        if (gc) {
-            /* velocity gradient G_ab = sum_j m_j dv_a g_b / M_k, i.e.
-             * [[a11, a21], [a12, a22]]; corrected: G B_k^-1 */
-            const double *bi = m->binv + 6 * k;
-            double g11 = a11 * bi[0] + a21 * bi[1], g12 = a11 * bi[1] + a21 * bi[2];
-            double g21 = a12 * bi[0] + a22 * bi[1], g22 = a12 * bi[1] + a22 * bi[2];
-            a11 = g11;
-            a22 = g22;
-            a12 = g12 + g21;
-        }
-        P->e11[k] = a11 * iM;
-        P->e22[k] = a22 * iM;
-        P->e12[k] = 0.5 * a12 * iM;
-        if (want_fluct) {
-            double vf = wsum > 0 ? sqrt(fl / wsum) : 0.0;
-            m->vfluct[k] = fmax(vf, m->prm.coll_vfluct_min);
+        if (fluct) {
+            double wj = mj / P->dens[j] * nb->w[s];
+            fl += wj * (du * du + dv * dv);
+            wsum += wj;
         }
     }
+    acc[0] = a11;
+    acc[1] = a22;
+    acc[2] = a12;
+    acc[3] = a21;
+    acc[4] = fl;
+    acc[5] = wsum;
 }
+
+static inline __attribute__((always_inline)) void strain_finish(sph_model *m, size_t k, int gc,
+                                                               int fluct, const double *acc)
+{
+    sph_particles *P = m->P;
+    double a11 = acc[0], a22 = acc[1], a12 = acc[2], a21 = acc[3];
+    double iM = 1.0 / P->dens[k];
+    if (gc) {
+        /* velocity gradient G_ab = sum_j m_j dv_a g_b / M_k, i.e.
+         * [[a11, a21], [a12, a22]]; corrected: G B_k^-1 */
+        const double *bi = m->binv + 6 * k;
+        double g11 = a11 * bi[0] + a21 * bi[1], g12 = a11 * bi[1] + a21 * bi[2];
+        double g21 = a12 * bi[0] + a22 * bi[1], g22 = a12 * bi[1] + a22 * bi[2];
+        a11 = g11;
+        a22 = g22;
+        a12 = g12 + g21;
+    }
+    P->e11[k] = a11 * iM;
+    P->e22[k] = a22 * iM;
+    P->e12[k] = 0.5 * a12 * iM;
+    if (fluct) {
+        double vf = acc[5] > 0 ? sqrt(acc[4] / acc[5]) : 0.0;
+        m->vfluct[k] = fmax(vf, m->prm.coll_vfluct_min);
+    }
+}
+
+static inline __attribute__((always_inline)) void strain_one(sph_model *m, size_t k, int gc,
+                                                            int fluct)
+{
+    double acc[6] = {0, 0, 0, 0, 0, 0};
+    strain_sum(m, k, gc, fluct, 0, acc);
+    strain_finish(m, k, gc, fluct, acc);
+}
+
+/* The strain rates of k0 and k1 in two lanes (no v'; gc: the gradient
+ * correction, a constant in each instantiation). */
+static inline __attribute__((always_inline)) void strain_two(sph_model *m, size_t k0, size_t k1,
+                                                            int gc)
+{
+    const sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    const double *restrict u = P->u, *restrict v = P->v, *restrict mass = P->mass;
+    const double *restrict gxs = nb->gx, *restrict gys = nb->gy;
+    const int *restrict idx = nb->idx;
+    const size_t b0 = nb->off[k0], b1 = nb->off[k1];
+    const int c0 = nb->count[k0], c1 = nb->count[k1], cm = c0 < c1 ? c0 : c1;
+    const sph_v2d uk = ld2(u, k0, k1), vk = ld2(v, k0, k1);
+    sph_v2d a11 = {0, 0}, a22 = {0, 0}, a12 = {0, 0}, a21 = {0, 0};
+    for (int q = 0; q < cm; q++) {
+        size_t s0 = b0 + (size_t)q, s1 = b1 + (size_t)q;
+        size_t j0 = (size_t)idx[s0], j1 = (size_t)idx[s1];
+        sph_v2d du = ld2(u, j0, j1) - uk, dv = ld2(v, j0, j1) - vk;
+        sph_v2d gx = ld2(gxs, s0, s1), gy = ld2(gys, s0, s1);
+        sph_v2d mj = ld2(mass, j0, j1);
+        a11 += mj * du * gx;
+        a22 += mj * dv * gy;
+        if (gc) {
+            a12 += mj * dv * gx;
+            a21 += mj * du * gy;
+        } else {
+            a12 += mj * (dv * gx + du * gy);
+        }
+    }
+    double acc0[6] = {a11[0], a22[0], a12[0], a21[0], 0, 0};
+    double acc1[6] = {a11[1], a22[1], a12[1], a21[1], 0, 0};
+    strain_sum(m, k0, gc, 0, cm, acc0);
+    strain_sum(m, k1, gc, 0, cm, acc1);
+    strain_finish(m, k0, gc, 0, acc0);
+    strain_finish(m, k1, gc, 0, acc1);
+}
+
+#define SPH_LIST_K(i) (list ? (size_t)list[(i)] : (size_t)(i))
+#define SPH_STRAIN_LOOP(GC, FL)                                                                \
+    _Pragma("omp parallel for schedule(static) if (SPH_OMP_WORTH(count))")                  \
+    for (size_t i = 0; i < count; i++)                                                         \
+        strain_one(m, SPH_LIST_K(i), GC, FL)
+
+void sph_strain_pass(sph_model *m, const int *list, size_t count)
+{
+    int want_fluct = (m->rheo->fields & SPH_RHEO_FIELD_VFLUCT) != 0;
+    const int gc = m->prm.gradient_correction != 0;
+    if (!want_fluct) {
+        /* list entries 2i and 2i + 1 in two lanes */
+        const size_t half = count / 2;
+        if (gc) {
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
+            for (size_t i = 0; i < half; i++)
+                strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 1);
+        } else {
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
+            for (size_t i = 0; i < half; i++)
+                strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0);
+        }
+        if (count % 2)
+            strain_one(m, SPH_LIST_K(count - 1), gc, 0);
+    } else if (gc) {
+        SPH_STRAIN_LOOP(1, 1);
+    } else {
+        SPH_STRAIN_LOOP(0, 1);
+    }
+}
+#undef SPH_STRAIN_LOOP
 
 /* The coast ghosts' part of particle k's velocity divergence (the strain
  * pass's sum restricted to ghost neighbours). */
@@ -181,38 +292,179 @@ static double coast_divergence(const sph_model *m, size_t k)
     return a / P->dens[k];
 }
 
-/* Symmetric stress divergence (seed eq. 13): a_k = [div(hbar sigma)/M]_k. */
+/* Symmetric stress divergence (seed eq. 13): a_k = [div(hbar sigma)/M]_k,
+ * a_k = sum_j m_j (S_j / M_j^2 + S_k / M_k^2) grad_k W_kj.
+ *
+ * S_j / M_j^2 is a property of particle j, not of the pair: where the
+ * lists visit more pairs than there are slots (live particles and ghosts)
+ * it is computed once per slot into nb->pk (t11, t22, t12, m_j: one
+ * 32-byte record, one cache line per gathered neighbour) and the pair loop
+ * reads it, instead of a division and four products per pair. The values
+ * are the same operations on the same operands (bit for bit), and each
+ * particle's sum runs over its list in the list's order either way. */
+static inline void pack_stress_slot(const sph_particles *P, double *pk, size_t j)
+{
+    double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
+    pk[0] = P->s11[j] * iMj2;
+    pk[1] = P->s22[j] * iMj2;
+    pk[2] = P->s12[j] * iMj2;
+    pk[3] = P->mass[j];
+}
+
+/* One particle's divergence from the packed records, pairs [q0, count)
+ * added to acc (ax, ay); gc: the kernel gradient correction (a constant
+ * in each instantiation, so the plain pair loop carries no branch). */
+static inline __attribute__((always_inline)) void divergence_sum(const sph_model *m, size_t k,
+                                                                int gc, int q0, double *acc)
+{
+    const sph_nbr *nb = m->nb;
+    const double *restrict pk = nb->pk;
+    const double *restrict gxs = nb->gx, *restrict gys = nb->gy;
+    const int *restrict idx = nb->idx;
+    const size_t base = nb->off[k];
+    const int cnt = nb->count[k];
+    const double tk11 = pk[4 * k], tk22 = pk[4 * k + 1], tk12 = pk[4 * k + 2];
+    const double *bk = m->binv + 6 * k + 3;
+    double ax = acc[0], ay = acc[1];
+    for (int q = q0; q < cnt; q++) {
+        size_t s = base + (size_t)q;
+        const double *r = pk + 4 * (size_t)idx[s];
+        double t11 = r[0] + tk11, t22 = r[1] + tk22, t12 = r[2] + tk12;
+        double gx = gxs[s], gy = gys[s];
+        if (gc) { /* (B_k^-1 + B_j^-1)/2 grad W: still antisymmetric in k, j */
+            const double *bj = m->binv + 6 * (size_t)idx[s] + 3;
+            double cx = 0.5 * ((bk[0] + bj[0]) * gx + (bk[1] + bj[1]) * gy);
+            gy = 0.5 * ((bk[1] + bj[1]) * gx + (bk[2] + bj[2]) * gy);
+            gx = cx;
+        }
+        ax += r[3] * (t11 * gx + t12 * gy);
+        ay += r[3] * (t12 * gx + t22 * gy);
+    }
+    acc[0] = ax;
+    acc[1] = ay;
+}
+
+static inline __attribute__((always_inline)) void divergence_packed(const sph_model *m, size_t k,
+                                                                   int gc)
+{
+    double acc[2] = {0, 0};
+    divergence_sum(m, k, gc, 0, acc);
+    m->P->ax[k] = acc[0];
+    m->P->ay[k] = acc[1];
+}
+
+/* The divergence of k0 and k1 in two lanes (see ld2: each lane is its
+ * particle's scalar sum, in its list's order); gc as in divergence_sum. */
+static inline __attribute__((always_inline)) void divergence_two(const sph_model *m, size_t k0,
+                                                                size_t k1, int gc)
+{
+    const sph_nbr *nb = m->nb;
+    const double *restrict pk = nb->pk;
+    const double *restrict gxs = nb->gx, *restrict gys = nb->gy;
+    const double *restrict bi = m->binv;
+    const int *restrict idx = nb->idx;
+    const size_t b0 = nb->off[k0], b1 = nb->off[k1];
+    const int c0 = nb->count[k0], c1 = nb->count[k1], cm = c0 < c1 ? c0 : c1;
+    const sph_v2d tk11 = ld2(pk, 4 * k0, 4 * k1), tk22 = ld2(pk, 4 * k0 + 1, 4 * k1 + 1),
+                  tk12 = ld2(pk, 4 * k0 + 2, 4 * k1 + 2);
+    const size_t o0 = 6 * k0 + 3, o1 = 6 * k1 + 3;
+    const sph_v2d bk0 = ld2(bi, o0, o1), bk1 = ld2(bi, o0 + 1, o1 + 1), bk2 = ld2(bi, o0 + 2, o1 + 2);
+    sph_v2d ax = {0, 0}, ay = {0, 0};
+    for (int q = 0; q < cm; q++) {
+        size_t s0 = b0 + (size_t)q, s1 = b1 + (size_t)q;
+        size_t j0 = (size_t)idx[s0], j1 = (size_t)idx[s1];
+        const double *r0 = pk + 4 * j0, *r1 = pk + 4 * j1;
+        sph_v2d t11 = (sph_v2d){r0[0], r1[0]} + tk11, t22 = (sph_v2d){r0[1], r1[1]} + tk22,
+                t12 = (sph_v2d){r0[2], r1[2]} + tk12;
+        sph_v2d gx = ld2(gxs, s0, s1), gy = ld2(gys, s0, s1);
+        if (gc) {
+            const size_t p0 = 6 * j0 + 3, p1 = 6 * j1 + 3;
+            sph_v2d c0v = bk0 + ld2(bi, p0, p1), c1v = bk1 + ld2(bi, p0 + 1, p1 + 1),
+                    c2v = bk2 + ld2(bi, p0 + 2, p1 + 2);
+            sph_v2d cx = 0.5 * (c0v * gx + c1v * gy);
+            gy = 0.5 * (c1v * gx + c2v * gy);
+            gx = cx;
+        }
+        sph_v2d mj = {r0[3], r1[3]};
+        ax += mj * (t11 * gx + t12 * gy);
+        ay += mj * (t12 * gx + t22 * gy);
+    }
+    double acc0[2] = {ax[0], ay[0]}, acc1[2] = {ax[1], ay[1]};
+    divergence_sum(m, k0, gc, cm, acc0);
+    divergence_sum(m, k1, gc, cm, acc1);
+    m->P->ax[k0] = acc0[0];
+    m->P->ay[k0] = acc0[1];
+    m->P->ax[k1] = acc1[0];
+    m->P->ay[k1] = acc1[1];
+}
+
+/* The same sum with S / M^2 evaluated per pair (few pairs: a small active
+ * set among many particles). */
+static void divergence_direct(const sph_model *m, size_t k)
+{
+    sph_particles *P = m->P;
+    const sph_nbr *nb = m->nb;
+    const int gc = m->prm.gradient_correction;
+    const size_t base = nb->off[k];
+    double iMk2 = 1.0 / (P->dens[k] * P->dens[k]);
+    double tk11 = P->s11[k] * iMk2, tk22 = P->s22[k] * iMk2, tk12 = P->s12[k] * iMk2;
+    double ax = 0, ay = 0;
+    const double *bk = m->binv + 6 * k + 3;
+    for (int q = 0; q < nb->count[k]; q++) {
+        size_t s = base + (size_t)q;
+        int j = nb->idx[s];
+        double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
+        double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
+               t12 = P->s12[j] * iMj2 + tk12;
+        double gx = nb->gx[s], gy = nb->gy[s];
+        if (gc) {
+            const double *bj = m->binv + 6 * (size_t)j + 3;
+            double cx = 0.5 * ((bk[0] + bj[0]) * gx + (bk[1] + bj[1]) * gy);
+            gy = 0.5 * ((bk[1] + bj[1]) * gx + (bk[2] + bj[2]) * gy);
+            gx = cx;
+        }
+        ax += P->mass[j] * (t11 * gx + t12 * gy);
+        ay += P->mass[j] * (t12 * gx + t22 * gy);
+    }
+    P->ax[k] = ax;
+    P->ay[k] = ay;
+}
+
 void sph_divergence_pass(sph_model *m, const int *list, size_t count)
 {
     sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
     const int gc = m->prm.gradient_correction;
+    const size_t nall = P->n + m->ng;
+    size_t pairs = 0;
+    for (size_t i = 0; i < count; i++)
+        pairs += (size_t)nb->count[list ? (size_t)list[i] : i];
+    if (pairs <= nall || !nb->pk) {
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
-    for (size_t i = 0; i < count; i++) {
-        size_t k = list ? (size_t)list[i] : i;
-        const size_t base = nb->off[k];
-        double iMk2 = 1.0 / (P->dens[k] * P->dens[k]);
-        double tk11 = P->s11[k] * iMk2, tk22 = P->s22[k] * iMk2, tk12 = P->s12[k] * iMk2;
-        double ax = 0, ay = 0;
-        const double *bk = m->binv + 6 * k + 3;
-        for (int q = 0; q < nb->count[k]; q++) {
-            size_t s = base + (size_t)q;
-            int j = nb->idx[s];
-            double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
-            double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
-                   t12 = P->s12[j] * iMj2 + tk12;
-            double gx = nb->gx[s], gy = nb->gy[s];
-            if (gc) { /* (B_k^-1 + B_j^-1)/2 grad W: still antisymmetric in k, j */
-                const double *bj = m->binv + 6 * (size_t)j + 3;
-                double cx = 0.5 * ((bk[0] + bj[0]) * gx + (bk[1] + bj[1]) * gy);
-                gy = 0.5 * ((bk[1] + bj[1]) * gx + (bk[2] + bj[2]) * gy);
-                gx = cx;
-            }
-            ax += P->mass[j] * (t11 * gx + t12 * gy);
-            ay += P->mass[j] * (t12 * gx + t22 * gy);
+        for (size_t i = 0; i < count; i++)
+            divergence_direct(m, list ? (size_t)list[i] : i);
+        return;
+    }
+    double *pk = nb->pk;
+#pragma omp parallel if (SPH_OMP_WORTH(count))
+    {
+#pragma omp for schedule(static)
+        for (size_t j = 0; j < nall; j++)
+            pack_stress_slot(P, pk + 4 * j, j);
+        /* list entries 2i and 2i + 1 in two lanes */
+        const size_t half = count / 2;
+        if (gc) {
+#pragma omp for schedule(static)
+            for (size_t i = 0; i < half; i++)
+                divergence_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 1);
+        } else {
+#pragma omp for schedule(static)
+            for (size_t i = 0; i < half; i++)
+                divergence_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0);
         }
-        P->ax[k] = ax;
-        P->ay[k] = ay;
+#pragma omp single
+        if (count % 2)
+            divergence_packed(m, SPH_LIST_K(count - 1), gc);
     }
 }
 
