@@ -69,6 +69,7 @@ typedef struct season_arg {
 typedef struct season_result {
     double peak, peak_day, end, created, merged, removed, steps, wall, cpu;
     double sml_peak[5], sml_end[5];
+    double sal_max, sal_max_day, sml_max, sml_max_day; /* over the season: the saltiest cell, the largest h / DS */
 } season_result;
 
 static season_result *shared_res; /* one per run: [0] without merging, [1] with */
@@ -125,6 +126,9 @@ static void run_season(const void *argp, bench_row *row)
     p.P0 = 2.75e4;         /* Hibler's P*: thin new ice pushed into a closed box must hold */
     p.max_neighbours = 192;
     p.summation_density = 1; /* a lonely particle at a wall keeps a bounded footprint (above) */
+    const char *dens = getenv("BENCH_SEASON_DENSITY"); /* "continuity": the scene's default instead */
+    if (dens && strcmp(dens, "continuity") == 0)
+        p.summation_density = 0;
     p.ocean.mixed_layer = 1;
     p.ocean.create = 1;
     p.ocean.merge = a->merge;
@@ -175,6 +179,16 @@ static void run_season(const void *argp, bench_row *row)
             break;
         }
         const sph_particles *P = sph_model_particles(m);
+        for (size_t c = 0; c < o->ncell; c++)
+            if (o->sal[c] > r->sal_max) {
+                r->sal_max = o->sal[c];
+                r->sal_max_day = s * p.dt / 86400.0;
+            }
+        for (size_t k = 0; k < P->n; k++)
+            if (P->sml[k] / DS > r->sml_max) {
+                r->sml_max = P->sml[k] / DS;
+                r->sml_max_day = s * p.dt / 86400.0;
+            }
         if ((double)P->n > r->peak) {
             r->peak = (double)P->n;
             r->peak_day = s * p.dt / 86400.0;
@@ -264,11 +278,14 @@ int main(int argc, char **argv)
                 "season %s: peak %.0f particles on day %.2f, %.0f at the end; created %.0f, merged %.0f, "
                 "melted out %.0f; %.0f steps in %.1f s wall, %.1f s CPU (%.2f ms CPU/step)\n"
                 "season %s: smoothing length / lattice spacing at the peak: min %.2f p10 %.2f median %.2f "
-                "p90 %.2f max %.2f; at the end: %.2f %.2f %.2f %.2f %.2f\n",
+                "p90 %.2f max %.2f; at the end: %.2f %.2f %.2f %.2f %.2f\n"
+                "season %s: over the season: largest smoothing length %.2f lattice spacings (day %.2f), "
+                "saltiest cell %.3f psu (day %.2f)\n",
                 merge ? "merge" : "nomerge", r->peak, r->peak_day, r->end, r->created, r->merged, r->created - r->merged - r->end,
                 r->steps, r->wall, r->cpu, r->steps > 0 ? 1e3 * r->cpu / r->steps : NAN, merge ? "merge" : "nomerge",
                 r->sml_peak[0], r->sml_peak[1], r->sml_peak[2], r->sml_peak[3], r->sml_peak[4], r->sml_end[0],
-                r->sml_end[1], r->sml_end[2], r->sml_end[3], r->sml_end[4]);
+                r->sml_end[1], r->sml_end[2], r->sml_end[3], r->sml_end[4], merge ? "merge" : "nomerge",
+                r->sml_max, r->sml_max_day, r->sal_max, r->sal_max_day);
     }
     fprintf(stderr, "season: cost with / without merging (CPU per step) %.3f; counts in %s\n", ratio, path);
     return 0;

@@ -57,6 +57,8 @@ typedef struct sph_ocean_params {
     int merge;              /* 1: thin crowded particles are merged (0) */
     double merge_thickness; /* m (0.2): both thinner than this */
     double merge_distance;  /* (0.5): closer than this x the mean footprint side */
+    double merge_max_size;  /* (2): the merged particle at most this many lattice spacings:
+                               footprint <= (k ds)^2, smoothing length <= k sml_factor ds */
 } sph_ocean_params;
 
 /* The grid (cell (i, j) spans [x0 + i dx, x0 + (i+1) dx) x [y0 + j dy, ...))
@@ -114,6 +116,7 @@ typedef struct sph_ocean {
     double *pfoot;  /* cap: footprint area of each particle before the step, m^2 */
     double *penth;  /* cap: enthalpy of each particle before the step, J */
     double *pmass;  /* cap: mass before the step, kg */
+    double *psnowfall; /* cap: enthalpy of the snow falling on its ice in the step, J (< 0) */
     double *cfoot;  /* ncell: particle footprint in the cell, m^2 */
     double *acc_e, *acc_w; /* ncell: heat and water the particles gave the cell this step */
     double e_last, m_last; /* ice enthalpy (J) and mass (kg) of the particles at the last look */
