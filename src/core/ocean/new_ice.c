@@ -1,8 +1,8 @@
 /* The mixed layer's thermodynamic step beside the particles' (core/ocean.h,
- * docs/ocean.md): before the particles' step each particle gets its
- * cell's temperature and ice-ocean heat flux; after it every particle's
- * energy the atmosphere did not explain and its mass change go to its
- * cell; the cells take the atmosphere over their open water with no
+ * docs/ocean.md): before the particles' step each particle gets the
+ * temperature and ice-ocean heat flux of the cells its footprint covers
+ * (weighted by the overlap); after it every particle's energy the
+ * atmosphere did not explain and its mass change go to those cells; the cells take the atmosphere over their open water with no
  * particle and restoring, form (or melt) frazil below (above) the
  * freezing point; then melted-out particles are removed, new particles
  * are created from the frazil, and thin crowded particles merged.
