@@ -48,6 +48,8 @@
  * the count at the end, err3 = the cost ratio merge / nomerge (CPU per
  * step); status fatal with the day and reason on stderr when a run stops.
  * Usage: bench_season [days] (default 90; BENCH_QUICK=1: 30).
+ * BENCH_SEASON_DENSITY=continuity: the scene's continuity density instead
+ * of summation; BENCH_SEASON_ONLY=merge (nomerge): that run alone.
  * Run: BENCH_ONLY=season sh bench/run.sh (not in the default list). */
 #include "bench_common.h"
 #include "core/model.h"
@@ -230,7 +232,13 @@ int main(int argc, char **argv)
     char series[2][4200], config[64];
     snprintf(config, sizeof config, "%gd_lattice%d", days, NXL * NYL);
     bench_row rows[2];
+    const char *only = getenv("BENCH_SEASON_ONLY"); /* "merge" or "nomerge": that run alone */
     for (int merge = 1; merge >= 0; merge--) { /* one after the other, in this process */
+        if (only && strcmp(only, merge ? "merge" : "nomerge") != 0) {
+            bench_row_init(&rows[merge], "season");
+            snprintf(rows[merge].status, sizeof rows[merge].status, "skipped");
+            continue;
+        }
         snprintf(series[merge], sizeof series[merge], "%s/season_counts_%s.tmp", dir, merge ? "merge" : "nomerge");
         season_arg a = {merge, days, series[merge]};
         bench_row_init(&rows[merge], "season");

@@ -9,7 +9,9 @@
  *    <= k sml_factor ds, checked after every step;
  *  - at least 36 / k^2 particles remain (a merged particle holds at most
  *    k^2 lattice cells of ice), and merging did happen;
- *  - energy, water and salt of ice plus ocean conserved. */
+ *  - energy, water and salt of ice plus ocean conserved;
+ * and a compacted pack (run_compact) whose reference smoothing length
+ * sml0 must stay within the cap as well. */
 #include "check.h"
 #include "core/model.h"
 #include "core/ocean.h"
@@ -84,9 +86,71 @@ static void run(double k)
     sph_model_free(m);
 }
 
+/* A compacted pack: 6 x 6 thin particles 0.5 ds apart, each a quarter of
+ * a lattice cell, their smoothing lengths on the floor 0.5 h0 (sml0 h0).
+ * The footprint cap alone would let 16 merge, the current smoothing
+ * length's as many (sqrt(16) 0.5 h0 = 2 h0); the reference length sml0,
+ * which bounds the variable h (sml_max_factor x sml0), must stay <= k h0
+ * too: at most 4 of them in one particle. */
+static void run_compact(void)
+{
+    sph_params p;
+    sph_params_default(&p);
+    p.dt = 3600.0;
+    p.thermo_dt = 3600.0;
+    p.physics = SPH_PHYSICS_FREE_DRIFT;
+    p.coriolis = 0;
+    p.Ca = 0.0;
+    p.thermo.model = SPH_THERMO_ZERO_LAYER;
+    p.ocean.mixed_layer = 1;
+    p.ocean.merge = 1;
+    p.ocean.merge_distance = 1.05;
+    const double ds = 1000.0, h0 = p.sml_factor * ds;
+    sph_model *m = sph_model_create(&p, 64, NULL);
+    sph_ocean_grid g = {1, 1, 0.0, 0.0, 2e4, 2e4, 0.5 * ds, 0.5 * ds, ds};
+    int ok = m && sph_model_ocean_create(m, &g) == SPH_STEP_OK;
+    CHECK(ok, "model");
+    if (!ok) {
+        sph_model_free(m);
+        return;
+    }
+    sph_particles *P = sph_model_particles(m);
+    lattice_fill(P, &p, 6, 6, 8.25 * ds, 8.25 * ds, 0.5 * ds, 0.05, 1.0, 40.0);
+    for (size_t q = 0; q < P->n; q++) {
+        P->mass[q] = p.thermo.rho_i * 0.05 * 0.25 * ds * ds;
+        P->sml0[q] = h0;
+        P->sml[q] = 0.5 * h0;
+        sph_thermo_init_particle(&p.thermo, P, q, -2.0);
+    }
+    oc_fill_atm(m, -2.0, 3e-3, 0.0, 0.0, 0.0, 300.0, 40.0);
+    sph_status st;
+    CHECK(sph_model_init(m, &st) == SPH_STEP_OK, "init: %s", st.what);
+    for (size_t q = 0; q < P->n; q++) { /* compacted 4 x from the reference: h = sml0 sqrt(dens0 / dens) = 0.5 sml0 */
+        P->dens0[q] = 0.25 * P->dens[q];
+        P->sml[q] = 0.5 * h0;
+    }
+    double h0mx = 0.0;
+    for (int s = 0; s < 12; s++) {
+        oc_fill_atm(m, -2.0, 3e-3, 0.0, 0.0, 0.0, 300.0, 40.0);
+        int rc = sph_model_step(m, &st);
+        CHECK(rc == SPH_STEP_OK, "step %d: %s %s", s, st.quantity, st.what);
+        if (rc != SPH_STEP_OK)
+            break;
+        for (size_t q = 0; q < P->n; q++)
+            h0mx = fmax(h0mx, P->sml0[q]);
+    }
+    printf("merge cap, compacted pack: %zu particles of 36, %ld merged, largest sml0 %.3f h0\n", P->n,
+           sph_model_budget(m)->merged_particles, h0mx / h0);
+    CHECK(sph_model_budget(m)->merged_particles > 0, "merging happened");
+    CHECK(h0mx <= 2.0 * h0 * (1.0 + 1e-9), "reference smoothing length %.4g h0 <= 2", h0mx / h0);
+    CHECK(P->n >= 9, "%zu particles >= 36 / 4", P->n);
+    sph_model_free(m);
+}
+
 int main(void)
 {
     run(0.0);
     run(3.0);
+    run_compact();
     return check_summary("test_ocean_merge_cap");
 }

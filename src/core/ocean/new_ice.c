@@ -526,7 +526,8 @@ static void merge_thin(sph_model *m)
                     if (l <= k || !(P->mass[l] > 0.0) || !(P->thick[l] < op->merge_thickness))
                         continue;
                     if (o->pfoot[k] + o->pfoot[l] > foot_cap ||
-                        P->sml[k] * P->sml[k] + P->sml[l] * P->sml[l] > sml_cap * sml_cap * (1.0 + 1e-12))
+                        P->sml[k] * P->sml[k] + P->sml[l] * P->sml[l] > sml_cap * sml_cap * (1.0 + 1e-12) ||
+                        P->sml0[k] * P->sml0[k] + P->sml0[l] * P->sml0[l] > sml_cap * sml_cap * (1.0 + 1e-12))
                         continue;
                     double r = op->merge_distance * 0.5 * (sqrt(o->pfoot[k]) + sqrt(o->pfoot[l]));
                     double dx = P->x[l] - P->x[k], dy = P->y[l] - P->y[k];
