@@ -24,22 +24,27 @@
  * neighbours), thermodynamics every 3600 s, mass per area by summation.
  *
  * Why summation: with the default continuity density (the scene's) both
- * runs stop between days 33 and 46. The particle at the west wall that
- * the wind pulls away from it loses density without bound, its footprint
- * m / (rho_i A h) grows to 12-800 mixed-layer cells, the cell it sits in
- * gets no open water of its own (its particles' footprint exceeds it) and
- * the particle's leads freeze the whole polynya's ice out of that one
- * cell: water 0.41-0.45 of its start, 61-62 psu, below -3 C
- * ("sea_surface_temperature outside the physical range"); without
- * merging, with 3 m/s, the same on day 33; with 2 m/s, "mean thickness
- * exceeds the thickness limit" on day 39 (docs/ocean.md, Cost). The
- * salinity restoring is there for the same reason (without it: day 34).
+ * runs stop before day 90 (BENCH_SEASON_DENSITY=continuity shows it). The
+ * particle at the west wall that the wind pulls away from it loses
+ * density without bound; the footprints m / (rho_i A h) of the particles
+ * over a western cell add up to 76-86 times the cell's area, and their
+ * leads freeze far more ice out of the slabs under them than the cells'
+ * open water could: with merging, a cell at 73.6 psu, -4.2 C on day 55
+ * ("sea_surface_temperature outside the physical range"); without,
+ * "mean thickness exceeds the thickness limit" on day 51. Before each
+ * particle's exchange was spread over the cells its footprint covers
+ * (src/core/ocean/new_ice.c) and merging capped (new_ice.merge_max_size),
+ * the same stops came on days 46 (61 psu, one cell drained by one
+ * particle of 12-800 cells' footprint) and 39 (docs/ocean.md, Cost). The
+ * salinity restoring is there for the same reason (without it: day 34,
+ * before the spread).
  *
  * Measured: the particle count every 12 h (written to
  * $BENCH_OUT/season_counts.dat: day, count with merging, without), its
  * peak and the day of the peak, particles created, merged and melted out,
  * the smoothing lengths at the peak and at the end (min, 10th, 50th,
- * 90th percentile, max, in lattice spacings), and the cost: CPU and wall
+ * 90th percentile, max, in lattice spacings), the largest smoothing
+ * length and the saltiest cell over the whole season, and the cost: CPU and wall
  * time of each run, CPU per step, and the ratio of CPU per step with /
  * without merging measured in the same invocation (the two runs one
  * after the other in this process; peak_rss_mb is the process's peak so
