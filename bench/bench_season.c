@@ -287,6 +287,8 @@ int main(int argc, char **argv)
     remove(series[1]);
     for (int merge = 1; merge >= 0; merge--) {
         const season_result *r = &shared_res[merge];
+        if (strcmp(rows[merge].status, "skipped") == 0)
+            continue;
         fprintf(stderr,
                 "season %s: peak %.0f particles on day %.2f, %.0f at the end; created %.0f, merged %.0f, "
                 "melted out %.0f; %.0f steps in %.1f s wall, %.1f s CPU (%.2f ms CPU/step)\n"
