@@ -283,8 +283,10 @@ int main(int argc, char **argv)
             fclose(in[i]);
     if (out)
         fclose(out);
-    remove(series[0]);
-    remove(series[1]);
+    if (!only) { /* one run alone keeps its series file */
+        remove(series[0]);
+        remove(series[1]);
+    }
     for (int merge = 1; merge >= 0; merge--) {
         const season_result *r = &shared_res[merge];
         if (strcmp(rows[merge].status, "skipped") == 0)
