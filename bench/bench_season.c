@@ -234,7 +234,7 @@ int main(int argc, char **argv)
     const char *dir = getenv("BENCH_OUT") ? getenv("BENCH_OUT") : "bench/out";
     static season_result res[2];
     shared_res = res;
-    char series[2][4200], config[64];
+    char series[2][4200] = {"", ""}, config[64];
     snprintf(config, sizeof config, "%gd_lattice%d", days, NXL * NYL);
     bench_row rows[2];
     const char *only = getenv("BENCH_SEASON_ONLY"); /* "merge" or "nomerge": that run alone */
@@ -266,7 +266,8 @@ int main(int argc, char **argv)
     /* the counts side by side */
     char path[4200];
     snprintf(path, sizeof path, "%s/season_counts.dat", dir);
-    FILE *in[2] = {fopen(series[1], "r"), fopen(series[0], "r")}, *out = fopen(path, "w");
+    FILE *in[2] = {series[1][0] ? fopen(series[1], "r") : NULL, series[0][0] ? fopen(series[0], "r") : NULL};
+    FILE *out = in[0] && in[1] ? fopen(path, "w") : NULL;
     if (in[0] && in[1] && out) {
         fprintf(out, "# day particles_with_merging particles_without (bench/bench_season.c)\n");
         double d0, d1;
