@@ -2,8 +2,9 @@
  * docs/ocean.md): before the particles' step each particle gets the
  * temperature and ice-ocean heat flux of the cells its footprint covers
  * (weighted by the overlap); after it every particle's energy the
- * atmosphere did not explain and its mass change go to those cells; the cells take the atmosphere over their open water with no
- * particle and restoring, form (or melt) frazil below (above) the
+ * atmosphere did not explain and its mass change go to those cells; the
+ * cells take the atmosphere over their open water with no particle and
+ * restoring, form (or melt) frazil below (above) the
  * freezing point; then melted-out particles are removed, new particles
  * are created from the frazil, and thin crowded particles merged.
  * Everything serial and in index order (bit-reproducible), no allocation. */
