@@ -24,22 +24,27 @@
  * neighbours), thermodynamics every 3600 s, mass per area by summation.
  *
  * Why summation: with the default continuity density (the scene's) both
- * runs stop between days 33 and 46. The particle at the west wall that
- * the wind pulls away from it loses density without bound, its footprint
- * m / (rho_i A h) grows to 12-800 mixed-layer cells, the cell it sits in
- * gets no open water of its own (its particles' footprint exceeds it) and
- * the particle's leads freeze the whole polynya's ice out of that one
- * cell: water 0.41-0.45 of its start, 61-62 psu, below -3 C
- * ("sea_surface_temperature outside the physical range"); without
- * merging, with 3 m/s, the same on day 33; with 2 m/s, "mean thickness
- * exceeds the thickness limit" on day 39 (docs/ocean.md, Cost). The
- * salinity restoring is there for the same reason (without it: day 34).
+ * runs stop before day 90 (BENCH_SEASON_DENSITY=continuity shows it). The
+ * particle at the west wall that the wind pulls away from it loses
+ * density without bound; the footprints m / (rho_i A h) of the particles
+ * over a western cell add up to 76-86 times the cell's area, and their
+ * leads freeze far more ice out of the slabs under them than the cells'
+ * open water could: with merging, a cell at 73.6 psu, -4.2 C on day 55
+ * ("sea_surface_temperature outside the physical range"); without,
+ * "mean thickness exceeds the thickness limit" on day 51. Before each
+ * particle's exchange was spread over the cells its footprint covers
+ * (src/core/ocean/new_ice.c) and merging capped (new_ice.merge_max_size),
+ * the same stops came on days 46 (61 psu, one cell drained by one
+ * particle of 12-800 cells' footprint) and 39 (docs/ocean.md, Cost). The
+ * salinity restoring is there for the same reason (without it: day 34,
+ * before the spread).
  *
  * Measured: the particle count every 12 h (written to
  * $BENCH_OUT/season_counts.dat: day, count with merging, without), its
  * peak and the day of the peak, particles created, merged and melted out,
  * the smoothing lengths at the peak and at the end (min, 10th, 50th,
- * 90th percentile, max, in lattice spacings), and the cost: CPU and wall
+ * 90th percentile, max, in lattice spacings), the largest smoothing
+ * length and the saltiest cell over the whole season, and the cost: CPU and wall
  * time of each run, CPU per step, and the ratio of CPU per step with /
  * without merging measured in the same invocation (the two runs one
  * after the other in this process; peak_rss_mb is the process's peak so
@@ -48,6 +53,8 @@
  * the count at the end, err3 = the cost ratio merge / nomerge (CPU per
  * step); status fatal with the day and reason on stderr when a run stops.
  * Usage: bench_season [days] (default 90; BENCH_QUICK=1: 30).
+ * BENCH_SEASON_DENSITY=continuity: the scene's continuity density instead
+ * of summation; BENCH_SEASON_ONLY=merge (nomerge): that run alone.
  * Run: BENCH_ONLY=season sh bench/run.sh (not in the default list). */
 #include "bench_common.h"
 #include "core/model.h"
@@ -69,6 +76,7 @@ typedef struct season_arg {
 typedef struct season_result {
     double peak, peak_day, end, created, merged, removed, steps, wall, cpu;
     double sml_peak[5], sml_end[5];
+    double sal_max, sal_max_day, sml_max, sml_max_day; /* over the season: the saltiest cell, the largest h / DS */
 } season_result;
 
 static season_result *shared_res; /* one per run: [0] without merging, [1] with */
@@ -125,6 +133,9 @@ static void run_season(const void *argp, bench_row *row)
     p.P0 = 2.75e4;         /* Hibler's P*: thin new ice pushed into a closed box must hold */
     p.max_neighbours = 192;
     p.summation_density = 1; /* a lonely particle at a wall keeps a bounded footprint (above) */
+    const char *dens = getenv("BENCH_SEASON_DENSITY"); /* "continuity": the scene's default instead */
+    if (dens && strcmp(dens, "continuity") == 0)
+        p.summation_density = 0;
     p.ocean.mixed_layer = 1;
     p.ocean.create = 1;
     p.ocean.merge = a->merge;
@@ -175,6 +186,16 @@ static void run_season(const void *argp, bench_row *row)
             break;
         }
         const sph_particles *P = sph_model_particles(m);
+        for (size_t c = 0; c < o->ncell; c++)
+            if (o->sal[c] > r->sal_max) {
+                r->sal_max = o->sal[c];
+                r->sal_max_day = s * p.dt / 86400.0;
+            }
+        for (size_t k = 0; k < P->n; k++)
+            if (P->sml[k] / DS > r->sml_max) {
+                r->sml_max = P->sml[k] / DS;
+                r->sml_max_day = s * p.dt / 86400.0;
+            }
         if ((double)P->n > r->peak) {
             r->peak = (double)P->n;
             r->peak_day = s * p.dt / 86400.0;
@@ -213,10 +234,16 @@ int main(int argc, char **argv)
     const char *dir = getenv("BENCH_OUT") ? getenv("BENCH_OUT") : "bench/out";
     static season_result res[2];
     shared_res = res;
-    char series[2][4200], config[64];
+    char series[2][4200] = {"", ""}, config[64];
     snprintf(config, sizeof config, "%gd_lattice%d", days, NXL * NYL);
     bench_row rows[2];
+    const char *only = getenv("BENCH_SEASON_ONLY"); /* "merge" or "nomerge": that run alone */
     for (int merge = 1; merge >= 0; merge--) { /* one after the other, in this process */
+        if (only && strcmp(only, merge ? "merge" : "nomerge") != 0) {
+            bench_row_init(&rows[merge], "season");
+            snprintf(rows[merge].status, sizeof rows[merge].status, "skipped");
+            continue;
+        }
         snprintf(series[merge], sizeof series[merge], "%s/season_counts_%s.tmp", dir, merge ? "merge" : "nomerge");
         season_arg a = {merge, days, series[merge]};
         bench_row_init(&rows[merge], "season");
@@ -239,7 +266,8 @@ int main(int argc, char **argv)
     /* the counts side by side */
     char path[4200];
     snprintf(path, sizeof path, "%s/season_counts.dat", dir);
-    FILE *in[2] = {fopen(series[1], "r"), fopen(series[0], "r")}, *out = fopen(path, "w");
+    FILE *in[2] = {series[1][0] ? fopen(series[1], "r") : NULL, series[0][0] ? fopen(series[0], "r") : NULL};
+    FILE *out = in[0] && in[1] ? fopen(path, "w") : NULL;
     if (in[0] && in[1] && out) {
         fprintf(out, "# day particles_with_merging particles_without (bench/bench_season.c)\n");
         double d0, d1;
@@ -256,19 +284,26 @@ int main(int argc, char **argv)
             fclose(in[i]);
     if (out)
         fclose(out);
-    remove(series[0]);
-    remove(series[1]);
+    if (!only) { /* one run alone keeps its series file */
+        remove(series[0]);
+        remove(series[1]);
+    }
     for (int merge = 1; merge >= 0; merge--) {
         const season_result *r = &shared_res[merge];
+        if (strcmp(rows[merge].status, "skipped") == 0)
+            continue;
         fprintf(stderr,
                 "season %s: peak %.0f particles on day %.2f, %.0f at the end; created %.0f, merged %.0f, "
                 "melted out %.0f; %.0f steps in %.1f s wall, %.1f s CPU (%.2f ms CPU/step)\n"
                 "season %s: smoothing length / lattice spacing at the peak: min %.2f p10 %.2f median %.2f "
-                "p90 %.2f max %.2f; at the end: %.2f %.2f %.2f %.2f %.2f\n",
+                "p90 %.2f max %.2f; at the end: %.2f %.2f %.2f %.2f %.2f\n"
+                "season %s: over the season: largest smoothing length %.2f lattice spacings (day %.2f), "
+                "saltiest cell %.3f psu (day %.2f)\n",
                 merge ? "merge" : "nomerge", r->peak, r->peak_day, r->end, r->created, r->merged, r->created - r->merged - r->end,
                 r->steps, r->wall, r->cpu, r->steps > 0 ? 1e3 * r->cpu / r->steps : NAN, merge ? "merge" : "nomerge",
                 r->sml_peak[0], r->sml_peak[1], r->sml_peak[2], r->sml_peak[3], r->sml_peak[4], r->sml_end[0],
-                r->sml_end[1], r->sml_end[2], r->sml_end[3], r->sml_end[4]);
+                r->sml_end[1], r->sml_end[2], r->sml_end[3], r->sml_end[4], merge ? "merge" : "nomerge",
+                r->sml_max, r->sml_max_day, r->sal_max, r->sal_max_day);
     }
     fprintf(stderr, "season: cost with / without merging (CPU per step) %.3f; counts in %s\n", ratio, path);
     return 0;

@@ -116,6 +116,16 @@ int main(int argc, char **argv)
     printf("good run: %ld -> %ld particles, residuals energy %.2e water %.2e salt %.2e\n", res.run.particles_start,
            res.run.particles_end, res.run.energy_residual, res.run.water_residual, res.run.salt_residual);
 
+    /* thermo.snow_heat_capacity with the mixed layer: no longer refused,
+     * the slab's budget counts the snow's enthalpy (issue 20) */
+    cfg->model.thermo.snow_heat_capacity = 1;
+    memset(&res, 0, sizeof res);
+    rc = run(cfg, "snow_heat", &res, &err, stage, sizeof stage);
+    CHECK(rc == SPH_OK, "mixed layer with thermo.snow_heat_capacity runs: %s", err.msg);
+    CHECK(rc != SPH_OK || (res.run.energy_residual < 1e-12 && res.run.water_residual < 1e-12),
+          "snow heat capacity: budgets close: energy %g water %g", res.run.energy_residual, res.run.water_residual);
+    cfg->model.thermo.snow_heat_capacity = 0;
+
     ocean_case = 1;
     write_ocean(p);
     refused(cfg, "negative_mld", "mlotst");

@@ -7,10 +7,11 @@
  * water cools first). Per thermodynamic step, each cell takes
  *  - the atmosphere over its open water with no particle (the ice
  *    surface's bulk formulas, sph_open_water_flux),
- *  - from every particle in it, the heat the particle's column and leads
- *    did not get from the atmosphere (the ice-ocean heat flux, shortwave
- *    through ice and leads, the remnants of melted-out ice), and the water
- *    and salt of the particle's mass change,
+ *  - from every particle whose footprint covers it, in proportion to the
+ *    footprint's overlap with the cell (its sea part), the heat the
+ *    particle's column and leads did not get from the atmosphere (the
+ *    ice-ocean heat flux, shortwave through ice and leads, the remnants of
+ *    melted-out ice), and the water and salt of the particle's mass change,
  *  - optional restoring to the forcing's SST / SSS over a time scale.
  * Below the freezing point of its salinity the cell's heat deficit forms
  * frazil (ice volume = deficit / -q_new); when the frazil over the cell's
@@ -57,6 +58,8 @@ typedef struct sph_ocean_params {
     int merge;              /* 1: thin crowded particles are merged (0) */
     double merge_thickness; /* m (0.2): both thinner than this */
     double merge_distance;  /* (0.5): closer than this x the mean footprint side */
+    double merge_max_size;  /* (2): the merged particle at most this many lattice spacings:
+                               footprint <= (k ds)^2, smoothing length <= k sml_factor ds */
 } sph_ocean_params;
 
 /* The grid (cell (i, j) spans [x0 + i dx, x0 + (i+1) dx) x [y0 + j dy, ...))
@@ -110,11 +113,12 @@ typedef struct sph_ocean {
     size_t cap;
     int *bin_start; /* ncell + 1 */
     int *bin_list;  /* cap */
-    int *pcell;     /* cap: cell of each particle (clamped to the grid) */
+    int *pcell;     /* cap: cell of each particle's centre (clamped to the grid) */
     double *pfoot;  /* cap: footprint area of each particle before the step, m^2 */
     double *penth;  /* cap: enthalpy of each particle before the step, J */
     double *pmass;  /* cap: mass before the step, kg */
-    double *cfoot;  /* ncell: particle footprint in the cell, m^2 */
+    double *psnowfall; /* cap: enthalpy of the snow falling on its ice in the step, J (< 0) */
+    double *cfoot;  /* ncell: particle footprint in the cell (each footprint spread over the cells it covers), m^2 */
     double *acc_e, *acc_w; /* ncell: heat and water the particles gave the cell this step */
     double e_last, m_last; /* ice enthalpy (J) and mass (kg) of the particles at the last look */
 } sph_ocean;

@@ -110,7 +110,7 @@ static const sph_param rows[] = {
     DBL("thermo.rho_ice", thermo.rho_i, 900, 800, 1000, "kg/m^3", "Ice density in the thermodynamics, kg/m^3."),
     DBL("thermo.rho_snow", thermo.rho_s, 330, 50, 700, "kg/m^3", "Snow density, kg/m^3: snowfall (water equivalent) becomes depth flux / rho_snow; freeboard (Maykut & Untersteiner 1971: 330)."),
     DBL("thermo.k_snow", thermo.k_s, 0.31, 0.01, 2, "W/m/K", "Snow thermal conductivity, W/m/K (Maykut & Untersteiner 1971: 0.31)."),
-    BOOL("thermo.snow_heat_capacity", thermo.snow_heat_capacity, 0, "Snow heat capacity in the multi-layer column: snow at least 1 cm deep is a layer with enthalpy -rho_snow (L0 - c0 T) solved with the ice (Bitz & Lipscomb 1999); false: the snow holds latent heat only (at 0 C). Not with ocean.mixed_layer yet (its energy budget counts snow at 0 C) (docs/thermo.md)."),
+    BOOL("thermo.snow_heat_capacity", thermo.snow_heat_capacity, 0, "Snow heat capacity in the multi-layer column: snow at least 1 cm deep is a layer with enthalpy -rho_snow (L0 - c0 T) solved with the ice (Bitz & Lipscomb 1999); false: the snow holds latent heat only (at 0 C). The mixed layer's energy budget counts the snow with the same enthalpy (docs/thermo.md, docs/ocean.md)."),
     BOOL("thermo.snow_ice", thermo.snow_ice, 1, "Snow-ice formation: snow that pushes the freeboard below zero floods and becomes ice, mass and energy conserved (docs/thermo.md)."),
     DBL("thermo.snow_t_snow", thermo.snow_t_snow, 0, -20, 10, "degC", "Precipitation split by the 2 m air temperature: all snow at or below this, deg C (CLM 4.0: 0)."),
     DBL("thermo.snow_t_rain", thermo.snow_t_rain, 2, -20, 10, "degC", "All rain at or above this, deg C, linear in between (CLM 4.0: 2); must not be below thermo.snow_t_snow."),
@@ -126,6 +126,7 @@ static const sph_param rows[] = {
     BOOL("new_ice.merge", ocean.merge, 0, "Merge thin crowded particles (mass, momentum, enthalpy conserved) so the count stays bounded."),
     DBL("new_ice.merge_thickness", ocean.merge_thickness, 0.2, 0, 10, "m", "Merging: both particles thinner than this, m."),
     DBL("new_ice.merge_distance", ocean.merge_distance, 0.5, 0, 2, "1", "Merging: particles closer than this times the mean side of their footprints."),
+    DBL("new_ice.merge_max_size", ocean.merge_max_size, 2, 1, 100, "1", "Merging: a merged particle may not be larger than this many seeding lattice spacings: its footprint at most merge_max_size^2 lattice cells and its smoothing length at most merge_max_size times a new particle's (sml_factor x spacing); a pair that would be is not merged (docs/ocean.md)."),
 };
 #undef ROW
 #undef DBL

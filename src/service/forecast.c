@@ -106,11 +106,6 @@ static int check_params(const struct sph_config *cfg, const sph_params *prm, sph
                            "model: free_drift_parcels is true but model.physics is not free_drift "
                            "(parcels are a free-drift path; set model.physics \"free_drift\" or "
                            "model.free_drift_parcels false)");
-    if (prm->thermo.snow_heat_capacity && prm->ocean.mixed_layer) /* its budget counts snow at 0 C */
-        return sph_err_set(err, SPH_ERR_PARAM,
-                           "model: thermo.snow_heat_capacity is true with ocean.mixed_layer (the mixed "
-                           "layer's energy budget counts the snow at 0 C; set model.thermo.snow_heat_capacity "
-                           "false)");
     if (cfg->model.thermo_dt > 0 && cfg->model.thermo.model != SPH_THERMO_OFF &&
         sph_thermo_params_check(&cfg->model.thermo, &name, &lo, &hi) != SPH_STEP_OK)
         return sph_err_set(err, SPH_ERR_PARAM, "model.thermo: parameter %s outside [%g, %g]", name, lo,

@@ -23,7 +23,7 @@ void sph_ocean_free(sph_ocean *o)
                     &o->tair, &o->qair, &o->ua, &o->va, &o->swdn, &o->lwdn, &o->lat,
                     &o->sst_restore, &o->sss_restore, &o->ow_heat, &o->ow_fresh, &o->ow_salt,
                     &o->ofx_heat, &o->ofx_water, &o->ofx_salt, &o->ofx_heat_ice, &o->ofx_taux, &o->ofx_tauy,
-                    &o->ofx_swbase, &o->pfoot, &o->penth, &o->pmass, &o->cfoot, &o->seafrac, &o->acc_e, &o->acc_w};
+                    &o->ofx_swbase, &o->pfoot, &o->penth, &o->pmass, &o->psnowfall, &o->cfoot, &o->seafrac, &o->acc_e, &o->acc_w};
     for (size_t i = 0; i < sizeof d / sizeof d[0]; i++)
         free(*d[i]);
     free(o->bin_start);
@@ -55,6 +55,7 @@ sph_ocean *sph_ocean_create(const sph_ocean_grid *g, size_t cap, double depth, d
     ok &= (o->pfoot = calloc(cap, sizeof(double))) != NULL;
     ok &= (o->penth = calloc(cap, sizeof(double))) != NULL;
     ok &= (o->pmass = calloc(cap, sizeof(double))) != NULL;
+    ok &= (o->psnowfall = calloc(cap, sizeof(double))) != NULL;
     ok &= (o->bin_start = calloc(nc + 1, sizeof(int))) != NULL;
     ok &= (o->bin_list = calloc(cap, sizeof(int))) != NULL;
     ok &= (o->pcell = calloc(cap, sizeof(int))) != NULL;

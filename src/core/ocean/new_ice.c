@@ -1,9 +1,10 @@
 /* The mixed layer's thermodynamic step beside the particles' (core/ocean.h,
- * docs/ocean.md): before the particles' step each particle gets its
- * cell's temperature and ice-ocean heat flux; after it every particle's
- * energy the atmosphere did not explain and its mass change go to its
- * cell; the cells take the atmosphere over their open water with no
- * particle and restoring, form (or melt) frazil below (above) the
+ * docs/ocean.md): before the particles' step each particle gets the
+ * temperature and ice-ocean heat flux of the cells its footprint covers
+ * (weighted by the overlap); after it every particle's energy the
+ * atmosphere did not explain and its mass change go to those cells; the
+ * cells take the atmosphere over their open water with no particle and
+ * restoring, form (or melt) frazil below (above) the
  * freezing point; then melted-out particles are removed, new particles
  * are created from the frazil, and thin crowded particles merged.
  * Everything serial and in index order (bit-reproducible), no allocation. */
@@ -42,7 +43,10 @@ static double particle_foot(const sph_model *m, size_t k)
     return d > 0.0 ? P->mass[k] / d : 0.0;
 }
 
-/* Enthalpy of particle k, J: ice volume x mean layer enthalpy + snow. */
+/* Enthalpy of particle k, J: ice volume x mean layer enthalpy + snow
+ * volume x the column's snow enthalpy at its layer temperature,
+ * -rho_s (L0 - c0 T_s) per m^3 (sph_snow_enthalpy; T_s 0 without
+ * thermo.snow_heat_capacity: -rho_s L0). */
 static double particle_enthalpy(const sph_model *m, size_t k)
 {
     const sph_particles *P = m->P;
@@ -56,7 +60,7 @@ static double particle_enthalpy(const sph_model *m, size_t k)
     const sph_thermo_params *tp = &m->prm.thermo;
     double e = P->mass[k] / tp->rho_i * qb;
     if (P->snow[k] > 0.0)
-        e -= tp->rho_s * tp->L0 * P->snow[k] * P->conc[k] * particle_foot(m, k);
+        e += sph_snow_enthalpy(tp, P->tsnow[k]) * P->snow[k] * P->conc[k] * particle_foot(m, k);
     return e;
 }
 
@@ -83,7 +87,98 @@ static double cell_tf(const sph_model *m, const sph_ocean *o, size_t c)
     return sph_ocean_freezing_point(m->prm.ocean.freezing, m->prm.thermo.mu, o->sal[c]);
 }
 
-/* Bins the live particles by cell (counting sort, index order kept). */
+/* The cells a particle's footprint covers (docs/ocean.md, "The footprint
+ * over the cells"): the footprint is a square of its area centred on the
+ * particle, clipped to the grid; the weight of a cell is the square's
+ * overlap with the cell times the cell's sea fraction (at least
+ * SPH_OCEAN_MIN_SEAFRAC), over their sum. A particle with no footprint,
+ * or one that covers no cell of the grid, exchanges with the cell of its
+ * centre (clamped to the grid) alone. */
+typedef struct foot_span {
+    int i0, i1, j0, j1;      /* cells [i0, i1] x [j0, j1] */
+    double xa, xb, ya, yb;   /* the square, clipped */
+    double wsum;             /* sum of the raw weights */
+    size_t big;              /* the cell of the largest weight (first in index order) */
+    int single;              /* 1: the centre cell `big` alone */
+} foot_span;
+
+static double overlap_1d(double a, double b, double lo, double hi)
+{
+    double d = fmin(b, hi) - fmax(a, lo);
+    return d > 0.0 ? d : 0.0;
+}
+
+static double span_raw(const sph_ocean *o, const foot_span *s, int i, int j)
+{
+    double xl = o->g.x0 + i * o->g.dx, yl = o->g.y0 + j * o->g.dy;
+    size_t c = (size_t)j * (size_t)o->g.nx + (size_t)i;
+    return overlap_1d(s->xa, s->xb, xl, xl + o->g.dx) * overlap_1d(s->ya, s->yb, yl, yl + o->g.dy) *
+           fmax(o->seafrac[c], SPH_OCEAN_MIN_SEAFRAC);
+}
+
+static void span_init(const sph_ocean *o, double x, double y, double foot, foot_span *s)
+{
+    s->single = 1;
+    s->big = sph_ocean_cell(o, x, y);
+    s->wsum = 0.0;
+    double half = 0.5 * sqrt(foot > 0.0 ? foot : 0.0);
+    if (!(half > 0.0) || !isfinite(half) || !isfinite(x) || !isfinite(y))
+        return;
+    const double gx1 = o->g.x0 + o->g.nx * o->g.dx, gy1 = o->g.y0 + o->g.ny * o->g.dy;
+    s->xa = fmax(x - half, o->g.x0);
+    s->xb = fmin(x + half, gx1);
+    s->ya = fmax(y - half, o->g.y0);
+    s->yb = fmin(y + half, gy1);
+    if (!(s->xa < s->xb && s->ya < s->yb))
+        return;
+    s->i0 = (int)fmax(0.0, fmin(floor((s->xa - o->g.x0) / o->g.dx), o->g.nx - 1.0));
+    s->i1 = (int)fmax(0.0, fmin(floor((s->xb - o->g.x0) / o->g.dx), o->g.nx - 1.0));
+    s->j0 = (int)fmax(0.0, fmin(floor((s->ya - o->g.y0) / o->g.dy), o->g.ny - 1.0));
+    s->j1 = (int)fmax(0.0, fmin(floor((s->yb - o->g.y0) / o->g.dy), o->g.ny - 1.0));
+    if (s->i0 == s->i1 && s->j0 == s->j1) {
+        s->big = (size_t)s->j0 * (size_t)o->g.nx + (size_t)s->i0;
+        return;
+    }
+    double wbig = -1.0;
+    for (int j = s->j0; j <= s->j1; j++)
+        for (int i = s->i0; i <= s->i1; i++) {
+            double w = span_raw(o, s, i, j);
+            s->wsum += w;
+            if (w > wbig) {
+                wbig = w;
+                s->big = (size_t)j * (size_t)o->g.nx + (size_t)i;
+            }
+        }
+    s->single = !(s->wsum > 0.0) || !(wbig < s->wsum);
+}
+
+/* Adds amount X to a[] over the span: X w to every cell but the largest,
+ * which gets the rest, so that the parts sum to X (to one rounding). */
+static void span_add(const sph_ocean *o, const foot_span *s, double X, double *a)
+{
+    if (s->single) {
+        a[s->big] += X;
+        return;
+    }
+    double rest = X;
+    for (int j = s->j0; j <= s->j1; j++)
+        for (int i = s->i0; i <= s->i1; i++) {
+            size_t c = (size_t)j * (size_t)o->g.nx + (size_t)i;
+            if (c == s->big)
+                continue;
+            double w = span_raw(o, s, i, j);
+            if (w > 0.0) {
+                double v = X * (w / s->wsum);
+                a[c] += v;
+                rest -= v;
+            }
+        }
+    a[s->big] += rest;
+}
+
+/* Bins the live particles by the cell of their centre (counting sort,
+ * index order kept) and spreads their footprints over the cells they
+ * cover (cfoot). */
 static void bin_particles(sph_model *m)
 {
     sph_ocean *o = m->ocean;
@@ -94,7 +189,9 @@ static void bin_particles(sph_model *m)
         size_t c = sph_ocean_cell(o, P->x[k], P->y[k]);
         o->pcell[k] = (int)c;
         o->pfoot[k] = particle_foot(m, k);
-        o->cfoot[c] += o->pfoot[k];
+        foot_span s;
+        span_init(o, P->x[k], P->y[k], o->pfoot[k], &s);
+        span_add(o, &s, o->pfoot[k], o->cfoot);
         o->bin_start[c + 1]++;
     }
     for (size_t c = 0; c < o->ncell; c++)
@@ -145,23 +242,58 @@ void sph_ocean_totals(const sph_model *m, double *energy, double *water, double 
     *salt = ms * sb + s;
 }
 
+/* Cell c under the ice: its temperature and ice-ocean heat flux, at most
+ * what brings it to freezing in the step over the ice footprint in it. */
+static void ocean_under(const sph_model *m, const sph_ocean *o, size_t c, double dt, double *T, double *fw)
+{
+    double Tc = o->temp[c], Tf = cell_tf(m, o, c);
+    double f = m->prm.ocean.heat_transfer * fmax(Tc - Tf, 0.0);
+    double ice = o->cfoot[c] > 0.0 ? o->cfoot[c] : 1.0;
+    double fmax_ = cell_heat_capacity(m, o, c) * fmax(Tc - Tf, 0.0) / (dt * ice);
+    *T = Tc;
+    *fw = fmin(f, fmax_);
+}
+
 void sph_ocean_before(sph_model *m, double dt)
 {
     sph_ocean *o = m->ocean;
     sph_particles *P = m->P;
     sph_ocean_account(m); /* what the dynamics took out since the last look */
     bin_particles(m);
+    const sph_thermo_params *tp = &m->prm.thermo;
     for (size_t k = 0; k < P->n; k++) {
-        size_t c = (size_t)o->pcell[k];
-        o->penth[k] = particle_enthalpy(m, k);
+        /* the snow that falls on its ice in the step comes from the
+         * atmosphere with its enthalpy at 0 C, -rho_s L0 per m^3 of snow
+         * (the column adds it, core/thermo.c): booked as if already on
+         * the particle, and as a surface flux (sph_ocean_after) */
+        double sf = 0.0;
+        if (P->mass[k] > 0.0 && P->thick[k] > 0.0 && P->conc[k] > 0.0 && P->snowfall[k] > 0.0)
+            sf = sph_snow_enthalpy(tp, 0.0) * (P->snowfall[k] / tp->rho_s) * dt * P->mass[k] /
+                 (tp->rho_i * P->thick[k]);
+        o->penth[k] = particle_enthalpy(m, k) + sf;
         o->pmass[k] = P->mass[k];
-        double T = o->temp[c], Tf = cell_tf(m, o, c);
+        o->psnowfall[k] = sf;
+        foot_span s;
+        span_init(o, P->x[k], P->y[k], o->pfoot[k], &s);
+        /* the footprint's cells: their mean temperature, and the ice-ocean
+         * heat flux of each, at most what brings it to freezing in the step
+         * (shared by the ice over it), weighted by the footprint */
+        double T = 0.0, fw = 0.0;
+        if (s.single) {
+            ocean_under(m, o, s.big, dt, &T, &fw);
+        } else {
+            for (int j = s.j0; j <= s.j1; j++)
+                for (int i = s.i0; i <= s.i1; i++) {
+                    double w = span_raw(o, &s, i, j) / s.wsum, Tc, fc;
+                    if (!(w > 0.0))
+                        continue;
+                    ocean_under(m, o, (size_t)j * (size_t)o->g.nx + (size_t)i, dt, &Tc, &fc);
+                    T += w * Tc;
+                    fw += w * fc;
+                }
+        }
         P->sst[k] = T;
-        /* ice-ocean heat flux, at most what brings the cell to freezing */
-        double fw = m->prm.ocean.heat_transfer * fmax(T - Tf, 0.0);
-        double ice = o->cfoot[c] > 0.0 ? o->cfoot[c] : 1.0;
-        double fmax_ = cell_heat_capacity(m, o, c) * fmax(T - Tf, 0.0) / (dt * ice);
-        P->fw[k] = fmin(fw, fmax_);
+        P->fw[k] = fw;
     }
 }
 
@@ -289,19 +421,26 @@ static int create_in_cell(sph_model *m, size_t c, double reach, long *next_id, s
     return SPH_STEP_OK;
 }
 
-void sph_ocean_take_particle(sph_model *m, size_t k)
+/* Hands particle k's accumulators to the cells of a footprint `foot`. */
+static void take_particle_foot(sph_model *m, size_t k, double foot)
 {
     sph_ocean *o = m->ocean;
     sph_particles *P = m->P;
-    size_t c = sph_ocean_cell(o, P->x[k], P->y[k]);
+    foot_span s;
+    span_init(o, P->x[k], P->y[k], foot, &s);
     double *const from[7] = {P->ofx_heat_lead, P->ofx_water, P->ofx_salt, P->ofx_heat_ice,
                              P->ofx_taux, P->ofx_tauy, P->ofx_swbase};
     double *const to[7] = {o->ofx_heat, o->ofx_water, o->ofx_salt, o->ofx_heat_ice,
                            o->ofx_taux, o->ofx_tauy, o->ofx_swbase};
     for (int q = 0; q < 7; q++) {
-        to[q][c] += from[q][k];
+        span_add(o, &s, from[q][k], to[q]);
         from[q][k] = 0.0;
     }
+}
+
+void sph_ocean_take_particle(sph_model *m, size_t k)
+{
+    take_particle_foot(m, k, particle_foot(m, k));
 }
 
 /* Merges particle j into k: mass, momentum, ice volume, enthalpy, snow
@@ -318,6 +457,10 @@ static void merge_into(sph_model *m, size_t k, size_t j)
     for (int i = 0; i < P->nlayers; i++)
         qk[i] = (vk * qk[i] + vj * qj[i]) / (vk + vj);
     double snow = P->snow[k] * ak + P->snow[j] * aj;
+    /* the snow's enthalpy -rho_s (L0 - c0 T) is linear in T: the
+     * volume-weighted temperature keeps it */
+    double sk = P->snow[k] > 0.0 ? P->snow[k] * ak : 0.0, sj = P->snow[j] > 0.0 ? P->snow[j] * aj : 0.0;
+    double tsnow = sk + sj > 0.0 ? (sk * fmin(P->tsnow[k], 0.0) + sj * fmin(P->tsnow[j], 0.0)) / (sk + sj) : 0.0;
     P->x[k] = (mk * P->x[k] + mj * P->x[j]) / ms;
     P->y[k] = (mk * P->y[k] + mj * P->y[j]) / ms;
     P->u[k] = (mk * P->u[k] + mj * P->u[j]) / ms;
@@ -337,6 +480,7 @@ static void merge_into(sph_model *m, size_t k, size_t j)
     P->mass[k] = ms;
     P->thick[k] = ms / (tp->rho_i * P->conc[k] * fs);
     P->snow[k] = snow / (P->conc[k] * fs);
+    P->tsnow[k] = tsnow;
     /* the fluxes into the ocean the two gathered this record stay in it */
     P->ofx_heat_ice[k] += P->ofx_heat_ice[j];
     P->ofx_heat_lead[k] += P->ofx_heat_lead[j];
@@ -361,6 +505,10 @@ static void merge_thin(sph_model *m)
         fmx = fmax(fmx, o->pfoot[k]);
     double reach = op->merge_distance * sqrt(fmx);
     int ri = (int)ceil(reach / o->g.dx), rj = (int)ceil(reach / o->g.dy);
+    /* the merged particle's size cap: a merged particle stays thin, so
+     * without it it would merge again and again (docs/ocean.md) */
+    const double side = op->merge_max_size * o->g.ds, foot_cap = side * side;
+    const double sml_cap = op->merge_max_size * m->prm.sml_factor * o->g.ds;
     for (size_t k = 0; k < P->n; k++) {
         if (!(P->mass[k] > 0.0) || !(P->thick[k] < op->merge_thickness))
             continue;
@@ -377,6 +525,10 @@ static void merge_thin(sph_model *m)
                 for (int q = o->bin_start[b]; q < o->bin_start[b + 1]; q++) {
                     size_t l = (size_t)o->bin_list[q];
                     if (l <= k || !(P->mass[l] > 0.0) || !(P->thick[l] < op->merge_thickness))
+                        continue;
+                    if (o->pfoot[k] + o->pfoot[l] > foot_cap ||
+                        P->sml[k] * P->sml[k] + P->sml[l] * P->sml[l] > sml_cap * sml_cap * (1.0 + 1e-12) ||
+                        P->sml0[k] * P->sml0[k] + P->sml0[l] * P->sml0[l] > sml_cap * sml_cap * (1.0 + 1e-12))
                         continue;
                     double r = op->merge_distance * 0.5 * (sqrt(o->pfoot[k]) + sqrt(o->pfoot[l]));
                     double dx = P->x[l] - P->x[k], dy = P->y[l] - P->y[k];
@@ -409,12 +561,13 @@ int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_stat
     memset(o->acc_e, 0, o->ncell * sizeof(double));
     memset(o->acc_w, 0, o->ncell * sizeof(double));
     for (size_t k = 0; k < P->n; k++) {
-        size_t c = (size_t)o->pcell[k];
         double ea = sph_thermo_energy_atm(tw, k);
         double de = particle_enthalpy(m, k) - o->penth[k];
-        m->budget.energy_surface += ea;
-        o->acc_e[c] += ea - de;
-        o->acc_w[c] -= (P->mass[k] > 0.0 ? P->mass[k] : 0.0) - o->pmass[k];
+        m->budget.energy_surface += ea + o->psnowfall[k];
+        foot_span s; /* the footprint before the step, as cfoot */
+        span_init(o, P->x[k], P->y[k], o->pfoot[k], &s);
+        span_add(o, &s, ea - de, o->acc_e);
+        span_add(o, &s, -((P->mass[k] > 0.0 ? P->mass[k] : 0.0) - o->pmass[k]), o->acc_w);
     }
     /* 2. the cells */
     const double area = o->g.dx * o->g.dy;
@@ -492,7 +645,7 @@ int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_stat
      * cell's accumulators) */
     for (size_t k = P->n; k-- > 0;)
         if (!(P->mass[k] > 0.0)) {
-            sph_ocean_take_particle(m, k);
+            take_particle_foot(m, k, o->pfoot[k]); /* its footprint before it melted */
             sph_particles_remove(P, k);
         }
     /* 4. new particles from the frazil */
