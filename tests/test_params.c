@@ -50,8 +50,9 @@ static void test_rows(void)
     const sph_param *t = sph_param_table(&n);
     /* 54 + 5 of issue 20's snow (thermo.*snow*) + 12 of its ocean (model.ocean.*, model.new_ice.*)
      * + model.free_drift_parcels (issue 22) + 4 of issue 26 (fixed_state, momentum.drag_scaling,
-     * momentum.coriolis_f, evp.rel_tol) + thermo.snow_heat_capacity (issue 20, the MU71 snow) */
-    CHECK(n == 77, "77 rows (the configuration's model.* keys), got %zu", n);
+     * momentum.coriolis_f, evp.rel_tol) + thermo.snow_heat_capacity (issue 20, the MU71 snow)
+     * + evp.anderson, evp.change_tol (issue 22) */
+    CHECK(n == 79, "79 rows (the configuration's model.* keys), got %zu", n);
     sph_params d;
     sph_params_default(&d);
     for (size_t i = 0; i < n; i++) {

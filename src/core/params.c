@@ -70,6 +70,8 @@ static const sph_param rows[] = {
     DBL("evp.beta", evp_beta, 300, 1, 1e6, "1", "Fixed mEVP beta."),
     DBL("evp.tol", evp_tol, 1e-7, 0, 1, "m/s", "mEVP: stop iterating when no particle's velocity changes by more than this, m/s."),
     DBL("evp.rel_tol", evp_rel_tol, 0, 0, 1, "1", "mEVP: stop iterating when the relative momentum residual (RMS of beta times the velocity change over RMS speed of the active particles) is below this; 0: off (evp.tol, evp.iterations and the stall window only). With it on, a step that ends above it counts as unconverged in the run's statistics, status and products (docs/dynamics.md)."),
+    DBL("evp.change_tol", evp_change_tol, 0, 0, 1, "1", "mEVP: stop iterating when an iteration changes the velocities by less than this relative to the RMS speed (floor 1e-4 m/s) and the stresses by less than this relative to the RMS strength (RMS over the active particles); 0: off (the default; docs/dynamics.md has what it costs in accuracy)."),
+    INT("evp.anderson", evp_anderson, 0, 0, 16, "1", "mEVP: Anderson acceleration of the iteration's fixed point (velocities and stresses), mixing the last this many iterates; 0: off (the default: measured slower on the demo and R300, docs/dynamics.md). The depth is fixed when the solver is created."),
     INT("evp.stall_window", evp_stall_window, 40, 0, 100000, "1", "auto physics: stop the mEVP iteration when its RMS velocity change has reached no new minimum in this many iterations (a limit cycle; 0: off)."),
     INT("implicit.max_picard", implicit_max_picard, 30, 1, 1000, "1", "Implicit solver: Picard iterations."),
     DBL("implicit.tol", implicit_tol, 1e-6, 1e-14, 1, "1", "Implicit solver: relative residual."),
