@@ -22,34 +22,10 @@
 #define L0 300e3
 #define H0 1.0
 
-static void r300_params(sph_params *p)
-{
-    sph_params_default(p);
-    p->pressure_form = SPH_PRESSURE_HIBLER;
-    p->P0 = 27.5e3;
-    p->C = 20.0;
-    p->ecc = 2.0;
-    p->delta_min = 2e-9;
-    p->replacement_pressure = 1;
-    p->rho_a = 1.3;
-    p->Ca = 1.2e-3;
-    p->rho_w = 1026.0;
-    p->Cw = 5.5e-3;
-    p->rho_i = 900.0;
-    p->dt = 60.0;
-    p->solver = SPH_SOLVER_MEVP;
-    p->evp_adaptive = 1;
-    p->evp_iterations = 250;
-    p->physics = SPH_PHYSICS_FULL;
-    p->kernel = SPH_KERNEL_GAUSSIAN;
-    p->kernel_radius = 3.0;
-    p->sml_factor = 1.0;
-}
-
 static void run(const char *spec)
 {
     sph_params p;
-    r300_params(&p);
+    r300_params(&p, 60.0);
     char phys[16] = "full";
     int gc = 0, iter = 250, aa = 0;
     double rel = 0.0, dt = 60.0, chg = 0.0;

@@ -35,30 +35,6 @@
 #include "check.h"
 #include "scenarios.h"
 
-static void r300_params(sph_params *p, double dt)
-{
-    sph_params_default(p);
-    p->pressure_form = SPH_PRESSURE_HIBLER;
-    p->P0 = 27.5e3;
-    p->C = 20.0;
-    p->ecc = 2.0;
-    p->delta_min = 2e-9;
-    p->replacement_pressure = 1;
-    p->rho_a = 1.3;
-    p->Ca = 1.2e-3;
-    p->rho_w = 1026.0;
-    p->Cw = 5.5e-3;
-    p->rho_i = 900.0;
-    p->dt = dt;
-    p->solver = SPH_SOLVER_MEVP;
-    p->evp_adaptive = 1;
-    p->evp_iterations = 250;
-    p->physics = SPH_PHYSICS_FULL;
-    p->kernel = SPH_KERNEL_GAUSSIAN;
-    p->kernel_radius = 3.0;
-    p->sml_factor = 1.0;
-}
-
 #define DX 5000.0
 #define NCROSS 6
 #define WIND 9.0
