@@ -10,6 +10,8 @@
 #              season: the particle count over a 90-day season with and
 #              without merging, bench/bench_season.c, not in the default
 #              list; writes $BENCH_OUT/season_counts.dat; SEASON_DAYS=d)
+#              (r300: R300 from rest with mEVP stopping and acceleration
+#              variants, bench/bench_r300.c, issue 22; not in the default list)
 #   DEMO_HOURS=h   the demo problem's forecast length (bench/bench_demo.sh; 96)
 # Writes $BENCH_OUT/results.csv (one row per run, see bench/bench_common.h),
 # $BENCH_OUT/machine.txt, and the charts (bench/plot.sh, needs gnuplot).
