@@ -18,10 +18,12 @@
 #   free_drift the seed's settings: the floor of what auto can save (no
 #              stress anywhere) and its error
 # or the runs DEMO_VARIANTS lists,
-# "PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE]]] ...", e.g.
+# "PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE[:REL_TOL[:GC]]]]] ...", e.g.
 # "full:30:300 full:60:120:0.014" (the reference's time settings at the
 # seed's spacing and the reverse: how the error splits between them) or
-# "auto:60:120:0.02:0.1" (model.auto_tolerance 0.1).
+# "auto:60:120:0.02:0.1" (model.auto_tolerance 0.1) or
+# "auto:0:120:0.02:0.01:1e-3:1" (model.evp.rel_tol 1e-3 and
+# model.gradient_correction on; issue 22).
 # 96 h, the issue's and the demo's length (until the coast-ghost fixes of
 # the core no refined run reached 96 h and the default was 36 h; those rows
 # are kept as demo_36h in docs/bench/results.csv). A run that fails is a
@@ -92,19 +94,22 @@ SEED_SPACING=$(sed -n 's/^ *"spacing": *\([0-9.]*\),$/\1/p' "$CONFIG")
 SEED_ITER=$("$BUILD/sphice" config-doc | sed -n 's/^| `model.evp.iterations` | int | `\([0-9]*\)`.*/\1/p')
 [ -n "$SEED_ITER" ] || die "could not read the default of model.evp.iterations from sphice config-doc"
 
-# write_config NAME PHYSICS DT ITERATIONS SPACING [AUTO_TOLERANCE] -> $W/NAME.json
+# write_config NAME PHYSICS DT ITERATIONS SPACING [AUTO_TOLERANCE [REL_TOL [GC]]] -> $W/NAME.json
 write_config() {
     tol_line=""
     [ -n "${6:-}" ] && tol_line=" \"auto_tolerance\": $6,"
+    [ -n "${8:-}" ] && [ "$8" = 1 ] && tol_line="$tol_line \"gradient_correction\": true,"
+    rel_item=""
+    [ -n "${7:-}" ] && rel_item=", \"rel_tol\": $7"
     sed -e "s/^\( *\"physics\": *\)\"[a-z_]*\",\$/\1\"$2\",$tol_line/" \
         -e "s/^\( *\"dt\": *\)[0-9.]*,\$/\1$3,/" \
-        -e "s/^\( *\"solver\": *\"mevp\",\)\$/\1 \"evp\": { \"iterations\": $4 },/" \
+        -e "s/^\( *\"solver\": *\"mevp\",\)\$/\1 \"evp\": { \"iterations\": $4$rel_item },/" \
         -e "s/^\( *\"spacing\": *\)[0-9.]*,\$/\1$5,/" \
         -e '/^ *"products": *{/s/"\(maps\|geojson\|stations\)": *true/"\1": false/g' \
         -e "s#^\( *\"state_dir\": *\"\)[^\"]*\"#\1$W/$1.state\"#" \
         -e "s#^\( *\"cache_dir\": *\"\)[^\"]*\"#\1$W/$1.cache\"#" "$CONFIG" >"$W/$1.json.tmp"
     grep -q "\"physics\": \"$2\"," "$W/$1.json.tmp" && grep -q "\"dt\": $3," "$W/$1.json.tmp" &&
-        grep -q "\"iterations\": $4 }" "$W/$1.json.tmp" && grep -q "\"spacing\": $5," "$W/$1.json.tmp" &&
+        grep -q "\"iterations\": $4$rel_item }" "$W/$1.json.tmp" && grep -q "\"spacing\": $5," "$W/$1.json.tmp" &&
         { [ -z "${6:-}" ] || grep -q "\"auto_tolerance\": $6," "$W/$1.json.tmp"; } ||
         die "could not write $W/$1.json"
     mv "$W/$1.json.tmp" "$W/$1.json"
@@ -175,23 +180,23 @@ fi
 for v in $VARIANTS; do
     # PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE]]], the seed's values
     # (and the configured auto_tolerance) where left out
-    IFS=: read -r phys dt iter spacing tol <<EOV
+    IFS=: read -r phys dt iter spacing tol rel gc <<EOV
 $v
 EOV
     iter=${iter:-$SEED_ITER}
     spacing=${spacing:-$SEED_SPACING}
     case "$phys:$dt:$iter:$spacing:$tol" in
-        *[!a-z_0-9.:]*|:*|*::?*) die "DEMO_VARIANTS entry \"$v\": expected PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE]]]" ;;
+        *[!a-z_0-9.:]*|:*|*::?*) die "DEMO_VARIANTS entry \"$v\": expected PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE[:REL_TOL[:GC]]]]]" ;;
     esac
-    name="${phys}_dt${dt}_it${iter}_s$spacing${tol:+_tol$tol}"
-    write_config "$name" "$phys" "$dt" "$iter" "$spacing" "$tol"
+    name="${phys}_dt${dt}_it${iter}_s$spacing${tol:+_tol$tol}${rel:+_rel$rel}${gc:+_gc$gc}"
+    write_config "$name" "$phys" "$dt" "$iter" "$spacing" "$tol" "$rel" "$gc"
     run_model "$name"
     dtl=$dt
     if [ "$dt" = 0 ]; then # auto time stepping: the step the run took (cycle.json)
         used=$(sed -n 's/^[[:space:]]*"dt":[[:space:]]*\([0-9.]*\),*$/\1/p' "$W/$name"/*/cycle.json 2>/dev/null | head -1)
         dtl="auto${used:+:$used}"
     fi
-    cfg="dt=$dtl;iterations=$iter;spacing=$spacing;hours=$HOURS${tol:+;auto_tolerance=$tol}"
+    cfg="dt=$dtl;iterations=$iter;spacing=$spacing;hours=$HOURS${tol:+;auto_tolerance=$tol}${rel:+;rel_tol=$rel}${gc:+;gradient_correction=$gc}"
     if [ "$STATUS" = ok ] && [ $REF_OK = 0 ]; then
         STATUS=no_reference
         row "$phys" "$cfg" "" "" ""

@@ -21,7 +21,7 @@ extra=""
 for d in $demos; do
     extra="$extra $d $d:11:${d}_hbar_rmse $d:13:${d}_patch_centre"
 done
-for entry in free_drift coast stefan disc plastic_wave \
+for entry in free_drift coast stefan disc plastic_wave r300 \
     auto_vs_full_error:11:auto_vs_full_hbar_rmse \
     auto_vs_full_error_same_dx:11:auto_vs_full_same_dx_hbar_rmse \
     auto_vs_full_packed_error:11:auto_vs_full_packed_hbar_rmse \

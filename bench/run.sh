@@ -13,6 +13,8 @@
 #              (loops: one rheology iteration's CPU cost and a state checksum,
 #              bench/bench_loops.c, not in the default list; against a baseline
 #              tree in one run: sh bench/bench_loops.sh BASE_TREE, docs/speed.md)
+#              (r300: R300 from rest with mEVP stopping and acceleration
+#              variants, bench/bench_r300.c, issue 22; not in the default list)
 #   DEMO_HOURS=h   the demo problem's forecast length (bench/bench_demo.sh; 96)
 # Writes $BENCH_OUT/results.csv (one row per run, see bench/bench_common.h),
 # $BENCH_OUT/machine.txt, and the charts (bench/plot.sh, needs gnuplot).

@@ -367,4 +367,31 @@ static inline int coast_setup_steady(coast_case *c, const sph_params *prm, doubl
     return 0;
 }
 
+/* The peer case R300 (PHYSICS.md section 8; tests/test_r300.c,
+ * bench/bench_r300.c): Hibler's pressure with replacement pressure, aEVP
+ * with 250 iterations, full physics, Gaussian truncated at 3 h, h = dx. */
+static inline void r300_params(sph_params *p, double dt)
+{
+    sph_params_default(p);
+    p->pressure_form = SPH_PRESSURE_HIBLER;
+    p->P0 = 27.5e3;
+    p->C = 20.0;
+    p->ecc = 2.0;
+    p->delta_min = 2e-9;
+    p->replacement_pressure = 1;
+    p->rho_a = 1.3;
+    p->Ca = 1.2e-3;
+    p->rho_w = 1026.0;
+    p->Cw = 5.5e-3;
+    p->rho_i = 900.0;
+    p->dt = dt;
+    p->solver = SPH_SOLVER_MEVP;
+    p->evp_adaptive = 1;
+    p->evp_iterations = 250;
+    p->physics = SPH_PHYSICS_FULL;
+    p->kernel = SPH_KERNEL_GAUSSIAN;
+    p->kernel_radius = 3.0;
+    p->sml_factor = 1.0;
+}
+
 #endif

@@ -51,8 +51,9 @@ static void test_rows(void)
     /* 54 + 5 of issue 20's snow (thermo.*snow*) + 12 of its ocean (model.ocean.*, model.new_ice.*)
      * + model.free_drift_parcels (issue 22) + 4 of issue 26 (fixed_state, momentum.drag_scaling,
      * momentum.coriolis_f, evp.rel_tol) + thermo.snow_heat_capacity (issue 20, the MU71 snow)
-     * + new_ice.merge_max_size (issue 20, the merged particles' cap) */
-    CHECK(n == 78, "78 rows (the configuration's model.* keys), got %zu", n);
+     * + new_ice.merge_max_size (issue 20, the merged particles' cap)
+     * + evp.anderson, evp.change_tol (issue 22) */
+    CHECK(n == 80, "80 rows (the configuration's model.* keys), got %zu", n);
     sph_params d;
     sph_params_default(&d);
     for (size_t i = 0; i < n; i++) {

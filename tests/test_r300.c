@@ -27,35 +27,13 @@
  * analytic state to 0.2 % over 24 h) and 180 s (drifts, kinetic energy
  * growing); sph_model_init refuses steps beyond the plastic-wave limit
  * (docs/dynamics.md), which is checked here too.
- * SPHICE_QUICK: only the analytic state held for 6 h. */
+ * make check: the analytic state held for 6 h and the refusal; SPHICE_LONG:
+ * held for 24 h, the plastic wave and the runs from rest (each prints a
+ * progress line); SPHICE_QUICK: only the 6 h held state. */
 #include <time.h>
 
 #include "check.h"
 #include "scenarios.h"
-
-static void r300_params(sph_params *p, double dt)
-{
-    sph_params_default(p);
-    p->pressure_form = SPH_PRESSURE_HIBLER;
-    p->P0 = 27.5e3;
-    p->C = 20.0;
-    p->ecc = 2.0;
-    p->delta_min = 2e-9;
-    p->replacement_pressure = 1;
-    p->rho_a = 1.3;
-    p->Ca = 1.2e-3;
-    p->rho_w = 1026.0;
-    p->Cw = 5.5e-3;
-    p->rho_i = 900.0;
-    p->dt = dt;
-    p->solver = SPH_SOLVER_MEVP;
-    p->evp_adaptive = 1;
-    p->evp_iterations = 250;
-    p->physics = SPH_PHYSICS_FULL;
-    p->kernel = SPH_KERNEL_GAUSSIAN;
-    p->kernel_radius = 3.0;
-    p->sml_factor = 1.0;
-}
 
 #define DX 5000.0
 #define NCROSS 6
@@ -128,6 +106,11 @@ static double from_rest(const char *what, const sph_params *p, const coast_analy
         ke = b->kinetic_energy / b->mass;
         if (s * p->dt >= 24 * 3600.0 && ke < 1e-6)
             break;
+        if (s % (long)(12 * 3600.0 / p->dt) == 0) { /* progress: a run takes a minute or more */
+            printf("  %s: %.0f h, KE/mass %.2e m^2/s^2, CPU %.0f s\n", what, s * p->dt / 3600.0, ke,
+                   (double)(clock() - c0) / CLOCKS_PER_SEC);
+            fflush(stdout);
+        }
     }
     long done = s > maxsteps ? maxsteps : s;
     double cpu = (double)(clock() - c0) / CLOCKS_PER_SEC;
@@ -162,7 +145,10 @@ int main(void)
         coast_case c;
         CHECK(coast_setup_steady(&c, &p, DX, NCROSS, &a, WIND) == 0, "setup steady");
         CHECK(sph_model_init(c.model, &st) == 0, "init: %s %s", st.quantity, st.what);
-        long steps = (long)((check_quick() ? 6 : 24) * 3600.0 / p.dt), s;
+        /* 24 h under SPHICE_LONG; 6 h in make check (issue 22 item 5: the
+         * suite's budget; the held error grows from the first hours, see
+         * the printed worst error) */
+        long steps = (long)((check_long() && !check_quick() ? 24 : 6) * 3600.0 / p.dt), s;
         for (s = 0; s < steps; s++)
             if (sph_model_step(c.model, &st) != 0)
                 break;

@@ -84,6 +84,9 @@ typedef struct sph_params {
     double coriolis_f;          /* s-1: constant Coriolis parameter; 0 = 2 Omega sin(lat) */
     double evp_rel_tol;         /* mEVP: stop when the relative momentum residual falls
                                    below this; 0 = off (counts and stall window only) */
+    int evp_anderson;           /* mEVP: Anderson acceleration depth (0 = off; issue 22) */
+    double evp_change_tol;      /* mEVP: stop when the relative velocity and stress change
+                                   of an iteration fall below this; 0 = off (issue 22) */
     int coast_no_slip;          /* 1: ghosts reverse velocity; 0: free slip */
     double sml_min_factor, sml_max_factor; /* h kept within [min, max] * h0 */
     /* health */

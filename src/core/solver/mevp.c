@@ -26,7 +26,17 @@
 typedef struct mevp_work {
     double *t11, *t22, *t12; /* the rheology's target stress, per particle */
     double *res2;            /* per particle: (beta |u' - u|)^2 of the last iteration */
+    double *ds2;             /* per particle: squared stress change of the last iteration */
+    /* model.evp.anderson (depth > 0 at create): the iterate before the
+     * sweep, the last sweep's residual f = g(x) - x and image g, and the
+     * ring of their differences; 5 components (u, v, s11, s22, s12) of
+     * nslot each */
+    int depth;
+    size_t nslot;
+    double *x0, *fprev, *gprev, *dF, *dG;
 } mevp_work;
+
+#define AA_NC 5 /* components of the Anderson state */
 
 static void mevp_free(void *ws)
 {
@@ -37,6 +47,12 @@ static void mevp_free(void *ws)
     free(w->t22);
     free(w->t12);
     free(w->res2);
+    free(w->ds2);
+    free(w->x0);
+    free(w->fprev);
+    free(w->gprev);
+    free(w->dF);
+    free(w->dG);
     free(w);
 }
 
@@ -51,20 +67,251 @@ static int mevp_create(const sph_model *m, void **ws)
     w->t22 = calloc(n, sizeof(double));
     w->t12 = calloc(n, sizeof(double));
     w->res2 = calloc(n, sizeof(double));
-    if (w->t11 && w->t22 && w->t12 && w->res2)
+    w->ds2 = calloc(n, sizeof(double));
+    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2;
+    w->depth = m->prm.evp_anderson;
+    w->nslot = n;
+    if (ok && w->depth > 0) {
+        size_t d = (size_t)w->depth;
+        w->x0 = calloc(AA_NC * n, sizeof(double));
+        w->fprev = calloc(AA_NC * n, sizeof(double));
+        w->gprev = calloc(AA_NC * n, sizeof(double));
+        w->dF = calloc(d * AA_NC * n, sizeof(double));
+        w->dG = calloc(d * AA_NC * n, sizeof(double));
+        ok = w->x0 && w->fprev && w->gprev && w->dF && w->dG;
+    }
+    if (ok)
         return 0;
     mevp_free(w);
     *ws = NULL;
     return -1;
 }
 
+/* One mEVP iteration (a sweep) over the active set: ghost velocities,
+ * strain rates, the rheology's stress, the stress relaxation, ghost
+ * stresses, the divergence and the velocity update. Writes the largest
+ * velocity change, the sum of squared changes, of squared momentum
+ * residuals and of squared speeds, summed serially in the active set's
+ * order (the same with any thread count). */
+typedef struct mevp_sums {
+    double dmax, s2, q2, u2;
+    double ds2, p2; /* squared stress changes and strengths (model.evp.change_tol) */
+} mevp_sums;
+
+static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    const int *act = m->active;
+    size_t na = m->nactive;
+    sph_ghost_velocity(m, P->u, P->v, 1);
+    sph_strain_pass(m, act, na);
+    m->rheo->stress(m, act, na, w->t11, w->t22, w->t12);
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
+    for (size_t i = 0; i < na; i++) {
+        size_t k = (size_t)act[i];
+        double t11 = w->t11[k], t22 = w->t22[k], t12 = w->t12[k];
+        double z = m->zeta[k];
+        double alpha = p->evp_alpha;
+        if (p->evp_adaptive) {
+            /* aEVP (Kimmritz, Losch & Danilov 2016): alpha = beta = 2 sqrt(gamma),
+             * gamma = dt lambda_max of the SPH viscous operator. Power
+             * iteration on lattices gives lambda_max h^2 / nu = 0.68-0.74
+             * (Gaussian, h = dx) and 1.15-1.23 (Wendland C2, cubic spline,
+             * h = 1.3 dx), nu = zeta (1 + e^-2) / M; SPH_VISCOUS_EIG = 1.25
+             * bounds them all (docs/dynamics.md). */
+            double gam = SPH_VISCOUS_EIG * z * (1.0 + 1.0 / (p->ecc * p->ecc)) * dt /
+                         (P->dens[k] * P->sml[k] * P->sml[k]);
+            alpha = fmax(2.0 * sqrt(gam), 10.0);
+        }
+        m->scratch[k] = alpha; /* beta = alpha */
+        double ia = 1.0 / alpha;
+        double d11 = (t11 - P->s11[k]) * ia, d22 = (t22 - P->s22[k]) * ia, d12 = (t12 - P->s12[k]) * ia;
+        w->ds2[k] = d11 * d11 + d22 * d22 + 2.0 * d12 * d12;
+        P->s11[k] += (t11 - P->s11[k]) * ia;
+        P->s22[k] += (t22 - P->s22[k]) * ia;
+        P->s12[k] += (t12 - P->s12[k]) * ia;
+    }
+    sph_ghost_stress(m);
+    sph_divergence_pass(m, act, na);
+    /* velocity update; the max change is reduced serially afterwards */
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
+    for (size_t i = 0; i < na; i++) {
+        size_t k = (size_t)act[i];
+        double beta = p->evp_adaptive ? m->scratch[k] : p->evp_beta;
+        double u, v;
+        sph_momentum(m, k, beta, P->u[k], P->v[k], m->un[k], m->vn[k], dt, &u, &v);
+        m->dvel[k] = fmax(fabs(u - P->u[k]), fabs(v - P->v[k]));
+        /* the momentum residual of the time-discrete equation at u':
+         * (I + dt D) u' - rhs = -beta (u' - u) */
+        double bu = beta * (u - P->u[k]), bv = beta * (v - P->v[k]);
+        w->res2[k] = bu * bu + bv * bv;
+        P->u[k] = u;
+        P->v[k] = v;
+    }
+    mevp_sums s = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    for (size_t i = 0; i < na; i++) {
+        size_t k = (size_t)act[i];
+        double d = m->dvel[k];
+        s.dmax = fmax(s.dmax, d);
+        s.s2 += d * d;
+        s.q2 += w->res2[k];
+        s.u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
+        s.ds2 += w->ds2[k];
+        s.p2 += P->pres[k] * P->pres[k];
+    }
+    return s;
+}
+
+/* ---- Anderson acceleration (model.evp.anderson; Walker & Ni 2011, type
+ * II): the sweep is a map x -> g(x) on x = (u, v, s11, s22, s12); with
+ * f = g(x) - x and the differences dF, dG of the last mk residuals and
+ * images, gamma minimises |f - dF gamma| and the next iterate is
+ * g - dG gamma. Stresses are weighted by dt / (M h) (the velocity change
+ * their divergence makes in a step) in the inner products. All sums run
+ * serially in the active set's order. */
+
+static double *aa_comp(double *base, size_t n, int c) { return base + (size_t)c * n; }
+
+static void aa_save(const sph_model *m, mevp_work *w)
+{
+    const sph_particles *P = m->P;
+    size_t n = w->nslot;
+    const double *src[AA_NC] = {P->u, P->v, P->s11, P->s22, P->s12};
+    for (int c = 0; c < AA_NC; c++) {
+        double *x = aa_comp(w->x0, n, c);
+        for (size_t i = 0; i < m->nactive; i++) {
+            size_t k = (size_t)m->active[i];
+            x[k] = src[c][k];
+        }
+    }
+}
+
+static double aa_weight(const sph_model *m, size_t k, int c, double dt)
+{
+    if (c < 2)
+        return 1.0;
+    double s = dt / (m->P->dens[k] * m->P->sml[k]);
+    return s * s;
+}
+
+/* Solves the mk x mk system A g = b (A symmetric positive semi-definite,
+ * regularised) by Gaussian elimination with partial pivoting; returns 0,
+ * or -1 when singular. */
+static int aa_solve(int mk, double A[][16], double *b, double *g)
+{
+    for (int c = 0; c < mk; c++) {
+        int piv = c;
+        for (int r = c + 1; r < mk; r++)
+            if (fabs(A[r][c]) > fabs(A[piv][c]))
+                piv = r;
+        if (!(fabs(A[piv][c]) > 0.0))
+            return -1;
+        if (piv != c) {
+            for (int j = 0; j < mk; j++) {
+                double t = A[c][j];
+                A[c][j] = A[piv][j];
+                A[piv][j] = t;
+            }
+            double t = b[c];
+            b[c] = b[piv];
+            b[piv] = t;
+        }
+        for (int r = c + 1; r < mk; r++) {
+            double f = A[r][c] / A[c][c];
+            for (int j = c; j < mk; j++)
+                A[r][j] -= f * A[c][j];
+            b[r] -= f * b[c];
+        }
+    }
+    for (int r = mk - 1; r >= 0; r--) {
+        double s = b[r];
+        for (int j = r + 1; j < mk; j++)
+            s -= A[r][j] * g[j];
+        g[r] = s / A[r][r];
+    }
+    return 0;
+}
+
+/* After sweep it (0-based) of a step: records f and g, and replaces the
+ * state by the Anderson mix of the last min(depth, it) differences. */
+static void aa_mix(sph_model *m, mevp_work *w, int it, double dt)
+{
+    sph_particles *P = m->P;
+    size_t n = w->nslot, na = m->nactive;
+    const int *act = m->active;
+    double *cur[AA_NC] = {P->u, P->v, P->s11, P->s22, P->s12};
+    int d = w->depth;
+    int col = (it - 1 + d) % d; /* ring slot of the difference this sweep makes */
+    if (it > 0) {
+        for (int c = 0; c < AA_NC; c++) {
+            double *x = aa_comp(w->x0, n, c), *fp = aa_comp(w->fprev, n, c), *gp = aa_comp(w->gprev, n, c);
+            double *df = aa_comp(w->dF + (size_t)col * AA_NC * n, n, c);
+            double *dg = aa_comp(w->dG + (size_t)col * AA_NC * n, n, c);
+            for (size_t i = 0; i < na; i++) {
+                size_t k = (size_t)act[i];
+                double g = cur[c][k], f = g - x[k];
+                df[k] = f - fp[k];
+                dg[k] = g - gp[k];
+            }
+        }
+    }
+    for (int c = 0; c < AA_NC; c++) {
+        double *x = aa_comp(w->x0, n, c), *fp = aa_comp(w->fprev, n, c), *gp = aa_comp(w->gprev, n, c);
+        for (size_t i = 0; i < na; i++) {
+            size_t k = (size_t)act[i];
+            gp[k] = cur[c][k];
+            fp[k] = cur[c][k] - x[k];
+        }
+    }
+    int mk = it < d ? it : d;
+    if (mk == 0)
+        return;
+    double A[16][16], b[16], g[16];
+    for (int a = 0; a < mk; a++) {
+        b[a] = 0.0;
+        for (int e = 0; e <= a; e++)
+            A[a][e] = 0.0;
+    }
+    for (size_t i = 0; i < na; i++) {
+        size_t k = (size_t)act[i];
+        for (int c = 0; c < AA_NC; c++) {
+            double wt = aa_weight(m, k, c, dt), f = aa_comp(w->fprev, n, c)[k];
+            for (int a = 0; a < mk; a++) {
+                double fa = aa_comp(w->dF + (size_t)a * AA_NC * n, n, c)[k] * wt;
+                b[a] += fa * f;
+                for (int e = 0; e <= a; e++)
+                    A[a][e] += fa * aa_comp(w->dF + (size_t)e * AA_NC * n, n, c)[k];
+            }
+        }
+    }
+    double tr = 0.0;
+    for (int a = 0; a < mk; a++) {
+        for (int e = 0; e < a; e++)
+            A[e][a] = A[a][e];
+        tr += A[a][a];
+    }
+    if (!(tr > 0.0))
+        return;
+    for (int a = 0; a < mk; a++)
+        A[a][a] += 1e-10 * tr / mk;
+    if (aa_solve(mk, A, b, g) != 0)
+        return;
+    for (int c = 0; c < AA_NC; c++)
+        for (size_t i = 0; i < na; i++) {
+            size_t k = (size_t)act[i];
+            double v = cur[c][k];
+            for (int a = 0; a < mk; a++)
+                v -= g[a] * aa_comp(w->dG + (size_t)a * AA_NC * n, n, c)[k];
+            cur[c][k] = v;
+        }
+}
+
 static int mevp_solve(sph_model *m, void *ws, sph_status *st)
 {
     mevp_work *w = ws;
-    sph_particles *P = m->P;
     const sph_params *p = &m->prm;
     double dt = p->dt;
-    const int *act = m->active;
     size_t na = m->nactive;
     int it;
     double resid = 0.0, rel = 0.0;
@@ -72,75 +319,34 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
      * dominated by single particles and is no measure of progress): no new
      * minimum in win iterations */
     const int win = p->physics == SPH_PHYSICS_AUTO ? p->evp_stall_window : 0;
+    const int aa = w->depth > 0 && p->evp_anderson > 0;
+    /* Anderson's mixing and change_tol's stress sums are neither reduced
+     * over the ranks nor followed by a halo refresh (core/dd.h) */
+    if (m->canonical && (p->evp_anderson > 0 || p->evp_change_tol > 0.0))
+        return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_PARAMETER, -1,
+                              "model.evp.anderson or model.evp.change_tol",
+                              p->evp_anderson > 0 ? (double)p->evp_anderson : p->evp_change_tol, 0.0,
+                              "is not supported in the canonical (domain-decomposed) mode; refused");
     double rms_ref = 0.0;
     int it_ref = 0;
     m->stats.stalled = 0;
     for (it = 0; it < p->evp_iterations; it++) {
-        sph_ghost_velocity(m, P->u, P->v, 1);
-        sph_strain_pass(m, act, na);
-        m->rheo->stress(m, act, na, w->t11, w->t22, w->t12);
-#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
-        for (size_t i = 0; i < na; i++) {
-            size_t k = (size_t)act[i];
-            double t11 = w->t11[k], t22 = w->t22[k], t12 = w->t12[k];
-            double z = m->zeta[k];
-            double alpha = p->evp_alpha;
-            if (p->evp_adaptive) {
-                /* aEVP (Kimmritz, Losch & Danilov 2016): alpha = beta = 2 sqrt(gamma),
-                 * gamma = dt lambda_max of the SPH viscous operator. Power
-                 * iteration on lattices gives lambda_max h^2 / nu = 0.68-0.74
-                 * (Gaussian, h = dx) and 1.15-1.23 (Wendland C2, cubic spline,
-                 * h = 1.3 dx), nu = zeta (1 + e^-2) / M; SPH_VISCOUS_EIG = 1.25
-                 * bounds them all (docs/dynamics.md). */
-                double gam = SPH_VISCOUS_EIG * z * (1.0 + 1.0 / (p->ecc * p->ecc)) * dt /
-                             (P->dens[k] * P->sml[k] * P->sml[k]);
-                alpha = fmax(2.0 * sqrt(gam), 10.0);
-            }
-            m->scratch[k] = alpha; /* beta = alpha */
-            double ia = 1.0 / alpha;
-            P->s11[k] += (t11 - P->s11[k]) * ia;
-            P->s22[k] += (t22 - P->s22[k]) * ia;
-            P->s12[k] += (t12 - P->s12[k]) * ia;
-        }
-        sph_ghost_stress(m);
-        sph_divergence_pass(m, act, na);
-        double r = 0.0;
-        /* velocity update; the max change is reduced serially afterwards */
-#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
-        for (size_t i = 0; i < na; i++) {
-            size_t k = (size_t)act[i];
-            double beta = p->evp_adaptive ? m->scratch[k] : p->evp_beta;
-            double u, v;
-            sph_momentum(m, k, beta, P->u[k], P->v[k], m->un[k], m->vn[k], dt, &u, &v);
-            m->dvel[k] = fmax(fabs(u - P->u[k]), fabs(v - P->v[k]));
-            /* the momentum residual of the time-discrete equation at u':
-             * (I + dt D) u' - rhs = -beta (u' - u) */
-            double bu = beta * (u - P->u[k]), bv = beta * (v - P->v[k]);
-            w->res2[k] = bu * bu + bv * bv;
-            P->u[k] = u;
-            P->v[k] = v;
-        }
-        double s2 = 0.0, q2 = 0.0, u2 = 0.0;
-        for (size_t i = 0; i < na; i++) {
-            size_t k = (size_t)act[i];
-            double d = m->dvel[k];
-            r = fmax(r, d);
-            s2 += d * d;
-            q2 += w->res2[k];
-            u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
-        }
+        if (aa)
+            aa_save(m, w);
+        mevp_sums s = mevp_iteration(m, w, dt);
         double nna = (double)na;
         if (m->dd)
             m->dd->exchange(m->dd->ctx, m, SPH_DD_ITER_POST);
         if (m->canonical) /* owned particles, exact, over the ranks (core/dd.h) */
-            sph_dd_mevp_norms(m, act, na, w->res2, &r, &s2, &q2, &u2, &nna);
+            sph_dd_mevp_norms(m, m->active, na, w->res2, &s.dmax, &s.s2, &s.q2, &s.u2, &nna);
         if (m->dd)
             m->dd->exchange(m->dd->ctx, m, SPH_DD_ITER_WAIT);
+        double r = s.dmax;
         resid = r;
         /* relative to the RMS speed, floored at SPH_MEVP_SPEED_FLOOR (ice
          * at rest has no scale of its own) */
-        double urms = sqrt(u2 / nna);
-        rel = sqrt(q2 / nna) / fmax(urms, SPH_MEVP_SPEED_FLOOR);
+        double urms = sqrt(s.u2 / nna);
+        rel = sqrt(s.q2 / nna) / fmax(urms, SPH_MEVP_SPEED_FLOOR);
         if (!isfinite(r))
             return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_NONFINITE, -1, "mEVP residual", r, 0.0,
                                   "is not finite (the stress iteration diverged)");
@@ -148,8 +354,17 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
             it++;
             break;
         }
+        /* model.evp.change_tol: the iteration's relative change, RMS
+         * velocity change over RMS speed and RMS stress change over RMS
+         * strength, both below the tolerance (at least two iterations) */
+        if (p->evp_change_tol > 0.0 && it > 0 &&
+            sqrt(s.s2 / nna) < p->evp_change_tol * fmax(urms, SPH_MEVP_SPEED_FLOOR) &&
+            !(sqrt(s.ds2) >= p->evp_change_tol * sqrt(s.p2))) {
+            it++;
+            break;
+        }
         if (win > 0) {
-            double rms = sqrt(s2 / nna);
+            double rms = sqrt(s.s2 / nna);
             if (it == 0 || rms < rms_ref) {
                 rms_ref = rms;
                 it_ref = it;
@@ -159,6 +374,8 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
                 break;
             }
         }
+        if (aa && it + 1 < p->evp_iterations)
+            aa_mix(m, w, it, dt);
     }
     m->stats.iterations = it;
     m->stats.residual = resid;
