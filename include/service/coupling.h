@@ -48,6 +48,12 @@ typedef struct fc_coupling {
     size_t n_before;
     geo_plane_table *plane;     /* domain.plane_tables (NULL: PROJ per particle); owned */
     double *cs, *sn;            /* [cap] cos and sin of the grid angle from plane */
+    /* 1: a fill samples only what the dynamics reads (wind, current, sea-surface
+     * height and slope) and leaves the thermal forcing of P (tair qair swdn lwdn
+     * sst fw snowfall) as the last full fill set it. The engine sets it after
+     * the first fill of a run without thermodynamics and mixed layer (the first
+     * fill gives the initial temperature profile). */
+    int dynamics_only;
 } fc_coupling;
 
 /* Opens the forcing of the cycle [t0, t_end] over the configured domain

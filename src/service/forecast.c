@@ -312,6 +312,9 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     snprintf(e->restart_path, sizeof e->restart_path, "%s/%s", req->stage_dir, rname);
 
     /* 6. time loop */
+    /* without thermodynamics and mixed layer the steps' fills sample only
+     * what the dynamics reads (service/coupling.h) */
+    e->cpl.dynamics_only = !e->thermo_on && !e->ocean_pts && !sph_model_ocean(e->m);
     const double dt = e->prm.dt;
     res->run.dt = dt;
     prog->dt = dt;
