@@ -52,7 +52,7 @@ typedef struct fc_coupling {
      * height and slope) and leaves the thermal forcing of P (tair qair swdn lwdn
      * sst fw snowfall) as the last full fill set it. The engine sets it after
      * the first fill of a run without thermodynamics and mixed layer (the first
-     * fill gives the initial temperature profile). */
+     * fill gives the initial temperature profile): coupling_set_dynamics_only. */
     int dynamics_only;
 } fc_coupling;
 
@@ -75,6 +75,10 @@ int coupling_alloc(fc_coupling *c, size_t cap, sph_error *err);
  * default). thermo_on: a missing air temperature is an error. */
 int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params *th, int thermo_on,
                   sph_particles *P, double t, sph_error *err);
+
+/* From now on a fill samples only the dynamics' forcing (dynamics_only)
+ * and the thermal work arrays are freed. */
+void coupling_set_dynamics_only(fc_coupling *c);
 
 /* "121.80E 40.61N" (or "an unknown position"), for messages. */
 void coupling_format_lonlat(double lon, double lat, char *buf, size_t len);

@@ -132,6 +132,20 @@ int coupling_alloc(fc_coupling *c, size_t cap, sph_error *err)
     return ok ? SPH_OK : sph_err_set(err, SPH_ERR_NOMEM, "forecast: out of memory (%zu particles)", n);
 }
 
+void coupling_set_dynamics_only(fc_coupling *c)
+{
+    c->dynamics_only = 1;
+    /* the thermal work arrays: no fill touches them from now on */
+    double **thermal[] = {&c->tair, &c->qair, &c->swdn, &c->lwdn, &c->sst, &c->fw, &c->snowfall,
+                          &c->precip, &c->mld, &c->bathy, &c->q[CPL_Q_TAIR], &c->q[CPL_Q_QAIR],
+                          &c->q[CPL_Q_SWDN], &c->q[CPL_Q_LWDN], &c->q[CPL_Q_SST], &c->q[CPL_Q_FW],
+                          &c->q[CPL_Q_SNOW], &c->q[CPL_Q_PRECIP], &c->q[CPL_Q_MLD], &c->q[CPL_Q_BATHY]};
+    for (size_t k = 0; k < sizeof thermal / sizeof thermal[0]; k++) {
+        free(*thermal[k]);
+        *thermal[k] = NULL;
+    }
+}
+
 void coupling_free(fc_coupling *c)
 {
     for (size_t k = 0; k < c->nforc; k++)
