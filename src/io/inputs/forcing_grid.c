@@ -401,7 +401,7 @@ static int bracket(const double *a, size_t n, double x, size_t hint, size_t *i, 
     if (!(x >= lo - 1e-10 && x <= hi + 1e-10))
         return -1;
     size_t l = 0, h = n - 1;
-    if (hint + 1 < n && (hint == 0 || (a[hint] <= x) == asc) &&
+    if (hint < n - 1 && (hint == 0 || (a[hint] <= x) == asc) &&
         (hint + 2 == n || (a[hint + 1] <= x) != asc)) {
         l = hint;
     } else {
