@@ -3,7 +3,7 @@
 # Idempotent: does nothing when every package is already present. Works as
 # root (apt-get directly) or as a user with sudo (asks sudo for apt-get
 # only); says in one line what to do when it can be neither.
-# Usage: sh tools/install-deps.sh [--fuzz] [--browser] [--mpi] [--promtool]
+# Usage: sh tools/install-deps.sh [--fuzz] [--browser] [--mpi] [--promtool] [--perf]
 #   --fuzz  also clang, llvm (symbolizer) and libomp-dev: the libFuzzer
 #           harnesses of `make fuzz` and the fuzz smoke of `make check`
 #   --browser  also chromium: test_daemon loads the status page in headless
@@ -13,6 +13,7 @@
 #   --promtool  also prometheus (Debian ships promtool in it): test_daemon
 #           runs `promtool check metrics` on a real /metrics answer
 #           (skipped with one line without it)
+#   --perf  also linux-perf: the profiles of docs/bench.md ("Free drift")
 set -eu
 PKGS="build-essential make pkg-config libnetcdf-dev libhdf5-dev netcdf-bin libcurl4-openssl-dev \
 libcjson-dev libgsl-dev libproj-dev proj-data libudunits2-dev libmicrohttpd-dev \
@@ -23,6 +24,7 @@ case " $* " in *" --fuzz "*) PKGS="$PKGS clang llvm libomp-dev" ;; esac
 case " $* " in *" --browser "*) PKGS="$PKGS chromium" ;; esac
 case " $* " in *" --mpi "*) PKGS="$PKGS libopenmpi-dev openmpi-bin" ;; esac
 case " $* " in *" --promtool "*) PKGS="$PKGS prometheus" ;; esac
+case " $* " in *" --perf "*) PKGS="$PKGS linux-perf" ;; esac
 missing=""
 for p in $PKGS; do
     dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"
