@@ -326,6 +326,15 @@ int sph_model_ghosts_merging(const sph_model *m) { return m && m->ghost_merge; }
 /* ------------------------------------------------------------------ */
 /* free drift as independent parcels (model.free_drift_parcels)       */
 
+/* *x = +0.0, written only where it is not already (pages of a field that
+ * stays zero, such as the parcels' strain rates, are never made resident:
+ * issue 22's memory at 1e6 particles). */
+static inline void sph_set_zero(double *x)
+{
+    if (*x != 0.0 || signbit(*x))
+        *x = 0.0;
+}
+
 /* 1 where a step runs without SPH machinery: whole-run free drift with
  * model.free_drift_parcels. */
 static int parcels_mode(const sph_model *m)
@@ -345,7 +354,9 @@ static void parcels_diagnose(sph_model *m)
     size_t n = P->n;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
     for (size_t k = 0; k < n; k++) {
-        P->e11[k] = P->e22[k] = P->e12[k] = 0.0;
+        sph_set_zero(&P->e11[k]);
+        sph_set_zero(&P->e22[k]);
+        sph_set_zero(&P->e12[k]);
         double floor_dens = SPH_CONC_MIN * rho_i * P->thick[k];
         if (continuity && P->dens[k] < floor_dens)
             P->dens[k] = floor_dens;
@@ -737,7 +748,8 @@ int sph_model_step(sph_model *m, sph_status *st)
     for (size_t k = 0; k < n; k++) {
         m->un[k] = P->u[k];
         m->vn[k] = P->v[k];
-        P->ax[k] = P->ay[k] = 0.0;
+        sph_set_zero(&P->ax[k]);
+        sph_set_zero(&P->ay[k]);
         m->fcor[k] = !p->coriolis ? 0.0
                      : p->coriolis_f != 0.0 ? p->coriolis_f /* comparison option */
                                             : 2.0 * OMEGA_EARTH * sin(P->lat[k] * DEG2RAD);
