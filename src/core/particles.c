@@ -114,13 +114,12 @@ void sph_particles_permute(sph_particles *p, const int *order, double *scratch)
     if (!all_zero_bytes(p->name, n * SPH_FIELD_COUNT(p, count) * sizeof(type))) {           \
         size_t c_ = SPH_FIELD_COUNT(p, count);                                              \
         type *s_ = (type *)(void *)scratch;                                                 \
-        if (c_ == 1)                                                                        \
+        for (size_t l_ = 0; l_ < c_; l_++) { /* layer by layer: n entries of scratch */     \
             for (size_t i = 0; i < n; i++)                                                  \
-                s_[i] = p->name[order[i]];                                                  \
-        else                                                                                \
+                s_[i] = p->name[(size_t)order[i] * c_ + l_];                                \
             for (size_t i = 0; i < n; i++)                                                  \
-                memcpy(s_ + i * c_, p->name + (size_t)order[i] * c_, c_ * sizeof(type));    \
-        memcpy(p->name, s_, n * c_ * sizeof(type));                                         \
+                p->name[i * c_ + l_] = s_[i];                                               \
+        }                                                                                   \
     }
     SPH_PARTICLE_FIELDS(PERM_)
 #undef PERM_
