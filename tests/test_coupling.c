@@ -343,6 +343,19 @@ static void check_moved_threads_dynamics(const char *dir, const geo_proj *proj)
     close_case(&c);
 }
 
+/* dir/name: u10, v10, t2m of field_fn's which0, which0 + 1, which0 + 2. */
+static void write_atmosphere(const char *dir, const char *name, nc_type type, int which0)
+{
+    char path[1024];
+    tvar atm[3];
+    memset(atm, 0, sizeof atm);
+    atm[0] = (tvar){"u10", "eastward_wind", "m s-1", type, 0, 0, 0, 0, 0, field_fn, which0};
+    atm[1] = (tvar){"v10", "northward_wind", "m s-1", type, 0, 0, 0, 0, 0, field_fn, which0 + 1};
+    atm[2] = (tvar){"t2m", "air_temperature", "K", type, 0, 0, 0, 0, 0, field_fn, which0 + 2};
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    write_file(path, atm, 3);
+}
+
 int main(void)
 {
     check_atmos();
@@ -352,13 +365,7 @@ int main(void)
         return 1;
     }
     char path[1024];
-    tvar atm[3];
-    memset(atm, 0, sizeof atm);
-    atm[0] = (tvar){"u10", "eastward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, field_fn, 0};
-    atm[1] = (tvar){"v10", "northward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, field_fn, 1};
-    atm[2] = (tvar){"t2m", "air_temperature", "K", NC_FLOAT, 0, 0, 0, 0, 0, field_fn, 2};
-    snprintf(path, sizeof path, "%s/atm.nc", dir);
-    write_file(path, atm, 3);
+    write_atmosphere(dir, "atm.nc", NC_FLOAT, 0);
     for (int s = 0; s < 2; s++) {
         tvar oc[2];
         memset(oc, 0, sizeof oc);
@@ -367,13 +374,7 @@ int main(void)
         snprintf(path, sizeof path, "%s/oc%d.nc", dir, s + 1);
         write_file(path, oc, 2);
     }
-    tvar var[3];
-    memset(var, 0, sizeof var);
-    var[0] = (tvar){"u10", "eastward_wind", "m s-1", NC_DOUBLE, 0, 0, 0, 0, 0, field_fn, 10};
-    var[1] = (tvar){"v10", "northward_wind", "m s-1", NC_DOUBLE, 0, 0, 0, 0, 0, field_fn, 11};
-    var[2] = (tvar){"t2m", "air_temperature", "K", NC_DOUBLE, 0, 0, 0, 0, 0, field_fn, 12};
-    snprintf(path, sizeof path, "%s/var.nc", dir);
-    write_file(path, var, 3);
+    write_atmosphere(dir, "var.nc", NC_DOUBLE, 10);
     sph_error e;
     sph_error_clear(&e);
     geo_proj *proj = geo_proj_create("aeqd", 120.0, 40.0, &e);
