@@ -74,8 +74,11 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     if (nl > SPH_MAX_LAYERS)
         nl = SPH_MAX_LAYERS;
     int with_mask = mask && mask->land && mask->nx > 0 && mask->ny > 0;
-    /* ghosts: up to three per particle near a corner */
-    size_t c2 = with_mask ? 4 * cap : cap;
+    /* ghosts: up to three per particle near a corner; parcels have none (the
+     * slots' fields that a step writes for all of them, fsens/flat NaN, would
+     * take memory) */
+    int parcels_run = p->physics == SPH_PHYSICS_FREE_DRIFT && p->free_drift_parcels;
+    size_t c2 = with_mask && !parcels_run ? 4 * cap : cap;
     m->P = sph_particles_create(c2, nl);
     m->nb = sph_nbr_create(cap, c2, p->max_neighbours);
     m->ghost_src = calloc(c2, sizeof(int));
@@ -177,6 +180,10 @@ int sph_model_set_params(sph_model *m, const sph_params *p)
         return SPH_STEP_FATAL;
     if (p->max_neighbours != m->prm.max_neighbours ||
         (p->thermo.nlayers > 0 ? p->thermo.nlayers : 1) != m->P->nlayers)
+        return SPH_STEP_FATAL;
+    /* a model created for parcels has no room for coast ghosts */
+    if (m->has_mask && m->P->cap < 4 * m->cap &&
+        !(p->physics == SPH_PHYSICS_FREE_DRIFT && p->free_drift_parcels))
         return SPH_STEP_FATAL;
     /* a reloaded rheology or solver gets its fields and workspace here */
     const sph_rheology_ops *r = sph_rheology_ops_of(p->rheology);
