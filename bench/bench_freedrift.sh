@@ -13,8 +13,13 @@
 #            coasts does not stop it; FD_BEFORE_HOURS (FD_HOURS) hours
 #   sph      this build, the same configuration (the SPH path)
 #   parcels  this build with model.free_drift_parcels and domain.plane_tables
-# each with OMP_NUM_THREADS=1, and parcels again with 2 threads at the sizes
-# in FD_THREADS2 (1e5). Each run's CPU (user + system), wall and peak RSS
+#   base     the binary FD_BASE (default /tmp/fd-base/build/sphice; empty:
+#            skipped), the same configuration as parcels: the baseline of a
+#            change to the parcels' path, measured in the same run (build it
+#            from main: git archive main | tar -x -C /tmp/fd-base &&
+#            make -C /tmp/fd-base -j2 all)
+# each with OMP_NUM_THREADS=1, and parcels (and base) again with 2 threads
+# at the sizes in FD_THREADS2 (1e5). Each run's CPU (user + system), wall and peak RSS
 # come from GNU time; the particle-steps from the run's own log line
 # ("S steps, ... N0 -> N1 particles": S (N0 + N1) / 2). The floor
 # (build/bench/bench_floor: bilinear interpolation + one 2x2 solve, nothing
@@ -22,7 +27,7 @@
 # Output (stdout): one CSV row per run,
 #   size,method,threads,particles,steps,cpu_s,wall_s,peak_rss_mb,us_per_particle_step,floor_us,ratio_to_floor
 # Environment: BUILD (build), BENCH_OUT (bench/out), FD_SIZES, FD_HOURS,
-# FD_BEFORE, FD_BEFORE_HOURS, FD_METHODS ("before sph parcels"), FD_THREADS2.
+# FD_BEFORE, FD_BEFORE_HOURS, FD_BASE, FD_METHODS ("before sph parcels"), FD_THREADS2.
 # perf: install linux-perf (Debian) and run
 #   perf record -g build/sphice run <BENCH_OUT>/freedrift/1e4_parcels_t1.json --cycle 1999-02-07T22:00Z --hours 48 --out /tmp/x --force
 set -eu
@@ -32,6 +37,7 @@ SIZES=${FD_SIZES:-"1e4 1e5"}
 HOURS=${FD_HOURS:-48}
 BEFORE=${FD_BEFORE-/work/baseline/sphice-r2}
 BHOURS=${FD_BEFORE_HOURS:-$HOURS}
+BASE=${FD_BASE-/tmp/fd-base/build/sphice}
 METHODS=${FD_METHODS:-"before sph parcels"}
 THREADS2=${FD_THREADS2:-1e5}
 CONFIG=etc/liaodong-demo.json
@@ -50,7 +56,7 @@ config() {
     f="$OUT/$1_$2_t$3.json"
     extra_model='"max_neighbours": 1000, "health": {"thickness_limit": 1000},'
     extra_domain=''
-    if [ "$2" = parcels ]; then
+    if [ "$2" = parcels ] || [ "$2" = base ]; then
         extra_model="$extra_model \"free_drift_parcels\": true,"
         extra_domain=', "plane_tables": true'
     fi
@@ -78,8 +84,13 @@ for size in $SIZES; do
             [ -x "$BEFORE" ] || die "FD_BEFORE=$BEFORE is not executable"
             bin=$BEFORE; hours=$BHOURS
         fi
+        if [ "$method" = base ]; then
+            [ -n "$BASE" ] || continue
+            [ -x "$BASE" ] || die "FD_BASE=$BASE is not executable"
+            bin=$BASE
+        fi
         threads=1
-        [ "$method" = parcels ] && case " $THREADS2 " in *" $size "*) threads="1 2" ;; esac
+        { [ "$method" = parcels ] || [ "$method" = base ]; } && case " $THREADS2 " in *" $size "*) threads="1 2" ;; esac
         for th in $threads; do
             cfg=$(config "$size" "$method" "$th")
             log="$OUT/${size}_${method}_t$th.log"

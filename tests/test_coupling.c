@@ -9,6 +9,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <omp.h>
 
 #include "check.h"
 #include "core/atmos.h"
@@ -26,7 +27,12 @@
 
 static double field_fn(int which, double lon, double lat, size_t k)
 {
-    (void)lon; (void)lat; (void)k;
+    switch (which) { /* 10-12: varying in space and time (the particles' cells matter) */
+    case 10: return WIND_E + 0.3 * (lon - 120.0) + 0.1 * (lat - 40.0) * (lat - 40.0) + 0.5 * (double)k;
+    case 11: return WIND_N - 0.2 * (lat - 40.0) + 0.05 * (lon - 120.0) * (lat - 40.0) - 0.25 * (double)k;
+    case 12: return TAIR_K + 0.5 * (lon - 120.0) - 0.3 * (lat - 40.0) + 1.5 * (double)k;
+    default: break;
+    }
     switch (which) {
     case 0: return WIND_E;
     case 1: return WIND_N;
@@ -226,6 +232,130 @@ static void check_sum_and_missing(const char *dir, const geo_proj *proj)
     sph_config_free(cfg);
 }
 
+
+/* Ids and positions of NB particles on a finer lattice (more than the
+ * coupling's threading threshold), shifted by (dx, dy) metres on the plane. */
+#define NB 4800
+static sph_particles *big_lattice(const geo_proj *proj, double dx, double dy)
+{
+    sph_particles *P = sph_particles_create(NB, 1);
+    double *lon = malloc(NB * sizeof *lon), *lat = malloc(NB * sizeof *lat);
+    for (int k = 0; k < NB; k++) {
+        lon[k] = 112.0 + (k % 80) * 0.2;
+        lat[k] = 36.0 + (k / 80) * 0.13;
+    }
+    sph_error e;
+    sph_error_clear(&e);
+    CHECK(geo_forward(proj, NB, lon, lat, P->x, P->y, &e) == 0, "forward: %s", e.msg);
+    for (int k = 0; k < NB; k++) {
+        P->x[k] += dx * (k % 3);
+        P->y[k] += dy * (k % 2);
+        P->id[k] = k;
+    }
+    P->n = NB;
+    free(lon);
+    free(lat);
+    return P;
+}
+
+/* A coupling of the varying atmosphere (var.nc) for NB particles. */
+static int open_big(coupling_case *cs, const char *dir, const geo_proj *proj)
+{
+    char src[1024];
+    snprintf(src, sizeof src, "{\"name\": \"atm\", \"kind\": \"atmosphere\", \"urls\": \"%s/var.nc\"}", dir);
+    memset(cs, 0, sizeof *cs);
+    sph_error_clear(&cs->e);
+    if (!(cs->cfg = load(dir, src)))
+        return -1;
+    cs->req.cycle_time = T0;
+    snprintf(cs->path[0], sizeof cs->path[0], "%s/var.nc", dir);
+    cs->files[0][0] = cs->path[0];
+    cs->req.forcing_files[0] = cs->files[0];
+    cs->P = big_lattice(proj, 0.0, 0.0);
+    int rc = coupling_open(&cs->c, cs->cfg, &cs->req, T0, T0 + 6 * 3600.0, "test", &cs->e);
+    return rc ? rc : coupling_alloc(&cs->c, NB, &cs->e);
+}
+
+static void close_case(coupling_case *cs)
+{
+    coupling_free(&cs->c);
+    sph_particles_free(cs->P);
+    sph_config_free(cs->cfg);
+}
+
+static int same(const double *a, const double *b, size_t n)
+{
+    return memcmp(a, b, n * sizeof *a) == 0;
+}
+
+/* Bit for bit: a fill after the particles moved (the stencils start from
+ * each point's previous cell) equals a fill of a fresh coupling at the new
+ * positions; 2 threads equal 1; with dynamics_only the wind is the full
+ * fill's and the thermal forcing stays that of the first fill (the field
+ * changes in time, so a full fill changes it), the thermal work arrays gone. */
+static void check_moved_threads_dynamics(const char *dir, const geo_proj *proj)
+{
+    const double t1 = T0 + 2700.0, DX = 37e3, DY = 23e3;
+    coupling_case a, b, c;
+    if (open_big(&a, dir, proj) || open_big(&b, dir, proj) || open_big(&c, dir, proj)) {
+        CHECK(0, "open the varying atmosphere: %s %s %s", a.e.msg, b.e.msg, c.e.msg);
+        return;
+    }
+    const sph_thermo_params *th = &a.cfg->model.thermo;
+    omp_set_num_threads(1);
+    CHECK(coupling_fill(&a.c, proj, th, 0, a.P, T0, &a.e) == 0, "fill a at T0: %s", a.e.msg);
+    double *tair0 = malloc(NB * sizeof *tair0);
+    memcpy(tair0, a.P->tair, NB * sizeof *tair0);
+    sph_particles *moved = big_lattice(proj, DX, DY);
+    memcpy(a.P->x, moved->x, NB * sizeof(double));
+    memcpy(a.P->y, moved->y, NB * sizeof(double));
+    CHECK(coupling_fill(&a.c, proj, th, 0, a.P, t1, &a.e) == 0, "fill a at t1: %s", a.e.msg);
+    /* c: fresh, at the moved positions, on 2 threads */
+    memcpy(c.P->x, moved->x, NB * sizeof(double));
+    memcpy(c.P->y, moved->y, NB * sizeof(double));
+    omp_set_num_threads(2);
+    CHECK(coupling_fill(&c.c, proj, th, 0, c.P, t1, &c.e) == 0, "fill c at t1: %s", c.e.msg);
+    CHECK(same(a.P->ua, c.P->ua, NB) && same(a.P->va, c.P->va, NB) && same(a.P->tair, c.P->tair, NB) &&
+              same(a.P->lat, c.P->lat, NB),
+          "moved particles (1 thread, previous cells) = fresh coupling (2 threads), bit for bit");
+    size_t nmoved = 0;
+    for (size_t k = 0; k < NB; k++)
+        nmoved += fabs(a.P->tair[k] - tair0[k]) > 0.1;
+    CHECK(nmoved == NB, "the air temperature changed at every particle (%zu of %d)", nmoved, NB);
+    /* b: dynamics only after the first fill */
+    CHECK(coupling_fill(&b.c, proj, th, 0, b.P, T0, &b.e) == 0, "fill b at T0: %s", b.e.msg);
+    CHECK(same(b.P->tair, tair0, NB), "first fills agree");
+    coupling_set_dynamics_only(&b.c);
+    memcpy(b.P->x, moved->x, NB * sizeof(double));
+    memcpy(b.P->y, moved->y, NB * sizeof(double));
+    CHECK(coupling_fill(&b.c, proj, th, 0, b.P, t1, &b.e) == 0, "fill b at t1: %s", b.e.msg);
+    CHECK(same(a.P->ua, b.P->ua, NB) && same(a.P->va, b.P->va, NB) && same(a.P->uw, b.P->uw, NB) &&
+              same(a.P->sshx, b.P->sshx, NB) && same(a.P->lat, b.P->lat, NB),
+          "dynamics only: the dynamics' forcing of a full fill, bit for bit");
+    CHECK(same(b.P->tair, tair0, NB), "dynamics only: the air temperature of the first fill kept");
+    CHECK(b.c.tair == NULL && b.c.q[CPL_Q_TAIR] == NULL && b.c.ue != NULL, "thermal work arrays freed");
+    CHECK(b.c.provided & FQ_TAIR, "provided still names the air temperature of the last full fill");
+    omp_set_num_threads(1);
+    free(tair0);
+    sph_particles_free(moved);
+    close_case(&a);
+    close_case(&b);
+    close_case(&c);
+}
+
+/* dir/name: u10, v10, t2m of field_fn's which0, which0 + 1, which0 + 2. */
+static void write_atmosphere(const char *dir, const char *name, nc_type type, int which0)
+{
+    char path[1024];
+    tvar atm[3];
+    memset(atm, 0, sizeof atm);
+    atm[0] = (tvar){"u10", "eastward_wind", "m s-1", type, 0, 0, 0, 0, 0, field_fn, which0};
+    atm[1] = (tvar){"v10", "northward_wind", "m s-1", type, 0, 0, 0, 0, 0, field_fn, which0 + 1};
+    atm[2] = (tvar){"t2m", "air_temperature", "K", type, 0, 0, 0, 0, 0, field_fn, which0 + 2};
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    write_file(path, atm, 3);
+}
+
 int main(void)
 {
     check_atmos();
@@ -235,13 +365,7 @@ int main(void)
         return 1;
     }
     char path[1024];
-    tvar atm[3];
-    memset(atm, 0, sizeof atm);
-    atm[0] = (tvar){"u10", "eastward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, field_fn, 0};
-    atm[1] = (tvar){"v10", "northward_wind", "m s-1", NC_FLOAT, 0, 0, 0, 0, 0, field_fn, 1};
-    atm[2] = (tvar){"t2m", "air_temperature", "K", NC_FLOAT, 0, 0, 0, 0, 0, field_fn, 2};
-    snprintf(path, sizeof path, "%s/atm.nc", dir);
-    write_file(path, atm, 3);
+    write_atmosphere(dir, "atm.nc", NC_FLOAT, 0);
     for (int s = 0; s < 2; s++) {
         tvar oc[2];
         memset(oc, 0, sizeof oc);
@@ -250,6 +374,7 @@ int main(void)
         snprintf(path, sizeof path, "%s/oc%d.nc", dir, s + 1);
         write_file(path, oc, 2);
     }
+    write_atmosphere(dir, "var.nc", NC_DOUBLE, 10);
     sph_error e;
     sph_error_clear(&e);
     geo_proj *proj = geo_proj_create("aeqd", 120.0, 40.0, &e);
@@ -257,6 +382,7 @@ int main(void)
     if (proj) {
         check_uniform(dir, proj);
         check_sum_and_missing(dir, proj);
+        check_moved_threads_dynamics(dir, proj);
     }
     geo_proj_free(proj);
     char cmd[1100];

@@ -175,8 +175,38 @@ static void test_no_neighbour_search(void)
     }
 }
 
+/* With a land mask a model keeps room for coast ghosts (four slots per
+ * particle), except one created for parcels, which never has ghosts: its
+ * arrays hold the particles only, and switching it to the SPH path later
+ * is refused rather than run short of ghost slots. */
+static void test_parcels_capacity(void)
+{
+    static unsigned char land[16 * 16];
+    sph_landmask mask = {16, 16, -80e3, -80e3, 10e3, 10e3, land, 0};
+    for (int parcels = 0; parcels <= 1; parcels++) {
+        sph_params p;
+        sph_params_default(&p);
+        p.physics = SPH_PHYSICS_FREE_DRIFT;
+        p.free_drift_parcels = parcels;
+        sph_model *m = sph_model_create(&p, 100, &mask);
+        CHECK(m != NULL, "model with a mask (parcels %d)", parcels);
+        if (!m)
+            continue;
+        CHECK(sph_model_particles(m)->cap == (parcels ? 100u : 400u), "slots %zu (parcels %d)",
+              sph_model_particles(m)->cap, parcels);
+        sph_params q = p;
+        q.free_drift_parcels = !parcels;
+        int rc = sph_model_set_params(m, &q);
+        CHECK(parcels ? rc == SPH_STEP_FATAL : rc == SPH_STEP_OK,
+              "switching parcels %d -> %d: %d", parcels, !parcels, rc);
+        CHECK(sph_model_set_params(m, &p) == SPH_STEP_OK, "same parameters again");
+        sph_model_free(m);
+    }
+}
+
 int main(void)
 {
+    test_parcels_capacity();
     test_parcels_match_sph();
     test_parcels_threads();
     test_no_neighbour_search();

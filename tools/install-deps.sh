@@ -13,7 +13,7 @@
 #   --promtool  also prometheus (Debian ships promtool in it): test_daemon
 #           runs `promtool check metrics` on a real /metrics answer
 #           (skipped with one line without it)
-#   --perf  also linux-perf: the profiles of docs/speed.md (perf record)
+#   --perf  also linux-perf: the profiles of docs/speed.md and docs/bench.md ("Free drift")
 set -eu
 PKGS="build-essential make pkg-config libnetcdf-dev libhdf5-dev netcdf-bin libcurl4-openssl-dev \
 libcjson-dev libgsl-dev libproj-dev proj-data libudunits2-dev libmicrohttpd-dev \

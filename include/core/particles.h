@@ -174,7 +174,7 @@ void sph_particles_free(sph_particles *p); /* NULL does nothing */
 /* Removes particle k by moving the last one into its slot (O(1)). */
 void sph_particles_remove(sph_particles *p, size_t k);
 /* Reorders the live particles: new slot i takes old particle order[i].
- * scratch must hold n doubles (and n * nlayers for the enthalpy). */
+ * scratch must hold n doubles (layered fields go layer by layer). */
 void sph_particles_permute(sph_particles *p, const int *order, double *scratch);
 /* Zeroes every array entry of slot k (a new particle starts from there:
  * a field added to the list later is never left with another's value). */

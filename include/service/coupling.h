@@ -48,6 +48,12 @@ typedef struct fc_coupling {
     size_t n_before;
     geo_plane_table *plane;     /* domain.plane_tables (NULL: PROJ per particle); owned */
     double *cs, *sn;            /* [cap] cos and sin of the grid angle from plane */
+    /* 1: a fill samples only what the dynamics reads (wind, current, sea-surface
+     * height and slope) and leaves the thermal forcing of P (tair qair swdn lwdn
+     * sst fw snowfall) as the last full fill set it. The engine sets it after
+     * the first fill of a run without thermodynamics and mixed layer (the first
+     * fill gives the initial temperature profile): coupling_set_dynamics_only. */
+    int dynamics_only;
 } fc_coupling;
 
 /* Opens the forcing of the cycle [t0, t_end] over the configured domain
@@ -69,6 +75,10 @@ int coupling_alloc(fc_coupling *c, size_t cap, sph_error *err);
  * default). thermo_on: a missing air temperature is an error. */
 int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params *th, int thermo_on,
                   sph_particles *P, double t, sph_error *err);
+
+/* From now on a fill samples only the dynamics' forcing (dynamics_only)
+ * and the thermal work arrays are freed. */
+void coupling_set_dynamics_only(fc_coupling *c);
 
 /* "121.80E 40.61N" (or "an unknown position"), for messages. */
 void coupling_format_lonlat(double lon, double lat, char *buf, size_t len);

@@ -74,8 +74,11 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     if (nl > SPH_MAX_LAYERS)
         nl = SPH_MAX_LAYERS;
     int with_mask = mask && mask->land && mask->nx > 0 && mask->ny > 0;
-    /* ghosts: up to three per particle near a corner */
-    size_t c2 = with_mask ? 4 * cap : cap;
+    /* ghosts: up to three per particle near a corner; parcels have none (the
+     * slots' fields that a step writes for all of them, fsens/flat NaN, would
+     * take memory) */
+    int parcels_run = p->physics == SPH_PHYSICS_FREE_DRIFT && p->free_drift_parcels;
+    size_t c2 = with_mask && !parcels_run ? 4 * cap : cap;
     m->P = sph_particles_create(c2, nl);
     m->nb = sph_nbr_create(cap, c2, p->max_neighbours);
     m->ghost_src = calloc(c2, sizeof(int));
@@ -179,6 +182,10 @@ int sph_model_set_params(sph_model *m, const sph_params *p)
         return SPH_STEP_FATAL;
     if (p->max_neighbours != m->prm.max_neighbours ||
         (p->thermo.nlayers > 0 ? p->thermo.nlayers : 1) != m->P->nlayers)
+        return SPH_STEP_FATAL;
+    /* a model created for parcels has no room for coast ghosts */
+    if (m->has_mask && m->P->cap < 4 * m->cap &&
+        !(p->physics == SPH_PHYSICS_FREE_DRIFT && p->free_drift_parcels))
         return SPH_STEP_FATAL;
     /* a reloaded rheology or solver gets its fields and workspace here */
     const sph_rheology_ops *r = sph_rheology_ops_of(p->rheology);
@@ -332,6 +339,15 @@ int sph_model_ghosts_merging(const sph_model *m) { return m && m->ghost_merge; }
 /* ------------------------------------------------------------------ */
 /* free drift as independent parcels (model.free_drift_parcels)       */
 
+/* *x = +0.0, written only where it is not already (pages of a field that
+ * stays zero, such as the parcels' strain rates, are never made resident:
+ * issue 22's memory at 1e6 particles). */
+static inline void sph_set_zero(double *x)
+{
+    if (*x != 0.0 || signbit(*x))
+        *x = 0.0;
+}
+
 /* 1 where a step runs without SPH machinery: whole-run free drift with
  * model.free_drift_parcels. */
 static int parcels_mode(const sph_model *m)
@@ -351,7 +367,9 @@ static void parcels_diagnose(sph_model *m)
     size_t n = P->n;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
     for (size_t k = 0; k < n; k++) {
-        P->e11[k] = P->e22[k] = P->e12[k] = 0.0;
+        sph_set_zero(&P->e11[k]);
+        sph_set_zero(&P->e22[k]);
+        sph_set_zero(&P->e12[k]);
         double floor_dens = SPH_CONC_MIN * rho_i * P->thick[k];
         if (continuity && P->dens[k] < floor_dens)
             P->dens[k] = floor_dens;
@@ -745,7 +763,8 @@ int sph_model_step(sph_model *m, sph_status *st)
     for (size_t k = 0; k < n; k++) {
         m->un[k] = P->u[k];
         m->vn[k] = P->v[k];
-        P->ax[k] = P->ay[k] = 0.0;
+        sph_set_zero(&P->ax[k]);
+        sph_set_zero(&P->ay[k]);
         m->fcor[k] = !p->coriolis ? 0.0
                      : p->coriolis_f != 0.0 ? p->coriolis_f /* comparison option */
                                             : 2.0 * OMEGA_EARTH * sin(P->lat[k] * DEG2RAD);

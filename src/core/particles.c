@@ -86,20 +86,40 @@ void sph_particles_remove(sph_particles *p, size_t k)
     p->n = last;
 }
 
+/* 1 when the nbytes at a are all zero bits (a field no step has written:
+ * calloc's zeros, whose pages reading does not make resident). */
+static int all_zero_bytes(const void *a, size_t nbytes)
+{
+    const unsigned char *b = a;
+    size_t k = 0;
+    for (; k + sizeof(unsigned long long) <= nbytes; k += sizeof(unsigned long long)) {
+        unsigned long long w;
+        memcpy(&w, b + k, sizeof w);
+        if (w)
+            return 0;
+    }
+    for (; k < nbytes; k++)
+        if (b[k])
+            return 0;
+    return 1;
+}
+
 void sph_particles_permute(sph_particles *p, const int *order, double *scratch)
 {
     size_t n = p->n;
+    /* a field that is all zero bits is the same in any order: left alone, so
+     * that the fields a run never uses (the ocean fluxes without them, the
+     * stress in free drift, ...) never take memory */
 #define PERM_(name, type, count, ...)                                                       \
-    {                                                                                       \
+    if (!all_zero_bytes(p->name, n * SPH_FIELD_COUNT(p, count) * sizeof(type))) {           \
         size_t c_ = SPH_FIELD_COUNT(p, count);                                              \
         type *s_ = (type *)(void *)scratch;                                                 \
-        if (c_ == 1)                                                                        \
+        for (size_t l_ = 0; l_ < c_; l_++) { /* layer by layer: n entries of scratch */     \
             for (size_t i = 0; i < n; i++)                                                  \
-                s_[i] = p->name[order[i]];                                                  \
-        else                                                                                \
+                s_[i] = p->name[(size_t)order[i] * c_ + l_];                                \
             for (size_t i = 0; i < n; i++)                                                  \
-                memcpy(s_ + i * c_, p->name + (size_t)order[i] * c_, c_ * sizeof(type));    \
-        memcpy(p->name, s_, n * c_ * sizeof(type));                                         \
+                p->name[i * c_ + l_] = s_[i];                                               \
+        }                                                                                   \
     }
     SPH_PARTICLE_FIELDS(PERM_)
 #undef PERM_

@@ -12,6 +12,11 @@
 #include "util/log.h"
 #include "util/timeutil.h"
 
+/* Particles from which the per-particle loops below run on the OpenMP
+ * threads: per-particle writes only, so any thread count gives the same
+ * forcing bit for bit. */
+#define COUPLING_OMP_MIN 4096
+
 void coupling_format_lonlat(double lon, double lat, char *buf, size_t len)
 {
     if (!isfinite(lon) || !isfinite(lat)) {
@@ -127,6 +132,20 @@ int coupling_alloc(fc_coupling *c, size_t cap, sph_error *err)
     return ok ? SPH_OK : sph_err_set(err, SPH_ERR_NOMEM, "forecast: out of memory (%zu particles)", n);
 }
 
+void coupling_set_dynamics_only(fc_coupling *c)
+{
+    c->dynamics_only = 1;
+    /* the thermal work arrays: no fill touches them from now on */
+    double **thermal[] = {&c->tair, &c->qair, &c->swdn, &c->lwdn, &c->sst, &c->fw, &c->snowfall,
+                          &c->precip, &c->mld, &c->bathy, &c->q[CPL_Q_TAIR], &c->q[CPL_Q_QAIR],
+                          &c->q[CPL_Q_SWDN], &c->q[CPL_Q_LWDN], &c->q[CPL_Q_SST], &c->q[CPL_Q_FW],
+                          &c->q[CPL_Q_SNOW], &c->q[CPL_Q_PRECIP], &c->q[CPL_Q_MLD], &c->q[CPL_Q_BATHY]};
+    for (size_t k = 0; k < sizeof thermal / sizeof thermal[0]; k++) {
+        free(*thermal[k]);
+        *thermal[k] = NULL;
+    }
+}
+
 void coupling_free(fc_coupling *c)
 {
     for (size_t k = 0; k < c->nforc; k++)
@@ -145,15 +164,21 @@ void coupling_free(fc_coupling *c)
     c->plane = NULL;
 }
 
-/* The sample slots of particle k: its place in each c->q[CPL_Q_*]. */
+/* The quantities the dynamics reads (fc_coupling.dynamics_only). */
+#define CPL_DYNAMICS (FQ_WIND | FQ_CURRENT | FQ_SSH)
+
+/* The sample slots of particle k: its place in each c->q[CPL_Q_*] (none for
+ * the thermal quantities with c->dynamics_only: the reader skips them). */
 static void sample_view(fc_coupling *c, size_t k, forcing_sample *s)
 {
     memset(s, 0, sizeof *s);
     double **slot[CPL_NQ] = {&s->u_east, &s->v_north, &s->tair, &s->qair, &s->swdn, &s->lwdn,
                              &s->uw_east, &s->vw_north, &s->ssh, &s->ssh_dx_east, &s->ssh_dy_north,
                              &s->sst, &s->fw, &s->snowfall, &s->precip, &s->mld, &s->bathy};
+    static const char dyn[CPL_NQ] = {[CPL_Q_UE] = 1, [CPL_Q_VN] = 1, [CPL_Q_UWE] = 1, [CPL_Q_VWN] = 1,
+                                     [CPL_Q_SSH] = 1, [CPL_Q_GXE] = 1, [CPL_Q_GYN] = 1};
     for (int q = 0; q < CPL_NQ; q++)
-        *slot[q] = c->q[q] + k;
+        *slot[q] = c->dynamics_only && !dyn[q] ? NULL : c->q[q] + k;
 }
 
 /* Samples source src at the n particles into c->q. An ocean or tide
@@ -231,10 +256,13 @@ static void merge_source(fc_coupling *c, size_t n, unsigned got, unsigned before
             continue;
         const double *q = c->q[map[m].q];
         double *d = dst[map[m].q];
+        const unsigned char *bad = c->bad;
+        const int sum = map[m].sum;
+#pragma omp parallel for schedule(static) if (n >= COUPLING_OMP_MIN)
         for (size_t k = 0; k < n; k++) {
-            if (c->bad[k])
+            if (bad[k])
                 continue; /* keeps the default (or the other sources' sum) */
-            d[k] = map[m].sum ? d[k] + q[k] : q[k];
+            d[k] = sum ? d[k] + q[k] : q[k];
         }
     }
 }
@@ -251,11 +279,15 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
     if (rc)
         return rc;
     const double tf = sph_freezing_point(th);
+    const int dyn = c->dynamics_only;
+#pragma omp parallel for schedule(static) if (n >= COUPLING_OMP_MIN)
     for (size_t k = 0; k < n; k++) {
         c->ue[k] = c->vn[k] = 0.0;
         c->uwe[k] = c->vwn[k] = 0.0;
         c->gxe[k] = c->gyn[k] = 0.0;
         c->ssh[k] = 0.0;
+        if (dyn)
+            continue;
         c->tair[k] = tf;
         c->qair[k] = NAN;
         c->swdn[k] = 0.0;
@@ -275,25 +307,25 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
         merge_source(c, n, got, provided);
         provided |= got;
     }
-    c->provided = provided;
-    if (thermo_on && !(provided & FQ_TAIR))
+    /* dynamics only: the thermal quantities found at the last full fill */
+    c->provided = dyn ? provided | (c->provided & ~(unsigned)CPL_DYNAMICS) : provided;
+    if (thermo_on && !(c->provided & FQ_TAIR))
         return sph_err_set(err, SPH_ERR_MISSING_VAR,
                            "forcing: no source provides air_temperature, which the thermodynamics "
                            "needs (add it, or set model.thermo.dt 0)");
     double pa = th->air_pressure;
-    for (size_t k = 0; k < n; k++) {
-        double cs, sn;
-        if (c->plane) { /* from the table: no trigonometry per particle */
-            cs = c->cs[k];
-            sn = c->sn[k];
-        } else {
+    if (!c->plane) /* PROJ, serial (one context); the table gave cs, sn */
+        for (size_t k = 0; k < n; k++) {
             double a = geo_grid_angle(proj, c->lon[k], c->lat[k]);
             if (!isfinite(a))
                 a = 0.0;
             c->angle[k] = a;
-            cs = cos(a);
-            sn = sin(a);
+            c->cs[k] = cos(a);
+            c->sn[k] = sin(a);
         }
+#pragma omp parallel for schedule(static) if (n >= COUPLING_OMP_MIN)
+    for (size_t k = 0; k < n; k++) {
+        const double cs = c->cs[k], sn = c->sn[k];
         /* east/north -> plane x/y (io/geo.h) */
         P->ua[k] = c->ue[k] * cs + c->vn[k] * sn;
         P->va[k] = -c->ue[k] * sn + c->vn[k] * cs;
@@ -302,6 +334,8 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
         P->sshx[k] = c->gxe[k] * cs + c->gyn[k] * sn;
         P->sshy[k] = -c->gxe[k] * sn + c->gyn[k] * cs;
         P->lat[k] = c->lat[k];
+        if (dyn)
+            continue;
         double T = c->tair[k];
         P->tair[k] = T;
         if (!(provided & FQ_HUMIDITY))

@@ -308,6 +308,10 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     snprintf(e->restart_path, sizeof e->restart_path, "%s/%s", req->stage_dir, rname);
 
     /* 6. time loop */
+    /* without thermodynamics and mixed layer the steps' fills sample only
+     * what the dynamics reads (service/coupling.h) */
+    if (!e->thermo_on && !e->ocean_pts && !sph_model_ocean(e->m))
+        coupling_set_dynamics_only(&e->cpl);
     const double dt = e->prm.dt;
     res->run.dt = dt;
     prog->dt = dt;

@@ -1188,18 +1188,25 @@ static int sample_var(forcing *f, fvar *v, double t, size_t n, const double *lon
             continue;
         const double *a = field == 0 ? v->slot[s0] : field == 1 ? v->slot_gx[s0] : v->slot_gy[s0];
         const double *b = field == 0 ? v->slot[s1] : field == 1 ? v->slot_gx[s1] : v->slot_gy[s1];
+        /* per-point writes; the first point without a value is the one reported */
+        size_t first_bad = n;
+        const int want0 = alpha < 1, want1 = alpha > 0;
+#pragma omp parallel for schedule(static) reduction(min : first_bad) if (n >= FORCING_OMP_MIN)
         for (size_t p = 0; p < n; p++) {
             double x0 = 0, x1 = 0;
-            int bad = alpha < 1 && fgrid_interp(g, a, p, lon[p], lat[p], &x0);
-            bad |= alpha > 0 && fgrid_interp(g, b, p, lon[p], lat[p], &x1);
-            if (bad)
-                return forcing_fail(err, v->src, v->file0, SPH_ERR_COVERAGE,
-                                    "no valid %s%s of variable '%s' within one grid cell of "
-                                    "point (%.6g, %.6g)",
-                                    field ? "gradient of " : "", v->standard_name, v->varname,
-                                    lon[p], lat[p]);
+            if (fgrid_interp2(g, a, b, want0, want1, p, lon[p], lat[p], &x0, &x1)) {
+                if (p < first_bad)
+                    first_bad = p;
+                continue;
+            }
             o[p] = alpha <= 0 ? x0 : alpha >= 1 ? x1 : (1 - alpha) * x0 + alpha * x1;
         }
+        if (first_bad < n)
+            return forcing_fail(err, v->src, v->file0, SPH_ERR_COVERAGE,
+                                "no valid %s%s of variable '%s' within one grid cell of "
+                                "point (%.6g, %.6g)",
+                                field ? "gradient of " : "", v->standard_name, v->varname,
+                                lon[first_bad], lat[first_bad]);
     }
     return 0;
 }

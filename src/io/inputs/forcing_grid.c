@@ -390,20 +390,28 @@ void fgrid_add(fsource *s, fgrid *g)
 }
 
 /* Index i with a[i] <= x <= a[i+1] in a monotonic array (either order), and
- * the fraction; -1 when outside. */
-static int bracket(const double *a, size_t n, double x, size_t *i, double *frac)
+ * the fraction; -1 when outside. The index is the binary search's: the
+ * last l in 1 .. n-2 with (a[l] <= x) == ascending, else 0. A hint (the
+ * point's index at the previous call; anything else: none) that is that
+ * index is taken without the search: the same index, bit for bit. */
+static int bracket(const double *a, size_t n, double x, size_t hint, size_t *i, double *frac)
 {
     int asc = a[n - 1] > a[0];
     double lo = asc ? a[0] : a[n - 1], hi = asc ? a[n - 1] : a[0];
     if (!(x >= lo - 1e-10 && x <= hi + 1e-10))
         return -1;
     size_t l = 0, h = n - 1;
-    while (h - l > 1) {
-        size_t m = (l + h) / 2;
-        if ((a[m] <= x) == asc)
-            l = m;
-        else
-            h = m;
+    if (hint < n - 1 && (hint == 0 || (a[hint] <= x) == asc) &&
+        (hint + 2 == n || (a[hint + 1] <= x) != asc)) {
+        l = hint;
+    } else {
+        while (h - l > 1) {
+            size_t m = (l + h) / 2;
+            if ((a[m] <= x) == asc)
+                l = m;
+            else
+                h = m;
+        }
     }
     *i = l;
     double f = (x - a[l]) / (a[l + 1] - a[l]);
@@ -411,13 +419,40 @@ static int bracket(const double *a, size_t n, double x, size_t *i, double *frac)
     return 0;
 }
 
-static int locate_regular(const fgrid *g, double lon, double lat, size_t idx[4], double w[4])
+/* lon0 + fmod(fmod(lon - lon0, 360) + 360, 360) without fmod where the
+ * difference is within one turn (the same value bit for bit: fmod is exact,
+ * and y - 360 is exact for y in [360, 720)). */
+static double lon_from(double lon, double lon0)
+{
+    double d = lon - lon0;
+    if (d >= 0.0 && d < 360.0) {
+        double y = d + 360.0;
+        if (y < 720.0)
+            return lon0 + (y - 360.0);
+    } else if (d >= -360.0 && d < 0.0) {
+        double y = d + 360.0;
+        if (y < 360.0)
+            return lon0 + y;
+    }
+    return lon0 + fmod(fmod(d, 360.0) + 360.0, 360.0);
+}
+
+/* Regular grids keep the point's file column and row of the previous call
+ * in its hint: row << 32 | column. */
+#define REG_HINT(i, j) (((size_t)(j) << 32) | (size_t)(i))
+#define REG_HINT_I(h) ((h) & 0xffffffffu)
+#define REG_HINT_J(h) ((h) >> 32)
+
+static int locate_regular(const fgrid *g, double lon, double lat, size_t *hint, size_t idx[4],
+                          double w[4])
 {
     /* located on the file's axes (the same arithmetic with or without a window),
      * then mapped into the window */
     size_t nx = g->fnx, i, i1, j;
+    size_t hi = *hint == (size_t)-1 ? (size_t)-1 : REG_HINT_I(*hint);
+    size_t hj = *hint == (size_t)-1 ? (size_t)-1 : REG_HINT_J(*hint);
     double fx, fy;
-    double x = g->lon1[0] + fmod(fmod(lon - g->lon1[0], 360.0) + 360.0, 360.0);
+    double x = lon_from(lon, g->lon1[0]);
     if (x > g->lon1[nx - 1] + 1e-10) {
         if (g->fwrap) {
             i = nx - 1;
@@ -427,12 +462,13 @@ static int locate_regular(const fgrid *g, double lon, double lat, size_t idx[4],
             return -1;
         }
     } else {
-        if (bracket(g->lon1, nx, x, &i, &fx))
+        if (bracket(g->lon1, nx, x, hi, &i, &fx))
             return -1;
         i1 = i + 1;
     }
-    if (bracket(g->lat1, g->fny, lat, &j, &fy))
+    if (bracket(g->lat1, g->fny, lat, hj, &j, &fy))
         return -1;
+    *hint = REG_HINT(i, j);
     /* into the window: columns from wi0 (mod nx on a global grid), rows from wj0 */
     size_t wi = g->fwrap ? (i + nx - g->wi0) % nx : i - g->wi0;
     size_t wi1 = g->fwrap ? (i1 + nx - g->wi0) % nx : i1 - g->wi0;
@@ -585,7 +621,7 @@ int fgrid_covers(fgrid *g, double lon, double lat)
     size_t idx[4], hint = (size_t)-1;
     double w[4];
     return g->curvilinear ? locate_curvilinear(g, lon, lat, &hint, idx, w) == 0
-                          : locate_regular(g, lon, lat, idx, w) == 0;
+                          : locate_regular(g, lon, lat, &hint, idx, w) == 0;
 }
 
 int fgrid_covers_file(const fgrid *g, double lon, double lat)
@@ -627,17 +663,21 @@ size_t fgrid_stencils(fgrid *g, unsigned long stamp, size_t n, const double *lon
             return n; /* out of memory: the caller reports every point as outside */
         g->npoints = n;
     }
-    for (size_t p = 0; p < n; p++) {
-        int rc;
-        if (g->curvilinear) {
+    if (g->curvilinear) { /* serial: a point's walk starts from its predecessor's cell */
+        for (size_t p = 0; p < n; p++) {
             if (g->hint[p] == (size_t)-1 && p > 0 && g->ok[p - 1])
                 g->hint[p] = g->hint[p - 1];
-            rc = locate_curvilinear(g, lon[p], lat[p], &g->hint[p], g->idx + 4 * p, g->w + 4 * p);
-        } else {
-            rc = locate_regular(g, lon[p], lat[p], g->idx + 4 * p, g->w + 4 * p);
+            int rc = locate_curvilinear(g, lon[p], lat[p], &g->hint[p], g->idx + 4 * p, g->w + 4 * p);
+            g->ok[p] = rc == 0;
+            outside += rc != 0;
         }
-        g->ok[p] = rc == 0;
-        outside += rc != 0;
+    } else { /* per-point writes only: the same stencils with any number of threads */
+#pragma omp parallel for schedule(static) reduction(+ : outside) if (n >= FORCING_OMP_MIN)
+        for (size_t p = 0; p < n; p++) {
+            int rc = locate_regular(g, lon[p], lat[p], &g->hint[p], g->idx + 4 * p, g->w + 4 * p);
+            g->ok[p] = rc == 0;
+            outside += rc != 0;
+        }
     }
     g->stamp = stamp;
     return outside;
@@ -687,6 +727,41 @@ int fgrid_interp(const fgrid *g, const double *slice, size_t p, double lon, doub
             }
         }
     return isfinite(best) ? 0 : -1;
+}
+
+int fgrid_interp2(const fgrid *g, const double *a, const double *b, int want_a, int want_b,
+                  size_t p, double lon, double lat, double *va, double *vb)
+{
+    const size_t *idx = g->idx + 4 * p;
+    const double *w = g->w + 4 * p;
+    double sa = 0, wa = 0, sb = 0, wb = 0;
+    for (int k = 0; k < 4; k++) {
+        if (!(w[k] > 0))
+            continue;
+        double x = want_a ? a[idx[k]] : NAN, y = want_b ? b[idx[k]] : NAN;
+        if (!isnan(x)) {
+            sa += w[k] * x;
+            wa += w[k];
+        }
+        if (!isnan(y)) {
+            sb += w[k] * y;
+            wb += w[k];
+        }
+    }
+    int bad = 0;
+    if (want_a) {
+        if (wa > 1e-12)
+            *va = sa / wa;
+        else
+            bad |= fgrid_interp(g, a, p, lon, lat, va);
+    }
+    if (want_b) {
+        if (wb > 1e-12)
+            *vb = sb / wb;
+        else
+            bad |= fgrid_interp(g, b, p, lon, lat, vb);
+    }
+    return bad ? -1 : 0;
 }
 
 void fgrid_gradient(const fgrid *g, const double *h, double *gx, double *gy)

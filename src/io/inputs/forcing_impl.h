@@ -19,6 +19,9 @@
 
 #define FORCING_EARTH_RADIUS 6371000.0 /* m, spherical earth */
 #define FORCING_MAX_DIMS 8
+/* Points from which the per-point sampling loops run on the OpenMP threads
+ * (per-point writes only: results independent of the thread count). */
+#define FORCING_OMP_MIN 4096
 
 /* One physical field a source can supply. */
 typedef enum {
@@ -61,7 +64,8 @@ typedef struct fgrid {
     size_t *idx;           /* 4 per point */
     double *w;             /* 4 per point */
     int *ok;               /* 1 if the point lies in the grid */
-    size_t *hint;          /* curvilinear: last cell per point (j*nx+i), or (size_t)-1 */
+    size_t *hint;          /* last cell per point, or (size_t)-1: curvilinear j*nx+i, regular
+                              the file's row << 32 | column (forcing_grid.c) */
     size_t npoints;
     unsigned long stamp;   /* call number the stencils belong to */
     struct fgrid *next;
@@ -275,6 +279,10 @@ size_t fgrid_stencils(fgrid *g, unsigned long stamp, size_t n, const double *lon
  * valid value is near. */
 int fgrid_interp(const fgrid *g, const double *slice, size_t p, double lon, double lat,
                  double *value);
+/* fgrid_interp of two slices at point p in one pass over the stencil (the
+ * same values bit for bit); slice a only when want_a, b only when want_b. */
+int fgrid_interp2(const fgrid *g, const double *a, const double *b, int want_a, int want_b,
+                  size_t p, double lon, double lat, double *va, double *vb);
 /* Centred-difference gradient (d/d east, d/d north in units per metre). */
 void fgrid_gradient(const fgrid *g, const double *h, double *gx, double *gy);
 /* 1 when the point lies in the grid. */

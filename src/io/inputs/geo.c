@@ -287,41 +287,55 @@ void geo_plane_table_free(geo_plane_table *t)
     free(t);
 }
 
+/* One point from the table; 0 outside it (or on a node without values). */
+static int plane_point(const geo_plane_table *t, double x, double y, double *lon, double *lat,
+                       double *cs, double *sn)
+{
+    double fx = (x - t->x0) * t->inv, fy = (y - t->y0) * t->inv;
+    if (!(fx >= 0.0 && fy >= 0.0 && fx < t->nx - 1 && fy < t->ny - 1))
+        return 0;
+    int i = (int)fx, j = (int)fy;
+    double wx = fx - i, wy = fy - j;
+    const double *a = t->node + 4 * ((size_t)j * t->nx + i), *b = a + 4;
+    const double *c = a + 4 * (size_t)t->nx, *d = c + 4;
+    double w00 = (1 - wx) * (1 - wy), w10 = wx * (1 - wy), w01 = (1 - wx) * wy, w11 = wx * wy;
+    double v[4];
+    for (int f = 0; f < 4; f++)
+        v[f] = w00 * a[f] + w10 * b[f] + w01 * c[f] + w11 * d[f];
+    if (!(isfinite(v[0]) && isfinite(v[2])))
+        return 0;
+    /* bilinear cos and sin: normalised back onto the circle */
+    double r = 1.0 / sqrt(v[2] * v[2] + v[3] * v[3]);
+    *lon = remainder(v[0] + t->lon0, 360.0);
+    *lat = v[1];
+    *cs = v[2] * r;
+    *sn = v[3] * r;
+    return 1;
+}
+
 int geo_plane_lookup(const geo_plane_table *t, size_t n, const double *x, const double *y,
                      double *lon, double *lat, double *cs, double *sn, sph_error *err)
 {
+    /* the table on the OpenMP threads (per-point writes: the same values with
+     * any thread count); points outside it go to PROJ, serially (one context) */
+    size_t nmiss = 0;
+#pragma omp parallel for schedule(static) reduction(+ : nmiss) if (n >= 4096)
+    for (size_t k = 0; k < n; k++)
+        nmiss += !plane_point(t, x[k], y[k], lon + k, lat + k, cs + k, sn + k);
+    if (nmiss == 0)
+        return SPH_OK;
     size_t nout = 0;
     for (size_t k = 0; k < n; k++) {
-        double fx = (x[k] - t->x0) * t->inv, fy = (y[k] - t->y0) * t->inv;
-        int ok = fx >= 0.0 && fy >= 0.0 && fx < t->nx - 1 && fy < t->ny - 1;
-        if (ok) {
-            int i = (int)fx, j = (int)fy;
-            double wx = fx - i, wy = fy - j;
-            const double *a = t->node + 4 * ((size_t)j * t->nx + i), *b = a + 4;
-            const double *c = a + 4 * (size_t)t->nx, *d = c + 4;
-            double w00 = (1 - wx) * (1 - wy), w10 = wx * (1 - wy), w01 = (1 - wx) * wy, w11 = wx * wy;
-            double v[4];
-            for (int f = 0; f < 4; f++)
-                v[f] = w00 * a[f] + w10 * b[f] + w01 * c[f] + w11 * d[f];
-            ok = isfinite(v[0]) && isfinite(v[2]);
-            if (ok) {
-                /* bilinear cos and sin: normalised back onto the circle */
-                double r = 1.0 / sqrt(v[2] * v[2] + v[3] * v[3]);
-                lon[k] = remainder(v[0] + t->lon0, 360.0);
-                lat[k] = v[1];
-                cs[k] = v[2] * r;
-                sn[k] = v[3] * r;
-            }
-        }
-        if (!ok) { /* outside the table: PROJ, as without it */
-            if (geo_inverse(t->proj, 1, x + k, y + k, lon + k, lat + k, NULL) != SPH_OK)
-                nout++;
-            double a = isfinite(lon[k]) ? geo_grid_angle(t->proj, lon[k], lat[k]) : NAN;
-            if (!isfinite(a))
-                a = 0.0;
-            cs[k] = cos(a);
-            sn[k] = sin(a);
-        }
+        if (plane_point(t, x[k], y[k], lon + k, lat + k, cs + k, sn + k))
+            continue;
+        /* outside the table: PROJ, as without it */
+        if (geo_inverse(t->proj, 1, x + k, y + k, lon + k, lat + k, NULL) != SPH_OK)
+            nout++;
+        double a = isfinite(lon[k]) ? geo_grid_angle(t->proj, lon[k], lat[k]) : NAN;
+        if (!isfinite(a))
+            a = 0.0;
+        cs[k] = cos(a);
+        sn[k] = sin(a);
     }
     if (nout)
         return sph_err_set(err, SPH_ERR_PARAM, "projection %s: %zu of %zu points do not unproject",
