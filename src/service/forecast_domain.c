@@ -168,7 +168,14 @@ int fc_dd_setup(engine *e, sph_error *err)
     int rc = fc_plane_box(e, &xmin, &xmax, &ymin, &ymax, err);
     if (rc == SPH_OK) {
         e->dd_m = sph_model_create(&e->prm, e->cap, &e->plane);
-        dd_options o = {xmin, ymin, xmax, ymax, 0.0, 10};
+        /* cells the side of the initial halo width, 3 kernel supports of the
+         * largest smoothing length (the same on every rank: the same start) */
+        const sph_particles *P0 = sph_model_particles(e->m);
+        double hmax = 0.0;
+        for (size_t k = 0; k < P0->n; k++)
+            hmax = P0->sml[k] > hmax ? P0->sml[k] : hmax;
+        double cell = 3.0 * sph_model_kernel_radius(e->m) * hmax;
+        dd_options o = {xmin, ymin, xmax, ymax, cell > 0.0 ? cell : 1e3, 10};
         e->dd_ctx = e->dd_m ? dd_create(MPI_COMM_WORLD, e->dd_m, &o) : NULL;
         if (!e->dd_ctx)
             rc = sph_err_set(err, SPH_ERR_NOMEM, "forecast: cannot create the decomposed model for %zu particles",
