@@ -116,10 +116,8 @@ int main(int argc, char **argv)
 {
     (void)argc;
     ec_passive_openmp(argv);
-    const char *build = getenv("BUILD") ? getenv("BUILD") : "build";
     char mpi_bin[512], ser_bin[512];
-    snprintf(mpi_bin, sizeof mpi_bin, "%s/../build-mpi/sphice", build);
-    snprintf(ser_bin, sizeof ser_bin, "%s/sphice", build);
+    ec_sphice_bins(ser_bin, mpi_bin, sizeof ser_bin);
     CHECK(mkdtemp(dir) != NULL, "mkdtemp");
     ec_write_inputs(dir);
     char p[1200];
