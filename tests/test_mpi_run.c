@@ -15,7 +15,10 @@
  * the attributes that name the run rather than the forecast -- dates,
  * version, wall times -- left out), and the particles file's data
  * variables bit for bit (nc_get_var, memcmp). The refusals: each
- * unsupported combination fails in one line naming its key. Skipped
+ * unsupported combination fails in one line naming its key. A failure
+ * inside the decomposed run (forcing too short, met by every rank after
+ * rank 0 sent the jobs) fails every rank with one line, publishes
+ * nothing and does not hang (timeout 120). Skipped
  * (one line) without mpirun or the MPI build; the refusals run anyway. */
 #include <netcdf.h>
 #include <stdlib.h>
@@ -169,6 +172,17 @@ int main(int argc, char **argv)
         CHECK(same_particles_file(a, b, &nv), "-np %d: the particles file's %d variables equal bit for bit", np[i],
               nv);
     }
+    /* a failure fails every rank: forcing that ends at +9 h for a 12 h run
+     * (every rank's coupling_open refuses it, after rank 0 sent the jobs) */
+    snprintf(cmd, sizeof cmd, "timeout 120 %s %s -np 2 %s run %s/cfg.json --cycle 1999-02-08T06:00Z --hours 12 "
+             "--out %s/short --force >%s/short.log 2>&1", mpirun, root, mpi_bin, dir, dir, dir);
+    int rc = run(cmd);
+    snprintf(cmd, sizeof cmd, "test $(grep -c '^sphice run: ' %s/short.log) -eq 1 && grep -q 'over 2 ranks' "
+             "%s/short.log", dir, dir);
+    CHECK(rc != 0 && rc != 124 && run(cmd) == 0, "-np 2, forcing too short: the run fails on every rank with one "
+          "line (exit %d, %s/short.log)", rc, dir);
+    snprintf(p, sizeof p, "%s/short/19990208T06Z", dir);
+    CHECK(access(p, F_OK) != 0, "-np 2, forcing too short: nothing published");
     if (!getenv("SPHICE_KEEP") && !check_failed_)
         cycle_remove_tree(dir);
     return check_summary("test_mpi_run");
