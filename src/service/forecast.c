@@ -292,7 +292,10 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         goto fail;
 
     /* 4-5. particles and model */
-    rc = req->warm_start ? fc_warm_start(e, er) : fc_cold_start(e, er);
+    if (e->dd == 2 && e->dd_rank > 0) /* rank 0 reads the initial field and seeds; fc_dd_setup scatters */
+        rc = SPH_OK;
+    else
+        rc = req->warm_start ? fc_warm_start(e, er) : fc_cold_start(e, er);
     if (rc || (rc = fc_dd_agree(e, rc, er)) || (rc = fc_dd_setup(e, er)))
         goto fail;
     sph_particles *P = sph_model_particles(e->m);

@@ -4,8 +4,9 @@
  *
  * Every rank runs forecast_run on the same request (rank 0 sends the workers
  * the job, ensemble_mpi.c) and so opens the same forcing files and builds
- * the same land mask and initial state; rank 0's initialised particles are
- * scattered along the Hilbert curve. Each step every rank samples the
+ * the same land mask; rank 0 alone reads the initial field, seeds and
+ * initialises the particles, which are scattered along the Hilbert curve
+ * (with the capacity, the resolved step and the largest smoothing length). Each step every rank samples the
  * forcing onto the particles it owns (halo copies carry their owner's
  * forcing: dd_step copies every field), then steps. At output times and at
  * the restart the particles are gathered on rank 0 in id order into the
@@ -155,27 +156,47 @@ int fc_dd_setup(engine *e, sph_error *err)
 {
     if (!e->dd)
         return SPH_OK;
-    /* the budget after init, its mass an exact sum (the mass budget's reference) */
+    /* the budget after init, its mass an exact sum (the mass budget's
+     * reference; rank 0's, which writes) */
     sph_model_clock clk;
-    sph_model_get_clock(e->m, &clk);
-    e->dd_b0 = clk.budget;
-    exact_budget(e, sph_model_particles(e->m), &e->dd_b0);
-    e->dd_b0.mass_initial = e->dd_b0.mass;
+    memset(&clk, 0, sizeof clk);
+    if (e->dd_rank == 0) {
+        sph_model_get_clock(e->m, &clk);
+        e->dd_b0 = clk.budget;
+        exact_budget(e, sph_model_particles(e->m), &e->dd_b0);
+        e->dd_b0.mass_initial = e->dd_b0.mass;
+    }
     if (e->dd == 1)
         return SPH_OK;
 #ifdef SPHICE_MPI
-    double xmin, xmax, ymin, ymax;
-    int rc = fc_plane_box(e, &xmin, &xmax, &ymin, &ymax, err);
-    if (rc == SPH_OK) {
-        e->dd_m = sph_model_create(&e->prm, e->cap, &e->plane);
-        /* cells the side of the initial halo width, 3 kernel supports of the
-         * largest smoothing length (the same on every rank: the same start) */
+    /* from rank 0's start: the capacity, the resolved step and the cell side
+     * (the initial halo width: 3 kernel supports of the largest smoothing
+     * length) */
+    double bc[3] = {0, 0, 0};
+    if (e->dd_rank == 0) {
         const sph_particles *P0 = sph_model_particles(e->m);
+        bc[0] = (double)e->cap;
+        bc[1] = e->prm.dt;
         double hmax = 0.0;
         for (size_t k = 0; k < P0->n; k++)
             hmax = P0->sml[k] > hmax ? P0->sml[k] : hmax;
-        double cell = 3.0 * sph_model_kernel_radius(e->m) * hmax;
-        dd_options o = {xmin, ymin, xmax, ymax, cell > 0.0 ? cell : 1e3, 10};
+        bc[2] = 3.0 * sph_model_kernel_radius(e->m) * hmax;
+    }
+    MPI_Bcast(bc, 3, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    int rc = SPH_OK;
+    if (e->dd_rank > 0) { /* a worker: an empty engine model (sizes, parameters) and the forcing's arrays */
+        e->cap = (size_t)bc[0];
+        e->prm.dt = bc[1];
+        e->m = sph_model_create(&e->prm, e->cap, &e->plane);
+        rc = e->m ? coupling_alloc(&e->cpl, e->cap, err)
+                  : sph_err_set(err, SPH_ERR_NOMEM, "model: cannot create a model for %zu particles", e->cap);
+    }
+    double xmin, xmax, ymin, ymax;
+    if (rc == SPH_OK)
+        rc = fc_plane_box(e, &xmin, &xmax, &ymin, &ymax, err);
+    if (rc == SPH_OK) {
+        e->dd_m = sph_model_create(&e->prm, e->cap, &e->plane);
+        dd_options o = {xmin, ymin, xmax, ymax, bc[2] > 0.0 ? bc[2] : 1e3, 10};
         e->dd_ctx = e->dd_m ? dd_create(MPI_COMM_WORLD, e->dd_m, &o) : NULL;
         if (!e->dd_ctx)
             rc = sph_err_set(err, SPH_ERR_NOMEM, "forecast: cannot create the decomposed model for %zu particles",

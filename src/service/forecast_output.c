@@ -17,6 +17,8 @@
 
 int fc_setup_grid(engine *e, sph_error *err)
 {
+    if (e->dd == 2 && e->dd_rank > 0) /* parallel.decomposition "domain": rank 0 writes */
+        return SPH_OK;
     const struct sph_config *cfg = e->cfg;
     if (cfg->output.grid.mode == CFG_GRID_RASTER) {
         int rc;
