@@ -304,6 +304,14 @@ static inline void ec_passive_openmp(char **argv)
     /* exec failed: carry on with the default policy */
 }
 
+/* The plain build's sphice and the MPI build's beside it (make mpi-build). */
+static inline void ec_sphice_bins(char *ser, char *mpi, size_t len)
+{
+    const char *build = getenv("BUILD") ? getenv("BUILD") : "build";
+    snprintf(ser, len, "%s/sphice", build);
+    snprintf(mpi, len, "%s/../build-mpi/sphice", build);
+}
+
 /* A test's start: passive OpenMP, warnings only, its directory dir (a
  * mkdtemp template) made and the case's inputs written there. */
 static inline int ec_start(char **argv, char *dir)

@@ -44,10 +44,8 @@ int main(int argc, char **argv)
 {
     (void)argc;
     ec_passive_openmp(argv);
-    const char *build = getenv("BUILD") ? getenv("BUILD") : "build";
     char mpi_bin[512], ser_bin[512];
-    snprintf(mpi_bin, sizeof mpi_bin, "%s/../build-mpi/sphice", build);
-    snprintf(ser_bin, sizeof ser_bin, "%s/sphice", build);
+    ec_sphice_bins(ser_bin, mpi_bin, sizeof ser_bin);
     if (run("command -v mpirun >/dev/null 2>&1") != 0 || access(mpi_bin, X_OK) != 0) {
         printf("test_ensemble_mpi: skipped: needs mpirun and build-mpi/sphice (sh tools/install-deps.sh --mpi; "
                "make MPI=1)\n");

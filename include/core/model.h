@@ -162,6 +162,7 @@ typedef struct sph_run_stats {
 } sph_run_stats;
 void sph_run_stats_begin(sph_run_stats *r, sph_model *m, int dt_auto);
 void sph_run_stats_add(sph_run_stats *r, const sph_model *m);
+void sph_run_stats_add_step(sph_run_stats *r, const sph_step_stats *ss);
 void sph_run_stats_end(sph_run_stats *r, sph_model *m);
 
 /* Normalised (Shepard-corrected) SPH interpolation of particle fields to

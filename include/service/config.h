@@ -68,6 +68,7 @@ enum { CFG_LAND_RES_CRUDE = 0, CFG_LAND_RES_LOW, CFG_LAND_RES_INTERMEDIATE, CFG_
 enum { CFG_GRID_REGULAR = 0, CFG_GRID_RASTER };
 enum { CFG_OFX_GRID_AUTO = 0, CFG_OFX_GRID_OUTPUT, CFG_OFX_GRID_OCEAN }; /* output.ocean_fluxes_grid */
 enum { CFG_LATE_FAIL = 0, CFG_LATE_STALE };
+enum { CFG_DECOMP_MEMBERS = 0, CFG_DECOMP_DOMAIN }; /* parallel.decomposition */
 enum { CFG_ENGINE_FORECAST = 0, CFG_ENGINE_TEST_DOUBLE };
 enum { CFG_LOG_ERROR = 0, CFG_LOG_WARN, CFG_LOG_INFO, CFG_LOG_DEBUG };
 
@@ -138,6 +139,9 @@ struct sph_config {
         cfg_dbllist levels;
         int member_products;
     } ensemble;
+    struct {
+        int decomposition;      /* CFG_DECOMP_*: MPI ranks share members or one domain (docs/domain.md) */
+    } parallel;
 
     cfg_station *stations;
     size_t nstations;

@@ -72,8 +72,10 @@ void dd_budget_of(const sph_particles *P, size_t n, double rho_i, dd_budget *b);
 /* Every owned particle to rank 0, sorted by id, into out (rank 0 only;
  * capacity the global count). */
 int dd_gather(dd_ctx *d, sph_particles *out);
-/* Sorts particles [0, n) of P by id (in place; scratch for n doubles x layers). */
-void dd_sort_by_id(sph_particles *P);
-
 #endif
+
+#include "core/particles.h"
+/* Sorts particles [0, n) of P by id (in place; scratch for n doubles x
+ * layers). In both builds. */
+void dd_sort_by_id(sph_particles *P);
 #endif

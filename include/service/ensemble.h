@@ -65,6 +65,8 @@ void ens_mpi_stop_workers(void); /* rank 0, once at the end */
 /* Rank 0: sends member's job (req with the member's stage directory) to
  * its rank; *handle until ens_mpi_collect. */
 int ens_mpi_dispatch(const forecast_request *req, int member, const char *stage, void **handle, sph_error *err);
+/* The control (member 0) to one worker rank (parallel.decomposition "domain"). */
+int ens_mpi_dispatch_rank(const forecast_request *req, int rank, const char *stage, void **handle, sph_error *err);
 /* Rank 0: completes the n sends and waits for n answers; adds the
  * members' wall times to *wall; the first failure in err. */
 int ens_mpi_collect(void **handles, int n, double *wall, sph_error *err);

@@ -15,9 +15,11 @@ void sph_run_stats_begin(sph_run_stats *r, sph_model *m, int dt_auto)
 }
 
 /* Sums until sph_run_stats_end divides them, in the order of the steps. */
-void sph_run_stats_add(sph_run_stats *r, const sph_model *m)
+void sph_run_stats_add(sph_run_stats *r, const sph_model *m) { sph_run_stats_add_step(r, sph_model_stats(m)); }
+
+/* The same from one step's statistics (a decomposed run's, its fractions over all ranks). */
+void sph_run_stats_add_step(sph_run_stats *r, const sph_step_stats *ss)
 {
-    const sph_step_stats *ss = sph_model_stats(m);
     r->frac_free_drift += ss->frac_free_drift;
     r->frac_rheology += ss->frac_rheology;
     r->frac_zero_layer += ss->frac_zero_layer;

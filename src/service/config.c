@@ -75,6 +75,7 @@ static const char *const level_names[] = {"error", "warn", "info", "debug", NULL
 static const char *const vectors_names[] = {"auto", "earth", "grid", NULL};
 static const char *const accumulation_names[] = {"interval", "running", NULL};
 static const char *const structure_kind_names[] = {"none", "vertical", "cone", NULL};
+static const char *const decomposition_names[] = {"members", "domain", NULL}; /* CFG_DECOMP_* */
 static const char *const loads_model_names[] = {"auto", "cheap", "dem", NULL};
 
 static const cfg_key forcing_keys[] = {
@@ -288,6 +289,9 @@ static const cfg_key tail_keys[] = {
        "Probability levels of the ensemble edge contours (each in (0, 1]; at most " SPHICE_STR(ENS_MAX_LEVELS) ")."),
     C_("ensemble.member_products", CT_BOOL, ensemble.member_products, "false", 0, 0, R, NULL,
        "Keep every member's products under members/mNNN of the cycle (the control's are the cycle's own)."),
+
+    C_("parallel.decomposition", CT_ENUM, parallel.decomposition, "\"members\"", 0, 0, R, decomposition_names,
+       "What MPI ranks share under mpirun/srun: members (ensemble members over ranks) or domain (one member split by space over the ranks, bit-identical to the serial canonical run; docs/domain.md)."),
 
     {"stations", CT_OBJARRAY, "[]", 0, 10000, R, NULL, offsetof(struct sph_config, stations),
      offsetof(struct sph_config, nstations), &station_table, "Time series points, each {name, lon, lat}."},

@@ -1,5 +1,5 @@
 /* Spatial domain decomposition of one model over MPI ranks
- * (service/domain_mpi.h; docs/domain.md). MPI build only. */
+ * (service/domain_mpi.h; docs/domain.md). MPI build only (dd_sort_by_id: both). */
 #include "service/domain_mpi.h"
 
 #ifdef SPHICE_MPI
@@ -711,29 +711,6 @@ void dd_budget_global(dd_ctx *d, dd_budget *b)
     budget_out(acc, b);
 }
 
-static int cmp_id(const void *a, const void *b) { return cmp_long(a, b); }
-
-void dd_sort_by_id(sph_particles *P)
-{
-    size_t n = P->n;
-    long *pr = malloc((2 * n + 2) * sizeof(long));
-    int *order = malloc((n + 1) * sizeof(int));
-    double *scratch = malloc((n + 1) * (size_t)P->nlayers * sizeof(double));
-    if (pr && order && scratch) {
-        for (size_t k = 0; k < n; k++) {
-            pr[2 * k] = P->id[k];
-            pr[2 * k + 1] = (long)k;
-        }
-        qsort(pr, n, 2 * sizeof(long), cmp_id);
-        for (size_t k = 0; k < n; k++)
-            order[k] = (int)pr[2 * k + 1];
-        sph_particles_permute(P, order, scratch);
-    }
-    free(pr);
-    free(order);
-    free(scratch);
-}
-
 int dd_gather(dd_ctx *d, sph_particles *out)
 {
     const sph_particles *P = sph_model_particles(d->m);
@@ -774,6 +751,36 @@ int dd_gather(dd_ctx *d, sph_particles *out)
     return 0;
 }
 
-#else
-typedef int sphice_domain_mpi_unused; /* the plain build has no domain decomposition */
 #endif
+
+#include <stdlib.h>
+
+/* In both builds: the serial canonical run of parallel.decomposition "domain"
+ * writes its products from particles in this order too (forecast_domain.c). */
+static int cmp_id(const void *a, const void *b)
+{
+    long x = *(const long *)a, y = *(const long *)b;
+    return (x > y) - (x < y);
+}
+
+void dd_sort_by_id(sph_particles *P)
+{
+    size_t n = P->n;
+    long *pr = malloc((2 * n + 2) * sizeof(long));
+    int *order = malloc((n + 1) * sizeof(int));
+    double *scratch = malloc((n + 1) * (size_t)P->nlayers * sizeof(double));
+    if (pr && order && scratch) {
+        for (size_t k = 0; k < n; k++) {
+            pr[2 * k] = P->id[k];
+            pr[2 * k + 1] = (long)k;
+        }
+        qsort(pr, n, 2 * sizeof(long), cmp_id);
+        for (size_t k = 0; k < n; k++)
+            order[k] = (int)pr[2 * k + 1];
+        sph_particles_permute(P, order, scratch);
+    }
+    free(pr);
+    free(order);
+    free(scratch);
+}
+

@@ -167,7 +167,8 @@ void ens_mpi_stop_workers(void)
         MPI_Send("", 1, MPI_CHAR, r, TAG_STOP, MPI_COMM_WORLD);
 }
 
-int ens_mpi_dispatch(const forecast_request *req, int member, const char *stage, void **handle, sph_error *err)
+static int send_job(const forecast_request *req, int member, int rank, const char *stage, void **handle,
+                    sph_error *err)
 {
     char *t = job_json(req, member, stage);
     MPI_Request *r = malloc(sizeof *r);
@@ -176,7 +177,7 @@ int ens_mpi_dispatch(const forecast_request *req, int member, const char *stage,
         free(r);
         return sph_err_set(err, SPH_ERR_NOMEM, "ensemble: out of memory");
     }
-    MPI_Isend(t, (int)strlen(t) + 1, MPI_CHAR, member % ens_mpi_size(), TAG_JOB, MPI_COMM_WORLD, r);
+    MPI_Isend(t, (int)strlen(t) + 1, MPI_CHAR, rank, TAG_JOB, MPI_COMM_WORLD, r);
     /* the text must live until the send completes: ens_mpi_collect frees both */
     void **h = malloc(2 * sizeof *h);
     if (!h) {
@@ -189,6 +190,18 @@ int ens_mpi_dispatch(const forecast_request *req, int member, const char *stage,
     h[1] = t;
     *handle = h;
     return SPH_OK;
+}
+
+int ens_mpi_dispatch(const forecast_request *req, int member, const char *stage, void **handle, sph_error *err)
+{
+    return send_job(req, member, member % ens_mpi_size(), stage, handle, err);
+}
+
+/* parallel.decomposition "domain": the control's job to every worker rank,
+ * whose forecast_run then joins rank 0's decomposed run (forecast_domain.c). */
+int ens_mpi_dispatch_rank(const forecast_request *req, int rank, const char *stage, void **handle, sph_error *err)
+{
+    return send_job(req, 0, rank, stage, handle, err);
 }
 
 int ens_mpi_collect(void **handles, int n, double *wall, sph_error *err)
@@ -248,6 +261,11 @@ int ens_mpi_dispatch(const forecast_request *req, int member, const char *stage,
     (void)stage;
     *handle = NULL;
     return sph_err_set(err, SPH_ERR_INTERNAL, "ensemble: built without MPI");
+}
+int ens_mpi_dispatch_rank(const forecast_request *req, int rank, const char *stage, void **handle, sph_error *err)
+{
+    (void)rank;
+    return ens_mpi_dispatch(req, 0, stage, handle, err);
 }
 int ens_mpi_collect(void **handles, int n, double *wall, sph_error *err)
 {

@@ -68,6 +68,7 @@ static void engine_free(engine *e)
 {
     products_abort(e->pw);
     e->pw = NULL;
+    fc_dd_end(e); /* parallel.decomposition "domain" (forecast_domain.c) */
     fc_free_ocean_fluxes(e);
     if (e->restart_written)
         unlink(e->restart_path);
@@ -176,6 +177,12 @@ int fc_settings_fault(const sph_status *st) { return settings_fault(st); }
 
 /* ------------------------------------------------------------------- run */
 
+static int step_error(engine *e, const sph_status *st, long step, double t, sph_error *err);
+int fc_step_error(engine *e, const sph_status *st, long step, double t, sph_error *err)
+{
+    return step_error(e, st, step, t, err);
+}
+
 static int step_error(engine *e, const sph_status *st, long step, double t, sph_error *err)
 {
     char when[32], where[128], what[256];
@@ -226,6 +233,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         rc = sph_err_set(er, SPH_ERR_PARAM, "forecast: no stage directory");
         goto fail;
     }
+    if ((rc = fc_dd_begin(e, er))) /* parallel.decomposition (forecast_domain.c) */
+        goto fail;
     /* the model's parameters; model.dt = 0 is resolved once the particles
      * are placed (resolve_dt), checked meanwhile with a valid stand-in */
     e->prm = cfg->model;
@@ -279,8 +288,11 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         goto fail;
 
     /* 4-5. particles and model */
-    rc = req->warm_start ? fc_warm_start(e, er) : fc_cold_start(e, er);
-    if (rc)
+    if (e->dd == 2 && e->dd_rank > 0) /* rank 0 reads the initial field and seeds; fc_dd_setup scatters */
+        rc = SPH_OK;
+    else
+        rc = req->warm_start ? fc_warm_start(e, er) : fc_cold_start(e, er);
+    if (rc || (rc = fc_dd_agree(e, rc, er)) || (rc = fc_dd_setup(e, er)))
         goto fail;
     sph_particles *P = sph_model_particles(e->m);
     sph_run_stats_begin(&res->run, e->m, e->dt_auto);
@@ -299,6 +311,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     if (req->observation && cfg->output.products.verification && (rc = fc_set_observation(e, er)))
         goto fail;
     if (cfg->output.ocean_fluxes && (rc = fc_open_ocean_fluxes(e, er)))
+        goto fail;
+    if ((rc = fc_dd_agree(e, rc, er)))
         goto fail;
 
     /* restart file for the next cycle */
@@ -327,28 +341,34 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     int nout = 0;
     double next_out = e->t0;
     cycle_set_phase(prog, e->t0, FC_PHASE_RUNNING, "forecast: time loop");
-    if ((rc = fc_write_output(e, e->t0, er)))
+    if (e->dd && ((rc = fc_dd_sync(e, er)) || (rc = fc_dd_agree(e, rc, er))))
+        goto fail;
+    if ((rc = fc_write_output(e, e->t0, er)) || (rc = fc_dd_agree(e, rc, er)))
         goto fail;
     nout++;
     next_out = e->t0 + out_dt;
     for (long s = 0; s < nsteps; s++) {
-        if (cancel && *cancel) {
+        if (e->dd == 2) { /* decomposed over the ranks (forecast_domain.c) */
+            if ((rc = fc_dd_step(e, s, e->t0 + s * dt, cancel, er)))
+                goto fail;
+        } else if (cancel && *cancel) {
             char when[32];
             iso(e->t0 + s * dt, when, sizeof when);
             rc = sph_err_set(er, SPH_ERR_CANCELLED, "forecast %s: cancelled at model time %s", e->cname, when);
             goto fail;
         }
         double t = e->t0 + s * dt;
-        if (s > 0 && (rc = fc_fill_forcing(e, t, er)))
+        if (e->dd != 2 && s > 0 && (rc = fc_fill_forcing(e, t, er)))
             goto fail;
         sph_status st;
-        if (sph_model_step(e->m, &st) != SPH_STEP_OK) {
+        if (e->dd != 2 && sph_model_step(e->m, &st) != SPH_STEP_OK) {
             rc = step_error(e, &st, s + 1, t, er);
             goto fail;
         }
         double t1 = e->t0 + (s + 1) * dt;
-        const sph_step_stats *ss = sph_model_stats(e->m);
-        sph_run_stats_add(&res->run, e->m);
+        const sph_step_stats *ss = sph_model_stats(e->dd_m ? e->dd_m : e->m);
+        if (e->dd != 2) /* fc_dd_step adds the decomposed step's */
+            sph_run_stats_add(&res->run, e->m);
         prog->model_time = t1;
         prog->percent = 100.0 * (double)(s + 1) / (double)nsteps;
         prog->particles = (long)P->n;
@@ -356,24 +376,41 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         prog->frac_rheology = ss->frac_rheology;
         prog->frac_zero_layer = ss->frac_zero_layer;
         prog->frac_multi_layer = ss->frac_multi_layer;
-        if (s + 1 == restart_step && (rc = fc_write_restart(e, t1, er)))
-            goto fail;
         int last = s + 1 == nsteps;
-        if (t1 >= next_out - 1e-6 * dt || last) {
-            if ((rc = fc_write_output(e, t1, er)))
+        int out_now = t1 >= next_out - 1e-6 * dt || last;
+        if (e->dd && (s + 1 == restart_step || out_now) && /* the particles in id order (on rank 0) */
+            ((rc = fc_dd_sync(e, er)) || (rc = fc_dd_agree(e, rc, er))))
+            goto fail;
+        if (s + 1 == restart_step && ((rc = fc_write_restart(e, t1, er)) || (rc = fc_dd_agree(e, rc, er))))
+            goto fail;
+        if (out_now) {
+            if ((rc = fc_write_output(e, t1, er)) || (rc = fc_dd_agree(e, rc, er)))
                 goto fail;
             nout++;
             while (next_out <= t1 + 1e-6 * dt)
                 next_out += out_dt;
         }
     }
-    if (nsteps == 0 && (rc = fc_write_restart(e, e->t0, er)))
+    if (nsteps == 0 && ((rc = fc_write_restart(e, e->t0, er)) || (rc = fc_dd_agree(e, rc, er))))
         goto fail;
+    if (e->dd == 2 && e->dd_rank > 0) { /* a worker of the decomposition: rank 0 closes and publishes */
+        engine_free(e);
+        free(stations);
+        return SPH_OK;
+    }
+    if (e->dd == 2)
+        e->dd_failed = 1; /* rank 0 alone from here: no further agreement */
 
     /* 7. close the products */
     cycle_set_phase(prog, e->t0, FC_PHASE_WRITING, "forecast: closing the products");
     const sph_budget *b = sph_model_budget(e->m);
     sph_run_stats_end(&res->run, e->m);
+    sph_budget ddb;
+    if (e->dd) { /* the exact budget of all particles, the same on any number of ranks */
+        fc_dd_budget(e, &ddb);
+        b = &ddb;
+        res->run.budget_residual = sph_budget_residual(b);
+    }
     products_set_run_info(e->pw, &res->run);
     if ((rc = fc_land_gate(e, er)))
         goto fail;
@@ -430,6 +467,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     return SPH_OK;
 
 fail:
+    fc_dd_agree(e, rc ? rc : SPH_ERR_INTERNAL, er); /* the other ranks fail too (once) */
     engine_free(e);
     free(stations);
     cycle_set_phase(prog, e->t0, FC_PHASE_FAILED, er->msg[0] ? er->msg : "forecast: failed");

@@ -74,6 +74,17 @@ typedef struct engine {
     forecast_result *res;    /* the cold start's conservation numbers and flag go here */
     sph_particles *ocean_pts; /* the mixed layer's cell centres, for their forcing (forecast_ocean.c) */
     int ocean_fresh;          /* 1 until the first fill sets the cold start's slab from the SST */
+    /* parallel.decomposition "domain" (forecast_domain.c): 0 off, 1 serial
+     * canonical, 2 decomposed over MPI ranks; this rank and their count;
+     * the rank's model and driver (2); the workers' jobs (rank 0); the
+     * budget after init; 1 once no agreement may follow (a failure agreed,
+     * or rank 0 alone after the loop) */
+    int dd, dd_rank, dd_size;
+    sph_model *dd_m;
+    void *dd_ctx;
+    void **dd_jobs;
+    sph_budget dd_b0;
+    int dd_failed;
 } engine;
 
 static inline void *xcalloc(size_t n, size_t size, int *ok)
@@ -107,6 +118,25 @@ static inline int fc_fill_forcing(engine *e, double t, sph_error *err)
     return rc;
 }
 
+/* forecast_domain.c: parallel.decomposition "domain" (docs/domain.md).
+ * fc_dd_begin: the refusals, the mode, rank 0's jobs to the workers (before
+ * anything can fail). fc_dd_agree: collective; the worst of every rank's rc
+ * (the first failing rank's line in err); the fail path calls it with its
+ * rc unless a failure was already agreed. fc_dd_setup: after the start, the
+ * particles scattered. fc_dd_step: forcing on the rank's particles and one
+ * decomposed step, run stats added. fc_dd_sync: before an output or the
+ * restart, the particles of e->m in id order (gathered on rank 0; the
+ * caller agrees after writing).
+ * fc_dd_budget: the budget of the synced particles (exact sums).
+ * fc_dd_end: the rank's model freed, the workers' answers collected. */
+int fc_dd_begin(engine *e, sph_error *err);
+int fc_dd_agree(engine *e, int rc, sph_error *err);
+int fc_dd_setup(engine *e, sph_error *err);
+int fc_dd_step(engine *e, long s, double t, const volatile sig_atomic_t *cancel, sph_error *err);
+int fc_dd_sync(engine *e, sph_error *err);
+void fc_dd_budget(const engine *e, sph_budget *b);
+void fc_dd_end(engine *e);
+
 /* forecast.c */
 int fc_resolve_dt(engine *e, sph_error *err);
 /* More than 1 % of the particles on the plane's land: fails or flags by
@@ -116,6 +146,8 @@ int fc_land_gate(engine *e, sph_error *err);
 double fc_land_fraction(const sph_landmask *L, const sph_particles *P, size_t *count);
 void fc_fmt_status(const sph_status *st, char *buf, size_t len);
 int fc_settings_fault(const sph_status *st);
+/* A failed step's one line ("model step N (TIME): WHERE: WHAT; nothing written"). */
+int fc_step_error(engine *e, const sph_status *st, long step, double t, sph_error *err);
 
 /* forecast_init.c */
 int fc_plane_box(engine *e, double *xmin, double *xmax, double *ymin, double *ymax, sph_error *err);

@@ -10,6 +10,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "core/dd.h"
 #include "io/restart.h"
 #include "io/seed.h"
 #include "service/cycle_name.h"
@@ -488,6 +489,8 @@ int fc_cold_start(engine *e, sph_error *err)
     e->m = sph_model_create(&e->prm, e->cap, &e->plane);
     if (!e->m)
         return sph_err_set(err, SPH_ERR_NOMEM, "model: cannot create a model for %zu particles", e->cap);
+    if (e->dd && sph_model_set_canonical(e->m, 1)) /* parallel.decomposition "domain" (forecast_domain.c) */
+        return sph_err_set(err, SPH_ERR_NOMEM, "model: no memory for the canonical order (%zu particles)", e->cap);
     sph_particles *P = sph_model_particles(e->m);
     fc_seeded seeded;
     if ((rc = fc_seed(e, &so, P, &seeded, err)))

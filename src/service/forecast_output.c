@@ -17,6 +17,8 @@
 
 int fc_setup_grid(engine *e, sph_error *err)
 {
+    if (e->dd == 2 && e->dd_rank > 0) /* parallel.decomposition "domain": rank 0 writes */
+        return SPH_OK;
     const struct sph_config *cfg = e->cfg;
     if (cfg->output.grid.mode == CFG_GRID_RASTER) {
         int rc;
@@ -77,6 +79,8 @@ int fc_setup_grid(engine *e, sph_error *err)
 
 int fc_open_products(engine *e, prod_station *stations, sph_error *err)
 {
+    if (e->dd == 2 && e->dd_rank > 0) /* parallel.decomposition "domain": rank 0 writes */
+        return SPH_OK;
     const struct sph_config *cfg = e->cfg;
     prod_options o;
     products_options_default(&o);
@@ -223,6 +227,8 @@ int fc_read_observation(const struct sph_config *cfg, const char *path, const pr
 
 int fc_set_observation(engine *e, sph_error *err)
 {
+    if (e->dd == 2 && e->dd_rank > 0) /* parallel.decomposition "domain": rank 0 writes */
+        return SPH_OK;
     double *c, t_obs;
     int rc = fc_read_observation(e->cfg, e->req->observation, &e->grid, e->t_end, &c, &t_obs, err);
     if (rc)
@@ -259,6 +265,8 @@ static int ofx_record(engine *e, double t, sph_error *err);
 /* One output time: particles -> grid through the SPH interpolation. */
 int fc_write_output(engine *e, double t, sph_error *err)
 {
+    if (e->dd == 2 && e->dd_rank > 0) /* parallel.decomposition "domain": rank 0 writes */
+        return SPH_OK;
     sph_particles *P = sph_model_particles(e->m);
     size_t n = P->n;
     const double rho_i = e->cfg->model.rho_i;
@@ -324,12 +332,16 @@ int fc_write_output(engine *e, double t, sph_error *err)
 
 int fc_write_restart(engine *e, double t, sph_error *err)
 {
+    if (e->dd == 2 && e->dd_rank > 0) /* parallel.decomposition "domain": rank 0 writes */
+        return SPH_OK;
     restart_header h;
     memset(&h, 0, sizeof h);
     h.time = t;
     h.cycle_time = e->t0;
     snprintf(h.projection, sizeof h.projection, "%s", geo_proj_definition(e->proj));
-    sph_model_get_clock(e->m, &h.clock);
+    sph_model_get_clock(e->dd_m ? e->dd_m : e->m, &h.clock);
+    if (e->dd) /* the exact budget of the particles in id order: the same on any number of ranks */
+        fc_dd_budget(e, &h.clock.budget);
     sph_ocean *o = e->prm.ocean.mixed_layer ? sph_model_ocean(e->m) : NULL; /* the mixed layer too */
     int rc = restart_write_ocean(e->restart_path, sph_model_particles(e->m), &h, o, err);
     if (rc == SPH_OK)

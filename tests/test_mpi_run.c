@@ -1,0 +1,189 @@
+/* `sphice run` with parallel.decomposition "domain" (issue 24 item 2;
+ * service/forecast_domain.c, docs/domain.md): one member decomposed by
+ * space over the MPI ranks must publish exactly the products of the serial
+ * canonical run.
+ *
+ * The case: the small engine case (tests/engine_case.h) with packed ice
+ * (A = 1, 1 m) from 121.2 E to 121.88 E, so its eastern particles lie
+ * within a kernel support of the coast at 121.9 E (mirror ghosts), a
+ * northward 10 m/s wind along the coast, thermodynamics off, full physics
+ * with mEVP (30 iterations), 1 h at 300 s (2 h with SPHICE_LONG). The
+ * serial run (build/sphice, the plain build, key "domain") against
+ * `mpirun --oversubscribe -np 2` (and -np 4 with SPHICE_LONG=1) of
+ * build-mpi/sphice: tools/same-products.sh over the
+ * cycle folders (every file; NetCDF compared by ncdump at 17 digits with
+ * the attributes that name the run rather than the forecast -- dates,
+ * version, wall times -- left out), and the particles file's data
+ * variables bit for bit (nc_get_var, memcmp). The refusals: each
+ * unsupported combination fails in one line naming its key. A failure
+ * inside the decomposed run (forcing too short, met by every rank after
+ * rank 0 sent the jobs) fails every rank with one line, publishes
+ * nothing and does not hang (timeout 120). Skipped
+ * (one line) without mpirun or the MPI build; the refusals run anyway. */
+#include <netcdf.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "check.h"
+#include "engine_case.h"
+#include "service/cycle.h"
+
+static char dir[] = "/tmp/sphice-mpirun-XXXXXX";
+
+static int run(const char *cmd)
+{
+    int rc = system(cmd);
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+/* Every variable of the particles file a equal to b's, bit for bit. */
+static int same_particles_file(const char *a, const char *b, int *nvars)
+{
+    int na, nb, ok = nc_open(a, NC_NOWRITE, &na) == NC_NOERR;
+    if (!ok)
+        return 0;
+    if (nc_open(b, NC_NOWRITE, &nb) != NC_NOERR) {
+        nc_close(na);
+        return 0;
+    }
+    int nv = 0, nvb = 0;
+    ok = nc_inq_nvars(na, &nv) == NC_NOERR && nc_inq_nvars(nb, &nvb) == NC_NOERR && nv == nvb && nv > 0;
+    for (int v = 0; ok && v < nv; v++) {
+        char name[NC_MAX_NAME + 1];
+        int nd, dims[NC_MAX_VAR_DIMS], vb;
+        nc_type t;
+        ok = nc_inq_var(na, v, name, &t, &nd, dims, NULL) == NC_NOERR && nc_inq_varid(nb, name, &vb) == NC_NOERR;
+        size_t n = 1, sz = 0;
+        for (int d = 0; ok && d < nd; d++) {
+            size_t len;
+            ok = nc_inq_dimlen(na, dims[d], &len) == NC_NOERR;
+            n *= len;
+        }
+        ok = ok && nc_inq_type(na, t, NULL, &sz) == NC_NOERR;
+        void *x = ok ? malloc(n * sz + 1) : NULL, *y = ok ? malloc(n * sz + 1) : NULL;
+        ok = ok && x && y && nc_get_var(na, v, x) == NC_NOERR && nc_get_var(nb, vb, y) == NC_NOERR &&
+             memcmp(x, y, n * sz) == 0;
+        if (!ok)
+            printf("  particles: variable %s differs\n", name);
+        free(x);
+        free(y);
+    }
+    *nvars = nv;
+    nc_close(na);
+    nc_close(nb);
+    return ok;
+}
+
+static void write_config(const char *name, const char *from, const char *to, const char *extra)
+{
+    char text[8192], path[1200];
+    ec_config(text, sizeof text, dir, 300, "[\"wind\"]", "ice1.nc", extra);
+    ec_config_replace(text, sizeof text, "\"thermo\": {\"dt\": 600}",
+                      "\"thermo\": {\"dt\": 0}, \"physics\": \"full\", \"evp\": {\"iterations\": 30}");
+    if (from)
+        ec_config_replace(text, sizeof text, from, to);
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "w");
+    CHECK(f && fputs(text, f) >= 0, "write %s", path);
+    if (f)
+        fclose(f);
+}
+
+/* One refused combination: exit 1 and one line naming key. */
+static void refused(const char *bin, const char *what, const char *from, const char *to, const char *extra,
+                    const char *key)
+{
+    write_config("refuse.json", from, to, extra);
+    char cmd[4096], log[1300];
+    snprintf(log, sizeof log, "%s/refuse.log", dir);
+    snprintf(cmd, sizeof cmd, "OMP_NUM_THREADS=1 %s run %s/refuse.json --cycle 1999-02-08T06:00Z --hours 1 --out "
+             "%s/refused --force >%s 2>&1", bin, dir, dir, log);
+    int rc = run(cmd);
+    char line[2048] = "", all[8192] = "";
+    FILE *f = fopen(log, "r");
+    while (f && fgets(line, sizeof line, f))
+        if (strstr(line, "sphice run:"))
+            snprintf(all, sizeof all, "%s", line);
+    if (f)
+        fclose(f);
+    CHECK(rc == 1 && strstr(all, key) && strstr(all, "parallel.decomposition"),
+          "%s refused in one line naming %s (exit %d: %s)", what, key, rc, all);
+    char out[1300];
+    snprintf(out, sizeof out, "%s/refused/19990208T06Z", dir);
+    CHECK(access(out, F_OK) != 0, "%s: nothing published", what);
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
+    ec_passive_openmp(argv);
+    char mpi_bin[512], ser_bin[512];
+    ec_sphice_bins(ser_bin, mpi_bin, sizeof ser_bin);
+    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
+    ec_write_inputs(dir);
+    char p[1200];
+    snprintf(p, sizeof p, "%s/ice1.nc", dir);
+    ec_write_ice_at(p, 35, 21, 121.2, 40.1, 0.02, 0.02, 1.0, 1.0, -1); /* to 121.88 E, the coast at 121.9 */
+    const char *dom = "\"parallel\": {\"decomposition\": \"domain\"},";
+
+    /* the refusals (the plain build: fast, before any input is read) */
+    refused(ser_bin, "thermodynamics", "\"thermo\": {\"dt\": 0}", "\"thermo\": {\"dt\": 600}", dom, "model.thermo.dt");
+    refused(ser_bin, "the mixed layer", "\"physics\": \"full\"", "\"physics\": \"full\", \"ocean\": {\"mixed_layer\": true}",
+            dom, "model.ocean.mixed_layer");
+    refused(ser_bin, "the implicit solver", "\"physics\": \"full\"", "\"physics\": \"full\", \"solver\": \"implicit\"",
+            dom, "model.solver");
+    refused(ser_bin, "an ensemble", NULL, NULL, "\"parallel\": {\"decomposition\": \"domain\"}, \"ensemble\": {\"members\": 2},",
+            "ensemble.members");
+    refused(ser_bin, "ocean flux output", "\"interval_hours\": 1", "\"interval_hours\": 1, \"ocean_fluxes\": true", dom,
+            "output.ocean_fluxes");
+
+    if (run("command -v mpirun >/dev/null 2>&1") != 0 || access(mpi_bin, X_OK) != 0) {
+        printf("test_mpi_run: skipped the MPI runs: needs mpirun and build-mpi/sphice (sh tools/install-deps.sh "
+               "--mpi; make mpi-build)\n");
+        if (!getenv("SPHICE_KEEP"))
+            cycle_remove_tree(dir);
+        return check_summary("test_mpi_run");
+    }
+    write_config("cfg.json", NULL, NULL, dom);
+    char cmd[4096];
+    const int hours = check_long() ? 2 : 1; /* make check: 12 steps, 2 output times, a few seconds */
+    snprintf(cmd, sizeof cmd, "OMP_NUM_THREADS=1 %s run %s/cfg.json --cycle 1999-02-08T06:00Z --hours %d --out "
+             "%s/serial --force >%s/serial.log 2>&1", ser_bin, dir, hours, dir, dir);
+    CHECK(run(cmd) == 0, "serial canonical run (%s/serial.log)", dir);
+    const char *mpirun = "mpirun --oversubscribe -x OMP_NUM_THREADS=1 -x OMP_WAIT_POLICY=passive";
+    const char *root = geteuid() == 0 ? "--allow-run-as-root" : "";
+    const int np[2] = {2, 4};
+    for (int i = 0; i < (check_long() ? 2 : 1); i++) {
+        snprintf(cmd, sizeof cmd, "%s %s -np %d %s run %s/cfg.json --cycle 1999-02-08T06:00Z --hours %d --out %s/np%d "
+                 "--force >%s/np%d.log 2>&1", mpirun, root, np[i], mpi_bin, dir, hours, dir, np[i], dir, np[i]);
+        int rc = run(cmd);
+        CHECK(rc == 0, "mpirun -np %d: rc %d (%s/np%d.log)", np[i], rc, dir, np[i]);
+        snprintf(cmd, sizeof cmd, "grep -q 'decomposition \"domain\" over %d ranks' %s/np%d.log", np[i], dir, np[i]);
+        CHECK(run(cmd) == 0, "-np %d: the run was decomposed over %d ranks", np[i], np[i]);
+        snprintf(cmd, sizeof cmd, "sh tools/same-products.sh %s/serial/19990208T06Z %s/np%d/19990208T06Z",
+                 dir, dir, np[i]);
+        CHECK(run(cmd) == 0, "-np %d: every product equals the serial canonical run's (same-products)", np[i]);
+        char a[1400], b[1400];
+        snprintf(a, sizeof a, "%s/serial/19990208T06Z/sphice_particles.nc", dir);
+        snprintf(b, sizeof b, "%s/np%d/19990208T06Z/sphice_particles.nc", dir, np[i]);
+        int nv = 0;
+        CHECK(same_particles_file(a, b, &nv), "-np %d: the particles file's %d variables equal bit for bit", np[i],
+              nv);
+    }
+    /* a failure fails every rank: forcing that ends at +9 h for a 12 h run
+     * (every rank's coupling_open refuses it, after rank 0 sent the jobs) */
+    snprintf(cmd, sizeof cmd, "timeout 120 %s %s -np 2 %s run %s/cfg.json --cycle 1999-02-08T06:00Z --hours 12 "
+             "--out %s/short --force >%s/short.log 2>&1", mpirun, root, mpi_bin, dir, dir, dir);
+    int rc = run(cmd);
+    snprintf(cmd, sizeof cmd, "test $(grep -c '^sphice run: ' %s/short.log) -eq 1 && grep -q 'over 2 ranks' "
+             "%s/short.log", dir, dir);
+    CHECK(rc != 0 && rc != 124 && run(cmd) == 0, "-np 2, forcing too short: the run fails on every rank with one "
+          "line (exit %d, %s/short.log)", rc, dir);
+    snprintf(p, sizeof p, "%s/short/19990208T06Z", dir);
+    CHECK(access(p, F_OK) != 0, "-np 2, forcing too short: nothing published");
+    if (!getenv("SPHICE_KEEP") && !check_failed_)
+        cycle_remove_tree(dir);
+    return check_summary("test_mpi_run");
+}
