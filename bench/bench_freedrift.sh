@@ -2,8 +2,9 @@
 # Free drift, whole `sphice run` against the floor (issue 22; docs/bench.md
 # "Free drift"). The Liaodong demo's scene (etc/liaodong-demo.json, cycle
 # 1999-02-07T22:00Z, its atmosphere and tide) with model.physics
-# free_drift, dt 300 s, thermodynamics off, particles product only (no
-# gridded fields, maps, GeoJSON or stations), seeded at a spacing that gives
+# free_drift, dt 300 s, thermodynamics off, the particles product and the
+# gridded fields file (the forecast's primary product, which cannot be
+# turned off; no maps, GeoJSON or stations), seeded at a spacing that gives
 # about 1.2e4, 1.2e5 or 1.2e6 particles (FD_SIZES: 1e4 1e5 1e6), for
 # FD_HOURS (48) hours, run by:
 #   before   the binary FD_BEFORE (default /work/baseline/sphice-r2, main's;
@@ -67,7 +68,7 @@ config() {
         -e 's/"dt": 600, "model": "auto"/"dt": 0, "model": "auto"/' \
         -e "s#\"dir\": \"output/liaodong-demo/run\"#\"dir\": \"$OUT/run_$1_$2_t$3\"#" \
         -e "s#output/liaodong-demo/state#$OUT/state_$1_$2_t$3#" -e "s#output/liaodong-demo/cache#$OUT/cache_$1_$2_t$3#" \
-        -e 's/"fields": true, "edge": true, "geojson": true, "particles": true, "stations": true, "maps": true/"fields": false, "edge": false, "geojson": false, "particles": true, "stations": false, "maps": false/' \
+        -e 's/"fields": true, "edge": true, "geojson": true, "particles": true, "stations": true, "maps": true/"fields": true, "edge": true, "geojson": false, "particles": true, "stations": false, "maps": false/' \
         "$CONFIG" > "$f"
     for k in '"physics": "free_drift"' '"dt": 300,' '"max_neighbours": 1000' '"particles": true, "stations": false'; do
         grep -q "$k" "$f" || die "$CONFIG: could not write $k into $f"

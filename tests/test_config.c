@@ -145,6 +145,29 @@ int main(void)
 
     /* errors name the key path */
     expect_error(", \"model\": {\"rheology\": {\"P00\": 1}}", "model.rheology.P00: unknown key", NULL);
+    /* output.products.fields / edge false: refused in one line (the fields file carries the edge,
+     * the series and the scores); geojson false is accepted */
+    {
+        const char *cut = strstr(minimal, "\"output\"");
+        const char *keys[3] = { "fields", "edge", "geojson" };
+        for (int k = 0; k < 3; k++) {
+            char text[4096], want[64];
+            snprintf(text, sizeof text, "%.*s\"output\": {\"dir\": \"/tmp/out\", \"products\": {\"%s\": false}}}",
+                     (int)(cut - minimal), minimal, keys[k]);
+            struct sph_config *c = NULL;
+            sph_error e;
+            sph_error_clear(&e);
+            int rc = sph_config_parse(text, "t.json", &c, &e);
+            snprintf(want, sizeof want, "output.products.%s: false is not supported", keys[k]);
+            if (k < 2)
+                CHECK(rc == SPH_ERR_CONFIG && c == NULL && strstr(e.msg, want) && !strchr(e.msg, '\n'),
+                      "products.%s false refused in one line: rc %d, %s", keys[k], rc, e.msg);
+            else
+                CHECK(rc == SPH_OK && c && !c->output.products.geojson, "products.geojson false accepted: %s",
+                      e.msg);
+            sph_config_free(c);
+        }
+    }
     expect_error(", \"model\": {\"rheology\": {\"P0\": \"big\"}}", "model.rheology.P0: expected number, got string",
                  NULL);
     expect_error(", \"model\": {\"dt\": -1}", "model.dt: -1 out of range [0, 3600]", NULL);

@@ -224,10 +224,11 @@ static void base_meta(prod_meta *m, const char *const *forcing)
 }
 
 /* A full run of 3 output times; returns the stage directory's summary. */
-static int full_run(const char *stage, prod_summary *sum, int with_obs)
+static int full_run_geojson(const char *stage, prod_summary *sum, int with_obs, int geojson)
 {
     prod_options o;
     base_options(&o);
+    o.write_geojson = geojson;
     const char *forcing[] = { "/data/era5.nc 0123abcd", "/data/tide.nc 4567ef", NULL };
     prod_meta m;
     base_meta(&m, forcing);
@@ -274,6 +275,11 @@ static int full_run(const char *stage, prod_summary *sum, int with_obs)
     }
     fs_free(&f);
     return rc;
+}
+
+static int full_run(const char *stage, prod_summary *sum, int with_obs)
+{
+    return full_run_geojson(stage, sum, with_obs, 1);
 }
 
 static void test_full(const char *root)
@@ -624,6 +630,14 @@ static void test_faults(const char *root)
         n = readlink(latest, after, sizeof after - 1);
         after[n > 0 ? n : 0] = '\0';
         CHECK(!strcmp(after, "2024011500"), "latest still -> %s", after);
+    }
+
+    /* output.products.geojson false: no GeoJSON file, the fields file as before */
+    snprintf(stage, sizeof stage, "%s/stage3", root);
+    if (full_run_geojson(stage, &sum, 0, 0) == SPH_OK) {
+        CHECK(!exists(stage, "bohai_edge.geojson"), "write_geojson 0: no GeoJSON file");
+        CHECK(exists(stage, "bohai_fields.nc"), "write_geojson 0: the fields file still written");
+        rm_tree(stage);
     }
 }
 

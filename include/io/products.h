@@ -133,6 +133,7 @@ typedef struct prod_options {
     const prod_structure *structures; /* NULL (none) or nstations entries */
     prod_loads_options loads;   /* the load model's choice and DEM */
     int write_particles;        /* trajectory file <prefix>_particles.nc */
+    int write_geojson;          /* edge and areas file <prefix>_edge.geojson (default 1) */
     int quicklook_every;        /* PNG for output times 0, k, 2k, ... and the
                                    last one; 0 = none */
     int quicklook_width, quicklook_height; /* pixels (1500 x 720) */

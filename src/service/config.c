@@ -217,8 +217,11 @@ static const cfg_key tail_keys[] = {
     C_("output.grid.nlat", CT_INT, output.grid.nlat, "1", 1, 100000, R, NULL, "Number of latitudes."),
     C_("output.interval_hours", CT_DOUBLE, output.interval_hours, "1", 0.01, 240, R, NULL,
        "Time between output fields, hours."),
-    C_("output.products.fields", CT_BOOL, output.products.fields, "true", 0, 0, R, NULL, "Gridded CF NetCDF fields."),
-    C_("output.products.edge", CT_BOOL, output.products.edge, "true", 0, 0, R, NULL, "Ice edge lines."),
+    C_("output.products.fields", CT_BOOL, output.products.fields, "true", 0, 0, R, NULL,
+       "Gridded CF NetCDF fields. Must be true: the fields file is the forecast's primary product and "
+       "carries the edge, the area, extent and volume series and the scores; false is refused."),
+    C_("output.products.edge", CT_BOOL, output.products.edge, "true", 0, 0, R, NULL,
+       "Ice edge lines (in the fields file). Must be true, like output.products.fields; false is refused."),
     C_("output.products.geojson", CT_BOOL, output.products.geojson, "true", 0, 0, R, NULL, "Edge and areas as GeoJSON."),
     C_("output.products.particles", CT_BOOL, output.products.particles, "true", 0, 0, R, NULL,
        "Particle files (also the next cycle's warm start)."),
@@ -984,6 +987,13 @@ static int cross_check(const struct sph_config *c, const char *origin, sph_error
             return sph_err_set(err, SPH_ERR_CONFIG,
                                "config %s: ensemble.levels[%zu]: %g is not a probability in (0, 1]", origin, i,
                                c->ensemble.levels.v[i]);
+    if (!c->output.products.fields || !c->output.products.edge)
+        return sph_err_set(err, SPH_ERR_CONFIG,
+                           "config %s: output.products.%s: false is not supported: the fields file is the "
+                           "forecast's primary product and carries the ice edge, the area, extent and volume "
+                           "series and the scores (set it true; output.products.particles, stations, geojson "
+                           "and maps can be turned off)",
+                           origin, !c->output.products.fields ? "fields" : "edge");
     if (c->ensemble.members > 1 && !c->output.products.fields)
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config %s: ensemble.members: %d members need output.products.fields (the ensemble "

@@ -138,6 +138,7 @@ int fc_open_products(engine *e, prod_station *stations, sph_error *err)
     o.loads.bond_shear = cfg->loads.dem_bond_shear * 1e6;
     o.loads.cancel = e->cancel;
     o.write_particles = cfg->output.products.particles;
+    o.write_geojson = cfg->output.products.geojson;
     o.write_snow = fc_snow_possible(cfg);
     if (cfg->output.products.maps) {
         /* maps every k output times: k from the smallest gap of map_times (daily with fewer than two;

@@ -35,6 +35,7 @@ void products_options_default(prod_options *o)
     o->quicklook_height = 720;
     o->quicklook_thick_max = 0.6;
     o->deflate_level = 4;
+    o->write_geojson = 1;
     prod_loads_options_default(&o->loads);
 }
 
@@ -1131,7 +1132,8 @@ int products_close(prod_writer *p, prod_summary *summary, sph_error *err)
         log_warn("products: observation valid at %s matches no output time; no scores", iso);
     }
     if ((rc = fields_finish(p, err)) != SPH_OK || (rc = prod_stations_close(p, err)) != SPH_OK ||
-        (rc = prod_particles_close(p, err)) != SPH_OK || (rc = write_geojson(p, err)) != SPH_OK)
+        (rc = prod_particles_close(p, err)) != SPH_OK ||
+        (p->opts.write_geojson && (rc = write_geojson(p, err)) != SPH_OK))
         goto failed;
     if (p->has_scores) {
         char name[PROD_NAME_LEN], path[PROD_PATH], iso[32];
