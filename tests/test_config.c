@@ -154,18 +154,18 @@ int main(void)
             char text[4096], want[64];
             snprintf(text, sizeof text, "%.*s\"output\": {\"dir\": \"/tmp/out\", \"products\": {\"%s\": false}}}",
                      (int)(cut - minimal), minimal, keys[k]);
-            struct sph_config *c = NULL;
-            sph_error e;
-            sph_error_clear(&e);
-            int rc = sph_config_parse(text, "t.json", &c, &e);
+            struct sph_config *pc = NULL;
+            sph_error pe;
+            sph_error_clear(&pe);
+            int prc = sph_config_parse(text, "t.json", &pc, &pe);
             snprintf(want, sizeof want, "output.products.%s: false is not supported", keys[k]);
             if (k < 2)
-                CHECK(rc == SPH_ERR_CONFIG && c == NULL && strstr(e.msg, want) && !strchr(e.msg, '\n'),
-                      "products.%s false refused in one line: rc %d, %s", keys[k], rc, e.msg);
+                CHECK(prc == SPH_ERR_CONFIG && pc == NULL && strstr(pe.msg, want) && !strchr(pe.msg, '\n'),
+                      "products.%s false refused in one line: rc %d, %s", keys[k], prc, pe.msg);
             else
-                CHECK(rc == SPH_OK && c && !c->output.products.geojson, "products.geojson false accepted: %s",
-                      e.msg);
-            sph_config_free(c);
+                CHECK(prc == SPH_OK && pc && !pc->output.products.geojson, "products.geojson false accepted: %s",
+                      pe.msg);
+            sph_config_free(pc);
         }
     }
     expect_error(", \"model\": {\"rheology\": {\"P0\": \"big\"}}", "model.rheology.P0: expected number, got string",

@@ -994,11 +994,6 @@ static int cross_check(const struct sph_config *c, const char *origin, sph_error
                            "series and the scores (set it true; output.products.particles, stations, geojson "
                            "and maps can be turned off)",
                            origin, !c->output.products.fields ? "fields" : "edge");
-    if (c->ensemble.members > 1 && !c->output.products.fields)
-        return sph_err_set(err, SPH_ERR_CONFIG,
-                           "config %s: ensemble.members: %d members need output.products.fields (the ensemble "
-                           "products are made from the members' fields)",
-                           origin, c->ensemble.members);
     int trc = check_templates(c, origin, err);
     if (trc)
         return trc;
