@@ -136,6 +136,8 @@ int main(int argc, char **argv)
             dom, "model.solver");
     refused(ser_bin, "an ensemble", NULL, NULL, "\"parallel\": {\"decomposition\": \"domain\"}, \"ensemble\": {\"members\": 2},",
             "ensemble.members");
+    refused(ser_bin, "Anderson acceleration", "\"evp\": {\"iterations\": 30}",
+            "\"evp\": {\"iterations\": 30, \"anderson\": 3}", dom, "model.evp.anderson");
     refused(ser_bin, "ocean flux output", "\"interval_hours\": 1", "\"interval_hours\": 1, \"ocean_fluxes\": true", dom,
             "output.ocean_fluxes");
 

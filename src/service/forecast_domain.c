@@ -57,6 +57,11 @@ static int refuse(const engine *e, sph_error *err)
                            "config: %s supports only the mEVP stress solver (the explicit and implicit solvers "
                            "have no halo exchange): set model.solver \"mevp\" or parallel.decomposition "
                            "\"members\"", KEY);
+    if (p->evp_anderson > 0 || p->evp_change_tol > 0.0)
+        return sph_err_set(err, SPH_ERR_CONFIG,
+                           "config: %s does not support model.evp.%s (its mixing and sums are neither reduced "
+                           "over the ranks nor followed by a halo refresh): set it 0 or parallel.decomposition "
+                           "\"members\"", KEY, p->evp_anderson > 0 ? "anderson" : "change_tol");
     if (p->free_drift_parcels)
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config: %s does not support free-drift parcels: set model.free_drift_parcels false "
