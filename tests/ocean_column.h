@@ -126,4 +126,18 @@ static inline void oc_fill_atm(sph_model *m, double ta, double q, double ua, dou
                 dst[s][k][i] = val[k];
 }
 
+/* The ocean tests' common set-up: hourly free drift without wind, Coriolis
+ * or ocean drag forcing, the given column and the mixed layer on. */
+static inline void oc_params(sph_params *p, sph_thermo_model column)
+{
+    sph_params_default(p);
+    p->dt = 3600.0;
+    p->thermo_dt = 3600.0;
+    p->physics = SPH_PHYSICS_FREE_DRIFT;
+    p->coriolis = 0;
+    p->Ca = 0.0;
+    p->thermo.model = column;
+    p->ocean.mixed_layer = 1;
+}
+
 #endif

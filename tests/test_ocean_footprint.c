@@ -32,14 +32,7 @@ static const double OX[3] = {7e3, 10e3, 3e3}, OY[3] = {4e3, 10e3, 6e3};
 
 static void base(sph_params *p)
 {
-    sph_params_default(p);
-    p->dt = 3600.0;
-    p->thermo_dt = 3600.0;
-    p->physics = SPH_PHYSICS_FREE_DRIFT;
-    p->coriolis = 0;
-    p->Ca = 0.0;
-    p->thermo.model = SPH_THERMO_MULTI_LAYER;
-    p->ocean.mixed_layer = 1;
+    oc_params(p, SPH_THERMO_MULTI_LAYER);
 }
 
 /* The model with the one particle (thickness h); cell c at T[c], 20 m, 32 psu. */

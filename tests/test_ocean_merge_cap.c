@@ -20,14 +20,7 @@
 static void run(double k)
 {
     sph_params p;
-    sph_params_default(&p);
-    p.dt = 3600.0;
-    p.thermo_dt = 3600.0;
-    p.physics = SPH_PHYSICS_FREE_DRIFT;
-    p.coriolis = 0;
-    p.Ca = 0.0;
-    p.thermo.model = SPH_THERMO_ZERO_LAYER;
-    p.ocean.mixed_layer = 1;
+    oc_params(&p, SPH_THERMO_ZERO_LAYER);
     p.ocean.merge = 1;
     p.ocean.merge_distance = 1.05;
     if (k > 0.0)
@@ -95,14 +88,7 @@ static void run(double k)
 static void run_compact(void)
 {
     sph_params p;
-    sph_params_default(&p);
-    p.dt = 3600.0;
-    p.thermo_dt = 3600.0;
-    p.physics = SPH_PHYSICS_FREE_DRIFT;
-    p.coriolis = 0;
-    p.Ca = 0.0;
-    p.thermo.model = SPH_THERMO_ZERO_LAYER;
-    p.ocean.mixed_layer = 1;
+    oc_params(&p, SPH_THERMO_ZERO_LAYER);
     p.ocean.merge = 1;
     p.ocean.merge_distance = 1.05;
     const double ds = 1000.0, h0 = p.sml_factor * ds;

@@ -23,15 +23,8 @@
 
 static void base(sph_params *p)
 {
-    sph_params_default(p);
-    p->dt = 3600.0;
-    p->thermo_dt = 3600.0;
-    p->physics = SPH_PHYSICS_FREE_DRIFT;
-    p->coriolis = 0;
-    p->Ca = 0.0;
-    p->thermo.model = SPH_THERMO_MULTI_LAYER;
+    oc_params(p, SPH_THERMO_MULTI_LAYER);
     p->thermo.snow_heat_capacity = 1;
-    p->ocean.mixed_layer = 1;
 }
 
 static void set_snowfall(sph_model *m, double rate)
