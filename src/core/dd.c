@@ -224,8 +224,23 @@ void sph_dd_remove(sph_model *m, size_t k)
     sph_particles_remove(P, k);
 }
 
+/* Carries every digit but the top one into [0, 2^32): the same exact value,
+ * and room for 2^31 more additions (the sources accumulate over the whole
+ * run: particles x thermodynamic steps). */
+static void xsum_carry(sph_xsum *a)
+{
+    for (int i = 0; i < SPH_XSUM_DIGITS - 1; i++) {
+        int64_t c = a->d[i] >> 32;
+        a->d[i] -= c * ((int64_t)1 << 32);
+        a->d[i + 1] += c;
+    }
+}
+
 void sph_dd_update_sources(sph_model *m)
 {
-    if (m->canonical)
-        sph_dd_budget_sources(&m->budget, &m->dd_base, m->dd_src);
+    if (!m->canonical)
+        return;
+    for (int q = 0; q < SPH_DD_NSRC; q++)
+        xsum_carry(&m->dd_src[q]);
+    sph_dd_budget_sources(&m->budget, &m->dd_base, m->dd_src);
 }
