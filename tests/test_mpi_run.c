@@ -14,12 +14,20 @@
  * cycle folders (every file; NetCDF compared by ncdump at 17 digits with
  * the attributes that name the run rather than the forecast -- dates,
  * version, wall times -- left out), and the particles file's data
- * variables bit for bit (nc_get_var, memcmp). The refusals: each
+ * variables bit for bit (nc_get_var, memcmp). With thermodynamics
+ * (model.thermo.dt 600): a strip of packed ice (1 cm in every other
+ * column, 1 m elsewhere) under warm air (+25 C) whose thin particles melt
+ * out and are removed, and with SPHICE_LONG=1 also the first case's ice
+ * under its cold air (-10 C: the ice grows); each serial against -np 2
+ * (and -np 4 with SPHICE_LONG=1), the same comparisons, and the published
+ * mass budget closing (residual below the serial core's
+ * model.mass_tolerance, 1e-9). The refusals: each
  * unsupported combination fails in one line naming its key. A failure
  * inside the decomposed run (forcing too short, met by every rank after
  * rank 0 sent the jobs) fails every rank with one line, publishes
  * nothing and does not hang (timeout 120). Skipped
  * (one line) without mpirun or the MPI build; the refusals run anyway. */
+#include <math.h>
 #include <netcdf.h>
 #include <stdlib.h>
 #include <string.h>
@@ -91,6 +99,96 @@ static void write_config(const char *name, const char *from, const char *to, con
         fclose(f);
 }
 
+/* path's text into text (size bytes; empty if unreadable). */
+static void read_text(const char *path, char *text, size_t size)
+{
+    FILE *f = fopen(path, "r");
+    size_t got = f ? fread(text, 1, size - 1, f) : 0;
+    text[got] = 0;
+    if (f)
+        fclose(f);
+}
+
+/* Replaces the first `from` in the configuration file name of dir by `to`. */
+static void edit_config(const char *name, const char *from, const char *to)
+{
+    char text[8192], path[1200];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    read_text(path, text, sizeof text);
+    CHECK(ec_config_replace(text, sizeof text, from, to), "%s: %s replaced", name, from);
+    FILE *f = fopen(path, "w");
+    CHECK(f && fputs(text, f) >= 0, "write %s", path);
+    if (f)
+        fclose(f);
+}
+
+/* The warm air of the melt case: +25 C, the case's wind. */
+static double warm_atm(int which, double lon, double lat, size_t k)
+{
+    return which == 2 ? 298.15 : ec_atm_fn(which, lon, lat, k);
+}
+
+/* The number after "key": in the serial run's cycle.json of case name (NAN if absent). */
+static double cycle_number(const char *name, const char *key)
+{
+    char path[1300], text[65536], pat[128];
+    snprintf(path, sizeof path, "%s/%s-serial/19990208T06Z/cycle.json", dir, name);
+    read_text(path, text, sizeof text);
+    snprintf(pat, sizeof pat, "\"%s\":", key);
+    const char *at = strstr(text, pat);
+    return at ? strtod(at + strlen(pat), NULL) : NAN;
+}
+
+/* The global attribute budget_<term> of the serial run's restart file. */
+static double restart_budget(const char *name, const char *term)
+{
+    char path[1300], att[128];
+    snprintf(path, sizeof path, "%s/%s-serial/19990208T06Z/restart-19990208T12Z.nc", dir, name);
+    snprintf(att, sizeof att, "budget_%s", term);
+    int nc = -1;
+    double v = NAN;
+    int opened = nc_open(path, NC_NOWRITE, &nc) == NC_NOERR;
+    if (!opened || nc_get_att_double(nc, NC_GLOBAL, att, &v) != NC_NOERR)
+        v = NAN;
+    if (opened)
+        nc_close(nc);
+    return v;
+}
+
+/* Serial "domain" against mpirun -np 2 (and 4 with SPHICE_LONG) for the
+ * configuration cfg in dir: products and particles identical. */
+static void compare_runs(const char *ser_bin, const char *mpi_bin, const char *name, const char *cfg, int hours)
+{
+    char cmd[4096];
+    snprintf(cmd, sizeof cmd, "OMP_NUM_THREADS=1 %s run %s/%s --cycle 1999-02-08T06:00Z --hours %d --out "
+             "%s/%s-serial --force >%s/%s-serial.log 2>&1", ser_bin, dir, cfg, hours, dir, name, dir, name);
+    CHECK(run(cmd) == 0, "%s: serial canonical run (%s/%s-serial.log)", name, dir, name);
+    const char *mpirun = "mpirun --oversubscribe -x OMP_NUM_THREADS=1 -x OMP_WAIT_POLICY=passive";
+    const char *root = geteuid() == 0 ? "--allow-run-as-root" : "";
+    const int np[2] = {2, 4};
+    for (int i = 0; i < (check_long() ? 2 : 1); i++) {
+        snprintf(cmd, sizeof cmd, "%s %s -np %d %s run %s/%s --cycle 1999-02-08T06:00Z --hours %d --out "
+                 "%s/%s-np%d --force >%s/%s-np%d.log 2>&1", mpirun, root, np[i], mpi_bin, dir, cfg, hours, dir,
+                 name, np[i], dir, name, np[i]);
+        int rc = run(cmd);
+        CHECK(rc == 0, "%s: mpirun -np %d: rc %d (%s/%s-np%d.log)", name, np[i], rc, dir, name, np[i]);
+        snprintf(cmd, sizeof cmd, "sh tools/same-products.sh %s/%s-serial/19990208T06Z %s/%s-np%d/19990208T06Z",
+                 dir, name, dir, name, np[i]);
+        CHECK(run(cmd) == 0, "%s: -np %d: every product equals the serial canonical run's (same-products)", name,
+              np[i]);
+        char a[1400], b[1400];
+        snprintf(a, sizeof a, "%s/%s-serial/19990208T06Z/sphice_particles.nc", dir, name);
+        snprintf(b, sizeof b, "%s/%s-np%d/19990208T06Z/sphice_particles.nc", dir, name, np[i]);
+        int nv = 0;
+        CHECK(same_particles_file(a, b, &nv), "%s: -np %d: the particles file's %d variables equal bit for bit",
+              name, np[i], nv);
+    }
+    /* the budget closes with the sources: mass = initial + sources */
+    double res = cycle_number(name, "budget_residual");
+    CHECK(res >= 0.0 && res < 1e-9, "%s: the mass budget's residual %.3g is below model.mass_tolerance 1e-9", name,
+          res);
+}
+
 /* One refused combination: exit 1 and one line naming key. */
 static void refused(const char *bin, const char *what, const char *from, const char *to, const char *extra,
                     const char *key)
@@ -129,7 +227,6 @@ int main(int argc, char **argv)
     const char *dom = "\"parallel\": {\"decomposition\": \"domain\"},";
 
     /* the refusals (the plain build: fast, before any input is read) */
-    refused(ser_bin, "thermodynamics", "\"thermo\": {\"dt\": 0}", "\"thermo\": {\"dt\": 600}", dom, "model.thermo.dt");
     refused(ser_bin, "the mixed layer", "\"physics\": \"full\"", "\"physics\": \"full\", \"ocean\": {\"mixed_layer\": true}",
             dom, "model.ocean.mixed_layer");
     refused(ser_bin, "the implicit solver", "\"physics\": \"full\"", "\"physics\": \"full\", \"solver\": \"implicit\"",
@@ -174,6 +271,41 @@ int main(int argc, char **argv)
         CHECK(same_particles_file(a, b, &nv), "-np %d: the particles file's %d variables equal bit for bit", np[i],
               nv);
     }
+    /* thermodynamics: warm air melts the thin columns out (particles
+     * removed); with SPHICE_LONG also cold air growing the packed ice */
+    if (check_long()) {
+        write_config("cold.json", "\"thermo\": {\"dt\": 0}", "\"thermo\": {\"dt\": 600}", dom);
+        edit_config("cold.json", "[\"wind\"]", "[\"wind\", \"tair\"]");
+        compare_runs(ser_bin, mpi_bin, "cold", "cold.json", hours);
+        double g = restart_budget("cold", "growth"), m0 = restart_budget("cold", "mass_initial");
+        double m1 = restart_budget("cold", "mass");
+        CHECK(g > 0.0 && m1 > m0 && cycle_number("cold", "particles_end") == cycle_number("cold", "particles_start"),
+              "cold: the ice grew (growth %.4g kg, mass %.6g -> %.6g kg), no particle removed", g, m0, m1);
+    }
+    snprintf(p, sizeof p, "%s/atm_warm.nc", dir);
+    ec_write_atm_at(p, 9.0, 120.5, 39.5, 9, 7, warm_atm);
+    snprintf(p, sizeof p, "%s/ice_thin.nc", dir);
+    ec_write_ice_at(p, 35, 8, 121.2, 40.1, 0.02, 0.02, 1.0, 1.0, -1); /* a strip: 40.1-40.24 N */
+    {
+        int nc, vt;
+        double th[8 * 35];
+        for (int k = 0; k < 8 * 35; k++)
+            th[k] = (k % 35) % 2 ? 1.0 : 0.01;
+        CHECK(nc_open(p, NC_WRITE, &nc) == NC_NOERR && nc_inq_varid(nc, "sithick", &vt) == NC_NOERR &&
+              nc_put_var_double(nc, vt, th) == NC_NOERR && nc_close(nc) == NC_NOERR, "write %s", p);
+    }
+    write_config("warm.json", "\"thermo\": {\"dt\": 0}", "\"thermo\": {\"dt\": 600}", dom);
+    edit_config("warm.json", "atm.nc", "atm_warm.nc");
+    edit_config("warm.json", "ice1.nc", "ice_thin.nc");
+    edit_config("warm.json", "[\"wind\"]", "[\"wind\", \"tair\"]");
+    compare_runs(ser_bin, mpi_bin, "warm", "warm.json", 1);
+    double n0 = cycle_number("warm", "particles_start"), n1 = cycle_number("warm", "particles_end");
+    double mt = restart_budget("warm", "melt_top");
+    CHECK(n1 < n0 && n1 > 0 && mt > 0.0, "warm: %.0f of %.0f particles melted out and were removed (surface melt %.4g kg)",
+          n0 - n1, n0, mt);
+    printf("  thermodynamics, warm: %.0f -> %.0f particles, surface melt %.4g kg, budget residual %.3g\n", n0, n1, mt,
+           cycle_number("warm", "budget_residual"));
+
     /* a failure fails every rank: forcing that ends at +9 h for a 12 h run
      * (every rank's coupling_open refuses it, after rank 0 sent the jobs) */
     snprintf(cmd, sizeof cmd, "timeout 120 %s %s -np 2 %s run %s/cfg.json --cycle 1999-02-08T06:00Z --hours 12 "

@@ -69,6 +69,32 @@ void sph_model_set_dd(sph_model *m, const sph_dd_hooks *h);
  * this rank owns the particle. The driver fills it at SPH_DD_LISTS; NULL
  * unless canonical mode is on. Without hooks every particle is owned. */
 unsigned char *sph_model_dd_owned(sph_model *m);
+/* The thermodynamic and open-boundary sources of the budget in canonical
+ * mode, summed exactly (cumulative since init or resume) over the particles
+ * this rank owns: the first nine are the thermodynamics' per-particle terms
+ * (sph_thermo_outcome_terms, in its order), then the open boundaries'. A
+ * decomposed driver sums them over the ranks; a serial canonical model
+ * takes its budget's source terms from them (so they do not depend on the
+ * order of the particles). */
+enum {
+    SPH_DD_SRC_GROWTH,
+    SPH_DD_SRC_NEW_ICE,
+    SPH_DD_SRC_MELT_TOP,
+    SPH_DD_SRC_MELT_BOTTOM,
+    SPH_DD_SRC_LATERAL_MELT,
+    SPH_DD_SRC_SNOW_ICE,
+    SPH_DD_SRC_SNOWFALL,
+    SPH_DD_SRC_SNOW_MELT,
+    SPH_DD_SRC_SNOW_TO_OCEAN,
+    SPH_DD_SRC_OUTFLOW,
+    SPH_DD_SRC_REMOVED, /* particles removed at open boundaries (a count) */
+    SPH_DD_NSRC
+};
+const sph_xsum *sph_model_dd_sources(const sph_model *m);
+/* b's source terms (growth ... snow_to_ocean, outflow, removed_particles)
+ * = base's plus the accumulators' values. */
+void sph_dd_budget_sources(sph_budget *b, const sph_budget *base, const sph_xsum src[SPH_DD_NSRC]);
+
 /* The kernel's support in units of the smoothing length. */
 double sph_model_kernel_radius(const sph_model *m);
 /* After sph_model_resume on a rank: marks the coast cells for mirror

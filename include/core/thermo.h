@@ -124,6 +124,10 @@ int sph_thermo_params_check(const sph_thermo_params *p, const char **name, doubl
 typedef struct sph_thermo_work sph_thermo_work;
 sph_thermo_work *sph_thermo_work_create(size_t cap, int nlayers);
 void sph_thermo_work_free(sph_thermo_work *w);
+/* Particle k's budget terms of the last sph_thermo_step, kg: growth,
+ * new_ice, melt_top, melt_bottom, lateral_melt, snow_ice, snowfall,
+ * snow_melt, snow_to_ocean (core/dd.h's source order). */
+void sph_thermo_outcome_terms(const sph_thermo_work *w, size_t k, double t[9]);
 
 /* Sets a fresh particle's column (tsurf, enthalpy) consistent with its
  * thickness and the air temperature tair (deg C): the steady linear

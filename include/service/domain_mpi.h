@@ -67,6 +67,10 @@ int dd_step(dd_ctx *d, sph_status *st);
 void dd_run_stats(dd_ctx *d, dd_stats *out);
 void dd_reset_stats(dd_ctx *d);
 void dd_budget_global(dd_ctx *d, dd_budget *b);
+/* b's source terms (growth, melt, snow, outflow, removed particles: core/dd.h)
+ * over every rank, as of the last dd_step or dd_scatter (the same on every
+ * rank; no communication). */
+void dd_sources(const dd_ctx *d, sph_budget *b);
 /* The same budgets of particles [0, n) of one set (the serial reference). */
 void dd_budget_of(const sph_particles *P, size_t n, double rho_i, dd_budget *b);
 /* Every owned particle to rank 0, sorted by id, into out (rank 0 only;

@@ -382,9 +382,14 @@ void sph_remove_outflow(sph_model *m)
             m->budget.outflow += P->mass[k];
             m->budget.snow_to_ocean += sph_particle_snow_mass(&m->prm.thermo, P, k);
             m->budget.removed_particles++;
+            if (m->canonical && m->dd_owned[k]) { /* exact, owned only (core/dd.h) */
+                sph_xsum_add(&m->dd_src[SPH_DD_SRC_OUTFLOW], P->mass[k]);
+                sph_xsum_add(&m->dd_src[SPH_DD_SRC_SNOW_TO_OCEAN], sph_particle_snow_mass(&m->prm.thermo, P, k));
+                sph_xsum_add(&m->dd_src[SPH_DD_SRC_REMOVED], 1.0);
+            }
             if (sph_ocean_on(m)) /* its fluxes so far to the edge cell */
                 sph_ocean_take_particle(m, k);
-            sph_particles_remove(P, k);
+            sph_dd_remove(m, k);
         }
     }
 }

@@ -195,3 +195,52 @@ void sph_dd_mevp_norms(sph_model *m, const int *act, size_t na, const double *re
     *u2 = sph_xsum_value(&acc[2]);
     *nact = sph_xsum_value(&acc[3]);
 }
+
+const sph_xsum *sph_model_dd_sources(const sph_model *m) { return m->dd_src; }
+
+void sph_dd_budget_sources(sph_budget *b, const sph_budget *base, const sph_xsum src[SPH_DD_NSRC])
+{
+    double v[SPH_DD_NSRC];
+    for (int q = 0; q < SPH_DD_NSRC; q++)
+        v[q] = sph_xsum_value(&src[q]);
+    b->growth = base->growth + v[SPH_DD_SRC_GROWTH];
+    b->new_ice = base->new_ice + v[SPH_DD_SRC_NEW_ICE];
+    b->melt_top = base->melt_top + v[SPH_DD_SRC_MELT_TOP];
+    b->melt_bottom = base->melt_bottom + v[SPH_DD_SRC_MELT_BOTTOM];
+    b->lateral_melt = base->lateral_melt + v[SPH_DD_SRC_LATERAL_MELT];
+    b->snow_ice = base->snow_ice + v[SPH_DD_SRC_SNOW_ICE];
+    b->snowfall = base->snowfall + v[SPH_DD_SRC_SNOWFALL];
+    b->snow_melt = base->snow_melt + v[SPH_DD_SRC_SNOW_MELT];
+    b->snow_to_ocean = base->snow_to_ocean + v[SPH_DD_SRC_SNOW_TO_OCEAN];
+    b->outflow = base->outflow + v[SPH_DD_SRC_OUTFLOW];
+    b->removed_particles = base->removed_particles + (long)v[SPH_DD_SRC_REMOVED];
+}
+
+void sph_dd_remove(sph_model *m, size_t k)
+{
+    sph_particles *P = m->P;
+    if (m->canonical && k + 1 < P->n)
+        m->dd_owned[k] = m->dd_owned[P->n - 1];
+    sph_particles_remove(P, k);
+}
+
+/* Carries every digit but the top one into [0, 2^32): the same exact value,
+ * and room for 2^31 more additions (the sources accumulate over the whole
+ * run: particles x thermodynamic steps). */
+static void xsum_carry(sph_xsum *a)
+{
+    for (int i = 0; i < SPH_XSUM_DIGITS - 1; i++) {
+        int64_t c = a->d[i] >> 32;
+        a->d[i] -= c * ((int64_t)1 << 32);
+        a->d[i + 1] += c;
+    }
+}
+
+void sph_dd_update_sources(sph_model *m)
+{
+    if (!m->canonical)
+        return;
+    for (int q = 0; q < SPH_DD_NSRC; q++)
+        xsum_carry(&m->dd_src[q]);
+    sph_dd_budget_sources(&m->budget, &m->dd_base, m->dd_src);
+}

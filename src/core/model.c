@@ -584,6 +584,9 @@ calibrated:
     update_budget(m);
     m->budget.mass_initial = m->budget.mass;
     m->budget.snow_initial = m->budget.snow;
+    m->dd_base = m->budget;
+    for (int q = 0; q < SPH_DD_NSRC; q++)
+        sph_xsum_clear(&m->dd_src[q]);
     if (sph_ocean_on(m)) {
         sph_ocean_totals(m, &m->budget.energy_initial, &m->budget.water_initial, &m->budget.salt_initial);
         m->budget.ocean = 1;
@@ -654,6 +657,9 @@ int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st)
             m->budget.ocean = 1;
         }
     }
+    m->dd_base = m->budget;
+    for (int q = 0; q < SPH_DD_NSRC; q++)
+        sph_xsum_clear(&m->dd_src[q]);
     m->time = c->time;
     m->steps = c->steps;
     m->thermo_accum = c->thermo_accum;
@@ -811,6 +817,15 @@ int sph_model_step(sph_model *m, sph_status *st)
             if (sph_ocean_on(m))
                 sph_ocean_before(m, tdt);
             rc = sph_thermo_step(&p->thermo, P, tdt, m->tw, &m->budget, st);
+            if (rc == SPH_STEP_OK && m->canonical) /* exact, owned only (core/dd.h) */
+                for (size_t k = 0; k < P->n; k++) {
+                    if (!m->dd_owned[k])
+                        continue;
+                    double t9[9];
+                    sph_thermo_outcome_terms(m->tw, k, t9);
+                    for (int q = 0; q < 9; q++)
+                        sph_xsum_add(&m->dd_src[q], t9[q]);
+                }
             /* the footprint is fixed: mass per area scales with the mass */
             if (!p->summation_density)
                 for (size_t k = 0; k < P->n; k++)
@@ -823,11 +838,12 @@ int sph_model_step(sph_model *m, sph_status *st)
                 return rc;
             for (size_t k = P->n; k-- > 0;)
                 if (!(P->mass[k] > 0.0))
-                    sph_particles_remove(P, k);
+                    sph_dd_remove(m, k);
         }
     }
     regime_fractions(m);
     update_budget(m);
+    sph_dd_update_sources(m);
     return check_health(m, st);
 }
 int sph_model_diagnose(sph_model *m, sph_status *st)

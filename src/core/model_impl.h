@@ -28,6 +28,7 @@
 #include <math.h>
 #include <stddef.h>
 
+#include "core/dd.h"
 #include "core/kernel.h"
 #include "core/model.h"
 #include "core/neighbours.h"
@@ -99,6 +100,10 @@ struct sph_model {
     int canonical;
     long *dd_key;
     unsigned char *dd_owned;
+    /* canonical mode: the budget's exact sources over the owned particles
+     * (core/dd.h), on top of dd_base (the budget at init or resume) */
+    sph_xsum dd_src[SPH_DD_NSRC];
+    sph_budget dd_base;
 };
 
 /* Array length of the per-particle workspaces: live particles and ghosts. */
@@ -236,6 +241,12 @@ void sph_ocean_take_particle(sph_model *m, size_t k);
 
 /* ------------------------------------------------------------------ */
 /* canonical mode for domain decomposition (dd.c, core/dd.h)          */
+
+/* Removes live particle k (sph_particles_remove), keeping the owned flags
+ * of canonical mode with their particles. */
+void sph_dd_remove(sph_model *m, size_t k);
+/* Canonical mode: the budget's source terms from the exact accumulators. */
+void sph_dd_update_sources(sph_model *m);
 
 /* Sorts every neighbour list by the particles' global keys. */
 void sph_dd_sort_lists(sph_model *m);

@@ -513,6 +513,20 @@ static void particle_step(const sph_thermo_params *p, sph_particles *P, size_t k
     P->ofx_swbase[k] += oh.sw_base;
 }
 
+void sph_thermo_outcome_terms(const sph_thermo_work *w, size_t k, double t[9])
+{
+    const particle_outcome *o = &w->out[k];
+    t[0] = o->growth;
+    t[1] = o->new_ice;
+    t[2] = o->melt_top;
+    t[3] = o->melt_bottom;
+    t[4] = o->lateral_melt;
+    t[5] = o->snow_ice;
+    t[6] = o->snowfall;
+    t[7] = o->snow_melt;
+    t[8] = o->snow_to_ocean;
+}
+
 int sph_thermo_step(const sph_thermo_params *p, sph_particles *P, double dt, sph_thermo_work *w,
                     sph_budget *b, sph_status *st)
 {

@@ -38,6 +38,12 @@ struct dd_ctx {
     MPI_Op op;       /* red_op */
     double hmax;     /* largest smoothing length over the ranks, after the last step */
     double gmass, gcount; /* global exact mass and particle count after the last step */
+    /* the budget's sources (core/dd.h), exact over every rank's owned
+     * particles, since the scatter; on top of base, the scattered clock's
+     * budget; the global exact mass and snow mass at the scatter */
+    sph_xsum gsrc[SPH_DD_NSRC];
+    sph_budget base;
+    double gmass0, gsnow0;
     dd_stats stats;  /* this rank's, summed over the run */
     /* packing scratch */
     unsigned char *pk, *upk;
@@ -549,15 +555,23 @@ static double local_hmax(const sph_particles *P)
     return h;
 }
 
-static void mass_count(const sph_particles *P, sph_xsum acc[2])
+/* acc[0] the mass, [1] the count, [2] the snow mass of P; [3 ...] this
+ * rank's cumulative sources (core/dd.h) */
+#define DD_NACC (3 + SPH_DD_NSRC)
+static void mass_count(const sph_model *m, const sph_particles *P, sph_xsum acc[DD_NACC])
 {
-    sph_xsum_clear(&acc[0]);
-    sph_xsum_clear(&acc[1]);
+    const sph_thermo_params *th = &sph_model_params(m)->thermo;
+    for (int q = 0; q < 3; q++)
+        sph_xsum_clear(&acc[q]);
     for (size_t k = 0; k < P->n; k++) {
         sph_xsum_add(&acc[0], P->mass[k]);
         sph_xsum_add(&acc[1], 1.0);
+        sph_xsum_add(&acc[2], sph_particle_snow_mass(th, P, k));
     }
+    memcpy(acc + 3, sph_model_dd_sources(m), SPH_DD_NSRC * sizeof *acc);
 }
+
+void dd_sources(const dd_ctx *d, sph_budget *b) { sph_dd_budget_sources(b, &d->base, d->gsrc); }
 
 int dd_scatter(dd_ctx *d, const sph_particles *all, const sph_model_clock *c, sph_status *st)
 {
@@ -591,13 +605,16 @@ int dd_scatter(dd_ctx *d, const sph_particles *all, const sph_model_clock *c, sp
     if (rc == SPH_STEP_OK)
         sph_model_dd_coast(d->m, s0);
     d->steps = 0;
-    sph_xsum acc[2];
+    sph_xsum acc[DD_NACC];
     double v[1] = {local_hmax(P)};
-    mass_count(P, acc);
-    hook_reduce(d, acc, 2, v, 1);
+    mass_count(d->m, P, acc);
+    hook_reduce(d, acc, DD_NACC, v, 1);
     d->hmax = v[0];
-    d->gmass = sph_xsum_value(&acc[0]);
+    d->gmass = d->gmass0 = sph_xsum_value(&acc[0]);
     d->gcount = sph_xsum_value(&acc[1]);
+    d->gsnow0 = sph_xsum_value(&acc[2]);
+    memcpy(d->gsrc, acc + 3, sizeof d->gsrc);
+    d->base = clk.budget;
     dd_reset_stats(d);
     return worst(d, rc, st);
 }
@@ -626,10 +643,11 @@ int dd_step(dd_ctx *d, sph_status *st)
     d->stats.ghosts_merging |= sph_model_ghosts_merging(m);
     /* the worst status, the next step's halo width and the global mass
      * and count (exact), in one reduction */
-    sph_xsum acc[2];
+    sph_xsum acc[DD_NACC];
     double v[2] = {(double)rc, local_hmax(P)};
-    mass_count(P, acc);
-    hook_reduce(d, acc, 2, v, 2);
+    mass_count(m, P, acc);
+    hook_reduce(d, acc, DD_NACC, v, 2);
+    memcpy(d->gsrc, acc + 3, sizeof d->gsrc);
     d->hmax = v[1];
     int w = (int)v[0];
     if (w != SPH_STEP_OK && rc == SPH_STEP_OK)
@@ -643,6 +661,27 @@ int dd_step(dd_ctx *d, sph_status *st)
     if (w == SPH_STEP_OK && !thermo && gc == d->gcount && gm != d->gmass)
         w = sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "total mass", gm, d->gmass,
                            "changed with no source or sink to explain it (domain decomposition)");
+    /* with sources (thermodynamics, open boundaries): the serial core's
+     * rule (model.c check_health), on the global exact sums: mass = initial
+     * + sources within model.mass_tolerance of the scale */
+    sph_budget bb = d->base;
+    sph_dd_budget_sources(&bb, &d->base, d->gsrc);
+    bb.mass_initial = d->gmass0;
+    bb.mass = gm;
+    bb.snow_initial = d->gsnow0;
+    bb.snow = sph_xsum_value(&acc[2]);
+    double expect = sph_budget_expected(&bb);
+    double scale = fmax(fmax(fabs(expect), fabs(gm)), bb.mass_initial + bb.growth + bb.new_ice);
+    double sexp = sph_budget_snow_expected(&bb);
+    double sscale = fmax(fmax(fabs(sexp), fabs(bb.snow)), bb.snow_initial + bb.snowfall);
+    if (w == SPH_STEP_OK && !(fabs(gm - expect) <= p->mass_tolerance * scale + 1e-300))
+        w = sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "total mass", gm, expect,
+                           "changed beyond round-off with no source or sink to explain it (domain "
+                           "decomposition)");
+    if (w == SPH_STEP_OK && !(fabs(bb.snow - sexp) <= p->mass_tolerance * sscale + 1e-300))
+        w = sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "total snow mass", bb.snow, sexp,
+                           "changed beyond round-off with no source or sink to explain it (domain "
+                           "decomposition)");
     d->gmass = gm;
     d->gcount = gc;
     return w;

@@ -47,11 +47,6 @@ static int refuse(const engine *e, sph_error *err)
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config: %s does not support the ocean mixed layer (its cells are shared between "
                            "ranks): set model.ocean.mixed_layer false or parallel.decomposition \"members\"", KEY);
-    if (e->thermo_on)
-        return sph_err_set(err, SPH_ERR_CONFIG,
-                           "config: %s does not support thermodynamics (growth, melt and outflow are not "
-                           "reduced over the ranks): set model.thermo.dt 0 or parallel.decomposition \"members\"",
-                           KEY);
     if (p->physics != SPH_PHYSICS_FREE_DRIFT && p->solver != SPH_SOLVER_MEVP)
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config: %s supports only the mEVP stress solver (the explicit and implicit solvers "
@@ -154,6 +149,16 @@ static void exact_budget(const engine *e, const sph_particles *P, sph_budget *b)
 void fc_dd_budget(const engine *e, sph_budget *b)
 {
     *b = e->dd_b0;
+    /* the sources (thermodynamics, open boundaries): exact sums over the
+     * owned particles (core/dd.h), over every rank when decomposed */
+    if (e->dd == 1) {
+        sph_budget src = *sph_model_budget(e->m);
+        sph_dd_budget_sources(b, &src, (sph_xsum[SPH_DD_NSRC]){0}); /* the model's, already exact */
+    }
+#ifdef SPHICE_MPI
+    if (e->dd == 2)
+        dd_sources(e->dd_ctx, b);
+#endif
     exact_budget(e, sph_model_particles(e->m), b);
 }
 
