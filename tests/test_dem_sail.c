@@ -8,7 +8,10 @@
  * diameter h (width b = h) bonded by the core's parallel bonds with their
  * default strengths (docs/dem.md: sigma_t = 0.6 MPa, tau_c = 1 MPa,
  * E_b = 1 GPa), floating at Archimedes' level (draft found here by
- * bisection). Its last two spheres are driven at a prescribed speed U
+ * bisection), with a random imperfection of 0.02 r; its first RUBBLE
+ * spheres at the floe are loose (rubble blocks of size h already broken
+ * off, Hopkins & Hibler 1991's blocks broken from the lead ice's leading
+ * edge). Its last two spheres are driven at a prescribed speed U
  * toward the thick floe: a rigid L of fixed spheres (a vertical face of
  * the 2 m floe's draft and freeboard, its top and bottom surfaces 4 m
  * long), the "thick ice with sufficient strength" of the seed's
@@ -30,7 +33,7 @@
  * the second half of the push; the exponent of F / b against h fitted by
  * least squares and printed beside the seed's 1.5 with beta = (F / b) /
  * h^1.5. The exponent is reported, not asserted to be 1.5: only that the
- * force grows with h. */
+ * force grows with h (docs/dem.md: the run does not reproduce 1.5). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -42,18 +45,16 @@
 #define PUSH_U 0.5   /* driving speed, m s-1 (chosen for cost; not from the seed) */
 #define RAMP_S 1.0   /* the driving speed's ramp, s */
 
-/* A small random imperfection of the sheet's level (xorshift64, fixed seed):
+/* A small imperfection of the sheet's level, IMPERFECTION r times the
+ * golden-ratio sequence frac(i phi) - 1/2 (deterministic, evenly spread):
  * without it a straight chain against a flat face only compresses. */
 #define IMPERFECTION 0.02
 /* Loose spheres (rubble blocks of size h) between the intact sheet and the floe at the start */
 #define RUBBLE 8
-static unsigned long long rng_state = 0x9E3779B97F4A7C15ull;
-static double uniform(void)
+static double imperfection(int i)
 {
-    rng_state ^= rng_state << 13;
-    rng_state ^= rng_state >> 7;
-    rng_state ^= rng_state << 17;
-    return (double)(rng_state >> 11) / 9007199254740992.0;
+    double q = 0.6180339887498949 * i;
+    return q - floor(q) - 0.5;
 }
 
 /* Draft s of a floating sphere of radius r: its cap volume pi s^2 (3r - s) / 3
@@ -117,11 +118,10 @@ static sail_run ridge(double h, double push, double from, int progress)
     dem *d = dem_create(cap, (size_t)nsheet, &p);
     if (!d)
         return out;
-    rng_state = 0x9E3779B97F4A7C15ull;
     double xw = 0.0; /* the floe's face (centres of its face spheres at xw + r) */
     for (int i = 0; i < nsheet; i++) {
         /* sphere 0 nearest the floe, 1 mm clear of it; the sheet at rest */
-        dem_add_particle(d, xw - 0.001 - r - 2.0 * r * i, 0.0, zc + IMPERFECTION * r * (uniform() - 0.5), r);
+        dem_add_particle(d, xw - 0.001 - r - 2.0 * r * i, 0.0, zc + IMPERFECTION * r * imperfection(i), r);
     }
     /* the first RUBBLE spheres loose (rubble already broken off), the rest bonded */
     for (int i = RUBBLE; i + 1 < nsheet; i++)
@@ -218,9 +218,10 @@ int main(void)
         fw[i] = b.force_mean / hs[i];
         printf("  h %.3f m: pushed %.1f m, bonds broken %ld, sail top %.2f m, keel bottom %.2f m; "
                "mean force per width (second half) %.4g kN/m; beta = (F/b)/h^1.5 = %.4g N m^-2.5; "
-               "work %.4g J >= potential %.4g J + kinetic %.4g J\n",
+               "work %.4g J >= potential %.4g J + kinetic %.4g J (potential / work %.3f); "
+               "mean pushing force per width (work / push / b) %.4g kN/m\n",
                hs[i], 40.0 * hs[i], b.broken, b.sail, b.keel, fw[i] / 1e3, fw[i] / pow(hs[i], 1.5),
-               b.work, b.dpe, b.ke);
+               b.work, b.dpe, b.ke, b.dpe / b.work, b.work / (40.0 * hs[i]) / hs[i] / 1e3);
         CHECK(b.ok && isfinite(fw[i]) && fw[i] > 0.0, "h %.3f m: a finite positive force", hs[i]);
         CHECK(b.work >= b.dpe + b.ke - 0.01 * fabs(b.work), "h %.3f m: energy balance", hs[i]);
         double x = log(hs[i]), y = log(fw[i]);
