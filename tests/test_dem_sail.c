@@ -42,7 +42,9 @@
 #include "core/dem.h"
 
 #define FLOE_H 2.0   /* the seed's thick ice, m */
+#ifndef PUSH_U
 #define PUSH_U 0.5   /* driving speed, m s-1 (chosen for cost; not from the seed) */
+#endif
 #define RAMP_S 1.0   /* the driving speed's ramp, s */
 
 /* A small imperfection of the sheet's level, IMPERFECTION r times the
