@@ -17,6 +17,21 @@
 #include "core/ocean.h"
 #include "ocean_column.h"
 
+/* A model of 64 slots over one 20 km mixed-layer cell; NULL (and a
+ * failed check) when it cannot be built. */
+static sph_model *merge_model(const sph_params *p, double ds)
+{
+    sph_model *m = sph_model_create(p, 64, NULL);
+    sph_ocean_grid g = {1, 1, 0.0, 0.0, 2e4, 2e4, 0.5 * ds, 0.5 * ds, ds};
+    int ok = m && sph_model_ocean_create(m, &g) == SPH_STEP_OK;
+    CHECK(ok, "model");
+    if (!ok) {
+        sph_model_free(m);
+        return NULL;
+    }
+    return m;
+}
+
 static void run(double k)
 {
     sph_params p;
@@ -29,14 +44,9 @@ static void run(double k)
         k = 2.0; /* the default */
     CHECK(p.ocean.merge_max_size == k, "merge_max_size %g", p.ocean.merge_max_size);
     const double ds = 1000.0;
-    sph_model *m = sph_model_create(&p, 64, NULL);
-    sph_ocean_grid g = {1, 1, 0.0, 0.0, 2e4, 2e4, 0.5 * ds, 0.5 * ds, ds};
-    int ok = m && sph_model_ocean_create(m, &g) == SPH_STEP_OK;
-    CHECK(ok, "model");
-    if (!ok) {
-        sph_model_free(m);
+    sph_model *m = merge_model(&p, ds);
+    if (!m)
         return;
-    }
     sph_particles *P = sph_model_particles(m);
     lattice_fill(P, &p, 6, 6, 7.5 * ds, 7.5 * ds, ds, 0.05, 1.0, 40.0);
     double m0 = 0.0;
@@ -92,14 +102,9 @@ static void run_compact(void)
     p.ocean.merge = 1;
     p.ocean.merge_distance = 1.05;
     const double ds = 1000.0, h0 = p.sml_factor * ds;
-    sph_model *m = sph_model_create(&p, 64, NULL);
-    sph_ocean_grid g = {1, 1, 0.0, 0.0, 2e4, 2e4, 0.5 * ds, 0.5 * ds, ds};
-    int ok = m && sph_model_ocean_create(m, &g) == SPH_STEP_OK;
-    CHECK(ok, "model");
-    if (!ok) {
-        sph_model_free(m);
+    sph_model *m = merge_model(&p, ds);
+    if (!m)
         return;
-    }
     sph_particles *P = sph_model_particles(m);
     lattice_fill(P, &p, 6, 6, 8.25 * ds, 8.25 * ds, 0.5 * ds, 0.05, 1.0, 40.0);
     for (size_t q = 0; q < P->n; q++) {
