@@ -475,7 +475,7 @@ static void check_refused(landmask *m, const sph_error *err, const char *path, c
 static landmask *read_opts(const char *path, const char *var, landmask_from from,
                            landmask_polarity pol, double land_value, int fallback, sph_error *err)
 {
-    landmask_read_opts o = {var, from, pol, land_value, fallback};
+    landmask_read_opts o = {var, from, pol, land_value, fallback, NULL, NULL, 0, 0};
     sph_error_clear(err);
     return landmask_read_model(path, &o, err);
 }

@@ -23,9 +23,9 @@
  *    _FillValue 1e20 on land) gives the file's corners, its land, the
  *    cells over a box, and areas of the sphere R^2 dlon (sin lat_n -
  *    sin lat_s) within 1e-4 (the corners joined by great circles, not
- *    parallels); a file without coordinates and a rotated-pole file
- *    without 2-D latitude/longitude are refused in one line naming the
- *    file, the variable and the key. */
+ *    parallels); a file without coordinates is refused in one line naming
+ *    the file, the variable and the key (grids given by their mapping
+ *    alone: tests/test_ocean_grid_mapped.c). */
 #include <dirent.h>
 #include <math.h>
 #include <netcdf.h>
@@ -551,46 +551,22 @@ static void nemo_file(const char *path)
     nc_close(nc);
 }
 
-/* A 2-D field without coordinates, or on a CF rotated pole (the CF
- * conventions' example: grid_north_pole_latitude 39.25,
- * grid_north_pole_longitude -162) with only its 1-D rlon/rlat. */
-static void bad_file(const char *path, int rotated)
+/* A 2-D field without coordinates. */
+static void bad_file(const char *path)
 {
-    int nc, dx, dy, vx, vy, vg, vu;
+    int nc, dx, dy, vu;
     nc_create(path, NC_NETCDF4 | NC_CLOBBER, &nc);
-    nc_def_dim(nc, rotated ? "rlon" : "x", 6, &dx);
-    nc_def_dim(nc, rotated ? "rlat" : "y", 5, &dy);
+    nc_def_dim(nc, "x", 6, &dx);
+    nc_def_dim(nc, "y", 5, &dy);
     int d2[2] = {dy, dx};
-    if (rotated) {
-        nc_def_var(nc, "rlon", NC_DOUBLE, 1, &dx, &vx);
-        nc_put_att_text(nc, vx, "standard_name", 14, "grid_longitude");
-        nc_put_att_text(nc, vx, "units", 7, "degrees");
-        nc_def_var(nc, "rlat", NC_DOUBLE, 1, &dy, &vy);
-        nc_put_att_text(nc, vy, "standard_name", 13, "grid_latitude");
-        nc_put_att_text(nc, vy, "units", 7, "degrees");
-        nc_def_var(nc, "rotated_pole", NC_CHAR, 0, NULL, &vg);
-        nc_put_att_text(nc, vg, "grid_mapping_name", 26, "rotated_latitude_longitude");
-        double plat = 39.25, plon = -162.0;
-        nc_put_att_double(nc, vg, "grid_north_pole_latitude", NC_DOUBLE, 1, &plat);
-        nc_put_att_double(nc, vg, "grid_north_pole_longitude", NC_DOUBLE, 1, &plon);
-    }
     nc_def_var(nc, "uo", NC_FLOAT, 2, d2, &vu);
     nc_put_att_text(nc, vu, "standard_name", 27, "eastward_sea_water_velocity");
     nc_put_att_text(nc, vu, "units", 5, "m s-1");
-    if (rotated)
-        nc_put_att_text(nc, vu, "grid_mapping", 12, "rotated_pole");
     nc_enddef(nc);
     float u[30];
     for (int k = 0; k < 30; k++)
         u[k] = 0.1f;
     nc_put_var_float(nc, vu, u);
-    if (rotated) {
-        double a[6];
-        for (int k = 0; k < 6; k++)
-            a[k] = -1.0 + 0.44 * k;
-        nc_put_var_double(nc, vx, a);
-        nc_put_var_double(nc, vy, a);
-    }
     nc_close(nc);
 }
 
@@ -642,19 +618,15 @@ static void reader(void)
           "the cells over a box: i %d +%d, j %d +%d", g ? g->i0 : -1, g ? g->nx : -1, g ? g->j0 : -1, g ? g->ny : -1);
     ocean_grid_free(g);
 
-    const char *names[2] = {"nocoords.nc", "rotpole.nc"};
-    for (int k = 0; k < 2; k++) {
-        snprintf(path, sizeof path, "%s/%s", dir, names[k]);
-        bad_file(path, k);
-        g = NULL;
-        sph_error_clear(&err);
-        rc = ocean_grid_read(path, all, "output.ocean_fluxes_grid", &g, &err);
-        CHECK(rc != SPH_OK && !g && strstr(err.msg, path) && strstr(err.msg, "variable uo") &&
-                  strstr(err.msg, "output.ocean_fluxes_grid") && !strchr(err.msg, '\n') &&
-                  (k == 0 || strstr(err.msg, "rotated_latitude_longitude")),
-              "%s refused in one line naming the file, the variable and the key: %s", names[k], err.msg);
-        printf("  %s: %s\n", names[k], err.msg);
-    }
+    snprintf(path, sizeof path, "%s/nocoords.nc", dir); /* a rotated pole is read: test_ocean_grid_mapped */
+    bad_file(path);
+    g = NULL;
+    sph_error_clear(&err);
+    rc = ocean_grid_read(path, all, "output.ocean_fluxes_grid", &g, &err);
+    CHECK(rc != SPH_OK && !g && strstr(err.msg, path) && strstr(err.msg, "variable uo") &&
+              strstr(err.msg, "output.ocean_fluxes_grid") && !strchr(err.msg, '\n'),
+          "a file without coordinates refused in one line naming the file, the variable and the key: %s", err.msg);
+    printf("  nocoords.nc: %s\n", err.msg);
 }
 
 /* The mixed layer's cells on a curvilinear grid: ofx_locate gives the cell

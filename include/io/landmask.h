@@ -74,6 +74,12 @@ typedef struct landmask_read_opts {
     landmask_polarity polarity;
     double land_value;        /* land where the (unpacked) value equals it; NAN: unset */
     int fill_fallback;        /* AUTO without a mask variable: use a current's fill */
+    /* The cells' centres (degrees, [cell_ny x cell_nx]) where the file has
+     * no longitude/latitude of its own (a grid given by its mapping, which
+     * the caller has resolved: io/ocean_grid.h); NULL: none. Used only for
+     * a mask variable on exactly that many cells. */
+    const double *cell_lon, *cell_lat;
+    size_t cell_nx, cell_ny;
 } landmask_read_opts;
 /* Reads land from a model or mask file; a 1-D regular lon/lat grid gives a
  * regular mask, anything else (2-D lon/lat, irregular axes) a native one.

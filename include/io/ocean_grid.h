@@ -6,10 +6,16 @@
  * attribute names (standard_name longitude/latitude, or units
  * degrees_east/north), which covers NEMO, HYCOM, MOM6 and CF rotated-pole
  * or projected files that carry their auxiliary latitude/longitude; NEMO's
- * nav_lon/nav_lat. A file with a grid_mapping but no 2-D latitude and
- * longitude (a rotated pole or a projection given by its parameters
- * alone), or with no coordinates at all, is refused with one line naming
- * the file, the variable and `key`.
+ * nav_lon/nav_lat. Else a grid given by its CF grid_mapping alone (1-D
+ * coordinates, no 2-D latitude/longitude): a projection (io/cf_mapping.h;
+ * projection_x/y_coordinate in m or km) or a rotated pole
+ * (rotated_latitude_longitude, grid_longitude/grid_latitude in degrees):
+ * centres and corners (half-way between the centres' coordinates) through
+ * PROJ's inverse or the rotation of the sphere, areas as the plane's
+ * rectangle over PROJ's areal scale at the centre, or the rotated
+ * sphere's cell. A mapping that cannot be resolved, or a file with no
+ * coordinates at all, is refused with one line naming the file, the
+ * variable and `key`.
  * Cell corners: the CF `bounds` of the longitude and latitude (4 vertices
  * per cell, anticlockwise), else the midpoints of the surrounding centres
  * (on the sphere; extrapolated by one half cell at the grid's edges);

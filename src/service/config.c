@@ -237,7 +237,7 @@ static const cfg_key tail_keys[] = {
        "Grid of the ocean-fluxes file: ocean (the first ocean forcing file's grid, regular lon/lat or "
        "curvilinear with 2-D lon/lat, and its land, the cells over the domain; on a curvilinear grid the "
        "stress is along the grid's own axes), output (the output grid) or auto (ocean when an ocean source "
-       "has files, else output). A grid given by its mapping alone, or not orthogonal, is refused: set output."),
+       "has files, else output). A grid given by its mapping alone is placed by the mapping (a rotated pole, or a projection with its ellipsoid); one not orthogonal is refused: set output."),
     C_("output.edge_threshold", CT_DOUBLE, output.edge_threshold, "0.15", 0.01, 0.99, R, NULL,
        "Concentration defining the ice edge."),
     C_("output.edge_reference.lon", CT_DOUBLE, output.edge_reference.lon, "0", -180, 360, R, NULL,

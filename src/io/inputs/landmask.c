@@ -1070,7 +1070,7 @@ landmask *landmask_read_model(const char *path, const landmask_read_opts *opts, 
     if (opts)
         o = *opts;
     else
-        o = (landmask_read_opts){NULL, LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, 0};
+        o = (landmask_read_opts){NULL, LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, 0, NULL, NULL, 0, 0};
     nc_ctx c = {-1, path, err};
     int status = nc_open(path, NC_NOWRITE, &c.ncid);
     if (status != NC_NOERR) {
@@ -1173,6 +1173,9 @@ landmask *landmask_read_model(const char *path, const landmask_read_opts *opts, 
                 nc_fail(&c, status, "read 2-D longitude/latitude");
                 v = -1;
             }
+        } else if (o.cell_lon && o.cell_lat && o.cell_nx == nx && o.cell_ny == ny) {
+            memcpy(lon, o.cell_lon, sizeof *lon * nx * ny);
+            memcpy(lat, o.cell_lat, sizeof *lat * nx * ny);
         } else {
             sph_err_set(err, SPH_ERR_BAD_DATA, "land mask %s: variable %s: no longitude/latitude "
                         "for its grid (1-D axes or 2-D coordinates): set landmask.variable to a "
@@ -1247,7 +1250,7 @@ landmask *landmask_read_netcdf(const char *path, const char *variable, landmask_
 {
     landmask_read_opts o = {variable, mode == LANDMASK_NC_FILL ? LANDMASK_FROM_FILL
                                                                 : LANDMASK_FROM_MASK,
-                            LANDMASK_POL_AUTO, NAN, 0};
+                            LANDMASK_POL_AUTO, NAN, 0, NULL, NULL, 0, 0};
     if (mode == LANDMASK_NC_FILL && !(variable && *variable)) {
         sph_err_set(err, SPH_ERR_CONFIG, "land mask %s: fill-pattern mask needs a variable name "
                     "(landmask.variable)", path);

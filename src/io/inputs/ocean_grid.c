@@ -4,10 +4,13 @@
 
 #include <math.h>
 #include <netcdf.h>
+#include <proj.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "io/cf_mapping.h"
+#include "io/geo.h"
 #include "io/landmask.h"
 
 #define OG_R 6371000.0
@@ -119,6 +122,22 @@ static int find_centres(int nc, int *vlon, int *vlat, char *data, size_t dlen, c
              "lon_rho/lat_rho or nav_lon/nav_lat and no grid_mapping");
     return -2;
 }
+
+/* A grid given by its mapping alone: 1-D x/y coordinates and the data
+ * variable's CF grid_mapping. kind 1: a projection (PROJ definition; x/y
+ * in metres times fac); kind 2: a rotated pole (rotated_latitude_longitude;
+ * grid_longitude/grid_latitude in degrees), turned by hand: a rotation of
+ * the sphere. */
+typedef struct og_map {
+    int kind;
+    geo_proj *p;
+    double fac;             /* metres per unit of x/y (projection) */
+    double ex[3], ey[3], ez[3]; /* rotated pole: the rotated frame's axes, earth-fixed */
+    double l0;              /* north_pole_grid_longitude, degrees */
+    double *x, *y;          /* [nx], [ny] the centres' coordinates, file units */
+    char def[1200];         /* the PROJ definition (projection) */
+    char xvar[64], yvar[64], gmvar[64], gmname[64];
+} og_map;
 
 static void unit(double lon, double lat, double *u)
 {
@@ -236,8 +255,9 @@ static int corners_from_centres(og_ctx *c, const double *lon, const double *lat,
     return SPH_OK;
 }
 
-/* Cell areas of the kept cells. */
-static int areas(og_ctx *c, ocean_grid *g)
+static int mapped_areas(og_ctx *c, const og_map *m, ocean_grid *g);
+/* Cell areas of the kept cells (m: the mapping of a mapped grid, else NULL). */
+static int areas(og_ctx *c, ocean_grid *g, const og_map *m)
 {
     static const char *const pairs[][2] = {{"pm", "pn"}, {"e1t", "e2t"}};
     size_t n = (size_t)g->nx * g->ny;
@@ -277,6 +297,10 @@ static int areas(og_ctx *c, ocean_grid *g)
         snprintf(g->area_from, sizeof g->area_from, "%.64s (cell_area)", name);
         done = 1;
     }
+    if (!done && rc == SPH_OK && m) {
+        rc = mapped_areas(c, m, g);
+        done = 1;
+    }
     if (!done && rc == SPH_OK) {
         for (size_t k = 0; k < n; k++) {
             double u[4][3];
@@ -297,6 +321,242 @@ static int areas(og_ctx *c, ocean_grid *g)
     return rc;
 }
 
+
+static void map_free(og_map *m)
+{
+    geo_proj_free(m->p);
+    free(m->x);
+    free(m->y);
+}
+
+/* 1-D coordinate variable of dimension dim (the variable named as it) with
+ * standard_name sn, else axis ax; -1 none. */
+static int og_axis(int nc, int dim, const char *sn, const char *ax)
+{
+    char dn[NC_MAX_NAME + 1], buf[80];
+    int v, nd = 0;
+    if (nc_inq_dimname(nc, dim, dn) != NC_NOERR || nc_inq_varid(nc, dn, &v) != NC_NOERR ||
+        nc_inq_varndims(nc, v, &nd) != NC_NOERR || nd != 1)
+        return -1;
+    if (og_att(nc, v, "standard_name", buf, sizeof buf) && buf[0])
+        return strcmp(buf, sn) == 0 ? v : -1;
+    return og_att(nc, v, "axis", buf, sizeof buf) && strcmp(buf, ax) == 0 ? v : -1;
+}
+
+/* (x, y) in the file's units to longitude/latitude, n points. */
+static int map_to_lonlat(const og_map *m, size_t n, const double *x, const double *y, double *lon, double *lat,
+                         sph_error *err)
+{
+    if (m->kind == 1) {
+        double *X = malloc(2 * n * sizeof *X);
+        if (!X)
+            return sph_err_set(err, SPH_ERR_NOMEM, "out of memory");
+        for (size_t k = 0; k < n; k++) {
+            X[k] = x[k] * m->fac;
+            X[n + k] = y[k] * m->fac;
+        }
+        sph_error local;
+        sph_error_clear(&local);
+        geo_inverse(m->p, n, X, X + n, lon, lat, &local);
+        free(X);
+        return SPH_OK; /* points that do not unproject stay NaN and are refused by the caller */
+    }
+    for (size_t k = 0; k < n; k++) {
+        double rl = (x[k] - m->l0) * OG_D2R, rp = y[k] * OG_D2R;
+        double a = cos(rp) * cos(rl), b = cos(rp) * sin(rl), c = sin(rp), g[3];
+        for (int q = 0; q < 3; q++)
+            g[q] = a * m->ex[q] + b * m->ey[q] + c * m->ez[q];
+        lat[k] = atan2(g[2], hypot(g[0], g[1])) / OG_D2R;
+        lon[k] = atan2(g[1], g[0]) / OG_D2R;
+    }
+    return SPH_OK;
+}
+
+/* The mapping of data variable v (named data) with grid_mapping gm: the
+ * centres of all cells (lon, lat [ny x nx], allocated), the dimensions
+ * (dims: y, x). 0; else an error naming the file, the variable and key. */
+static int mapped_centres(og_ctx *c, int v, const char *data, og_map *m, double **lon, double **lat, size_t *nx,
+                          size_t *ny)
+{
+    char gm[NC_MAX_NAME + 1], why[480];
+    int g, nd = 0, d[NC_MAX_VAR_DIMS];
+    og_att(c->nc, v, "grid_mapping", gm, sizeof gm);
+    snprintf(m->gmvar, sizeof m->gmvar, "%.63s", gm);
+    if (nc_inq_varid(c->nc, gm, &g) != NC_NOERR)
+        return sph_err_set(c->err, SPH_ERR_BAD_DATA, "%s: %s: variable %s: its grid_mapping \"%s\" is not a variable "
+                           "of the file: set %s to \"output\"", c->key, c->path, data, gm, c->key);
+    og_att(c->nc, g, "grid_mapping_name", m->gmname, sizeof m->gmname);
+    nc_inq_varndims(c->nc, v, &nd);
+    nc_inq_vardimid(c->nc, v, d);
+    int rot = strcmp(m->gmname, "rotated_latitude_longitude") == 0;
+    const char *sx = rot ? "grid_longitude" : "projection_x_coordinate";
+    const char *sy = rot ? "grid_latitude" : "projection_y_coordinate";
+    int xv = nd >= 2 ? og_axis(c->nc, d[nd - 1], sx, "X") : -1, yv = nd >= 2 ? og_axis(c->nc, d[nd - 2], sy, "Y") : -1;
+    if (xv < 0 || yv < 0)
+        return sph_err_set(c->err, SPH_ERR_BAD_DATA, "%s: %s: variable %s: grid_mapping \"%s\" (%s) but its last two "
+                           "dimensions (y, x) have no 1-D coordinates with standard_name %s and %s: set %s to "
+                           "\"output\"", c->key, c->path, data, gm, m->gmname[0] ? m->gmname : "no grid_mapping_name",
+                           sy, sx, c->key);
+    nc_inq_varname(c->nc, xv, m->xvar);
+    nc_inq_varname(c->nc, yv, m->yvar);
+    c->dims[0] = d[nd - 2];
+    c->dims[1] = d[nd - 1];
+    nc_inq_dimlen(c->nc, c->dims[1], nx);
+    nc_inq_dimlen(c->nc, c->dims[0], ny);
+    if (rot) {
+        double plat = NAN, plon = NAN;
+        m->kind = 2;
+        m->l0 = 0.0;
+        cf_att_num(c->nc, g, "grid_north_pole_latitude", &plat, NULL, 1);
+        cf_att_num(c->nc, g, "grid_north_pole_longitude", &plon, NULL, 1);
+        cf_att_num(c->nc, g, "north_pole_grid_longitude", &m->l0, NULL, 1);
+        if (!isfinite(plat) || !isfinite(plon) || fabs(plat) > 90.0 || !isfinite(m->l0))
+            return sph_err_set(c->err, SPH_ERR_BAD_DATA, "%s: %s: variable %s: grid mapping %s (%s) lacks "
+                               "grid_north_pole_latitude or grid_north_pole_longitude: set %s to \"output\"", c->key,
+                               c->path, data, gm, m->gmname, c->key);
+        /* the rotated pole ez; the rotated origin (l0 = 0) on the great
+         * circle through both poles, 90 degrees from ez, beyond the true
+         * pole: at longitude plon + 180, latitude 90 - plat */
+        unit(plon, plat, m->ez);
+        unit(plon + 180.0, 90.0 - plat, m->ex);
+        m->ey[0] = m->ez[1] * m->ex[2] - m->ez[2] * m->ex[1];
+        m->ey[1] = m->ez[2] * m->ex[0] - m->ez[0] * m->ex[2];
+        m->ey[2] = m->ez[0] * m->ex[1] - m->ez[1] * m->ex[0];
+        m->fac = 1.0;
+    } else {
+        char *def = m->def, u[64] = "";
+        if (cf_mapping_proj(c->nc, g, def, sizeof m->def, why, sizeof why) != 0)
+            return sph_err_set(c->err, SPH_ERR_BAD_DATA, "%s: %s: variable %s: grid mapping %s%s%s: set %s to "
+                               "\"output\"", c->key, c->path, data, gm, why[0] == ':' ? "" : " ", why, c->key);
+        og_att(c->nc, xv, "units", u, sizeof u);
+        char uy[64] = "";
+        og_att(c->nc, yv, "units", uy, sizeof uy);
+        m->fac = !strcmp(u, "m") || !strcmp(u, "meter") || !strcmp(u, "metre") || !strcmp(u, "meters") ||
+                         !strcmp(u, "metres") ? 1.0
+                 : !strcmp(u, "km") || !strcmp(u, "kilometer") || !strcmp(u, "kilometre") ||
+                         !strcmp(u, "kilometers") || !strcmp(u, "kilometres") ? 1000.0 : 0.0;
+        if (!(m->fac > 0.0) || strcmp(u, uy) != 0)
+            return sph_err_set(c->err, SPH_ERR_UNITS, "%s: %s: variable %s: projection coordinates %s/%s have units "
+                               "\"%s\"/\"%s\" (m or km, the same for both): set %s to \"output\"", c->key, c->path,
+                               m->xvar, m->xvar, m->yvar, u, uy, c->key);
+        sph_error pe;
+        sph_error_clear(&pe);
+        m->kind = 1;
+        m->p = geo_proj_create(def, 0.0, 0.0, &pe);
+        if (!m->p)
+            return sph_err_set(c->err, SPH_ERR_BAD_DATA, "%s: %s: variable %s: grid mapping %s (%s) is not understood "
+                               "by PROJ (%s): set %s to \"output\"", c->key, c->path, data, gm, def, pe.msg, c->key);
+    }
+    m->x = malloc(*nx * sizeof *m->x);
+    m->y = malloc(*ny * sizeof *m->y);
+    *lon = malloc(*nx * *ny * sizeof **lon);
+    *lat = malloc(*nx * *ny * sizeof **lat);
+    double *xx = malloc(*nx * *ny * sizeof *xx), *yy = malloc(*nx * *ny * sizeof *yy);
+    int rc = SPH_OK;
+    if (!m->x || !m->y || !*lon || !*lat || !xx || !yy)
+        rc = sph_err_set(c->err, SPH_ERR_NOMEM, "%s: %s: out of memory (%zu x %zu grid)", c->key, c->path, *nx, *ny);
+    else if (nc_get_var_double(c->nc, xv, m->x) != NC_NOERR || nc_get_var_double(c->nc, yv, m->y) != NC_NOERR)
+        rc = fail(c, m->xvar, "cannot be read with its y coordinate");
+    for (size_t j = 0; rc == SPH_OK && j < *ny; j++)
+        for (size_t i = 0; i < *nx; i++) {
+            xx[j * *nx + i] = m->x[i];
+            yy[j * *nx + i] = m->y[j];
+        }
+    if (rc == SPH_OK)
+        rc = map_to_lonlat(m, *nx * *ny, xx, yy, *lon, *lat, c->err);
+    free(xx);
+    free(yy);
+    return rc;
+}
+
+/* Edge e (0..n) of a mapped grid's axis a[n]: half-way between the
+ * centres e-1 and e, half a cell beyond the outer ones. */
+static double map_edge(const double *a, int n, int e)
+{
+    return e == 0 ? 1.5 * a[0] - 0.5 * a[1] : e == n ? 1.5 * a[n - 1] - 0.5 * a[n - 2] : 0.5 * (a[e - 1] + a[e]);
+}
+
+/* The areas of the kept cells of a mapped grid: a rotated pole's cell is a
+ * rectangle of the rotated sphere, R^2 dlambda (sin phi_n - sin phi_s); a
+ * projection's, its rectangle on the plane divided by the projection's
+ * areal scale at the centre (PROJ's proj_factors, on the mapping's own
+ * ellipsoid). */
+static int mapped_areas(og_ctx *c, const og_map *m, ocean_grid *g)
+{
+    PJ_CONTEXT *ctx = NULL;
+    PJ *P = NULL;
+    if (m->kind == 1) {
+        ctx = proj_context_create();
+        P = ctx ? proj_create(ctx, m->def) : NULL;
+        if (!P) {
+            proj_context_destroy(ctx);
+            return fail(c, m->gmvar, "gives a definition that PROJ cannot compute scale factors of");
+        }
+    }
+    int rc = SPH_OK;
+    for (int j = 0; j < g->ny && rc == SPH_OK; j++)
+        for (int i = 0; i < g->nx && rc == SPH_OK; i++) {
+            int fi = g->i0 + i, fj = g->j0 + j;
+            double dx = fabs(map_edge(m->x, c->nxf, fi + 1) - map_edge(m->x, c->nxf, fi));
+            double y0 = map_edge(m->y, c->nyf, fj), y1 = map_edge(m->y, c->nyf, fj + 1);
+            size_t k = (size_t)j * g->nx + i;
+            if (m->kind == 2) {
+                g->area[k] = OG_R * OG_R * dx * OG_D2R * fabs(sin(y1 * OG_D2R) - sin(y0 * OG_D2R));
+                continue;
+            }
+            PJ_COORD lp = proj_coord(g->lon[k] * OG_D2R, g->lat[k] * OG_D2R, 0, 0);
+            PJ_FACTORS f = proj_factors(P, lp);
+            if (proj_errno(P) || !(f.areal_scale > 0.0) || !isfinite(f.areal_scale)) {
+                char what[200];
+                snprintf(what, sizeof what, "gives no areal scale factor at cell (i %d, j %d) (%.4f E, %.4f N)", fi,
+                         fj, g->lon[k], g->lat[k]);
+                rc = fail(c, m->gmvar, what);
+                break;
+            }
+            g->area[k] = dx * fabs(y1 - y0) * m->fac * m->fac / f.areal_scale;
+        }
+    proj_destroy(P);
+    proj_context_destroy(ctx);
+    if (rc == SPH_OK)
+        snprintf(g->area_from, sizeof g->area_from, m->kind == 2 ? "the rotated sphere's cell of radius 6371 km"
+                 : "the plane's cell over the mapping's areal scale (PROJ)");
+    return rc;
+}
+
+/* The corners of the kept cells of a mapped grid: half-way between the
+ * centres' coordinates (half a cell beyond the outer ones), mapped to
+ * longitude/latitude: the cell is the rectangle of the grid's own
+ * coordinates. */
+static int corners_from_mapping(og_ctx *c, const og_map *m, ocean_grid *g)
+{
+    size_t n = (size_t)g->nx * g->ny;
+    double *X = malloc(4 * n * sizeof *X), *Y = malloc(4 * n * sizeof *Y);
+    if (!X || !Y) {
+        free(X);
+        free(Y);
+        return sph_err_set(c->err, SPH_ERR_NOMEM, "%s: %s: out of memory (grid corners)", c->key, c->path);
+    }
+    static const int off[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}}; /* (di, dj): (i-, j-), (i+, j-), (i+, j+), (i-, j+) */
+    for (int j = 0; j < g->ny; j++)
+        for (int i = 0; i < g->nx; i++)
+            for (int v = 0; v < 4; v++) {
+                int fi = g->i0 + i, fj = g->j0 + j, ei = fi + off[v][0], ej = fj + off[v][1];
+                /* edge e lies between centres e-1 and e */
+                size_t k = 4 * ((size_t)j * g->nx + i) + v;
+                X[k] = map_edge(m->x, c->nxf, ei);
+                Y[k] = map_edge(m->y, c->nyf, ej);
+            }
+    int rc = map_to_lonlat(m, 4 * n, X, Y, g->blon, g->blat, c->err);
+    free(X);
+    free(Y);
+    for (size_t k = 0; rc == SPH_OK && k < 4 * n; k++)
+        if (!isfinite(g->blon[k]) || !isfinite(g->blat[k]))
+            rc = fail(c, m->xvar, "gives a cell corner that does not map to a longitude and latitude");
+    snprintf(g->corners, sizeof g->corners, "half-way between the %.24s/%.24s centres, through mapping %.24s",
+             m->xvar, m->yvar, m->gmvar);
+    return rc;
+}
+
 int ocean_grid_read(const char *path, const double box[4], const char *key, ocean_grid **out, sph_error *err)
 {
     *out = NULL;
@@ -304,38 +564,50 @@ int ocean_grid_read(const char *path, const double box[4], const char *key, ocea
     int st = nc_open(path, NC_NOWRITE, &c.nc);
     if (st != NC_NOERR)
         return sph_err_set(err, SPH_ERR_IO, "%s: %s: open: %s", key, path, nc_strerror(st));
-    int vlon, vlat, rc = SPH_OK;
+    int vlon = -1, vlat = -1, rc = SPH_OK;
     char data[NC_MAX_NAME + 1], why[600];
     double *lon = NULL, *lat = NULL;
     ocean_grid *g = NULL;
     landmask *m = NULL;
-    int found = find_centres(c.nc, &vlon, &vlat, data, sizeof data, why, sizeof why);
-    if (found) { /* -1: a mapping without coordinates; -2: nothing to read positions from */
+    og_map map;
+    memset(&map, 0, sizeof map);
+    size_t nx = 0, ny = 0;
+    int found = find_centres(c.nc, &vlon, &vlat, data, sizeof data, why, sizeof why), dv = -1;
+    if (found == -1 && nc_inq_varid(c.nc, data, &dv) == NC_NOERR) { /* a mapping without coordinates */
+        if ((rc = mapped_centres(&c, dv, data, &map, &lon, &lat, &nx, &ny)) != SPH_OK)
+            goto done;
+    } else if (found) { /* -2: nothing to read positions from */
         rc = sph_err_set(err, found == -2 ? SPH_ERR_MISSING_VAR : SPH_ERR_CONFIG,
                          "%s: %s: variable %s %s: set %s to \"output\"", key, path,
                          data[0] ? data : "(none with two dimensions)", why, key);
         goto done;
+    } else {
+        nc_inq_vardimid(c.nc, vlon, c.dims);
+        nc_inq_dimlen(c.nc, c.dims[0], &ny);
+        nc_inq_dimlen(c.nc, c.dims[1], &nx);
+        lon = malloc(nx * ny * sizeof *lon);
+        lat = malloc(nx * ny * sizeof *lat);
     }
-    size_t nx = 0, ny = 0;
-    nc_inq_vardimid(c.nc, vlon, c.dims);
-    nc_inq_dimlen(c.nc, c.dims[0], &ny);
-    nc_inq_dimlen(c.nc, c.dims[1], &nx);
     c.nxf = (int)nx;
     c.nyf = (int)ny;
     g = calloc(1, sizeof *g);
-    lon = malloc(nx * ny * sizeof *lon);
-    lat = malloc(nx * ny * sizeof *lat);
     if (!g || !lon || !lat) {
         rc = sph_err_set(err, SPH_ERR_NOMEM, "%s: %s: out of memory (%zu x %zu grid)", key, path, nx, ny);
         goto done;
     }
-    nc_inq_varname(c.nc, vlon, g->lonvar);
-    nc_inq_varname(c.nc, vlat, g->latvar);
+    if (map.kind) {
+        snprintf(g->lonvar, sizeof g->lonvar, "%s", map.xvar);
+        snprintf(g->latvar, sizeof g->latvar, "%s", map.yvar);
+    } else {
+        nc_inq_varname(c.nc, vlon, g->lonvar);
+        nc_inq_varname(c.nc, vlat, g->latvar);
+    }
     if (nx < 2 || ny < 2) {
         rc = fail(&c, g->lonvar, "has fewer than 2 x 2 cells");
         goto done;
     }
-    if (nc_get_var_double(c.nc, vlon, lon) != NC_NOERR || nc_get_var_double(c.nc, vlat, lat) != NC_NOERR) {
+    if (!map.kind &&
+        (nc_get_var_double(c.nc, vlon, lon) != NC_NOERR || nc_get_var_double(c.nc, vlat, lat) != NC_NOERR)) {
         rc = fail(&c, g->lonvar, "cannot be read with its latitude");
         goto done;
     }
@@ -396,19 +668,27 @@ int ocean_grid_read(const char *path, const double box[4], const char *key, ocea
             g->lon[k] = lon[f];
             g->lat[k] = lat[f];
         }
-    int b = corners_from_bounds(&c, vlon, vlat, g);
+    int b = map.kind ? 1 : corners_from_bounds(&c, vlon, vlat, g);
     if (b < 0) {
         rc = -b;
         goto done;
     }
+    if (map.kind && (rc = corners_from_mapping(&c, &map, g)) != SPH_OK)
+        goto done;
     if (b == 0 && (rc = corners_from_centres(&c, lon, lat, g)) != SPH_OK)
         goto done;
     for (size_t k = 0; k < 4 * n; k++)
         g->blon[k] = near_lon(g->blon[k], g->lon[k / 4]);
-    if ((rc = areas(&c, g)) != SPH_OK)
+    if ((rc = areas(&c, g, map.kind ? &map : NULL)) != SPH_OK)
         goto done;
     /* land: the model's own mask, on the same cells */
-    landmask_read_opts o = {NULL, LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, 1};
+    landmask_read_opts o = {NULL, LANDMASK_FROM_AUTO, LANDMASK_POL_AUTO, NAN, 1, NULL, NULL, 0, 0};
+    if (map.kind) { /* the file has no positions of its own: the mapping's */
+        o.cell_lon = lon;
+        o.cell_lat = lat;
+        o.cell_nx = nx;
+        o.cell_ny = ny;
+    }
     sph_error le;
     sph_error_clear(&le);
     m = landmask_read_model(path, &o, &le);
@@ -431,10 +711,17 @@ int ocean_grid_read(const char *path, const double box[4], const char *key, ocea
             g->land[k] = ml[(size_t)(j0 + j) * nx + (size_t)(i0 + i)] ? 1 : 0;
             nland += g->land[k];
         }
-    snprintf(g->desc, sizeof g->desc, "curvilinear %.64s/%.64s, cells i %d..%d, j %d..%d of %zu x %zu (%zu land), "
-             "corners: %s; areas: %s", g->lonvar, g->latvar, i0, i1, j0, j1, nx, ny, nland,
+    char kind[200];
+    if (map.kind)
+        snprintf(kind, sizeof kind, "%s %.40s/%.40s through grid mapping %.40s (%.40s)",
+                 map.kind == 2 ? "rotated-pole" : "projected", map.xvar, map.yvar, map.gmvar, map.gmname);
+    else
+        snprintf(kind, sizeof kind, "curvilinear %.64s/%.64s", g->lonvar, g->latvar);
+    snprintf(g->desc, sizeof g->desc, "%s, cells i %d..%d, j %d..%d of %zu x %zu (%zu land), "
+             "corners: %s; areas: %s", kind, i0, i1, j0, j1, nx, ny, nland,
              b ? g->corners : "midpoints of the centres", g->area_from);
 done:
+    map_free(&map);
     landmask_free(m);
     free(lon);
     free(lat);

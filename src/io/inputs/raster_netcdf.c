@@ -12,6 +12,7 @@
 #include <ctype.h>
 
 #include "io/cf.h"
+#include "io/cf_mapping.h"
 #include "io/fetch.h"
 #include "util/log.h"
 #include "util/timeutil.h"
@@ -54,7 +55,6 @@ static int find_var(int ncid, const char *override, const char *standard_name,
 /* Reads one 2-D slab (leading dimensions at index 0) as double, with
  * scale/offset applied and declared missing values turned into NaN.
  * Undeclared NaN is an error. */
-static int att_num(int ncid, int varid, const char *att, double *v, size_t *n, size_t max);
 
 /* flag_values / flag_meanings of varid: kind[i] 1 for land (a meaning
  * naming land, coast or lake), 2 for "no information" (pole hole,
@@ -64,7 +64,7 @@ static int read_flags(int ncid, int varid, const char *path, const char *label, 
                       double *values, int *kind, sph_error *err)
 {
     size_t n = 0;
-    if (!att_num(ncid, varid, att, values, &n, RASTER_MAX_FLAGS))
+    if (!cf_att_num(ncid, varid, att, values, &n, RASTER_MAX_FLAGS))
         return 0;
     char meanings[4096];
     if (!att_text(ncid, varid, "flag_meanings", meanings, sizeof meanings))
@@ -218,149 +218,16 @@ static int parse_time_units(const char *units, double *per_unit, double *epoch)
 
 /* ------------------------------------------------------------------ grids */
 
-static int att_num(int ncid, int varid, const char *att, double *v, size_t *n, size_t max)
-{
-    size_t len;
-    if (nc_inq_attlen(ncid, varid, att, &len) != NC_NOERR || len < 1 || len > max)
-        return 0;
-    nc_type t;
-    nc_inq_atttype(ncid, varid, att, &t);
-    if (t == NC_CHAR || t == NC_STRING)
-        return 0;
-    if (nc_get_att_double(ncid, varid, att, v) != NC_NOERR)
-        return 0;
-    if (n)
-        *n = len;
-    return 1;
-}
-
 /* The PROJ definition of grid-mapping variable gm (see io/raster.h for
- * the order of the attributes tried). */
+ * the order of the attributes tried; io/cf_mapping.h). */
 static int gm_definition(int ncid, int gm, const char *path, const char *var, const char *gmname,
                          char *def, size_t len, sph_error *err)
 {
-    static const char *const text_atts[] = {"crs_wkt", "spatial_ref", "proj4", "proj4text",
-                                            "proj4_params", "proj4string", "proj4_string", NULL};
-    for (const char *const *a = text_atts; *a; a++)
-        if (att_text(ncid, gm, *a, def, len) && def[0])
-            return SPH_OK;
-    char code[256];
-    static const char *const epsg_atts[] = {"epsg_code", "EPSG", "epsg", "srid", NULL};
-    for (const char *const *a = epsg_atts; *a; a++) {
-        double v;
-        const char *digits = NULL;
-        if (att_text(ncid, gm, *a, code, sizeof code)) {
-            digits = strrchr(code, ':');
-            digits = digits ? digits + 1 : code;
-        } else if (att_num(ncid, gm, *a, &v, NULL, 1) && v > 0 && v < 1e6) {
-            snprintf(code, sizeof code, "%.0f", v);
-            digits = code;
-        }
-        if (digits && *digits && strspn(digits, "0123456789") == strlen(digits)) {
-            snprintf(def, len, "EPSG:%s", digits);
-            return SPH_OK;
-        }
-    }
-    char name[128];
-    if (!att_text(ncid, gm, "grid_mapping_name", name, sizeof name))
-        return sph_err_set(err, SPH_ERR_BAD_DATA,
-                           "ice raster %s: variable %s: grid mapping %s has no grid_mapping_name, "
-                           "crs_wkt, proj4 or EPSG code", path, var, gmname);
-    char ell[160];
-    double a = NAN, b = NAN, rf = NAN, R = NAN;
-    att_num(ncid, gm, "semi_major_axis", &a, NULL, 1);
-    att_num(ncid, gm, "semi_minor_axis", &b, NULL, 1);
-    att_num(ncid, gm, "inverse_flattening", &rf, NULL, 1);
-    att_num(ncid, gm, "earth_radius", &R, NULL, 1);
-    if (a > 0 && b > 0)
-        snprintf(ell, sizeof ell, "+a=%.17g +b=%.17g", a, b);
-    else if (a > 0 && rf > 0)
-        snprintf(ell, sizeof ell, "+a=%.17g +rf=%.17g", a, rf);
-    else if (a > 0 && rf == 0)
-        snprintf(ell, sizeof ell, "+R=%.17g", a);
-    else if (R > 0)
-        snprintf(ell, sizeof ell, "+R=%.17g", R);
-    else
-        return sph_err_set(err, SPH_ERR_BAD_DATA,
-                           "ice raster %s: variable %s: grid mapping %s (%s) gives no ellipsoid "
-                           "(semi_major_axis with semi_minor_axis or inverse_flattening, or "
-                           "earth_radius)", path, var, gmname, name);
-    double fe = 0, fn = 0, lat0 = NAN, lon0 = NAN, k0 = NAN, sp[2] = {NAN, NAN};
-    size_t nsp = 0;
-    att_num(ncid, gm, "false_easting", &fe, NULL, 1);
-    att_num(ncid, gm, "false_northing", &fn, NULL, 1);
-    att_num(ncid, gm, "latitude_of_projection_origin", &lat0, NULL, 1);
-    att_num(ncid, gm, "standard_parallel", sp, &nsp, 2);
-    const char *missing = NULL;
-    char body[512];
-    if (strcmp(name, "polar_stereographic") == 0) {
-        att_num(ncid, gm, "straight_vertical_longitude_from_pole", &lon0, NULL, 1);
-        att_num(ncid, gm, "scale_factor_at_projection_origin", &k0, NULL, 1);
-        if (!isfinite(lon0))
-            missing = "straight_vertical_longitude_from_pole";
-        else if (!(fabs(lat0) == 90))
-            missing = "latitude_of_projection_origin (+90 or -90)";
-        else if (nsp == 1 && isfinite(sp[0]))
-            snprintf(body, sizeof body, "+proj=stere +lat_0=%.17g +lat_ts=%.17g +lon_0=%.17g",
-                     lat0, sp[0], lon0);
-        else if (k0 > 0)
-            snprintf(body, sizeof body, "+proj=stere +lat_0=%.17g +k_0=%.17g +lon_0=%.17g",
-                     lat0, k0, lon0);
-        else
-            missing = "standard_parallel or scale_factor_at_projection_origin";
-    } else if (strcmp(name, "stereographic") == 0 ||
-               strcmp(name, "lambert_azimuthal_equal_area") == 0) {
-        int stere = name[0] == 's';
-        att_num(ncid, gm, "longitude_of_projection_origin", &lon0, NULL, 1);
-        att_num(ncid, gm, "scale_factor_at_projection_origin", &k0, NULL, 1);
-        if (!isfinite(lon0))
-            missing = "longitude_of_projection_origin";
-        else if (!isfinite(lat0))
-            missing = "latitude_of_projection_origin";
-        else if (stere && !(k0 > 0))
-            missing = "scale_factor_at_projection_origin";
-        else if (stere)
-            snprintf(body, sizeof body, "+proj=stere +lat_0=%.17g +lon_0=%.17g +k_0=%.17g", lat0,
-                     lon0, k0);
-        else
-            snprintf(body, sizeof body, "+proj=laea +lat_0=%.17g +lon_0=%.17g", lat0, lon0);
-    } else if (strcmp(name, "lambert_conformal_conic") == 0) {
-        att_num(ncid, gm, "longitude_of_central_meridian", &lon0, NULL, 1);
-        if (!isfinite(lon0))
-            missing = "longitude_of_central_meridian";
-        else if (!isfinite(lat0))
-            missing = "latitude_of_projection_origin";
-        else if (nsp < 1 || !isfinite(sp[0]))
-            missing = "standard_parallel";
-        else
-            snprintf(body, sizeof body, "+proj=lcc +lat_1=%.17g +lat_2=%.17g +lat_0=%.17g "
-                     "+lon_0=%.17g", sp[0], nsp == 2 ? sp[1] : sp[0], lat0, lon0);
-    } else if (strcmp(name, "transverse_mercator") == 0) {
-        att_num(ncid, gm, "longitude_of_central_meridian", &lon0, NULL, 1);
-        att_num(ncid, gm, "scale_factor_at_central_meridian", &k0, NULL, 1);
-        if (!isfinite(lon0))
-            missing = "longitude_of_central_meridian";
-        else if (!isfinite(lat0))
-            missing = "latitude_of_projection_origin";
-        else if (!(k0 > 0))
-            missing = "scale_factor_at_central_meridian";
-        else
-            snprintf(body, sizeof body, "+proj=tmerc +lat_0=%.17g +lon_0=%.17g +k_0=%.17g", lat0,
-                     lon0, k0);
-    } else {
-        return sph_err_set(err, SPH_ERR_BAD_DATA,
-                           "ice raster %s: variable %s: grid mapping %s: grid_mapping_name \"%s\" "
-                           "not supported (polar_stereographic, stereographic, "
-                           "lambert_conformal_conic, lambert_azimuthal_equal_area, "
-                           "transverse_mercator, or a crs_wkt / proj4 / EPSG attribute)", path,
-                           var, gmname, name);
-    }
-    if (missing)
-        return sph_err_set(err, SPH_ERR_BAD_DATA,
-                           "ice raster %s: variable %s: grid mapping %s (%s) lacks %s", path, var,
-                           gmname, name, missing);
-    snprintf(def, len, "%s +x_0=%.17g +y_0=%.17g %s +units=m +no_defs", body, fe, fn, ell);
-    return SPH_OK;
+    char why[400];
+    if (cf_mapping_proj(ncid, gm, def, len, why, sizeof why) == 0)
+        return SPH_OK;
+    return sph_err_set(err, SPH_ERR_BAD_DATA, "ice raster %s: variable %s: grid mapping %s%s%s", path,
+                       var, gmname, why[0] == ':' ? "" : " ", why);
 }
 
 /* Metres per unit of coordinate variable v (0 when its units are no
