@@ -4,7 +4,9 @@
  *  - polar stereographic north on WGS84 as NSIDC defines EPSG:3413
  *    (straight_vertical_longitude_from_pole -45, standard_parallel 70;
  *    CF appendix F attribute names), 10 km cells over the Barents Sea
- *    (40 E, 75 N), x/y in metres and again in km: the centres and
+ *    (40 E, 75 N), x/y in metres and again in km, the mapping by its CF
+ *    parameters, by its crs_wkt alone (PROJ's WKT2 of EPSG:3413) and by
+ *    its epsg_code alone: the centres and
  *    corners equal Snyder's (1987) inverse formulas (eq. 21-39, 7-9)
  *    within 1e-9 degree; the areas equal dx dy / k^2 with Snyder's point
  *    scale k (eq. 21-32; conformal, so the areal scale is k^2) within
@@ -67,12 +69,28 @@ static void ps_file(const char *path, const char *unit, double scale, int what)
     rp_text(nc, vy, "units", what == 2 ? "degrees" : unit);
     nc_def_var(nc, "crs", NC_INT, 0, NULL, &vc);
     rp_text(nc, vc, "grid_mapping_name", "polar_stereographic");
-    rp_num(nc, vc, "straight_vertical_longitude_from_pole", -45.0);
-    rp_num(nc, vc, "latitude_of_projection_origin", 90.0);
-    rp_num(nc, vc, "standard_parallel", 70.0);
-    rp_num(nc, vc, "false_easting", 0.0);
-    rp_num(nc, vc, "false_northing", 0.0);
-    if (what != 1) {
+    if (what == 3 || what == 4) { /* the CRS by itself: its WKT (as PROJ writes EPSG:3413's), or its code */
+        if (what == 4) {
+            rp_text(nc, vc, "epsg_code", "EPSG:3413");
+        } else {
+            PJ_CONTEXT *ctx = proj_context_create();
+            PJ *P = proj_create(ctx, "EPSG:3413");
+            const char *wkt = P ? proj_as_wkt(ctx, P, PJ_WKT2_2019, NULL) : NULL;
+            CHECK(wkt != NULL, "PROJ's WKT of EPSG:3413");
+            if (wkt)
+                rp_text(nc, vc, "crs_wkt", wkt);
+            proj_destroy(P);
+            proj_context_destroy(ctx);
+        }
+    }
+    if (what < 3) {
+        rp_num(nc, vc, "straight_vertical_longitude_from_pole", -45.0);
+        rp_num(nc, vc, "latitude_of_projection_origin", 90.0);
+        rp_num(nc, vc, "standard_parallel", 70.0);
+        rp_num(nc, vc, "false_easting", 0.0);
+        rp_num(nc, vc, "false_northing", 0.0);
+    }
+    if (what != 1 && what < 3) {
         rp_num(nc, vc, "semi_major_axis", WA);
         rp_num(nc, vc, "inverse_flattening", WRF);
     }
@@ -101,11 +119,11 @@ static void ps_file(const char *path, const char *unit, double scale, int what)
     nc_close(nc);
 }
 
-static void projected(const char *unit, double scale)
+static void projected(const char *unit, double scale, int what)
 {
     char path[1024];
-    snprintf(path, sizeof path, "%s/ps_%s.nc", dir, unit);
-    ps_file(path, unit, scale, 0);
+    snprintf(path, sizeof path, "%s/ps_%s_%d.nc", dir, unit, what);
+    ps_file(path, unit, scale, what);
     const double box[4] = {30.0, 50.0, 72.0, 78.0};
     ocean_grid *g = NULL;
     sph_error err;
@@ -131,8 +149,9 @@ static void projected(const char *unit, double scale)
         wa = fmax(wa, fabs(g->area[c] - want) / want);
         land &= g->land[c] == (c % NX >= 6);
     }
-    printf("  %s: centres %.3g deg, corners %.3g deg from Snyder; areas %.3g relative to dx dy / k^2 (%s)\n", unit,
-           wc, wk, wa, g->area_from);
+    static const char *const how[5] = {"parameters", "", "", "crs_wkt", "epsg_code"};
+    printf("  %s, %s: centres %.3g deg, corners %.3g deg from Snyder; areas %.3g relative to dx dy / k^2 (%s)\n",
+           unit, how[what], wc, wk, wa, g->area_from);
     CHECK(wc <= 1e-9, "centres: Snyder's inverse within 1e-9 degree (%.3g)", wc);
     CHECK(wk <= 1e-9, "corners: Snyder's inverse of the edges within 1e-9 degree (%.3g)", wk);
     CHECK(wa <= 1e-8, "areas: dx dy / k^2 within 1e-8 (%.3g)", wa);
@@ -270,8 +289,10 @@ int main(void)
     int made = mkdtemp(dir) != NULL;
     CHECK(made, "a temporary directory");
     if (made) {
-        projected("m", 1.0);
-        projected("km", 1000.0);
+        projected("m", 1.0, 0);
+        projected("km", 1000.0, 0);
+        projected("m", 1.0, 3);
+        projected("m", 1.0, 4);
         rotated();
         refused();
     }

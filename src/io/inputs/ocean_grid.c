@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "io/cf_mapping.h"
 #include "io/geo.h"
@@ -135,7 +136,7 @@ typedef struct og_map {
     double ex[3], ey[3], ez[3]; /* rotated pole: the rotated frame's axes, earth-fixed */
     double l0;              /* north_pole_grid_longitude, degrees */
     double *x, *y;          /* [nx], [ny] the centres' coordinates, file units */
-    char def[1200];         /* the PROJ definition (projection) */
+    char def[4096];         /* the PROJ definition (projection) */
     char xvar[64], yvar[64], gmvar[64], gmname[64];
 } og_map;
 
@@ -372,6 +373,27 @@ static int map_to_lonlat(const og_map *m, size_t n, const double *x, const doubl
     return SPH_OK;
 }
 
+/* A mapping's definition as PROJ text or an EPSG code, as geo_proj_create
+ * takes it: a WKT (crs_wkt, spatial_ref) through PROJ's own conversion to a
+ * PROJ string. 0; -1 when PROJ cannot read it or it is not projected. */
+static int proj_string(char *def, size_t len)
+{
+    if (strstr(def, "+proj=") || strncasecmp(def, "EPSG:", 5) == 0)
+        return 0;
+    PJ_CONTEXT *ctx = proj_context_create();
+    if (!ctx)
+        return -1;
+    proj_log_level(ctx, PJ_LOG_NONE);
+    PJ *P = proj_create(ctx, def);
+    const char *s = P && proj_get_type(P) == PJ_TYPE_PROJECTED_CRS ? proj_as_proj_string(ctx, P, PJ_PROJ_4, NULL) : NULL;
+    int rc = s && strlen(s) < len ? 0 : -1;
+    if (rc == 0)
+        snprintf(def, len, "%s", s);
+    proj_destroy(P);
+    proj_context_destroy(ctx);
+    return rc;
+}
+
 /* The mapping of data variable v (named data) with grid_mapping gm: the
  * centres of all cells (lon, lat [ny x nx], allocated), the dimensions
  * (dims: y, x). 0; else an error naming the file, the variable and key. */
@@ -442,10 +464,11 @@ static int mapped_centres(og_ctx *c, int v, const char *data, og_map *m, double 
         sph_error pe;
         sph_error_clear(&pe);
         m->kind = 1;
-        m->p = geo_proj_create(def, 0.0, 0.0, &pe);
+        m->p = proj_string(def, sizeof m->def) == 0 ? geo_proj_create(def, 0.0, 0.0, &pe) : NULL;
         if (!m->p)
-            return sph_err_set(c->err, SPH_ERR_BAD_DATA, "%s: %s: variable %s: grid mapping %s (%s) is not understood "
-                               "by PROJ (%s): set %s to \"output\"", c->key, c->path, data, gm, def, pe.msg, c->key);
+            return sph_err_set(c->err, SPH_ERR_BAD_DATA, "%s: %s: variable %s: grid mapping %s is not a projected "
+                               "CRS that PROJ understands%s%.200s%s: set %s to \"output\"", c->key, c->path, data, gm,
+                               pe.msg[0] ? " (" : "", pe.msg, pe.msg[0] ? ")" : "", c->key);
     }
     m->x = malloc(*nx * sizeof *m->x);
     m->y = malloc(*ny * sizeof *m->y);
