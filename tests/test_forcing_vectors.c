@@ -9,6 +9,10 @@
  *    thredds.met.no): u, v with standard_name x_sea_water_velocity /
  *    y_sea_water_velocity, packed shorts, a depth axis, grid_mapping
  *    polar_stereographic, 2-D lon/lat, zeta as sea_surface_elevation.
+ *  - a CF rotated pole (COSMO/CORDEX style: rlon/rlat in degrees, x_wind
+ *    and y_wind along the rotated grid, no 2-D lon/lat): rotated by the
+ *    angle PROJ's ob_tran gives; a grid mapping without the figure of the
+ *    earth is refused in one line.
  *  - Lambert-conformal wind (met.no MEPS, NCEP NAM on THREDDS):
  *    x_wind_10m / y_wind_10m (standard_name x_wind, y_wind) on
  *    (time, height, y, x), grid_mapping lambert_conformal_conic, 2-D
@@ -27,6 +31,7 @@
 #include "util/err.h"
 
 #include <math.h>
+#include <proj.h>
 #include <netcdf.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -83,7 +88,8 @@ static int def_lcc(int nc, const char *name, double lat0, double lon0, double ra
     attd(nc, v, "standard_parallel", lat0);
     attd(nc, v, "longitude_of_central_meridian", lon0);
     attd(nc, v, "latitude_of_projection_origin", lat0);
-    attd(nc, v, "earth_radius", radius);
+    if (radius > 0)
+        attd(nc, v, "earth_radius", radius);
     return v;
 }
 
@@ -184,6 +190,7 @@ static double nam_alpha(double lon)
  * names without standard_name; NCEP's winds on this grid are grid-relative
  * (GRIB2 resolution and component flags), so the source says
  * forcing[].vectors "grid". */
+static double nam_radius = 6371229.0; /* 0: a mapping without the figure of the earth */
 static void write_nam(const char *path)
 {
     const size_t nx = 40, ny = 30, nt = 2;
@@ -198,7 +205,7 @@ static void write_nam(const char *path)
               NULL);
     vx = defv(nc, "x", NC_FLOAT, 1, &dx, "standard_name", "projection_x_coordinate", "units", "km",
               NULL);
-    def_lcc(nc, "LambertConformal_Projection", 25.0, 265.0, 6371229.0);
+    def_lcc(nc, "LambertConformal_Projection", 25.0, 265.0, nam_radius);
     int d4[4] = {dt, dh, dy, dx};
     vu = defv(nc, "u-component_of_wind_height_above_ground", NC_FLOAT, 4, d4, "long_name",
               "u-component of wind @ Specified height level above ground", NULL);
@@ -366,6 +373,72 @@ static void write_lambert(const char *path)
     NCW(nc_close(nc));
 }
 
+/* A rotated-pole wind (COSMO/CORDEX-style CF: rlon, rlat 1-D in degrees,
+ * grid_mapping rotated_latitude_longitude, x_wind / y_wind along the
+ * rotated grid), without 2-D latitude/longitude: the rotated origin at
+ * (20 E, 75 N), i.e. grid_north_pole_longitude -160, latitude 15. */
+#define NP 5 /* sample points per case */
+#define ROT_PLON (-160.0)
+#define ROT_PLAT 15.0
+static void write_rotpole(const char *path)
+{
+    const size_t nx = 41, ny = 41, nt = 2;
+    static const char *const dn[3] = {"height", "rlat", "rlon"};
+    int dt, dh, dy, dx, nc = create4(path, NC_UNLIMITED, dn, 1, ny, nx, &dt, &dh, &dy, &dx);
+    int vt = defv(nc, "time", NC_DOUBLE, 1, &dt, "standard_name", "time", "units",
+                  "seconds since 1970-01-01 00:00:00", NULL);
+    int vh = defv(nc, "height", NC_DOUBLE, 1, &dh, "standard_name", "height", "units", "m", "positive",
+                  "up", NULL);
+    int vy = defv(nc, "rlat", NC_DOUBLE, 1, &dy, "standard_name", "grid_latitude", "units", "degrees", NULL);
+    int vx = defv(nc, "rlon", NC_DOUBLE, 1, &dx, "standard_name", "grid_longitude", "units", "degrees", NULL);
+    int vp = defv(nc, "rotated_pole", NC_CHAR, 0, NULL, "grid_mapping_name", "rotated_latitude_longitude", NULL);
+    attd(nc, vp, "grid_north_pole_latitude", ROT_PLAT);
+    attd(nc, vp, "grid_north_pole_longitude", ROT_PLON);
+    int d4[4] = {dt, dh, dy, dx};
+    int vu = defv(nc, "U_10M", NC_FLOAT, 4, d4, "standard_name", "x_wind", NULL);
+    int vv = defv(nc, "V_10M", NC_FLOAT, 4, d4, "standard_name", "y_wind", NULL);
+    for (int c = 0; c < 2; c++) {
+        att(nc, c ? vv : vu, "units", "m s-1");
+        att(nc, c ? vv : vu, "grid_mapping", "rotated_pole");
+    }
+    NCW(nc_enddef(nc));
+    double tv[2] = {T0, T0 + 3600}, hv = 10.0, a[41];
+    size_t s0 = 0, ntv = nt;
+    NCW(nc_put_vara_double(nc, vt, &s0, &ntv, tv));
+    NCW(nc_put_var_double(nc, vh, &hv));
+    for (size_t k = 0; k < 41; k++)
+        a[k] = -5.0 + 0.25 * (double)k;
+    NCW(nc_put_var_double(nc, vx, a));
+    NCW(nc_put_var_double(nc, vy, a));
+    put_wind(nc, vu, vv, nt * nx * ny);
+    NCW(nc_close(nc));
+}
+
+/* The angle from east to the rotated grid's x axis at a sample point, by
+ * PROJ's general oblique transformation (ob_tran: o_lat_p = the pole's
+ * latitude, lon_0 = 180 + its longitude): the rotated coordinates of the
+ * point and of a point 1e-4 degree east of it, the step's direction on
+ * the rotated sphere (cos(rlat) drlon, drlat) is east's angle from x. */
+static const double *rot_lon, *rot_lat;
+static double rot_alpha(double lon)
+{
+    double lat = NAN;
+    for (int p = 0; p < NP; p++)
+        if (rot_lon[p] == lon)
+            lat = rot_lat[p];
+    PJ_CONTEXT *ctx = proj_context_create();
+    char def[200];
+    snprintf(def, sizeof def, "+proj=ob_tran +o_proj=longlat +o_lat_p=%g +o_lon_p=0 +lon_0=%g +R=6371000 +no_defs",
+             ROT_PLAT, 180.0 + ROT_PLON);
+    PJ *P = proj_create(ctx, def);
+    PJ_COORD a = proj_trans(P, PJ_FWD, proj_coord(lon * DEG, lat * DEG, 0, 0));
+    PJ_COORD b = proj_trans(P, PJ_FWD, proj_coord((lon + 1e-4) * DEG, lat * DEG, 0, 0));
+    double east = atan2(b.lp.phi - a.lp.phi, cos(a.lp.phi) * remainder(b.lp.lam - a.lp.lam, 2 * M_PI));
+    proj_destroy(P);
+    proj_context_destroy(ctx);
+    return -east;
+}
+
 /* ROMS grid: rho points on the polar stereographic plane above, the xi
  * axis turned by BETA from the plane's x axis. */
 #define ROMS_BETA (25.0 * DEG)
@@ -486,7 +559,6 @@ static void write_roms(const char *path, int with_angle)
 
 /* ---- checks ---- */
 
-#define NP 5
 
 static double ps_alpha_ll(double lon) { return ps_alpha(lon); }
 static double roms_alpha_ll(double lon) { return ROMS_BETA + ps_alpha(lon); }
@@ -597,10 +669,11 @@ int main(void)
     char dir[] = "/tmp/test_forcing_vectors.XXXXXX";
     if (!mkdtemp(dir))
         return 2;
-    enum { METNO, METNO_PLAIN, MEPS, ROMS, ROMS_PLAIN, NAM, NFILES };
+    enum { METNO, METNO_PLAIN, MEPS, ROMS, ROMS_PLAIN, NAM, ROTPOLE, NFILES };
     static const char *const fname[NFILES] = {"norkyst800_his.nc", "norkyst800_plain.nc",
                                               "meps_det_2_5km.nc", "roms_his_0001.nc",
-                                              "roms_noangle.nc",   "nam_218_conus.nc"};
+                                              "roms_noangle.nc",   "nam_218_conus.nc",
+                                              "cosmo_rotpole.nc"};
     char path[NFILES][300];
     for (int k = 0; k < NFILES; k++)
         snprintf(path[k], sizeof path[k], "%s/%s", dir, fname[k]);
@@ -612,6 +685,7 @@ int main(void)
     write_roms(roms, 1);
     write_roms(roms_plain, 0);
     write_nam(nam);
+    write_rotpole(path[ROTPOLE]);
     LCC_LON0 = 15.0, LCC_LAT0 = 63.3, LCC_R = R_EARTH; /* MEPS again */
     const forcing_name_map cur_map[] = {{"eastward_sea_water_velocity", "u"},
                                         {"northward_sea_water_velocity", "v"}};
@@ -621,6 +695,8 @@ int main(void)
     static const double plat[NP] = {74.0, 75.0, 76.0, 75.5, 74.5};
     static const double nlon[NP] = {-80.0, -75.0, -71.0, -78.0, -72.5};
     static const double nlat[NP] = {40.0, 42.0, 44.0, 43.5, 40.5};
+    rot_lon = plon;
+    rot_lat = plat;
 #define ARCTIC                                                                                     \
     plon, plat, { 14, 26, 73.5, 76.5 }
 #define CONUS                                                                                      \
@@ -674,11 +750,35 @@ int main(void)
         {"NAM, vectors grid", nam, "nam", FORCING_ATMOSPHERE, FQ_WIND, wmap, 2,
          FORCING_VECTORS_GRID, NULL, NULL, 10, nam_alpha, "grid-relative",
          "grid mapping 'LambertConformal_Projection'", CONUS},
+        /* a rotated pole without latitude/longitude: nodes and angle from
+         * the rotation, checked against PROJ's ob_tran */
+        {"rotated pole x_wind", path[ROTPOLE], "cosmo", FORCING_ATMOSPHERE, FQ_WIND, NULL, 0,
+         FORCING_VECTORS_AUTO, NULL, NULL, 10, rot_alpha, "grid-relative", "rotated pole", ARCTIC},
     };
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++)
         run_case(&cases[k]);
     sph_error e;
     int rc;
+
+    /* a grid mapping without the figure of the earth: refused, not taken
+     * as WGS84 */
+    {
+        char noearth[320];
+        snprintf(noearth, sizeof noearth, "%s/nam_noearth.nc", dir);
+        nam_radius = 0.0;
+        write_nam(noearth);
+        const char *files[1] = {noearth};
+        forcing_source_spec sp = {.name = "nam", .kind = FORCING_ATMOSPHERE, .files = files, .nfiles = 1,
+                                  .map = wmap, .nmap = 2, .required = FQ_WIND, .vectors = FORCING_VECTORS_GRID};
+        forcing *f = NULL;
+        sph_error_clear(&e);
+        rc = forcing_open(&f, &sp, 1, T0, T0 + 3600, -80, -70, 40, 44, &e);
+        CHECK(rc != 0 && strstr(e.msg, noearth) && strstr(e.msg, "LambertConformal_Projection") &&
+                  strstr(e.msg, "ellipsoid") && !strchr(e.msg, '\n'),
+              "a mapping without the earth's figure refused in one line: %s", e.msg);
+        forcing_close(f);
+        unlink(noearth);
+    }
 
     /* sphice check: one line per vector quantity, earth or grid and why;
      * with "auto" the refusal names the key */

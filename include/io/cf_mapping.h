@@ -21,6 +21,33 @@
  * lacks straight_vertical_longitude_from_pole", ...). */
 int cf_mapping_proj(int ncid, int gm, char *def, size_t len, char *why, size_t wlen);
 
+/* A definition from cf_mapping_proj as geo_proj_create takes it (PROJ
+ * text or an EPSG code): a WKT converted by PROJ to a PROJ string in
+ * place. 0; -1 when PROJ cannot read it or it is not a projected CRS. */
+int cf_mapping_proj_text(char *def, size_t len);
+
+/* A CF rotated pole (grid_mapping_name rotated_latitude_longitude): the
+ * rotated frame's axes in earth-fixed coordinates. The rotated north pole
+ * is at (grid_north_pole_longitude, grid_north_pole_latitude); the true
+ * north pole lies on the rotated meridian north_pole_grid_longitude
+ * (default 0), so that the rotated origin is at (pole longitude + 180,
+ * 90 - pole latitude) (PROJ's ob_tran with o_lat_p = pole latitude,
+ * o_lon_p = north_pole_grid_longitude, lon_0 = 180 + pole longitude). */
+typedef struct cf_rotated_pole {
+    double ex[3], ey[3], ez[3];
+    double l0;                /* north_pole_grid_longitude, degrees */
+} cf_rotated_pole;
+/* From grid-mapping variable gm: 0; -1 with why ("lacks ...") set. */
+int cf_rotated_pole_read(int ncid, int gm, cf_rotated_pole *rp, char *why, size_t wlen);
+/* Rotated (rlon, rlat) degrees to longitude/latitude, and (angle not
+ * NULL) the angle in radians, anticlockwise, from local east to the
+ * direction of increasing rlon (geo_grid_angle's convention). */
+void cf_rotated_to_geo(const cf_rotated_pole *rp, double rlon, double rlat, double *lon, double *lat,
+                       double *angle);
+
+/* The same angle at a geographic point (lon, lat) degrees. */
+double cf_rotated_angle_at(const cf_rotated_pole *rp, double lon, double lat);
+
 /* A numeric attribute of at most max values into v (n: how many): 1 when
  * it is there and numeric. */
 int cf_att_num(int ncid, int varid, const char *att, double *v, size_t *n, size_t max);

@@ -3,8 +3,10 @@
 
 #include <math.h>
 #include <netcdf.h>
+#include <proj.h>
 #include <stdio.h>
 #include <string.h>
+#include <strings.h>
 
 static int text_att(int ncid, int varid, const char *att, char *buf, size_t len)
 {
@@ -163,4 +165,87 @@ int cf_mapping_proj(int ncid, int gm, char *def, size_t len, char *why, size_t w
     }
     snprintf(def, len, "%s +x_0=%.17g +y_0=%.17g %s +units=m +no_defs", body, fe, fn, ell);
     return 0;
+}
+
+#define CFM_D2R (M_PI / 180.0)
+
+static void cfm_unit(double lon, double lat, double *u)
+{
+    u[0] = cos(lat * CFM_D2R) * cos(lon * CFM_D2R);
+    u[1] = cos(lat * CFM_D2R) * sin(lon * CFM_D2R);
+    u[2] = sin(lat * CFM_D2R);
+}
+
+int cf_rotated_pole_read(int ncid, int gm, cf_rotated_pole *rp, char *why, size_t wlen)
+{
+    double plat = NAN, plon = NAN;
+    rp->l0 = 0.0;
+    cf_att_num(ncid, gm, "grid_north_pole_latitude", &plat, NULL, 1);
+    cf_att_num(ncid, gm, "grid_north_pole_longitude", &plon, NULL, 1);
+    cf_att_num(ncid, gm, "north_pole_grid_longitude", &rp->l0, NULL, 1);
+    if (!isfinite(plat) || !isfinite(plon) || fabs(plat) > 90.0 || !isfinite(rp->l0)) {
+        snprintf(why, wlen, "(rotated_latitude_longitude) lacks grid_north_pole_latitude or "
+                 "grid_north_pole_longitude");
+        return -1;
+    }
+    /* the rotated pole; the rotated origin on the great circle through both
+     * poles, 90 degrees from it, beyond the true pole */
+    cfm_unit(plon, plat, rp->ez);
+    cfm_unit(plon + 180.0, 90.0 - plat, rp->ex);
+    rp->ey[0] = rp->ez[1] * rp->ex[2] - rp->ez[2] * rp->ex[1];
+    rp->ey[1] = rp->ez[2] * rp->ex[0] - rp->ez[0] * rp->ex[2];
+    rp->ey[2] = rp->ez[0] * rp->ex[1] - rp->ez[1] * rp->ex[0];
+    return 0;
+}
+
+void cf_rotated_to_geo(const cf_rotated_pole *rp, double rlon, double rlat, double *lon, double *lat,
+                       double *angle)
+{
+    double rl = (rlon - rp->l0) * CFM_D2R, rf = rlat * CFM_D2R;
+    double a = cos(rf) * cos(rl), b = cos(rf) * sin(rl), c = sin(rf), g[3], t[3];
+    for (int q = 0; q < 3; q++) {
+        g[q] = a * rp->ex[q] + b * rp->ey[q] + c * rp->ez[q];
+        t[q] = -sin(rl) * rp->ex[q] + cos(rl) * rp->ey[q]; /* rotated east */
+    }
+    double la = atan2(g[2], hypot(g[0], g[1])), lo = atan2(g[1], g[0]);
+    *lat = la / CFM_D2R;
+    *lon = lo / CFM_D2R;
+    if (angle) {
+        double e = -sin(lo) * t[0] + cos(lo) * t[1];
+        double n = -sin(la) * cos(lo) * t[0] - sin(la) * sin(lo) * t[1] + cos(la) * t[2];
+        *angle = atan2(n, e);
+    }
+}
+
+double cf_rotated_angle_at(const cf_rotated_pole *rp, double lon, double lat)
+{
+    double g[3], a, b, glon, glat;
+    cfm_unit(lon, lat, g);
+    double rx = g[0] * rp->ex[0] + g[1] * rp->ex[1] + g[2] * rp->ex[2];
+    double ry = g[0] * rp->ey[0] + g[1] * rp->ey[1] + g[2] * rp->ey[2];
+    double rz = g[0] * rp->ez[0] + g[1] * rp->ez[1] + g[2] * rp->ez[2];
+    a = atan2(ry, rx) / CFM_D2R + rp->l0;
+    b = atan2(rz, hypot(rx, ry)) / CFM_D2R;
+    double angle;
+    cf_rotated_to_geo(rp, a, b, &glon, &glat, &angle);
+    return angle;
+}
+
+int cf_mapping_proj_text(char *def, size_t len)
+{
+    if (strstr(def, "+proj=") || strncasecmp(def, "EPSG:", 5) == 0)
+        return 0;
+    PJ_CONTEXT *ctx = proj_context_create();
+    if (!ctx)
+        return -1;
+    proj_log_level(ctx, PJ_LOG_NONE);
+    PJ *P = proj_create(ctx, def);
+    const char *s = P && proj_get_type(P) == PJ_TYPE_PROJECTED_CRS ? proj_as_proj_string(ctx, P, PJ_PROJ_4, NULL)
+                                                                    : NULL;
+    int rc = s && strlen(s) < len ? 0 : -1;
+    if (rc == 0)
+        snprintf(def, len, "%s", s);
+    proj_destroy(P);
+    proj_context_destroy(ctx);
+    return rc;
 }

@@ -8,6 +8,7 @@
 #include "io/fetch.h"
 #include "io/nc_guard.h"
 #include "io/geo.h"
+#include "io/cf_mapping.h"
 
 #include <ctype.h>
 #include <math.h>
@@ -274,120 +275,14 @@ static int grid_shape(fsource *s, const char *path, int ncid, const int *dimids,
     return 0;
 }
 
-/* A numeric attribute (the first value), or NaN. */
-static double num_att(int ncid, int varid, const char *name, int index)
-{
-    size_t n;
-    double v[4];
-    if (nc_inq_attlen(ncid, varid, name, &n) != NC_NOERR || n == 0 || n > 4 || (size_t)index >= n ||
-        nc_get_att_double(ncid, varid, name, v) != NC_NOERR)
-        return NAN;
-    return v[index];
-}
-
-/* PROJ definition of a CF grid mapping variable (CF conventions, appendix
- * F); 0, or -1 with why filled. */
-static int cf_proj(int ncid, int gm, char *def, size_t len, char *why, size_t wlen)
-{
-    char name[96] = "", buf[1024];
-    if (fnc_text_att(ncid, gm, "proj4", buf, sizeof buf) == 0 ||
-        fnc_text_att(ncid, gm, "proj4text", buf, sizeof buf) == 0 ||
-        fnc_text_att(ncid, gm, "proj4_params", buf, sizeof buf) == 0) {
-        if (strstr(buf, "+proj=")) {
-            snprintf(def, len, "%s", buf);
-            return 0;
-        }
-    }
-    if (fnc_text_att(ncid, gm, "grid_mapping_name", name, sizeof name) != 0) {
-        snprintf(why, wlen, "has no grid_mapping_name");
-        return -1;
-    }
-    char earth[160];
-    double R = num_att(ncid, gm, "earth_radius", 0), a = num_att(ncid, gm, "semi_major_axis", 0);
-    double b = num_att(ncid, gm, "semi_minor_axis", 0), rf = num_att(ncid, gm, "inverse_flattening", 0);
-    if (isfinite(R))
-        snprintf(earth, sizeof earth, "+R=%.10g", R);
-    else if (isfinite(a) && isfinite(rf) && rf > 0)
-        snprintf(earth, sizeof earth, "+a=%.10g +rf=%.12g", a, rf);
-    else if (isfinite(a) && isfinite(b))
-        snprintf(earth, sizeof earth, "+a=%.10g +b=%.10g", a, b);
-    else if (isfinite(a))
-        snprintf(earth, sizeof earth, "+R=%.10g", a);
-    else
-        snprintf(earth, sizeof earth, "+ellps=WGS84");
-    double fe = num_att(ncid, gm, "false_easting", 0), fn = num_att(ncid, gm, "false_northing", 0);
-    if (!isfinite(fe))
-        fe = 0;
-    if (!isfinite(fn))
-        fn = 0;
-    double lat0 = num_att(ncid, gm, "latitude_of_projection_origin", 0);
-    double lonc = num_att(ncid, gm, "longitude_of_central_meridian", 0);
-    double lonp = num_att(ncid, gm, "longitude_of_projection_origin", 0);
-    char head[256];
-    if (strcmp(name, "lambert_conformal_conic") == 0) {
-        double p1 = num_att(ncid, gm, "standard_parallel", 0), p2 = num_att(ncid, gm, "standard_parallel", 1);
-        if (!isfinite(p1) || !isfinite(lonc) || !isfinite(lat0)) {
-            snprintf(why, wlen, "(%s) lacks standard_parallel, longitude_of_central_meridian or "
-                     "latitude_of_projection_origin", name);
-            return -1;
-        }
-        snprintf(head, sizeof head, "+proj=lcc +lat_1=%.10g +lat_2=%.10g +lat_0=%.10g +lon_0=%.10g",
-                 p1, isfinite(p2) ? p2 : p1, lat0, lonc);
-    } else if (strcmp(name, "polar_stereographic") == 0) {
-        double lonv = num_att(ncid, gm, "straight_vertical_longitude_from_pole", 0);
-        double ts = num_att(ncid, gm, "standard_parallel", 0);
-        double k0 = num_att(ncid, gm, "scale_factor_at_projection_origin", 0);
-        if (!isfinite(lonv))
-            lonv = lonp;
-        if (!isfinite(lonv) || !isfinite(lat0) || fabs(fabs(lat0) - 90) > 1e-9 ||
-            (!isfinite(ts) && !isfinite(k0))) {
-            snprintf(why, wlen, "(%s) lacks straight_vertical_longitude_from_pole, "
-                     "latitude_of_projection_origin +-90, or standard_parallel / "
-                     "scale_factor_at_projection_origin", name);
-            return -1;
-        }
-        if (isfinite(ts))
-            snprintf(head, sizeof head, "+proj=stere +lat_0=%g +lat_ts=%.10g +lon_0=%.10g", lat0,
-                     ts, lonv);
-        else
-            snprintf(head, sizeof head, "+proj=stere +lat_0=%g +k_0=%.10g +lon_0=%.10g", lat0, k0,
-                     lonv);
-    } else if (strcmp(name, "stereographic") == 0 ||
-               strcmp(name, "lambert_azimuthal_equal_area") == 0) {
-        double k0 = num_att(ncid, gm, "scale_factor_at_projection_origin", 0);
-        if (!isfinite(lonp) || !isfinite(lat0)) {
-            snprintf(why, wlen, "(%s) lacks longitude_of_projection_origin or "
-                     "latitude_of_projection_origin", name);
-            return -1;
-        }
-        if (name[0] == 's')
-            snprintf(head, sizeof head, "+proj=stere +lat_0=%.10g +lon_0=%.10g +k_0=%.10g", lat0,
-                     lonp, isfinite(k0) ? k0 : 1.0);
-        else
-            snprintf(head, sizeof head, "+proj=laea +lat_0=%.10g +lon_0=%.10g", lat0, lonp);
-    } else if (strcmp(name, "transverse_mercator") == 0) {
-        double k0 = num_att(ncid, gm, "scale_factor_at_central_meridian", 0);
-        if (!isfinite(lonc) || !isfinite(lat0) || !isfinite(k0)) {
-            snprintf(why, wlen, "(%s) lacks longitude_of_central_meridian, "
-                     "latitude_of_projection_origin or scale_factor_at_central_meridian", name);
-            return -1;
-        }
-        snprintf(head, sizeof head, "+proj=tmerc +lat_0=%.10g +lon_0=%.10g +k_0=%.10g", lat0, lonc,
-                 k0);
-    } else {
-        snprintf(why, wlen, "grid_mapping_name '%s' is not supported", name);
-        return -1;
-    }
-    snprintf(def, len, "%s +x_0=%.10g +y_0=%.10g %s +units=m +no_defs +type=crs", head, fe, fn,
-             earth);
-    return 0;
-}
-
 /* Projected grid: 1-D x/y coordinates (projection_x/y_coordinate, m or
  * km) and the variable's CF grid_mapping, without latitude/longitude in
  * the file: node positions by PROJ's inverse, the angle of the x axis by
- * PROJ (geo_grid_angle: the projection's meridian convergence). Returns 1
- * when the variable has no grid_mapping (not this kind of grid). */
+ * PROJ (geo_grid_angle: the projection's meridian convergence). A CF
+ * rotated pole (rotated_latitude_longitude; grid_longitude/grid_latitude
+ * in degrees) likewise, by the rotation of the sphere (io/cf_mapping.h).
+ * Returns 1 when the variable has no grid_mapping (not this kind of
+ * grid). */
 static int projected_grid(fsource *s, const char *path, int ncid, int varid, const int *dimids,
                           int ndims, fvfile *vf, fgrid **out, sph_error *err)
 {
@@ -397,6 +292,12 @@ static int projected_grid(fsource *s, const char *path, int ncid, int varid, con
     if (fnc_text_att(ncid, varid, "grid_mapping", gmname, sizeof gmname) != 0 ||
         nc_inq_varid(ncid, gmname, &gm) != NC_NOERR)
         return 1;
+    /* a CF rotated pole: grid_longitude / grid_latitude in degrees */
+    char gmn[96] = "";
+    fnc_text_att(ncid, gm, "grid_mapping_name", gmn, sizeof gmn);
+    int rot = strcmp(gmn, "rotated_latitude_longitude") == 0;
+    const char *sx = rot ? "grid_longitude" : "projection_x_coordinate";
+    const char *sy = rot ? "grid_latitude" : "projection_y_coordinate";
     int xv = -1, yv = -1;
     for (int d = 0; d < ndims; d++) {
         int cv = coord_var(ncid, dimids[d]);
@@ -404,8 +305,8 @@ static int projected_grid(fsource *s, const char *path, int ncid, int varid, con
             continue;
         int isx = 0, isy = 0;
         if (fnc_text_att(ncid, cv, "standard_name", buf, sizeof buf) == 0) {
-            isx = strcmp(buf, "projection_x_coordinate") == 0;
-            isy = strcmp(buf, "projection_y_coordinate") == 0;
+            isx = strcmp(buf, sx) == 0;
+            isy = strcmp(buf, sy) == 0;
         } else if (fnc_text_att(ncid, cv, "axis", buf, sizeof buf) == 0) {
             isx = strcasecmp(buf, "X") == 0;
             isy = strcasecmp(buf, "Y") == 0;
@@ -420,8 +321,8 @@ static int projected_grid(fsource *s, const char *path, int ncid, int varid, con
     }
     if (xv < 0 || yv < 0)
         return forcing_fail(err, s, path, SPH_ERR_MISSING_VAR,
-                            "variable '%s' has grid_mapping '%s' but no projection_x/y_coordinate "
-                            "dimensions", vname, gmname);
+                            "variable '%s' has grid_mapping '%s' but no %s/%s dimensions", vname,
+                            gmname, sx, sy);
     double fac[2];
     for (int c = 0; c < 2; c++) {
         static const char *const m[] = {"m", "meter", "meters", "metre", "metres", NULL};
@@ -429,18 +330,23 @@ static int projected_grid(fsource *s, const char *path, int ncid, int varid, con
                                          NULL};
         char u[64] = "";
         int cv = c ? yv : xv;
+        static const char *const deg[] = {"degrees", "degree", NULL};
         fnc_text_att(ncid, cv, "units", u, sizeof u);
-        fac[c] = units_is(u, m) ? 1.0 : units_is(u, km) ? 1000.0 : 0.0;
+        fac[c] = rot ? (units_is(u, deg) ? 1.0 : 0.0) : units_is(u, m) ? 1.0 : units_is(u, km) ? 1000.0 : 0.0;
         if (fac[c] == 0.0) {
             char cn[NC_MAX_NAME + 1] = "?";
             nc_inq_varname(ncid, cv, cn);
             return forcing_fail(err, s, path, SPH_ERR_UNITS,
-                                "projection coordinate '%s' of variable '%s' has units '%s' "
-                                "(not m or km)", cn, vname, u);
+                                "%s coordinate '%s' of variable '%s' has units '%s' (not %s)",
+                                rot ? "rotated-pole" : "projection", cn, vname, u,
+                                rot ? "degrees" : "m or km");
         }
     }
-    char def[1200], why[256] = "";
-    if (cf_proj(ncid, gm, def, sizeof def, why, sizeof why) != 0)
+    char def[4096], why[400] = "not a projected CRS that PROJ reads";
+    cf_rotated_pole rp;
+    if (rot ? cf_rotated_pole_read(ncid, gm, &rp, why, sizeof why) != 0
+            : cf_mapping_proj(ncid, gm, def, sizeof def, why, sizeof why) != 0 ||
+                  cf_mapping_proj_text(def, sizeof def) != 0)
         return forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
                             "grid mapping '%s' of variable '%s' %s", gmname, vname, why);
     size_t nx, ny;
@@ -469,7 +375,7 @@ static int projected_grid(fsource *s, const char *path, int ncid, int varid, con
         rc = forcing_fail(err, s, path, SPH_ERR_NETCDF, "cannot read coordinates '%s', '%s'", xn, yn);
     }
     geo_proj *pj = NULL;
-    if (!rc) {
+    if (!rc && !rot) {
         sph_error e;
         sph_error_clear(&e);
         pj = geo_proj_create(def, 0.0, 0.0, &e);
@@ -486,7 +392,10 @@ static int projected_grid(fsource *s, const char *path, int ncid, int varid, con
             }
         sph_error e;
         sph_error_clear(&e);
-        if (geo_inverse(pj, nx * ny, X, Y, g->lon2, g->lat2, &e) != 0)
+        if (rot)
+            for (size_t p = 0; p < nx * ny; p++)
+                cf_rotated_to_geo(&rp, X[p], Y[p], &g->lon2[p], &g->lat2[p], NULL);
+        else if (geo_inverse(pj, nx * ny, X, Y, g->lon2, g->lat2, &e) != 0)
             rc = forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
                               "grid mapping '%s' of variable '%s': a node does not invert: %s",
                               gmname, vname, e.msg);
@@ -502,7 +411,8 @@ static int projected_grid(fsource *s, const char *path, int ncid, int varid, con
     }
     for (size_t p = 0; !rc && p < g->nx * g->ny; p++) {
         /* geo_grid_angle: from east to the plane's x axis, anticlockwise */
-        ang[p] = geo_grid_angle(pj, g->lon2[p], g->lat2[p]);
+        ang[p] = rot ? cf_rotated_angle_at(&rp, g->lon2[p], g->lat2[p])
+                     : geo_grid_angle(pj, g->lon2[p], g->lat2[p]);
         if (!isfinite(ang[p]))
             rc = forcing_fail(err, s, path, SPH_ERR_BAD_DATA,
                               "grid mapping '%s': no grid angle at node %zu", gmname, p);
@@ -512,9 +422,10 @@ static int projected_grid(fsource *s, const char *path, int ncid, int varid, con
         g->curvilinear = 1;
         snprintf(g->key, sizeof g->key, "%s", key);
         fgrid_angles(g, ang);
-        snprintf(g->angle_from, sizeof g->angle_from,
-                 "the grid mapping '%.60s' (meridian convergence by PROJ)", gmname);
-        snprintf(g->desc, sizeof g->desc, "projected %zux%zu (%.50s)", nx, ny, gmname);
+        snprintf(g->angle_from, sizeof g->angle_from, rot ? "the grid mapping '%.60s' (the rotated pole's "
+                 "meridians)" : "the grid mapping '%.60s' (meridian convergence by PROJ)", gmname);
+        snprintf(g->desc, sizeof g->desc, "%s %zux%zu (%.50s)", rot ? "rotated-pole" : "projected", nx, ny,
+                 gmname);
         if (g->windowed) {
             size_t used = strlen(g->desc);
             snprintf(g->desc + used, sizeof g->desc - used, ", window %zux%zu", g->nx, g->ny);

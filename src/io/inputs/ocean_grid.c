@@ -133,8 +133,7 @@ typedef struct og_map {
     int kind;
     geo_proj *p;
     double fac;             /* metres per unit of x/y (projection) */
-    double ex[3], ey[3], ez[3]; /* rotated pole: the rotated frame's axes, earth-fixed */
-    double l0;              /* north_pole_grid_longitude, degrees */
+    cf_rotated_pole rp;     /* rotated pole */
     double *x, *y;          /* [nx], [ny] the centres' coordinates, file units */
     char def[4096];         /* the PROJ definition (projection) */
     char xvar[64], yvar[64], gmvar[64], gmname[64];
@@ -362,36 +361,9 @@ static int map_to_lonlat(const og_map *m, size_t n, const double *x, const doubl
         free(X);
         return SPH_OK; /* points that do not unproject stay NaN and are refused by the caller */
     }
-    for (size_t k = 0; k < n; k++) {
-        double rl = (x[k] - m->l0) * OG_D2R, rp = y[k] * OG_D2R;
-        double a = cos(rp) * cos(rl), b = cos(rp) * sin(rl), c = sin(rp), g[3];
-        for (int q = 0; q < 3; q++)
-            g[q] = a * m->ex[q] + b * m->ey[q] + c * m->ez[q];
-        lat[k] = atan2(g[2], hypot(g[0], g[1])) / OG_D2R;
-        lon[k] = atan2(g[1], g[0]) / OG_D2R;
-    }
+    for (size_t k = 0; k < n; k++)
+        cf_rotated_to_geo(&m->rp, x[k], y[k], &lon[k], &lat[k], NULL);
     return SPH_OK;
-}
-
-/* A mapping's definition as PROJ text or an EPSG code, as geo_proj_create
- * takes it: a WKT (crs_wkt, spatial_ref) through PROJ's own conversion to a
- * PROJ string. 0; -1 when PROJ cannot read it or it is not projected. */
-static int proj_string(char *def, size_t len)
-{
-    if (strstr(def, "+proj=") || strncasecmp(def, "EPSG:", 5) == 0)
-        return 0;
-    PJ_CONTEXT *ctx = proj_context_create();
-    if (!ctx)
-        return -1;
-    proj_log_level(ctx, PJ_LOG_NONE);
-    PJ *P = proj_create(ctx, def);
-    const char *s = P && proj_get_type(P) == PJ_TYPE_PROJECTED_CRS ? proj_as_proj_string(ctx, P, PJ_PROJ_4, NULL) : NULL;
-    int rc = s && strlen(s) < len ? 0 : -1;
-    if (rc == 0)
-        snprintf(def, len, "%s", s);
-    proj_destroy(P);
-    proj_context_destroy(ctx);
-    return rc;
 }
 
 /* The mapping of data variable v (named data) with grid_mapping gm: the
@@ -426,25 +398,11 @@ static int mapped_centres(og_ctx *c, int v, const char *data, og_map *m, double 
     nc_inq_dimlen(c->nc, c->dims[1], nx);
     nc_inq_dimlen(c->nc, c->dims[0], ny);
     if (rot) {
-        double plat = NAN, plon = NAN;
         m->kind = 2;
-        m->l0 = 0.0;
-        cf_att_num(c->nc, g, "grid_north_pole_latitude", &plat, NULL, 1);
-        cf_att_num(c->nc, g, "grid_north_pole_longitude", &plon, NULL, 1);
-        cf_att_num(c->nc, g, "north_pole_grid_longitude", &m->l0, NULL, 1);
-        if (!isfinite(plat) || !isfinite(plon) || fabs(plat) > 90.0 || !isfinite(m->l0))
-            return sph_err_set(c->err, SPH_ERR_BAD_DATA, "%s: %s: variable %s: grid mapping %s (%s) lacks "
-                               "grid_north_pole_latitude or grid_north_pole_longitude: set %s to \"output\"", c->key,
-                               c->path, data, gm, m->gmname, c->key);
-        /* the rotated pole ez; the rotated origin (l0 = 0) on the great
-         * circle through both poles, 90 degrees from ez, beyond the true
-         * pole: at longitude plon + 180, latitude 90 - plat */
-        unit(plon, plat, m->ez);
-        unit(plon + 180.0, 90.0 - plat, m->ex);
-        m->ey[0] = m->ez[1] * m->ex[2] - m->ez[2] * m->ex[1];
-        m->ey[1] = m->ez[2] * m->ex[0] - m->ez[0] * m->ex[2];
-        m->ey[2] = m->ez[0] * m->ex[1] - m->ez[1] * m->ex[0];
         m->fac = 1.0;
+        if (cf_rotated_pole_read(c->nc, g, &m->rp, why, sizeof why) != 0)
+            return sph_err_set(c->err, SPH_ERR_BAD_DATA, "%s: %s: variable %s: grid mapping %s %s: set %s to "
+                               "\"output\"", c->key, c->path, data, gm, why, c->key);
     } else {
         char *def = m->def, u[64] = "";
         if (cf_mapping_proj(c->nc, g, def, sizeof m->def, why, sizeof why) != 0)
@@ -464,7 +422,7 @@ static int mapped_centres(og_ctx *c, int v, const char *data, og_map *m, double 
         sph_error pe;
         sph_error_clear(&pe);
         m->kind = 1;
-        m->p = proj_string(def, sizeof m->def) == 0 ? geo_proj_create(def, 0.0, 0.0, &pe) : NULL;
+        m->p = cf_mapping_proj_text(def, sizeof m->def) == 0 ? geo_proj_create(def, 0.0, 0.0, &pe) : NULL;
         if (!m->p)
             return sph_err_set(c->err, SPH_ERR_BAD_DATA, "%s: %s: variable %s: grid mapping %s is not a projected "
                                "CRS that PROJ understands%s%.200s%s: set %s to \"output\"", c->key, c->path, data, gm,
