@@ -24,7 +24,8 @@
  * model.mass_tolerance, 1e-9). A warm start: the 12Z cycle from the
  * first case's serial 06Z restart, serial against -np 2 (-np 4, and from
  * the cold-air case, with SPHICE_LONG=1): every product and the next
- * restart identical. The refusals: each
+ * restart identical. The ocean-fluxes file (no mixed layer): the melt case
+ * for 2 h with two hourly records, the same comparisons. The refusals: each
  * unsupported combination fails in one line naming its key. A failure
  * inside the decomposed run (forcing too short, met by every rank after
  * rank 0 sent the jobs) fails every rank with one line, publishes
@@ -363,6 +364,26 @@ int main(int argc, char **argv)
     printf("  thermodynamics, warm: %.0f -> %.0f particles, surface melt %.4g kg, budget residual %.3g\n", n0, n1, mt,
            cycle_number("warm", "budget_residual"));
 
+    /* the ocean-fluxes file (no mixed layer): the melt case for 2 h, two
+     * hourly records of the particles' accumulators gathered on rank 0
+     * (each rank's restart from zero after each record) */
+    write_config("fluxes.json", "\"thermo\": {\"dt\": 0}", "\"thermo\": {\"dt\": 600}", dom);
+    edit_config("fluxes.json", "atm.nc", "atm_warm.nc");
+    edit_config("fluxes.json", "ice1.nc", "ice_thin.nc");
+    edit_config("fluxes.json", "[\"wind\"]", "[\"wind\", \"tair\"]");
+    edit_config("fluxes.json", "\"interval_hours\": 1", "\"interval_hours\": 1, \"ocean_fluxes\": true");
+    compare_runs(ser_bin, mpi_bin, "fluxes", "fluxes.json", 2);
+    {
+        char of[1300];
+        snprintf(of, sizeof of, "%s/fluxes-serial/19990208T06Z/sphice_ocean_fluxes.nc", dir);
+        int nc = -1, dim;
+        size_t nt = 0;
+        int ok = nc_open(of, NC_NOWRITE, &nc) == NC_NOERR && nc_inq_unlimdim(nc, &dim) == NC_NOERR && dim >= 0 &&
+                 nc_inq_dimlen(nc, dim, &nt) == NC_NOERR;
+        if (nc >= 0)
+            nc_close(nc);
+        CHECK(ok && nt == 2, "fluxes: the ocean-fluxes file has 2 hourly records (%zu), compared above", nt);
+    }
 
     /* a failure fails every rank: forcing that ends at +9 h for a 12 h run
      * (every rank's coupling_open refuses it, after rank 0 sent the jobs) */

@@ -62,10 +62,6 @@ static int refuse(const engine *e, sph_error *err)
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config: %s does not support free-drift parcels: set model.free_drift_parcels false "
                            "or parallel.decomposition \"members\"", KEY);
-    if (c->output.ocean_fluxes)
-        return sph_err_set(err, SPH_ERR_CONFIG,
-                           "config: %s does not support output.ocean_fluxes: set it false or "
-                           "parallel.decomposition \"members\"", KEY);
     return SPH_OK;
 }
 
