@@ -21,11 +21,12 @@
  * under its cold air (-10 C: the ice grows); each serial against -np 2
  * (and -np 4 with SPHICE_LONG=1), the same comparisons, and the published
  * mass budget closing (residual below the serial core's
- * model.mass_tolerance, 1e-9). A warm start: the 12Z cycle from the
- * first case's serial 06Z restart, serial against -np 2 (-np 4, and from
- * the cold-air case, with SPHICE_LONG=1): every product and the next
- * restart identical. The ocean-fluxes file (no mixed layer): the melt case
- * for 2 h with two hourly records, the same comparisons. The refusals: each
+ * model.mass_tolerance, 1e-9). A warm start: the 12Z cycle from a serial
+ * 06Z restart, serial against -np 2 (and -np 4 with SPHICE_LONG=1): every
+ * product and the next restart identical; from the ocean-fluxes case below
+ * (with SPHICE_LONG=1 also from the first case and the cold-air case). The ocean-fluxes file (no mixed layer): the melt case
+ * for 2 h with two hourly records, the same comparisons, and the next
+ * cycle warm-started from its restart. The refusals: each
  * unsupported combination fails in one line naming its key. A failure
  * inside the decomposed run (forcing too short, met by every rank after
  * rank 0 sent the jobs) fails every rank with one line, publishes
@@ -195,7 +196,7 @@ static void compare_runs(const char *ser_bin, const char *mpi_bin, const char *n
 
 /* A warm start under the decomposition: the 12Z cycle of configuration
  * cfg warm-started from the restart file that the serial run of case from
- * wrote (from-serial/19990208T06Z/restart-19990208T12Z.nc, copied into each
+ * wrote (<from>/19990208T06Z/restart-19990208T12Z.nc, copied into each
  * output folder as its previous cycle), serial "domain" against mpirun -np 2
  * (and 4 with SPHICE_LONG): both logs say warm start, and every product of
  * the 12Z cycle -- the next cycle's restart file included -- and the
@@ -325,8 +326,10 @@ int main(int argc, char **argv)
         CHECK(same_particles_file(a, b, &nv), "-np %d: the particles file's %d variables equal bit for bit", np[i],
               nv);
     }
-    /* a warm start: the next cycle from the serial run's restart */
-    compare_warm(ser_bin, mpi_bin, "restart", "serial", "cfg.json");
+    /* a warm start: the next cycle from the serial run's restart (make
+     * check warm-starts the ocean-fluxes case below) */
+    if (check_long())
+        compare_warm(ser_bin, mpi_bin, "restart", "serial", "cfg.json");
 
     /* thermodynamics: warm air melts the thin columns out (particles
      * removed); with SPHICE_LONG also cold air growing the packed ice */
@@ -384,6 +387,9 @@ int main(int argc, char **argv)
             nc_close(nc);
         CHECK(ok && nt == 2, "fluxes: the ocean-fluxes file has 2 hourly records (%zu), compared above", nt);
     }
+    /* the next cycle warm-started from it: the restart carries the last
+     * interval's accumulators, which the new file must not count */
+    compare_warm(ser_bin, mpi_bin, "restart-fluxes", "fluxes-serial", "fluxes.json");
 
     /* a failure fails every rank: forcing that ends at +9 h for a 12 h run
      * (every rank's coupling_open refuses it, after rank 0 sent the jobs) */
