@@ -21,7 +21,12 @@
  * under its cold air (-10 C: the ice grows); each serial against -np 2
  * (and -np 4 with SPHICE_LONG=1), the same comparisons, and the published
  * mass budget closing (residual below the serial core's
- * model.mass_tolerance, 1e-9). The refusals: each
+ * model.mass_tolerance, 1e-9). A warm start: the 12Z cycle from a serial
+ * 06Z restart, serial against -np 2 (and -np 4 with SPHICE_LONG=1): every
+ * product and the next restart identical; from the ocean-fluxes case below
+ * (with SPHICE_LONG=1 also from the first case and the cold-air case). The ocean-fluxes file (no mixed layer): the melt case
+ * for 2 h with two hourly records, the same comparisons, and the next
+ * cycle warm-started from its restart. The refusals: each
  * unsupported combination fails in one line naming its key. A failure
  * inside the decomposed run (forcing too short, met by every rank after
  * rank 0 sent the jobs) fails every rank with one line, publishes
@@ -189,6 +194,58 @@ static void compare_runs(const char *ser_bin, const char *mpi_bin, const char *n
           res);
 }
 
+/* A warm start under the decomposition: the 12Z cycle of configuration
+ * cfg warm-started from the restart file that the serial run of case from
+ * wrote (<from>/19990208T06Z/restart-19990208T12Z.nc, copied into each
+ * output folder as its previous cycle), serial "domain" against mpirun -np 2
+ * (and 4 with SPHICE_LONG): both logs say warm start, and every product of
+ * the 12Z cycle -- the next cycle's restart file included -- and the
+ * particles file's variables are identical. */
+static void compare_warm(const char *ser_bin, const char *mpi_bin, const char *name, const char *from,
+                         const char *cfg)
+{
+    char cmd[4096];
+    const char *mpirun = "mpirun --oversubscribe -x OMP_NUM_THREADS=1 -x OMP_WAIT_POLICY=passive";
+    const char *root = geteuid() == 0 ? "--allow-run-as-root" : "";
+    const char *runs[3] = {"serial", "np2", "np4"};
+    for (int i = 0; i < (check_long() ? 3 : 2); i++) {
+        snprintf(cmd, sizeof cmd, "rm -rf %s/%s-%s && mkdir -p %s/%s-%s && cp -r %s/%s/19990208T06Z %s/%s-%s/",
+                 dir, name, runs[i], dir, name, runs[i], dir, from, dir, name, runs[i]);
+        CHECK(run(cmd) == 0, "%s: the previous cycle copied for %s", name, runs[i]);
+        if (i == 0)
+            snprintf(cmd, sizeof cmd, "OMP_NUM_THREADS=1 %s", ser_bin);
+        else
+            snprintf(cmd, sizeof cmd, "%s %s -np %d %s", mpirun, root, i == 1 ? 2 : 4, mpi_bin);
+        size_t used = strlen(cmd);
+        snprintf(cmd + used, sizeof cmd - used, " run %s/%s --cycle 1999-02-08T12:00Z --hours 1 --out %s/%s-%s "
+                 "--force >%s/%s-%s.log 2>&1", dir, cfg, dir, name, runs[i], dir, name, runs[i]);
+        int rc = run(cmd);
+        CHECK(rc == 0, "%s: %s warm-started run: rc %d (%s/%s-%s.log)", name, runs[i], rc, dir, name, runs[i]);
+        snprintf(cmd, sizeof cmd, "grep -q 'warm start from .*%s/19990208T06Z/restart-19990208T12Z.nc' %s/%s-%s.log",
+                 runs[i], dir, name, runs[i]);
+        CHECK(run(cmd) == 0, "%s: %s: the run started warm from the previous cycle's restart", name, runs[i]);
+        if (i == 0)
+            continue;
+        snprintf(cmd, sizeof cmd, "grep -q 'decomposition \"domain\" over %d ranks' %s/%s-%s.log", i == 1 ? 2 : 4,
+                 dir, name, runs[i]);
+        CHECK(run(cmd) == 0, "%s: %s: the run was decomposed", name, runs[i]);
+        snprintf(cmd, sizeof cmd, "sh tools/same-products.sh %s/%s-serial/19990208T12Z %s/%s-%s/19990208T12Z", dir,
+                 name, dir, name, runs[i]);
+        CHECK(run(cmd) == 0, "%s: %s: every product and the restart equal the serial warm-started run's "
+              "(same-products)", name, runs[i]);
+        char a[1400], b[1400];
+        snprintf(a, sizeof a, "%s/%s-serial/19990208T12Z/sphice_particles.nc", dir, name);
+        snprintf(b, sizeof b, "%s/%s-%s/19990208T12Z/sphice_particles.nc", dir, name, runs[i]);
+        int nv = 0;
+        CHECK(same_particles_file(a, b, &nv), "%s: %s: the particles file's %d variables equal bit for bit", name,
+              runs[i], nv);
+        snprintf(a, sizeof a, "%s/%s-serial/19990208T12Z/restart-19990208T18Z.nc", dir, name);
+        snprintf(b, sizeof b, "%s/%s-%s/19990208T12Z/restart-19990208T18Z.nc", dir, name, runs[i]);
+        CHECK(same_particles_file(a, b, &nv), "%s: %s: the restart file's %d variables equal bit for bit", name,
+              runs[i], nv);
+    }
+}
+
 /* One refused combination: exit 1 and one line naming key. */
 static void refused(const char *bin, const char *what, const char *from, const char *to, const char *extra,
                     const char *key)
@@ -235,8 +292,6 @@ int main(int argc, char **argv)
             "ensemble.members");
     refused(ser_bin, "Anderson acceleration", "\"evp\": {\"iterations\": 30}",
             "\"evp\": {\"iterations\": 30, \"anderson\": 3}", dom, "model.evp.anderson");
-    refused(ser_bin, "ocean flux output", "\"interval_hours\": 1", "\"interval_hours\": 1, \"ocean_fluxes\": true", dom,
-            "output.ocean_fluxes");
 
     if (run("command -v mpirun >/dev/null 2>&1") != 0 || access(mpi_bin, X_OK) != 0) {
         printf("test_mpi_run: skipped the MPI runs: needs mpirun and build-mpi/sphice (sh tools/install-deps.sh "
@@ -271,6 +326,11 @@ int main(int argc, char **argv)
         CHECK(same_particles_file(a, b, &nv), "-np %d: the particles file's %d variables equal bit for bit", np[i],
               nv);
     }
+    /* a warm start: the next cycle from the serial run's restart (make
+     * check warm-starts the ocean-fluxes case below) */
+    if (check_long())
+        compare_warm(ser_bin, mpi_bin, "restart", "serial", "cfg.json");
+
     /* thermodynamics: warm air melts the thin columns out (particles
      * removed); with SPHICE_LONG also cold air growing the packed ice */
     if (check_long()) {
@@ -281,6 +341,7 @@ int main(int argc, char **argv)
         double m1 = restart_budget("cold", "mass");
         CHECK(g > 0.0 && m1 > m0 && cycle_number("cold", "particles_end") == cycle_number("cold", "particles_start"),
               "cold: the ice grew (growth %.4g kg, mass %.6g -> %.6g kg), no particle removed", g, m0, m1);
+        compare_warm(ser_bin, mpi_bin, "restart-cold", "cold-serial", "cold.json"); /* with thermodynamics */
     }
     snprintf(p, sizeof p, "%s/atm_warm.nc", dir);
     ec_write_atm_at(p, 9.0, 120.5, 39.5, 9, 7, warm_atm);
@@ -305,6 +366,30 @@ int main(int argc, char **argv)
           n0 - n1, n0, mt);
     printf("  thermodynamics, warm: %.0f -> %.0f particles, surface melt %.4g kg, budget residual %.3g\n", n0, n1, mt,
            cycle_number("warm", "budget_residual"));
+
+    /* the ocean-fluxes file (no mixed layer): the melt case for 2 h, two
+     * hourly records of the particles' accumulators gathered on rank 0
+     * (each rank's restart from zero after each record) */
+    write_config("fluxes.json", "\"thermo\": {\"dt\": 0}", "\"thermo\": {\"dt\": 600}", dom);
+    edit_config("fluxes.json", "atm.nc", "atm_warm.nc");
+    edit_config("fluxes.json", "ice1.nc", "ice_thin.nc");
+    edit_config("fluxes.json", "[\"wind\"]", "[\"wind\", \"tair\"]");
+    edit_config("fluxes.json", "\"interval_hours\": 1", "\"interval_hours\": 1, \"ocean_fluxes\": true");
+    compare_runs(ser_bin, mpi_bin, "fluxes", "fluxes.json", 2);
+    {
+        char of[1300];
+        snprintf(of, sizeof of, "%s/fluxes-serial/19990208T06Z/sphice_ocean_fluxes.nc", dir);
+        int nc = -1, dim;
+        size_t nt = 0;
+        int ok = nc_open(of, NC_NOWRITE, &nc) == NC_NOERR && nc_inq_unlimdim(nc, &dim) == NC_NOERR && dim >= 0 &&
+                 nc_inq_dimlen(nc, dim, &nt) == NC_NOERR;
+        if (nc >= 0)
+            nc_close(nc);
+        CHECK(ok && nt == 2, "fluxes: the ocean-fluxes file has 2 hourly records (%zu), compared above", nt);
+    }
+    /* the next cycle warm-started from it: the restart carries the last
+     * interval's accumulators, which the new file must not count */
+    compare_warm(ser_bin, mpi_bin, "restart-fluxes", "fluxes-serial", "fluxes.json");
 
     /* a failure fails every rank: forcing that ends at +9 h for a 12 h run
      * (every rank's coupling_open refuses it, after rank 0 sent the jobs) */

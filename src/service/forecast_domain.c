@@ -5,7 +5,8 @@
  * Every rank runs forecast_run on the same request (rank 0 sends the workers
  * the job, ensemble_mpi.c) and so opens the same forcing files and builds
  * the same land mask; rank 0 alone reads the initial field, seeds and
- * initialises the particles, which are scattered along the Hilbert curve
+ * initialises the particles (or, on a warm start, reads the restart file
+ * and resumes them, fc_warm_start as in the serial run), which are scattered along the Hilbert curve
  * (with the capacity, the resolved step and the largest smoothing length). Each step every rank samples the
  * forcing onto the particles it owns (halo copies carry their owner's
  * forcing: dd_step copies every field), then steps. At output times and at
@@ -61,15 +62,6 @@ static int refuse(const engine *e, sph_error *err)
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config: %s does not support free-drift parcels: set model.free_drift_parcels false "
                            "or parallel.decomposition \"members\"", KEY);
-    if (c->output.ocean_fluxes)
-        return sph_err_set(err, SPH_ERR_CONFIG,
-                           "config: %s does not support output.ocean_fluxes: set it false or "
-                           "parallel.decomposition \"members\"", KEY);
-    if (e->req->warm_start)
-        return sph_err_set(err, SPH_ERR_CONFIG,
-                           "config: %s starts only cold (from initial.path), but this cycle would start warm "
-                           "from %s: set initial.reinit \"cold\" or parallel.decomposition \"members\"", KEY,
-                           e->req->warm_start);
     return SPH_OK;
 }
 

@@ -200,6 +200,9 @@ int fc_write_restart(engine *e, double t, sph_error *err);
  * records are written by fc_write_output; closing commits the file into
  * the stage directory and lists it in the manifest. Free: NULL-safe. */
 int fc_open_ocean_fluxes(engine *e, sph_error *err);
+/* The particles' ocean-flux accumulators (ofx_*) set to zero: at the start
+ * of the file and after each of its records. */
+void fc_ofx_zero(sph_particles *P);
 int fc_close_ocean_fluxes(engine *e, sph_error *err);
 void fc_free_ocean_fluxes(engine *e);
 

@@ -542,6 +542,8 @@ int fc_warm_start(engine *e, sph_error *err)
     e->m = sph_model_create(&e->prm, e->cap, &e->plane);
     if (!e->m)
         return sph_err_set(err, SPH_ERR_NOMEM, "model: cannot create a model for %zu particles", e->cap);
+    if (e->dd && sph_model_set_canonical(e->m, 1)) /* parallel.decomposition "domain", as a cold start */
+        return sph_err_set(err, SPH_ERR_NOMEM, "model: no memory for the canonical order (%zu particles)", e->cap);
     sph_particles *P = sph_model_particles(e->m);
     if ((rc = restart_read(path, geo_proj_definition(e->proj), &h, P, err)))
         return rc;

@@ -266,8 +266,16 @@ static int ofx_record(engine *e, double t, sph_error *err);
 /* One output time: particles -> grid through the SPH interpolation. */
 int fc_write_output(engine *e, double t, sph_error *err)
 {
-    if (e->dd == 2 && e->dd_rank > 0) /* parallel.decomposition "domain": rank 0 writes */
+    if (e->dd == 2 && e->dd_rank > 0) { /* parallel.decomposition "domain": rank 0 writes */
+        /* rank 0 records the ocean fluxes of the particles just gathered
+         * (fc_dd_sync) over the interval ending at t: each rank's own
+         * accumulators restart from zero, as the serial run's do */
+        if (e->cfg->output.ocean_fluxes && t > e->ofx_t0) {
+            fc_ofx_zero(sph_model_particles(e->dd_m));
+            e->ofx_t0 = t;
+        }
         return SPH_OK;
+    }
     sph_particles *P = sph_model_particles(e->m);
     size_t n = P->n;
     const double rho_i = e->cfg->model.rho_i;
@@ -379,7 +387,7 @@ void fc_free_ocean_fluxes(engine *e)
 /* The particles' accumulators restart from zero at the cycle time: each
  * cycle's file starts its first interval there (a warm start's restart
  * file carries the previous cycle's last interval, already published). */
-static void ofx_zero(sph_particles *P)
+void fc_ofx_zero(sph_particles *P)
 {
     size_t b = P->n * sizeof(double);
     memset(P->ofx_heat_ice, 0, b);
@@ -597,6 +605,11 @@ static int ofx_map_mixed_layer(engine *e, sph_error *err)
 
 int fc_open_ocean_fluxes(engine *e, sph_error *err)
 {
+    if (e->dd == 2 && e->dd_rank > 0) { /* rank 0 writes the file; the workers' accumulators start from zero */
+        fc_ofx_zero(sph_model_particles(e->dd_m));
+        e->ofx_t0 = e->t0;
+        return SPH_OK;
+    }
     const struct sph_config *cfg = e->cfg;
     const prod_grid *g = &e->grid;
     const char *ocean = ofx_ocean_file(e);
@@ -663,7 +676,9 @@ int fc_open_ocean_fluxes(engine *e, sph_error *err)
     int rc = ofx_open(&e->ofx, &og, &meta, path, err);
     if (rc)
         return rc;
-    ofx_zero(sph_model_particles(e->m));
+    fc_ofx_zero(sph_model_particles(e->m));
+    if (e->dd_m) /* parallel.decomposition "domain": rank 0's own decomposed particles too */
+        fc_ofx_zero(sph_model_particles(e->dd_m));
     e->ofx_t0 = e->t0;
     return ofx_map_mixed_layer(e, err);
 }
@@ -717,7 +732,9 @@ static int ofx_record(engine *e, double t, sph_error *err)
         log_warn("forecast %s: ocean fluxes: %zu particles lie outside the ocean-fluxes grid or far from its "
                  "water cells; their fluxes are not in the record ending %.0f s after the cycle (particles_lost)",
                  e->cname, ofx_lost(e->ofx), t - e->t0);
-    ofx_zero(P);
+    fc_ofx_zero(P);
+    if (e->dd_m) /* the decomposed run's particles, whose gathered copies were recorded */
+        fc_ofx_zero(sph_model_particles(e->dd_m));
     e->ofx_t0 = t;
     return SPH_OK;
 }
