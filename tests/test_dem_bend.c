@@ -239,6 +239,11 @@ static void calibration(void)
     double cal = 0.5 * (lo + hi);
     printf("calibration: bisected sigma_t %.4g MPa, tau_c %.4g MPa (ratio %.4g) for sigma_f 0.6 MPa; "
            "the core's default sigma_t %.4g MPa\n", cal / 1e6, ratio * cal / 1e6, ratio, p.bond_tensile / 1e6);
+    /* the cone case's sheet (test_dem_cone: two layers of 0.2 m spheres, 0.363 m)
+     * with the same bonds: the calibration is for the leg's particle size only */
+    double sc = flexural_hcp(0.1, nx, ny, 2, p.bond_tensile, p.bond_shear, &bt, &bs, &span);
+    printf("calibration: the cone case's sheet as a specimen (%d x %d x 2 of r 0.100 m, span %.3f m, depth %.3f m), "
+           "default bonds: sigma_f %.4g MPa\n", nx, ny, span, 0.2 + 0.2 * sqrt(2.0 / 3.0), sc / 1e6);
     CHECK(fabs(p.bond_tensile / cal - 1.0) < 0.02, "the default sigma_t within 2 %% of the bisected %.4g MPa",
           cal / 1e6);
 }
