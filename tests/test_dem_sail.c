@@ -6,8 +6,8 @@
  * A 2-D run in the vertical x-z plane (every centre at y = 0, so every
  * force stays in the plane): the thin ice is a chain of spheres of
  * diameter h (width b = h) bonded by the core's parallel bonds with their
- * default strengths (docs/dem.md: sigma_t = 0.6 MPa, tau_c = 1 MPa,
- * E_b = 1 GPa), floating at Archimedes' level (draft found here by
+ * default strengths (docs/dem.md: sigma_t = 0.133 MPa, tau_c = 0.222 MPa,
+ * calibrated on the leg's 0.1 m spheres, E_b = 1 GPa), floating at Archimedes' level (draft found here by
  * bisection), with a random imperfection of 0.02 r; its first RUBBLE
  * spheres at the floe are loose (rubble blocks of size h already broken
  * off, Hopkins & Hibler 1991's blocks broken from the lead ice's leading
@@ -19,7 +19,11 @@
  * from the core. The horizontal force F is the sum of the x forces on the
  * floe's spheres; per unit width F / b.
  *
- * make check (h = 0.5 m, a short push): the bonds break, rubble rises
+ * Or (nl >= 2 layers) a close-packed 2-D sheet nl spheres thick (ridge()),
+ * as a vertical section of the leg's hcp sheet: so that the sheet can bend
+ * and fail locally instead of shattering along a one-sphere chain.
+ *
+ * make check (h = 0.5 m, a short push, one layer and two layers): the bonds break, rubble rises
  * above the sheet's freeboard (a sail) and sinks below its draft (a keel),
  * and the energy balance holds: the work of the pushing force (the
  * reaction on the driven spheres times U, summed per step) is at least the
@@ -28,7 +32,8 @@
  * being stored in the bonds or dissipated by contact damping, friction
  * and drag. The energy terms are computed in this file, not by the core.
  *
- * SPHICE_LONG=1: h = 0.25, 0.375 and 0.5 m, each pushed for 40 h of
+ * SPHICE_LONG=1: h = 0.25, 0.375 and 0.5 m (SPHICE_SAIL_LAYERS layers, 2
+ * by default), each pushed for SPHICE_SAIL_PUSH (40) h of
  * sheet (geometrically similar runs), the force per width averaged over
  * the second half of the push; the exponent of F / b against h fitted by
  * least squares and printed beside the seed's 1.5 with beta = (F / b) /
@@ -97,37 +102,83 @@ typedef struct sail_run {
     double dpe, ke;      /* potential energy gained, kinetic energy at the end, J */
     double sail, keel;   /* highest top / lowest bottom of the sheet's spheres, m */
     double freeboard, draft; /* the sheet's top and bottom when floating, m */
-    long broken;
+    double width;        /* b, m: one sphere */
+    long broken, bonds;
     int ok;
 } sail_run;
 
+/* Draft of a close-packed 2-D sheet of nl layers (rows dz = sqrt(3) r
+ * apart): the centre height zc of its bottom row at which the caps of one
+ * column of nl spheres carry their weight (bisection). */
+static double sheet_bottom_centre(double r, int nl, double rho_i, double rho_w)
+{
+    double want = nl * rho_i / rho_w * 4.0 / 3.0 * M_PI * r * r * r, dz = sqrt(3.0) * r;
+    double a = -(nl - 1) * dz - r, b = r;
+    for (int it = 0; it < 100; it++) {
+        double zc = 0.5 * (a + b), v = 0.0;
+        for (int k = 0; k < nl; k++) {
+            double sub = fmin(fmax(r - (zc + k * dz), 0.0), 2.0 * r);
+            v += M_PI * sub * sub * (3.0 * r - sub) / 3.0;
+        }
+        if (v > want)
+            a = zc; /* too deep: raise it */
+        else
+            b = zc;
+    }
+    return 0.5 * (a + b);
+}
+
 /* Pushes a sheet of thickness h for `push` metres; the force is averaged
- * over the part of the push after `from` metres. */
-static sail_run ridge(double h, double push, double from, int progress)
+ * over the part of the push after `from` metres. nl = 1: a row of spheres
+ * of diameter h; nl >= 2: nl close-packed rows (a 2-D triangular lattice,
+ * as a vertical section of the leg's hcp sheet: rows sqrt(3) r apart, odd
+ * rows shifted by r) of spheres of radius r = h / (2 + (nl - 1) sqrt(3)),
+ * bonded to all their touching neighbours. The width is one sphere,
+ * b = 2 r; the loose rubble and the 8 h left at the end are the same
+ * lengths as for nl = 1. */
+static sail_run ridge(double h, double push, double from, int progress, int nl)
 {
     sail_run out = {0};
     dem_params p;
     dem_params_default(&p);
-    double r = 0.5 * h, rho_w = p.water_density, g = p.gravity;
-    double s = sphere_draft(r, p.density, rho_w), zc = r - s;
-    out.freeboard = zc + r;
+    double rho_w = p.water_density, g = p.gravity;
+    double r = nl == 1 ? 0.5 * h : h / (2.0 + (nl - 1) * sqrt(3.0)), dzl = sqrt(3.0) * r;
+    double zc = nl == 1 ? r - sphere_draft(r, p.density, rho_w) : sheet_bottom_centre(r, nl, p.density, rho_w);
+    out.width = 2.0 * r;
+    out.freeboard = zc + (nl - 1) * dzl + r;
     out.draft = zc - r;
-    int nsheet = RUBBLE + (int)ceil(push / h) + 8 + 2; /* rubble, the pushed length, 8 h left at the end, 2 driven */
+    int rubble = nl == 1 ? RUBBLE : (int)ceil(RUBBLE * h / (2.0 * r));
+    int left = nl == 1 ? 8 : (int)ceil(8.0 * h / (2.0 * r));
+    int ncol = rubble + (int)ceil(push / (2.0 * r)) + left + 2; /* rubble, the pushed length, 8 h left at the end, 2 driven */
+    int nsheet = ncol * nl;
     /* floe spheres spaced r: face, top and bottom */
     double fdraft = FLOE_H * p.density / rho_w, ffree = FLOE_H - fdraft;
     int nface = (int)ceil((FLOE_H - 2.0 * r) / r) + 1, nlen = (int)ceil(4.0 / r);
     size_t cap = (size_t)nsheet + (size_t)nface + 2 * (size_t)nlen;
-    dem *d = dem_create(cap, (size_t)nsheet, &p);
+    dem *d = dem_create(cap, 3 * (size_t)nsheet, &p);
     if (!d)
         return out;
     double xw = 0.0; /* the floe's face (centres of its face spheres at xw + r) */
-    for (int i = 0; i < nsheet; i++) {
-        /* sphere 0 nearest the floe, 1 mm clear of it; the sheet at rest */
-        dem_add_particle(d, xw - 0.001 - r - 2.0 * r * i, 0.0, zc + IMPERFECTION * r * imperfection(i), r);
+    for (int i = 0; i < ncol; i++)
+        for (int k = 0; k < nl; k++) {
+            /* column 0 nearest the floe, 1 mm clear of it; odd rows shifted back by r; the sheet at rest */
+            double x = xw - 0.001 - r - 2.0 * r * i - ((k % 2) ? r : 0.0);
+            dem_add_particle(d, x, 0.0, zc + k * dzl + IMPERFECTION * r * imperfection(i), r);
+        }
+    /* the first `rubble` columns loose (rubble already broken off), the rest bonded */
+    if (nl == 1) {
+        for (int i = RUBBLE; i + 1 < nsheet; i++)
+            dem_add_bond(d, i, i + 1);
+    } else {
+        double lim = 2.0 * r * 1.02; /* the imperfection moves neighbours by under 1 % */
+        for (long a = (long)rubble * nl; a < nsheet; a++)
+            for (long c = a + 1; c < nsheet && c <= a + 2 * nl; c++) {
+                double ddx = d->x[c] - d->x[a], ddz = d->z[c] - d->z[a];
+                if (ddx * ddx + ddz * ddz <= lim * lim)
+                    dem_add_bond(d, a, c);
+            }
     }
-    /* the first RUBBLE spheres loose (rubble already broken off), the rest bonded */
-    for (int i = RUBBLE; i + 1 < nsheet; i++)
-        dem_add_bond(d, i, i + 1);
+    out.bonds = (long)d->nbonds;
     long first_floe = (long)d->n;
     for (int k = 0; k < nface; k++)
         dem_add_particle(d, xw + r, 0.0, -fdraft + r + fmin(k * r, FLOE_H - 2.0 * r), r);
@@ -140,7 +191,7 @@ static sail_run ridge(double h, double push, double from, int progress)
         d->flags[i] = DEM_FIX_TRANSLATION | DEM_FIX_ROTATION;
         dem_set_velocity(d, i, 0, 0, 0);
     }
-    long drv0 = nsheet - 2;
+    long drv0 = nsheet - 2 * nl;
     for (long i = drv0; i < nsheet; i++)
         d->flags[i] = DEM_FIX_TRANSLATION | DEM_FIX_ROTATION;
     double pe0 = 0.0;
@@ -169,8 +220,8 @@ static sail_run ridge(double h, double push, double from, int progress)
             nwin++;
         }
         if (progress && t % (steps / 10) == 0)
-            fprintf(stderr, "    h %.3f m: t %.1f / %.1f s, force on the floe %.4g kN/m, bonds broken %ld\n",
-                    h, t * dt, t_end, ffloe / h / 1e3, d->bonds_broken_tension + d->bonds_broken_shear);
+            fprintf(stderr, "    h %.3f m, %d layers: t %.1f / %.1f s, force on the floe %.4g kN/m, bonds broken %ld\n",
+                    h, nl, t * dt, t_end, ffloe / out.width / 1e3, d->bonds_broken_tension + d->bonds_broken_shear);
     }
     if (bad)
         fprintf(stderr, "    h %.3f m: step refused: %s %s\n", h, st.quantity ? st.quantity : "?", st.what ? st.what : "?");
@@ -192,38 +243,60 @@ static sail_run ridge(double h, double push, double from, int progress)
     return out;
 }
 
-int main(void)
+static void quick_case(int nl)
 {
-    int longrun = getenv("SPHICE_LONG") != NULL;
     double h = 0.5;
-    sail_run a = ridge(h, 1.6, 0.8, 0);
-    printf("  h %.3f m, pushed 1.6 m at %.2f m/s: bonds broken %ld; sail top %.3f m (sheet freeboard %.3f m), "
-           "keel bottom %.3f m (sheet draft %.3f m); work of the push %.4g J, potential energy gained %.4g J, "
-           "kinetic %.4g J; mean force on the floe (last 0.8 m) %.4g kN/m\n",
-           h, PUSH_U, a.broken, a.sail, a.freeboard, a.keel, a.draft, a.work, a.dpe, a.ke,
-           a.force_mean / h / 1e3);
-    CHECK(a.ok, "h 0.5 m: every step accepted");
-    CHECK(a.broken > 0, "h 0.5 m: the sheet broke into rubble (%ld bonds)", a.broken);
+    sail_run a = ridge(h, 1.6, 0.8, 0, nl);
+    printf("  h %.3f m, %d layer(s) of %.4g m spheres (%ld bonds), pushed 1.6 m at %.2f m/s: bonds broken %ld; "
+           "sail top %.3f m (sheet freeboard %.3f m), keel bottom %.3f m (sheet draft %.3f m); work of the push "
+           "%.4g J, potential energy gained %.4g J, kinetic %.4g J; mean force on the floe (last 0.8 m) %.4g kN/m\n",
+           h, nl, a.width, a.bonds, PUSH_U, a.broken, a.sail, a.freeboard, a.keel, a.draft, a.work, a.dpe, a.ke,
+           a.force_mean / a.width / 1e3);
+    CHECK(a.ok, "h 0.5 m, %d layer(s): every step accepted", nl);
+    CHECK(a.broken > 0, "h 0.5 m, %d layer(s): the sheet broke into rubble (%ld bonds)", nl, a.broken);
     CHECK(a.sail > a.freeboard, "rubble above the sheet: top %.3f m above its freeboard %.3f m", a.sail, a.freeboard);
     CHECK(a.keel < a.draft - 0.5 * h, "a keel: bottom %.3f m below the draft %.3f m - h/2", a.keel, a.draft);
     CHECK(a.dpe > 0.0, "the pile gained potential energy (%.4g J)", a.dpe);
     CHECK(a.work >= a.dpe + a.ke - 0.01 * fabs(a.work),
           "energy balance: work %.5g J >= potential %.5g J + kinetic %.5g J", a.work, a.dpe, a.ke);
+}
+
+int main(void)
+{
+    int longrun = getenv("SPHICE_LONG") != NULL;
+    const char *el = getenv("SPHICE_SAIL_LAYERS"); /* the long sweep's layers (default 2) */
+    int nl = el ? atoi(el) : 2;
+    quick_case(1);
+    quick_case(2);
     if (!longrun) {
-        printf("  (SPHICE_LONG=1: h = 0.25, 0.375, 0.5 m pushed 40 h, the force's exponent and beta)\n");
+        printf("  (SPHICE_LONG=1: h = 0.25, 0.375, 0.5 m pushed SPHICE_SAIL_PUSH (40) h, SPHICE_SAIL_LAYERS (2) layers, the force's exponent and beta)\n");
         return check_summary("test_dem_sail");
     }
+    CHECK(nl >= 1 && nl <= 4, "SPHICE_SAIL_LAYERS %d in [1, 4]", nl);
+    if (nl < 1 || nl > 4)
+        return check_summary("test_dem_sail");
+    const char *ep = getenv("SPHICE_SAIL_PUSH"); /* the push, in sheet thicknesses (default 40) */
+    double np = ep ? atof(ep) : 40.0;
+    CHECK(np >= 4.0 && np <= 400.0, "SPHICE_SAIL_PUSH %g in [4, 400]", np);
+    if (!(np >= 4.0 && np <= 400.0))
+        return check_summary("test_dem_sail");
     const double hs[] = {0.25, 0.375, 0.5};
     double sx = 0, sy = 0, sxx = 0, sxy = 0, fw[3];
+    const char *eh = getenv("SPHICE_SAIL_H"); /* one thickness of the sweep only (no fit) */
+    double honly = eh ? atof(eh) : 0.0;
     for (int i = 0; i < 3; i++) {
-        sail_run b = ridge(hs[i], 40.0 * hs[i], 20.0 * hs[i], 1);
-        fw[i] = b.force_mean / hs[i];
-        printf("  h %.3f m: pushed %.1f m, bonds broken %ld, sail top %.2f m, keel bottom %.2f m; "
-               "mean force per width (second half) %.4g kN/m; beta = (F/b)/h^1.5 = %.4g N m^-2.5; "
+        if (honly > 0.0 && fabs(hs[i] - honly) > 1e-9) {
+            fw[i] = NAN;
+            continue;
+        }
+        sail_run b = ridge(hs[i], np * hs[i], 0.5 * np * hs[i], 1, nl);
+        fw[i] = b.force_mean / b.width;
+        printf("  h %.3f m, %d layer(s) of %.4g m spheres: pushed %.1f m, bonds broken %ld (of %ld), sail top %.2f m, "
+               "keel bottom %.2f m; mean force per width (second half) %.4g kN/m; beta = (F/b)/h^1.5 = %.4g N m^-2.5; "
                "work %.4g J >= potential %.4g J + kinetic %.4g J (potential / work %.3f); "
                "mean pushing force per width (work / push / b) %.4g kN/m\n",
-               hs[i], 40.0 * hs[i], b.broken, b.sail, b.keel, fw[i] / 1e3, fw[i] / pow(hs[i], 1.5),
-               b.work, b.dpe, b.ke, b.dpe / b.work, b.work / (40.0 * hs[i]) / hs[i] / 1e3);
+               hs[i], nl, b.width, np * hs[i], b.broken, b.bonds, b.sail, b.keel, fw[i] / 1e3,
+               fw[i] / pow(hs[i], 1.5), b.work, b.dpe, b.ke, b.dpe / b.work, b.work / (np * hs[i]) / b.width / 1e3);
         CHECK(b.ok && isfinite(fw[i]) && fw[i] > 0.0, "h %.3f m: a finite positive force", hs[i]);
         CHECK(b.work >= b.dpe + b.ke - 0.01 * fabs(b.work), "h %.3f m: energy balance", hs[i]);
         double x = log(hs[i]), y = log(fw[i]);
@@ -232,9 +305,12 @@ int main(void)
         sxx += x * x;
         sxy += x * y;
     }
+    if (honly > 0.0)
+        return check_summary("test_dem_sail");
     double slope = (3 * sxy - sx * sy) / (3 * sxx - sx * sx);
-    printf("  sail stage: force per width against thickness, fitted exponent %.3f (the seed's 1.5); "
-           "beta at h = 0.5 m %.4g N m^-2.5 beside the seed's 95 400\n", slope, fw[2] / pow(0.5, 1.5));
+    printf("  sail stage, %d layer(s): force per width against thickness, fitted exponent %.3f (the seed's 1.5; "
+           "Muchow & Polojarvi 2024's 3-D: 1, linear); beta at h = 0.5 m %.4g N m^-2.5 beside the seed's 95 400\n",
+           nl, slope, fw[2] / pow(0.5, 1.5));
     CHECK(fw[2] > fw[0], "the force grows with the thickness (%.4g > %.4g N/m)", fw[2], fw[0]);
     return check_summary("test_dem_sail");
 }
