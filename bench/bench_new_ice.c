@@ -11,7 +11,12 @@
  * rheology, thermodynamics every step. Rows of bench/out/results.csv:
  * problem new_ice, method off/on, config the particle count; err = the
  * fraction. Usage: bench_new_ice [n ...] (default 10000 100000; BENCH_QUICK=1:
- * 10000 only). Run: BENCH_ONLY=new_ice sh bench/run.sh. */
+ * 10000 only). Run: BENCH_ONLY=new_ice sh bench/run.sh.
+ * BENCH_NEW_ICE_PERF=S: only the mixed layer with creation and merging, S
+ * steps after one warm-up, no rows: the run to profile with perf, whose
+ * samples give the ocean's share of the step directly (docs/ocean.md,
+ * Cost; the difference of step times above is within a loaded machine's
+ * noise). */
 #include "bench_common.h"
 #include "core/model.h"
 #include "core/ocean.h"
@@ -111,7 +116,21 @@ int main(int argc, char **argv)
         for (int i = 1; i < argc && ns < 8; i++)
             sizes[ns++] = (size_t)atol(argv[i]);
     }
-    for (int i = 0; i < ns; i++) {
+    const char *prof = getenv("BENCH_NEW_ICE_PERF"); /* steps of the mixed layer with new ice alone, for perf */
+    for (int i = 0; i < ns && prof; i++) {
+        int ok = 1, steps = atoi(prof) > 0 ? atoi(prof) : 10;
+        sph_model *m = make(sizes[i], 1, 1, 1, 150.0);
+        if (!m)
+            return 1;
+        step_time(m, 1, &ok);
+        double t = step_time(m, steps, &ok);
+        fprintf(stderr, "new_ice profile n=%zu: %d steps, %.3f s/step, %zu particles, %ld created%s\n", sizes[i], steps,
+                t, sph_model_particles(m)->n, sph_model_budget(m)->created_particles, ok ? "" : " (a step failed)");
+        sph_model_free(m);
+        if (!ok)
+            return 1;
+    }
+    for (int i = 0; i < ns && !prof; i++) {
         int ok = 1;
         /* off; mixed layer alone; mixed layer with creation and merging */
         double t[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, np[3];

@@ -23,21 +23,18 @@
  * kernel radius 2 h as the scene, P0 2.75e4 N/m^2, up to 192
  * neighbours), thermodynamics every 3600 s, mass per area by summation.
  *
- * Why summation: with the default continuity density (the scene's) both
- * runs stop before day 90 (BENCH_SEASON_DENSITY=continuity shows it). The
- * particle at the west wall that the wind pulls away from it loses
- * density without bound; the footprints m / (rho_i A h) of the particles
- * over a western cell add up to 76-86 times the cell's area, and their
- * leads freeze far more ice out of the slabs under them than the cells'
- * open water could: with merging, a cell at 73.6 psu, -4.2 C on day 55
- * ("sea_surface_temperature outside the physical range"); without,
- * "mean thickness exceeds the thickness limit" on day 51. Before each
- * particle's exchange was spread over the cells its footprint covers
- * (src/core/ocean/new_ice.c) and merging capped (new_ice.merge_max_size),
- * the same stops came on days 46 (61 psu, one cell drained by one
- * particle of 12-800 cells' footprint) and 39 (docs/ocean.md, Cost). The
- * salinity restoring is there for the same reason (without it: day 34,
- * before the spread).
+ * Why summation: with continuity density (BENCH_SEASON_DENSITY=continuity)
+ * the footprints m / M of the particles grew until the leads over a
+ * western cell covered 76-86 times its area and a slab was drained (day
+ * 55 with merging, 51 without). The cause was the smoothing length
+ * h = h0 sqrt(M0 / M): M grew with the ice while the reference M0 stayed,
+ * so new particles' h fell to the floor and the kernel lost its
+ * neighbours. Since M0 follows the mass under the mixed layer (model.c;
+ * tests/test_ocean_sml_growth.c) the run without merging reaches day 90
+ * and the one with merging stops on day 71.5 in a corner the wind pulls
+ * open (docs/ocean.md, Cost). The salinity restoring is there for the
+ * drain of the shallow western slabs (without it: day 34, before the
+ * footprint spread).
  *
  * Measured: the particle count every 12 h (written to
  * $BENCH_OUT/season_counts.dat: day, count with merging, without), its

@@ -6,7 +6,8 @@
  * ice plus ocean to round-off and reports them in the result; a negative
  * mixed-layer depth and a bathymetry that is land where the land mask says
  * sea are refused with one line naming the file and the variable, and
- * nothing is written. */
+ * nothing is written; so is model.new_ice.create with continuity density
+ * (one line naming model.summation_density: docs/ocean.md). */
 #include <math.h>
 #include <netcdf.h>
 #include <stdlib.h>
@@ -44,18 +45,23 @@ static void write_ocean(const char *path)
     tnc_write(path, &g, v, 4, 0, 13, NC_NETCDF4);
 }
 
-static struct sph_config *load(void)
+static struct sph_config *load_density(int summation)
 {
     char text[8192], src[1200];
     snprintf(src, sizeof src, ", {\"name\": \"ocean\", \"kind\": \"ocean\", \"urls\": \"%s/ocean_ml.nc\"}", dir);
     ec_config_more(text, sizeof text, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "\"log_level\": \"warn\",",
-                   ", \"ocean\": {\"mixed_layer\": true, \"depth\": 30}, \"new_ice\": {\"create\": true}", src);
+                   summation ? ", \"summation_density\": true, \"ocean\": {\"mixed_layer\": true, \"depth\": 30}, "
+                               "\"new_ice\": {\"create\": true}"
+                             : ", \"ocean\": {\"mixed_layer\": true, \"depth\": 30}, \"new_ice\": {\"create\": true}",
+                   src);
     struct sph_config *cfg = NULL;
     sph_error err = {0};
     if (sph_config_parse(text, "test", &cfg, &err) != SPH_OK)
         CHECK(0, "config: %s", err.msg);
     return cfg;
 }
+
+static struct sph_config *load(void) { return load_density(1); }
 
 static int run(const struct sph_config *cfg, const char *stage_name, forecast_result *res, sph_error *err,
                char *stage, size_t len)
@@ -133,5 +139,21 @@ int main(int argc, char **argv)
     write_ocean(p);
     refused(cfg, "bathymetry_land", "deptho");
     sph_config_free(cfg);
+
+    /* new particles with continuity density: refused, naming the key */
+    ocean_case = 0;
+    write_ocean(p);
+    cfg = load_density(0);
+    if (cfg) {
+        memset(&res, 0, sizeof res);
+        rc = run(cfg, "continuity", &res, &err, stage, sizeof stage);
+        CHECK(rc != SPH_OK, "continuity density with model.new_ice.create: refused");
+        CHECK(strstr(err.msg, "model.summation_density") && strstr(err.msg, "model.new_ice.create"),
+              "names the keys: %s", err.msg);
+        CHECK(!strchr(err.msg, '\n'), "one line");
+        CHECK(ec_count_entries(stage) <= 0, "nothing written");
+        printf("continuity: %s\n", err.msg);
+        sph_config_free(cfg);
+    }
     return check_summary("test_new_ice_service");
 }

@@ -718,7 +718,7 @@ static void engine_level(int mixed)
 {
     char text[8192];
     ec_config_more(text, sizeof text, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "",
-                   mixed ? ", \"ocean\": {\"mixed_layer\": true}, \"new_ice\": {\"create\": true, "
+                   mixed ? ", \"summation_density\": true, \"ocean\": {\"mixed_layer\": true}, \"new_ice\": {\"create\": true, "
                            "\"thickness\": 0.02}"
                          : "",
                    "");

@@ -133,7 +133,7 @@ int main(int argc, char **argv)
     snprintf(src, sizeof src,
              ", {\"name\": \"ocean\", \"kind\": \"ocean\", \"urls\": \"%s/ocean.nc\", \"required\": [\"sst\"]}", dir);
     ec_config_more(text, sizeof text, dir, 300, "[\"wind\", \"tair\"]", "ice0.nc", "\"log_level\": \"warn\",",
-                   ", \"ocean\": {\"mixed_layer\": true, \"depth\": 40, \"min_depth\": 3},"
+                   ", \"summation_density\": true, \"ocean\": {\"mixed_layer\": true, \"depth\": 40, \"min_depth\": 3},"
                    " \"new_ice\": {\"create\": true, \"merge\": true}",
                    src);
     struct sph_config *cfg = NULL;

@@ -826,11 +826,26 @@ int sph_model_step(sph_model *m, sph_status *st)
                     for (int q = 0; q < 9; q++)
                         sph_xsum_add(&m->dd_src[q], t9[q]);
                 }
-            /* the footprint is fixed: mass per area scales with the mass */
-            if (!p->summation_density)
+            /* the footprint is fixed: mass per area scales with the mass.
+             * With the mixed layer, the reference M0 of the smoothing
+             * length h = h0 sqrt(M0 / M) scales with it too, so that h
+             * follows the footprint m / M, not the mass: a particle born
+             * 5 cm thick that grows to 50 cm keeps its h (without this h
+             * fell to the floor sml_min_factor h0, the kernel lost its
+             * neighbours and continuity inflated the footprints until the
+             * leads over a cell summed to 76-86 cells: docs/ocean.md).
+             * Without the mixed layer M0 stays the seeded field's
+             * (today's runs unchanged). */
+            const int ref = sph_ocean_on(m);
+            if (!p->summation_density || ref)
                 for (size_t k = 0; k < P->n; k++)
-                    if (m->dvel[k] > 0.0)
-                        P->dens[k] *= P->mass[k] / m->dvel[k];
+                    if (m->dvel[k] > 0.0) {
+                        double f = P->mass[k] / m->dvel[k];
+                        if (!p->summation_density)
+                            P->dens[k] *= f;
+                        if (ref)
+                            P->dens0[k] *= f;
+                    }
             m->thermo_accum = 0.0;
             if (rc != SPH_STEP_OK)
                 return rc;

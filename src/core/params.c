@@ -123,7 +123,7 @@ static const sph_param rows[] = {
     ENUM("ocean.freezing_point", ocean.freezing, freezing_names, SPH_FREEZING_LINEAR, "Freezing point of the mixed layer from its salinity: linear (-thermo mu S, 0.054 K/psu) or unesco (Millero 1978, UNESCO 1983)."),
     DBL("ocean.restore_days", ocean.restore_days, 0, 0, 3650, "day", "Restoring time scale of the mixed layer to the forcing's SST and SSS, days; 0: no restoring."),
     DBL("ocean.heat_transfer", ocean.heat_transfer, 246, 0, 10000, "W/m^2/K", "Ice-ocean heat transfer rho_w c_w c_h u* (McPhee 1992: c_h 0.006, u* 0.01 m/s): heat flux into the ice base per kelvin of mixed layer above freezing."),
-    BOOL("new_ice.create", ocean.create, 0, "New particles from frazil in open water with no particle (needs ocean.mixed_layer)."),
+    BOOL("new_ice.create", ocean.create, 0, "New particles from frazil in open water with no particle (needs ocean.mixed_layer and summation_density true: continuity is refused with it, docs/ocean.md)."),
     DBL("new_ice.thickness", ocean.new_thickness, 0.05, 0.001, 2, "m", "Frazil thickness over a cell's open water at which new particles are created there, m (Icepack hfrazilmin 0.05)."),
     BOOL("new_ice.merge", ocean.merge, 0, "Merge thin crowded particles (mass, momentum, enthalpy conserved) so the count stays bounded."),
     DBL("new_ice.merge_thickness", ocean.merge_thickness, 0.2, 0, 10, "m", "Merging: both particles thinner than this, m."),

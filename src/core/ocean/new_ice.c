@@ -469,7 +469,10 @@ static void merge_into(sph_model *m, size_t k, size_t j)
     P->s11[k] = (fk * P->s11[k] + fj * P->s11[j]) / fs;
     P->s22[k] = (fk * P->s22[k] + fj * P->s22[j]) / fs;
     P->s12[k] = (fk * P->s12[k] + fj * P->s12[j]) / fs;
-    P->dens0[k] = (fk * P->dens0[k] + fj * P->dens0[j]) / fs;
+    /* the reference footprints m / M0 add, as the reference lengths
+     * sml0 below do (h = sml0 sqrt(M0 / M) = sml0 sqrt(a / a0); M0
+     * follows the mass through thermodynamics, model.c) */
+    P->dens0[k] = ms / (mk / P->dens0[k] + mj / P->dens0[j]);
     P->dens[k] = ms / fs;
     P->coastc[k] = fmax(P->coastc[k], P->coastc[j]);
     /* the smoothing length scales with the side of the footprint */
