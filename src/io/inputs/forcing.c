@@ -1143,6 +1143,28 @@ size_t forcing_debug_bytes(const forcing *f)
 
 /* Interpolates v at the n points and time t into dst (and the SSH gradient
  * into gx, gy when given). */
+/* o[p] = slices a and b at the points, blended by alpha (want0: a has
+ * weight, want1: b has); always inlined with want0 and want1 constant.
+ * Returns the first point without a value, n if none (per-point writes:
+ * the same values with any thread count). */
+static inline __attribute__((always_inline)) size_t
+blend_points(const fgrid *g, const double *a, const double *b, const int want0, const int want1,
+             double alpha, size_t n, const double *lon, const double *lat, double *o)
+{
+    size_t first_bad = n;
+#pragma omp parallel for schedule(static) reduction(min : first_bad) if (n >= FORCING_OMP_MIN)
+    for (size_t p = 0; p < n; p++) {
+        double x0 = 0, x1 = 0;
+        if (fgrid_interp2(g, a, b, want0, want1, p, lon[p], lat[p], &x0, &x1)) {
+            if (p < first_bad)
+                first_bad = p;
+            continue;
+        }
+        o[p] = alpha <= 0 ? x0 : alpha >= 1 ? x1 : (1 - alpha) * x0 + alpha * x1;
+    }
+    return first_bad;
+}
+
 static int sample_var(forcing *f, fvar *v, double t, size_t n, const double *lon,
                       const double *lat, double *dst, double *gx, double *gy, sph_error *err)
 {
@@ -1189,18 +1211,10 @@ static int sample_var(forcing *f, fvar *v, double t, size_t n, const double *lon
         const double *a = field == 0 ? v->slot[s0] : field == 1 ? v->slot_gx[s0] : v->slot_gy[s0];
         const double *b = field == 0 ? v->slot[s1] : field == 1 ? v->slot_gx[s1] : v->slot_gy[s1];
         /* per-point writes; the first point without a value is the one reported */
-        size_t first_bad = n;
         const int want0 = alpha < 1, want1 = alpha > 0;
-#pragma omp parallel for schedule(static) reduction(min : first_bad) if (n >= FORCING_OMP_MIN)
-        for (size_t p = 0; p < n; p++) {
-            double x0 = 0, x1 = 0;
-            if (fgrid_interp2(g, a, b, want0, want1, p, lon[p], lat[p], &x0, &x1)) {
-                if (p < first_bad)
-                    first_bad = p;
-                continue;
-            }
-            o[p] = alpha <= 0 ? x0 : alpha >= 1 ? x1 : (1 - alpha) * x0 + alpha * x1;
-        }
+        size_t first_bad = want0 && want1 ? blend_points(g, a, b, 1, 1, alpha, n, lon, lat, o)
+                           : want0         ? blend_points(g, a, b, 1, 0, alpha, n, lon, lat, o)
+                                           : blend_points(g, a, b, 0, 1, alpha, n, lon, lat, o);
         if (first_bad < n)
             return forcing_fail(err, v->src, v->file0, SPH_ERR_COVERAGE,
                                 "no valid %s%s of variable '%s' within one grid cell of "
