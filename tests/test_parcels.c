@@ -147,11 +147,11 @@ static void test_parcels_threads(void)
     omp_set_num_threads(1);
 }
 
-/* The drift pass solves parcels four at a time side by side (vector
- * lanes) and the rest one at a time; both must give the same bits. The
- * scene's 4356 particles all go through the lanes; a model holding one of
- * them alone (same position, thickness and forcing) goes through the
- * one-at-a-time code. */
+/* The drift pass solves parcels eight at a time side by side (vector
+ * lanes) and the last n mod 8 one at a time; both must give the same bits.
+ * The scene's first 4352 particles (in the model's cell order) go through
+ * the lanes; a model holding one of them alone (same position, thickness
+ * and forcing) goes through the one-at-a-time code. */
 static void test_parcels_lanes(void)
 {
     int ok;
@@ -180,7 +180,7 @@ static void test_parcels_lanes(void)
         size_t q = find(A, id);
         int eq = okb && q != (size_t)-1 && B->n == 1 && A->x[q] == B->x[0] && A->y[q] == B->y[0] &&
                  A->u[q] == B->u[0] && A->v[q] == B->v[0] && A->dens[q] == B->dens[0];
-        CHECK(eq, "particle %ld: four at a time and alone differ (u %.17g %.17g)", id,
+        CHECK(eq, "particle %ld: eight at a time and alone differ (u %.17g %.17g)", id,
               q != (size_t)-1 ? A->u[q] : NAN, B->u[0]);
         same &= eq;
         checked++;

@@ -571,8 +571,11 @@ static inline double parcel_newton(const parcel_sys *q0, double cw, double sw)
  * operations are exact per lane: the same bits); a lane that has stopped
  * keeps its value while the others go on. GNU C vector extension of two
  * doubles (SSE2 on x86-64); sqrt through SSE2's sqrtpd where there is one
- * (correctly rounded, as sqrt is), per lane otherwise. */
-#define PARCEL_LANES 4
+ * (correctly rounded, as sqrt is), per lane otherwise. Eight parcels: four
+ * independent two-lane chains keep the divider and sqrt unit busy (the
+ * step is a chain of two divisions and a sqrt; with four parcels it waited
+ * on their latency). */
+#define PARCEL_LANES 8
 #if defined(__GNUC__)
 typedef long long sph_v2l __attribute__((vector_size(16)));
 #if defined(__SSE2__)
@@ -585,45 +588,53 @@ static inline sph_v2d sel2(sph_v2l keep, sph_v2d old, sph_v2d nw)
     return (sph_v2d)((keep & (sph_v2l)old) | (~keep & (sph_v2l)nw));
 }
 
+/* One Newton step in two lanes (parcel_newton's operations, same order). */
+static inline __attribute__((always_inline)) void newton_two(sph_v2d a, sph_v2d b, sph_v2d G, sph_v2d vcw,
+                                                             sph_v2d vsw, sph_v2d *s, sph_v2l *done)
+{
+    const sph_v2d one = {1.0, 1.0}, zero = {0.0, 0.0}, tol = {1e-15, 1e-15};
+    sph_v2d bs = b * *s;
+    sph_v2d re = one + bs * vcw, im = a + bs * vsw;
+    sph_v2d qq = sqrt2(re * re + im * im);
+    sph_v2d phi = *s * qq - G;
+    sph_v2d dphi = qq + *s * b * (re * vcw + im * vsw) / qq;
+    sph_v2d ds = phi / dphi;
+    sph_v2d sn = *s - ds;
+    /* !(s > 0): s = 0 and stop; |ds| <= 1e-15 s: stop */
+    sph_v2l pos = (sph_v2l)(sn > zero);
+    sph_v2d t = tol * sn;
+    sph_v2l small = (sph_v2l)(ds <= t) & (sph_v2l)(-ds <= t);
+    sn = (sph_v2d)(pos & (sph_v2l)sn); /* zero where not positive */
+    *s = sel2(*done, *s, sn);
+    *done |= ~pos | small;
+}
+
 static void parcel_newton_lanes(const parcel_sys *q, double cw, double sw, double *out)
 {
-    enum { H = PARCEL_LANES / 2 };
-    sph_v2d a[H], b[H], G[H], s[H];
-    sph_v2l done[H];
-    for (int h = 0; h < H; h++) {
-        a[h] = (sph_v2d){q[2 * h].a, q[2 * h + 1].a};
-        b[h] = (sph_v2d){q[2 * h].b, q[2 * h + 1].b};
-        G[h] = (sph_v2d){q[2 * h].G, q[2 * h + 1].G};
-        s[h] = (sph_v2d){q[2 * h].s, q[2 * h + 1].s};
-        done[h] = (sph_v2l){0, 0};
-    }
-    const sph_v2d one = {1.0, 1.0}, zero = {0.0, 0.0}, tol = {1e-15, 1e-15};
     const sph_v2d vcw = {cw, cw}, vsw = {sw, sw};
+#define LANE_PAIR(h)                                                                               \
+    const sph_v2d a##h = {q[2 * h].a, q[2 * h + 1].a}, b##h = {q[2 * h].b, q[2 * h + 1].b},        \
+                  G##h = {q[2 * h].G, q[2 * h + 1].G};                                             \
+    sph_v2d s##h = {q[2 * h].s, q[2 * h + 1].s};                                                   \
+    sph_v2l d##h = {0, 0}
+    LANE_PAIR(0);
+    LANE_PAIR(1);
+    LANE_PAIR(2);
+    LANE_PAIR(3);
+#undef LANE_PAIR
     for (int it = 0; it < 50; it++) {
-        long long all = -1;
-        for (int h = 0; h < H; h++) {
-            sph_v2d bs = b[h] * s[h];
-            sph_v2d re = one + bs * vcw, im = a[h] + bs * vsw;
-            sph_v2d qq = sqrt2(re * re + im * im);
-            sph_v2d phi = s[h] * qq - G[h];
-            sph_v2d dphi = qq + s[h] * b[h] * (re * vcw + im * vsw) / qq;
-            sph_v2d ds = phi / dphi;
-            sph_v2d sn = s[h] - ds;
-            /* !(s > 0): s = 0 and stop; |ds| <= 1e-15 s: stop */
-            sph_v2l pos = (sph_v2l)(sn > zero);
-            sph_v2d t = tol * sn;
-            sph_v2l small = (sph_v2l)(ds <= t) & (sph_v2l)(-ds <= t);
-            sn = (sph_v2d)(pos & (sph_v2l)sn); /* zero where not positive */
-            s[h] = sel2(done[h], s[h], sn);
-            done[h] |= ~pos | small;
-            all &= done[h][0] & done[h][1];
-        }
-        if (all)
+        newton_two(a0, b0, G0, vcw, vsw, &s0, &d0);
+        newton_two(a1, b1, G1, vcw, vsw, &s1, &d1);
+        newton_two(a2, b2, G2, vcw, vsw, &s2, &d2);
+        newton_two(a3, b3, G3, vcw, vsw, &s3, &d3);
+        sph_v2l all = d0 & d1 & d2 & d3;
+        if (all[0] & all[1])
             break;
     }
-    for (int h = 0; h < H; h++) {
-        out[2 * h] = s[h][0];
-        out[2 * h + 1] = s[h][1];
+    const sph_v2d *sv[4] = {&s0, &s1, &s2, &s3};
+    for (int h = 0; h < 4; h++) {
+        out[2 * h] = (*sv[h])[0];
+        out[2 * h + 1] = (*sv[h])[1];
     }
 }
 #else
