@@ -9,21 +9,10 @@
 /* ------------------------------------------------------------------ */
 /* land mask                                                           */
 
-/* floor(d / dx) from the product d * (1 / dx): the product lies within
- * 3 units in the last place of the quotient, so where it is farther than
- * 1e-9 (1 + |q|) from an integer both have the same floor; nearer (a point
- * on a cell edge) or not finite, the division decides. The same cell as
- * the division everywhere, without a division per query. */
-static inline double cell_floor(double d, double inv, double dx)
-{
-    double q = d * inv, f = floor(q), tol = 1e-9 * (1.0 + fabs(q));
-    return q - f > tol && (f + 1.0) - q > tol ? f : floor(d / dx);
-}
-
 static int mask_cell(const sph_model *m, double x, double y, int *ci, int *cj)
 {
     const sph_landmask *k = &m->mask;
-    double fi = cell_floor(x - k->x0, m->mask_idx, k->dx), fj = cell_floor(y - k->y0, m->mask_idy, k->dy);
+    double fi = floor((x - k->x0) / k->dx), fj = floor((y - k->y0) / k->dy);
     /* written so that a NaN position is outside (no out-of-range index) */
     if (!(fi >= 0 && fj >= 0 && fi < k->nx && fj < k->ny))
         return 0;

@@ -113,8 +113,6 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
             memcpy(m->land, mask->land, nc);
             m->mask = *mask;
             m->mask.land = m->land;
-            m->mask_idx = 1.0 / mask->dx;
-            m->mask_idy = 1.0 / mask->dy;
             m->has_mask = 1;
         }
     }

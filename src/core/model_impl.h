@@ -68,7 +68,6 @@ struct sph_model {
     sph_nbr *nb;
     int has_mask;
     sph_landmask mask;
-    double mask_idx, mask_idy; /* 1 / mask.dx, 1 / mask.dy (coast.c's mask_cell) */
     unsigned char *land;
     unsigned char *near_land; /* sea cells within the ghost radius of land */
     double near_radius;
