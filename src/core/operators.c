@@ -6,6 +6,9 @@
 #include "model_impl.h"
 
 #include <math.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "core/kernel.h"
 #include "core/neighbours.h"
@@ -504,6 +507,155 @@ void sph_free_drift_pass(sph_model *m)
     }
 }
 
+/* One parcel's set-up: G = (gr, gi), |G|, a, b and the Newton start s0. */
+typedef struct {
+    double gr, gi, G, a, b, s;
+} parcel_sys;
+
+static inline void parcel_setup(const sph_model *m, size_t k, parcel_sys *o)
+{
+    const sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    const double dt = p->dt, ca = m->cos_air, sna = m->sin_air;
+    const double kair = p->rho_a * p->Ca, kw = p->rho_w * p->Cw, g = p->gravity;
+    double M = P->dens[k], iM = 1.0 / M, dA = sph_drag_factor(m, k); /* drag_scaling */
+    double ua = P->ua[k], va = P->va[k];
+    double sa = sqrt(ua * ua + va * va);
+    double fx = P->ax[k] + dA * kair * sa * (ua * ca - va * sna) * iM - g * P->sshx[k];
+    double fy = P->ay[k] + dA * kair * sa * (ua * sna + va * ca) * iM - g * P->sshy[k];
+    double a = 0.5 * dt * m->fcor[k], b = dt * dA * kw * iM;
+    double uw = P->uw[k], vw = P->vw[k], un = m->un[k], vn = m->vn[k];
+    /* G = (1 + i a) Z_w - (1 - i a) z_n - dt F */
+    double gr = (uw - a * vw) - (un + a * vn) - dt * fx;
+    double gi = (vw + a * uw) - (vn - a * un) - dt * fy;
+    double G = sqrt(gr * gr + gi * gi);
+    /* start: the relative speed at the start of the step (close in a
+     * slowly varying drift); from below, Newton's first step lands
+     * above the root, then it descends monotonically */
+    double s = sqrt((uw - un) * (uw - un) + (vw - vn) * (vw - vn));
+    if (!(s > 0.0))
+        s = G / sqrt(1.0 + a * a);
+    o->gr = gr;
+    o->gi = gi;
+    o->G = G;
+    o->a = a;
+    o->b = b;
+    o->s = s;
+}
+
+/* Newton on phi(s) for one parcel: at most 50 steps, stopping at a step
+ * below 1e-15 s, or at s = 0. */
+static inline double parcel_newton(const parcel_sys *q0, double cw, double sw)
+{
+    const double a = q0->a, b = q0->b, G = q0->G;
+    double s = q0->s;
+    for (int it = 0; it < 50; it++) {
+        double re = 1.0 + b * s * cw, im = a + b * s * sw;
+        double q = sqrt(re * re + im * im);
+        double phi = s * q - G;
+        double dphi = q + s * b * (re * cw + im * sw) / q;
+        double ds = phi / dphi;
+        s -= ds;
+        if (!(s > 0.0)) {
+            s = 0.0;
+            break;
+        }
+        if (fabs(ds) <= 1e-15 * s)
+            break;
+    }
+    return s;
+}
+
+/* The same Newton steps for PARCEL_LANES parcels at once, lane l doing
+ * parcel_newton's operations on its own parcel in the same order (IEEE
+ * operations are exact per lane: the same bits); a lane that has stopped
+ * keeps its value while the others go on. GNU C vector extension of two
+ * doubles (SSE2 on x86-64); sqrt through SSE2's sqrtpd where there is one
+ * (correctly rounded, as sqrt is), per lane otherwise. Eight parcels: four
+ * independent two-lane chains keep the divider and sqrt unit busy (the
+ * step is a chain of two divisions and a sqrt; with four parcels it waited
+ * on their latency). */
+#define PARCEL_LANES 8
+#if defined(__GNUC__)
+typedef long long sph_v2l __attribute__((vector_size(16)));
+#if defined(__SSE2__)
+static inline sph_v2d sqrt2(sph_v2d x) { return (sph_v2d)_mm_sqrt_pd((__m128d)x); }
+#else
+static inline sph_v2d sqrt2(sph_v2d x) { return (sph_v2d){sqrt(x[0]), sqrt(x[1])}; }
+#endif
+static inline sph_v2d sel2(sph_v2l keep, sph_v2d old, sph_v2d nw)
+{
+    return (sph_v2d)((keep & (sph_v2l)old) | (~keep & (sph_v2l)nw));
+}
+
+/* One Newton step in two lanes (parcel_newton's operations, same order). */
+static inline __attribute__((always_inline)) void newton_two(sph_v2d a, sph_v2d b, sph_v2d G, sph_v2d vcw,
+                                                             sph_v2d vsw, sph_v2d *s, sph_v2l *done)
+{
+    const sph_v2d one = {1.0, 1.0}, zero = {0.0, 0.0}, tol = {1e-15, 1e-15};
+    sph_v2d bs = b * *s;
+    sph_v2d re = one + bs * vcw, im = a + bs * vsw;
+    sph_v2d qq = sqrt2(re * re + im * im);
+    sph_v2d phi = *s * qq - G;
+    sph_v2d dphi = qq + *s * b * (re * vcw + im * vsw) / qq;
+    sph_v2d ds = phi / dphi;
+    sph_v2d sn = *s - ds;
+    /* !(s > 0): s = 0 and stop; |ds| <= 1e-15 s: stop */
+    sph_v2l pos = (sph_v2l)(sn > zero);
+    sph_v2d t = tol * sn;
+    sph_v2l small = (sph_v2l)(ds <= t) & (sph_v2l)(-ds <= t);
+    sn = (sph_v2d)(pos & (sph_v2l)sn); /* zero where not positive */
+    *s = sel2(*done, *s, sn);
+    *done |= ~pos | small;
+}
+
+static void parcel_newton_lanes(const parcel_sys *q, double cw, double sw, double *out)
+{
+    const sph_v2d vcw = {cw, cw}, vsw = {sw, sw};
+#define LANE_PAIR(h)                                                                               \
+    const sph_v2d a##h = {q[2 * h].a, q[2 * h + 1].a}, b##h = {q[2 * h].b, q[2 * h + 1].b},        \
+                  G##h = {q[2 * h].G, q[2 * h + 1].G};                                             \
+    sph_v2d s##h = {q[2 * h].s, q[2 * h + 1].s};                                                   \
+    sph_v2l d##h = {0, 0}
+    LANE_PAIR(0);
+    LANE_PAIR(1);
+    LANE_PAIR(2);
+    LANE_PAIR(3);
+#undef LANE_PAIR
+    for (int it = 0; it < 50; it++) {
+        newton_two(a0, b0, G0, vcw, vsw, &s0, &d0);
+        newton_two(a1, b1, G1, vcw, vsw, &s1, &d1);
+        newton_two(a2, b2, G2, vcw, vsw, &s2, &d2);
+        newton_two(a3, b3, G3, vcw, vsw, &s3, &d3);
+        sph_v2l all = d0 & d1 & d2 & d3;
+        if (all[0] & all[1])
+            break;
+    }
+    const sph_v2d *sv[4] = {&s0, &s1, &s2, &s3};
+    for (int h = 0; h < 4; h++) {
+        out[2 * h] = (*sv[h])[0];
+        out[2 * h + 1] = (*sv[h])[1];
+    }
+}
+#else
+static void parcel_newton_lanes(const parcel_sys *q, double cw, double sw, double *out)
+{
+    for (int l = 0; l < PARCEL_LANES; l++)
+        out[l] = parcel_newton(q + l, cw, sw);
+}
+#endif
+
+static inline void parcel_finish(sph_model *m, size_t k, const parcel_sys *q, double s)
+{
+    sph_particles *P = m->P;
+    const double cw = m->cos_water, sw = m->sin_water;
+    double re = 1.0 + q->b * s * cw, im = q->a + q->b * s * sw, id = 1.0 / (re * re + im * im);
+    double wr = (q->gr * re + q->gi * im) * id, wi = (q->gi * re - q->gr * im) * id;
+    P->u[k] = P->uw[k] - wr;
+    P->v[k] = P->vw[k] - wi;
+    P->s11[k] = P->s22[k] = P->s12[k] = 0.0;
+}
+
 /* Free drift of every live particle as an independent parcel
  * (model.free_drift_parcels): the fixed point sph_free_drift_pass reaches
  * by Picard sweeps, solved directly. With z = u + i v, W = Z_w - z the
@@ -519,53 +671,29 @@ void sph_free_drift_pass(sph_model *m)
  * s0 > 0 after its first step); started at the last step's relative speed.
  * Then W = G / (1 + i a + b s e^{i theta}) and z = Z_w - W: an algebraic
  * solve, no transcendental function. It agrees with the Picard sweeps to
- * their stopping tolerance (1e-13 relative; tests/test_parcels.c). */
+ * their stopping tolerance (1e-13 relative; tests/test_parcels.c).
+ * Parcels in groups of PARCEL_LANES run their Newton steps side by side
+ * (parcel_newton_lanes: the same bits as one at a time, which the rest
+ * take; tests/test_parcels.c checks the two against each other). */
 void sph_parcels_drift_pass(sph_model *m)
 {
-    sph_particles *P = m->P;
-    const sph_params *p = &m->prm;
-    const size_t n = P->n;
-    const double dt = m->prm.dt, cw = m->cos_water, sw = m->sin_water;
-    const double ca = m->cos_air, sna = m->sin_air;
-    const double kair = p->rho_a * p->Ca, kw = p->rho_w * p->Cw, g = p->gravity;
+    const size_t n = m->P->n, nb = n / PARCEL_LANES;
+    const double cw = m->cos_water, sw = m->sin_water;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
-    for (size_t k = 0; k < n; k++) {
-        double M = P->dens[k], iM = 1.0 / M, dA = sph_drag_factor(m, k); /* drag_scaling */
-        double ua = P->ua[k], va = P->va[k];
-        double sa = sqrt(ua * ua + va * va);
-        double fx = P->ax[k] + dA * kair * sa * (ua * ca - va * sna) * iM - g * P->sshx[k];
-        double fy = P->ay[k] + dA * kair * sa * (ua * sna + va * ca) * iM - g * P->sshy[k];
-        double a = 0.5 * dt * m->fcor[k], b = dt * dA * kw * iM;
-        double uw = P->uw[k], vw = P->vw[k], un = m->un[k], vn = m->vn[k];
-        /* G = (1 + i a) Z_w - (1 - i a) z_n - dt F */
-        double gr = (uw - a * vw) - (un + a * vn) - dt * fx;
-        double gi = (vw + a * uw) - (vn - a * un) - dt * fy;
-        double G = sqrt(gr * gr + gi * gi);
-        /* start: the relative speed at the start of the step (close in a
-         * slowly varying drift); from below, Newton's first step lands
-         * above the root, then it descends monotonically */
-        double s = sqrt((uw - un) * (uw - un) + (vw - vn) * (vw - vn));
-        if (!(s > 0.0))
-            s = G / sqrt(1.0 + a * a);
-        for (int it = 0; it < 50; it++) {
-            double re = 1.0 + b * s * cw, im = a + b * s * sw;
-            double q = sqrt(re * re + im * im);
-            double phi = s * q - G;
-            double dphi = q + s * b * (re * cw + im * sw) / q;
-            double ds = phi / dphi;
-            s -= ds;
-            if (!(s > 0.0)) {
-                s = 0.0;
-                break;
-            }
-            if (fabs(ds) <= 1e-15 * s)
-                break;
-        }
-        double re = 1.0 + b * s * cw, im = a + b * s * sw, id = 1.0 / (re * re + im * im);
-        double wr = (gr * re + gi * im) * id, wi = (gi * re - gr * im) * id;
-        P->u[k] = uw - wr;
-        P->v[k] = vw - wi;
-        P->s11[k] = P->s22[k] = P->s12[k] = 0.0;
+    for (size_t g = 0; g < nb; g++) {
+        parcel_sys q[PARCEL_LANES];
+        double s[PARCEL_LANES];
+        size_t k0 = g * PARCEL_LANES;
+        for (int l = 0; l < PARCEL_LANES; l++)
+            parcel_setup(m, k0 + (size_t)l, q + l);
+        parcel_newton_lanes(q, cw, sw, s);
+        for (int l = 0; l < PARCEL_LANES; l++)
+            parcel_finish(m, k0 + (size_t)l, q + l, s[l]);
+    }
+    for (size_t k = nb * PARCEL_LANES; k < n; k++) {
+        parcel_sys q;
+        parcel_setup(m, k, &q);
+        parcel_finish(m, k, &q, parcel_newton(&q, cw, sw));
     }
 }
 

@@ -1143,6 +1143,56 @@ size_t forcing_debug_bytes(const forcing *f)
 
 /* Interpolates v at the n points and time t into dst (and the SSH gradient
  * into gx, gy when given). */
+/* o[p] = slices a and b at the points, blended by alpha (want0: a has
+ * weight, want1: b has); always inlined with want0 and want1 constant.
+ * Returns the first point without a value, n if none (per-point writes:
+ * the same values with any thread count). */
+static inline __attribute__((always_inline)) size_t
+blend_points(const fgrid *g, const double *a, const double *b, const int want0, const int want1,
+             double alpha, size_t n, const double *lon, const double *lat, double *o)
+{
+    size_t first_bad = n;
+#pragma omp parallel for schedule(static) reduction(min : first_bad) if (n >= FORCING_OMP_MIN)
+    for (size_t p = 0; p < n; p++) {
+        double x0 = 0, x1 = 0;
+        if (fgrid_interp2(g, a, b, want0, want1, p, lon[p], lat[p], &x0, &x1)) {
+            if (p < first_bad)
+                first_bad = p;
+            continue;
+        }
+        o[p] = alpha <= 0 ? x0 : alpha >= 1 ? x1 : (1 - alpha) * x0 + alpha * x1;
+    }
+    return first_bad;
+}
+
+/* blend_points for three slice pairs on one grid (a height and its
+ * gradient) in one pass over the points: per field the same operations as
+ * blend_points, so the same values; bad[f]: field f's first point without
+ * a value (n if none). */
+static inline __attribute__((always_inline)) void
+blend_points3(const fgrid *g, const double *const a[3], const double *const b[3], const int want0,
+              const int want1, double alpha, size_t n, const double *lon, const double *lat,
+              double *const o[3], size_t bad[3])
+{
+    size_t b0 = n, b1 = n, b2 = n;
+#pragma omp parallel for schedule(static) reduction(min : b0, b1, b2) if (n >= FORCING_OMP_MIN)
+    for (size_t p = 0; p < n; p++) {
+        for (int f = 0; f < 3; f++) {
+            double x0 = 0, x1 = 0;
+            if (fgrid_interp2(g, a[f], b[f], want0, want1, p, lon[p], lat[p], &x0, &x1)) {
+                size_t *bf = f == 0 ? &b0 : f == 1 ? &b1 : &b2;
+                if (p < *bf)
+                    *bf = p;
+                continue;
+            }
+            o[f][p] = alpha <= 0 ? x0 : alpha >= 1 ? x1 : (1 - alpha) * x0 + alpha * x1;
+        }
+    }
+    bad[0] = b0;
+    bad[1] = b1;
+    bad[2] = b2;
+}
+
 static int sample_var(forcing *f, fvar *v, double t, size_t n, const double *lon,
                       const double *lat, double *dst, double *gx, double *gy, sph_error *err)
 {
@@ -1182,6 +1232,27 @@ static int sample_var(forcing *f, fvar *v, double t, size_t n, const double *lon
     } else if (ensure_slice(f, v, k0, k1, &s0, err) || ensure_slice(f, v, k1, k0, &s1, err)) {
         return err->code;
     }
+    if (dst && gx && gy) { /* the height and its gradient: one pass over the stencils */
+        const double *a[3] = {v->slot[s0], v->slot_gx[s0], v->slot_gy[s0]};
+        const double *b[3] = {v->slot[s1], v->slot_gx[s1], v->slot_gy[s1]};
+        double *o[3] = {dst, gx, gy};
+        size_t bad[3];
+        const int want0 = alpha < 1, want1 = alpha > 0;
+        if (want0 && want1)
+            blend_points3(g, a, b, 1, 1, alpha, n, lon, lat, o, bad);
+        else if (want0)
+            blend_points3(g, a, b, 1, 0, alpha, n, lon, lat, o, bad);
+        else
+            blend_points3(g, a, b, 0, 1, alpha, n, lon, lat, o, bad);
+        for (int field = 0; field < 3; field++)
+            if (bad[field] < n)
+                return forcing_fail(err, v->src, v->file0, SPH_ERR_COVERAGE,
+                                    "no valid %s%s of variable '%s' within one grid cell of "
+                                    "point (%.6g, %.6g)",
+                                    field ? "gradient of " : "", v->standard_name, v->varname,
+                                    lon[bad[field]], lat[bad[field]]);
+        return 0;
+    }
     for (int field = 0; field < 3; field++) {
         double *o = field == 0 ? dst : field == 1 ? gx : gy;
         if (!o)
@@ -1189,18 +1260,10 @@ static int sample_var(forcing *f, fvar *v, double t, size_t n, const double *lon
         const double *a = field == 0 ? v->slot[s0] : field == 1 ? v->slot_gx[s0] : v->slot_gy[s0];
         const double *b = field == 0 ? v->slot[s1] : field == 1 ? v->slot_gx[s1] : v->slot_gy[s1];
         /* per-point writes; the first point without a value is the one reported */
-        size_t first_bad = n;
         const int want0 = alpha < 1, want1 = alpha > 0;
-#pragma omp parallel for schedule(static) reduction(min : first_bad) if (n >= FORCING_OMP_MIN)
-        for (size_t p = 0; p < n; p++) {
-            double x0 = 0, x1 = 0;
-            if (fgrid_interp2(g, a, b, want0, want1, p, lon[p], lat[p], &x0, &x1)) {
-                if (p < first_bad)
-                    first_bad = p;
-                continue;
-            }
-            o[p] = alpha <= 0 ? x0 : alpha >= 1 ? x1 : (1 - alpha) * x0 + alpha * x1;
-        }
+        size_t first_bad = want0 && want1 ? blend_points(g, a, b, 1, 1, alpha, n, lon, lat, o)
+                           : want0         ? blend_points(g, a, b, 1, 0, alpha, n, lon, lat, o)
+                                           : blend_points(g, a, b, 0, 1, alpha, n, lon, lat, o);
         if (first_bad < n)
             return forcing_fail(err, v->src, v->file0, SPH_ERR_COVERAGE,
                                 "no valid %s%s of variable '%s' within one grid cell of "

@@ -729,41 +729,6 @@ int fgrid_interp(const fgrid *g, const double *slice, size_t p, double lon, doub
     return isfinite(best) ? 0 : -1;
 }
 
-int fgrid_interp2(const fgrid *g, const double *a, const double *b, int want_a, int want_b,
-                  size_t p, double lon, double lat, double *va, double *vb)
-{
-    const size_t *idx = g->idx + 4 * p;
-    const double *w = g->w + 4 * p;
-    double sa = 0, wa = 0, sb = 0, wb = 0;
-    for (int k = 0; k < 4; k++) {
-        if (!(w[k] > 0))
-            continue;
-        double x = want_a ? a[idx[k]] : NAN, y = want_b ? b[idx[k]] : NAN;
-        if (!isnan(x)) {
-            sa += w[k] * x;
-            wa += w[k];
-        }
-        if (!isnan(y)) {
-            sb += w[k] * y;
-            wb += w[k];
-        }
-    }
-    int bad = 0;
-    if (want_a) {
-        if (wa > 1e-12)
-            *va = sa / wa;
-        else
-            bad |= fgrid_interp(g, a, p, lon, lat, va);
-    }
-    if (want_b) {
-        if (wb > 1e-12)
-            *vb = sb / wb;
-        else
-            bad |= fgrid_interp(g, b, p, lon, lat, vb);
-    }
-    return bad ? -1 : 0;
-}
-
 void fgrid_gradient(const fgrid *g, const double *h, double *gx, double *gy)
 {
     size_t nx = g->nx, ny = g->ny;

@@ -287,6 +287,18 @@ void geo_plane_table_free(geo_plane_table *t)
     free(t);
 }
 
+/* remainder(x, 360): x itself within [-180, 180], x -/+ 360 (exact by
+ * Sterbenz's lemma) within one more turn, remainder() beyond that and for
+ * a zero result (whose sign remainder takes from x) or NaN: the same bits
+ * as remainder() everywhere, without its cost on the per-step path. */
+static inline double wrap180(double x)
+{
+    if (x >= -180.0 && x <= 180.0)
+        return x;
+    double r = x > 180.0 && x < 540.0 ? x - 360.0 : x < -180.0 && x > -540.0 ? x + 360.0 : 0.0;
+    return r != 0.0 ? r : remainder(x, 360.0);
+}
+
 /* One point from the table; 0 outside it (or on a node without values). */
 static int plane_point(const geo_plane_table *t, double x, double y, double *lon, double *lat,
                        double *cs, double *sn)
@@ -306,7 +318,7 @@ static int plane_point(const geo_plane_table *t, double x, double y, double *lon
         return 0;
     /* bilinear cos and sin: normalised back onto the circle */
     double r = 1.0 / sqrt(v[2] * v[2] + v[3] * v[3]);
-    *lon = remainder(v[0] + t->lon0, 360.0);
+    *lon = wrap180(v[0] + t->lon0);
     *lat = v[1];
     *cs = v[2] * r;
     *sn = v[3] * r;
