@@ -193,7 +193,7 @@ static void check_uniform(const char *dir, const geo_proj *proj)
               "sst, fw, fsens, flat left to the thermodynamics");
         CHECK(cs.P->qair[k] == sph_atmos_qair_rh(cs.P->tair[k], SPH_ATMOS_DEFAULT_RH, pa), "humidity default");
         CHECK(cs.P->lwdn[k] == sph_atmos_lwdn_cloud(cs.P->tair[k], SPH_ATMOS_DEFAULT_CLOUD), "longwave default");
-        CHECK(cs.c.ids_before[k] == cs.P->id[k] && cs.c.lon_before[k] == cs.c.lon[k], "positions kept for messages");
+        CHECK(cs.c.ids_before[k] == cs.P->id[k] && isfinite(cs.c.lon[k]), "positions kept for messages");
     }
     CHECK(max_angle > 0.05, "the lattice reaches rotated parts of the plane (%.3f rad)", max_angle);
     CHECK(cs.c.n_before == NP, "n_before %zu", cs.c.n_before);
@@ -258,8 +258,14 @@ static sph_particles *big_lattice(const geo_proj *proj, double dx, double dy)
     return P;
 }
 
-/* A coupling of the varying atmosphere (var.nc) for NB particles. */
+/* A coupling of the varying atmosphere (var.nc) for NB particles, sampled
+ * in chunks of `chunk` particles (0: the default, more than NB). */
+static int open_big_chunk(coupling_case *cs, const char *dir, const geo_proj *proj, size_t chunk);
 static int open_big(coupling_case *cs, const char *dir, const geo_proj *proj)
+{
+    return open_big_chunk(cs, dir, proj, 0);
+}
+static int open_big_chunk(coupling_case *cs, const char *dir, const geo_proj *proj, size_t chunk)
 {
     char src[1024];
     snprintf(src, sizeof src, "{\"name\": \"atm\", \"kind\": \"atmosphere\", \"urls\": \"%s/var.nc\"}", dir);
@@ -273,6 +279,7 @@ static int open_big(coupling_case *cs, const char *dir, const geo_proj *proj)
     cs->req.forcing_files[0] = cs->files[0];
     cs->P = big_lattice(proj, 0.0, 0.0);
     int rc = coupling_open(&cs->c, cs->cfg, &cs->req, T0, T0 + 6 * 3600.0, "test", &cs->e);
+    cs->c.chunk = chunk;
     return rc ? rc : coupling_alloc(&cs->c, NB, &cs->e);
 }
 
@@ -343,6 +350,55 @@ static void check_moved_threads_dynamics(const char *dir, const geo_proj *proj)
     close_case(&c);
 }
 
+/* Bit for bit: a fill in chunks of 7 and of 1000 particles (the forcing's
+ * stencils and the samples one chunk at a time, the cell hints per particle)
+ * equals the fill in one chunk, at the first fill, after the particles moved
+ * and with dynamics only, on 1 and 2 threads; the work arrays hold a chunk. */
+static void check_chunks(const char *dir, const geo_proj *proj)
+{
+    const double t1 = T0 + 2700.0, DX = 37e3, DY = 23e3;
+    const size_t chunks[3] = {0, 7, 1000};
+    coupling_case cs[3];
+    for (int i = 0; i < 3; i++)
+        if (open_big_chunk(&cs[i], dir, proj, chunks[i])) {
+            CHECK(0, "open the varying atmosphere (chunk %zu): %s", chunks[i], cs[i].e.msg);
+            return;
+        }
+    CHECK(cs[0].c.wcap == NB && cs[1].c.wcap == 7 && cs[2].c.wcap == 1000, "work arrays of one chunk: %zu %zu %zu",
+          cs[0].c.wcap, cs[1].c.wcap, cs[2].c.wcap);
+    const sph_thermo_params *th = &cs[0].cfg->model.thermo;
+    sph_particles *moved = big_lattice(proj, DX, DY);
+    for (int pass = 0; pass < 3; pass++) {
+        for (int i = 0; i < 3; i++) {
+            omp_set_num_threads(i == 1 ? 2 : 1);
+            if (pass == 1) {
+                memcpy(cs[i].P->x, moved->x, NB * sizeof(double));
+                memcpy(cs[i].P->y, moved->y, NB * sizeof(double));
+            }
+            if (pass == 2)
+                coupling_set_dynamics_only(&cs[i].c);
+            double t = pass ? t1 : T0;
+            CHECK(coupling_fill(&cs[i].c, proj, th, 0, cs[i].P, t, &cs[i].e) == 0, "fill %d chunk %zu: %s",
+                  pass, chunks[i], cs[i].e.msg);
+        }
+        for (int i = 1; i < 3; i++) {
+            const sph_particles *a = cs[0].P, *b = cs[i].P;
+            CHECK(same(a->ua, b->ua, NB) && same(a->va, b->va, NB) && same(a->uw, b->uw, NB) &&
+                      same(a->vw, b->vw, NB) && same(a->sshx, b->sshx, NB) && same(a->sshy, b->sshy, NB) &&
+                      same(a->lat, b->lat, NB) && same(a->tair, b->tair, NB) && same(a->qair, b->qair, NB) &&
+                      same(a->lwdn, b->lwdn, NB) && same(a->swdn, b->swdn, NB),
+                  "fill %d: chunks of %zu (%d thread(s)) = one chunk, bit for bit", pass, chunks[i], i == 1 ? 2 : 1);
+            CHECK(cs[i].c.n_before == NB && memcmp(cs[i].c.ids_before, b->id, NB * sizeof(long)) == 0 &&
+                      same(cs[i].c.lon, cs[0].c.lon, NB) && same(cs[i].c.lat, cs[0].c.lat, NB),
+                  "fill %d: ids and positions kept for messages", pass);
+        }
+    }
+    omp_set_num_threads(1);
+    sph_particles_free(moved);
+    for (int i = 0; i < 3; i++)
+        close_case(&cs[i]);
+}
+
 /* dir/name: u10, v10, t2m of field_fn's which0, which0 + 1, which0 + 2. */
 static void write_atmosphere(const char *dir, const char *name, nc_type type, int which0)
 {
@@ -383,6 +439,7 @@ int main(void)
         check_uniform(dir, proj);
         check_sum_and_missing(dir, proj);
         check_moved_threads_dynamics(dir, proj);
+        check_chunks(dir, proj);
     }
     geo_proj_free(proj);
     char cmd[1100];

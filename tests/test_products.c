@@ -550,6 +550,110 @@ static void test_full(const char *root)
     CHECK(exists(final1, "bohai_fields.nc") && !exists(stage, "."), "stage moved into place");
 }
 
+/* The trajectory index of a particle id is the order in which the ids are
+ * first met, whatever table holds them (a dense one for ids from 0 up to
+ * about twice the trajectories, a hash for the others: negative, huge, or
+ * met before the dense table reaches them, then moved into it): checked
+ * against the naive first-met order of the same ids. */
+static void test_trajectory_ids(const char *root)
+{
+    char stage[512], pp[700];
+    snprintf(stage, sizeof stage, "%s/stage_ids", root);
+    prod_options o;
+    base_options(&o);
+    o.write_geojson = 0;
+    o.quicklook_every = 0;
+    o.nstations = 0;
+    const char *forcing[] = {NULL};
+    prod_meta m;
+    base_meta(&m, forcing);
+    sph_error err;
+    sph_error_clear(&err);
+    prod_writer *p = NULL;
+    int rc = products_open(&p, &o, &G, &m, stage, &err);
+    CHECK(rc == SPH_OK, "open: %s", err.msg);
+    if (rc != SPH_OK)
+        return;
+    enum { NT = 3, NMAX = 12000 };
+    /* time 0: ids 9000 and 5000 (hash: the dense table is not there yet),
+     * 3, -4, a huge one; time 1: 0 .. 11999 backwards (the dense table grows
+     * over 5000 and 9000); time 2: new ones of both kinds and old ones */
+    static long ids[NT][NMAX];
+    size_t n[NT] = {0, 0, 0};
+    long t0[] = {9000, 5000, 3, -4, 4000000000000L};
+    for (size_t k = 0; k < 5; k++)
+        ids[0][n[0]++] = t0[k];
+    for (long k = NMAX - 1; k >= 0; k--)
+        ids[1][n[1]++] = k;
+    long t2[] = {-4, 70000, 4000000000001L, 11999, 24000, -9, 5000, 9000, 3, 24001};
+    for (size_t k = 0; k < sizeof t2 / sizeof t2[0]; k++)
+        ids[2][n[2]++] = t2[k];
+    fieldset f;
+    fs_alloc(&f);
+    static double plon[NMAX], plat[NMAX], zero[NMAX], one[NMAX];
+    for (size_t k = 0; k < NMAX; k++) {
+        plon[k] = 121.0 + 1e-5 * (double)k;
+        plat[k] = 39.0;
+        one[k] = 1.0;
+    }
+    for (int t = 0; t < NT && rc == SPH_OK; t++) {
+        fs_fill(&f, 0, 0.0);
+        prod_fields pf = fs_view(&f);
+        prod_particles_view pvw = {n[t], plon, plat, zero, zero, one, one, one, ids[t], NULL};
+        rc = products_add_time(p, T0 + t * 21600, &pf, &pvw, &err);
+        CHECK(rc == SPH_OK, "add_time %d: %s", t, err.msg);
+    }
+    if (rc == SPH_OK) {
+        prod_summary sum;
+        rc = products_close(p, &sum, &err);
+        CHECK(rc == SPH_OK, "close: %s", err.msg);
+    } else {
+        products_abort(p);
+    }
+    fs_free(&f);
+    if (rc != SPH_OK)
+        return;
+    /* the naive first-met order */
+    static long first[NT * NMAX], want[NT * NMAX];
+    size_t nfirst = 0, nobs = 0;
+    for (int t = 0; t < NT; t++)
+        for (size_t k = 0; k < n[t]; k++) {
+            size_t j = 0;
+            while (j < nfirst && first[j] != ids[t][k])
+                j++;
+            if (j == nfirst)
+                first[nfirst++] = ids[t][k];
+            want[nobs++] = (long)j;
+        }
+    snprintf(pp, sizeof pp, "%s/bohai_particles.nc", stage);
+    int nc, v, d;
+    size_t ntraj = 0, nfile = 0;
+    CHECK(nc_open(pp, NC_NOWRITE, &nc) == NC_NOERR, "open %s", pp);
+    nc_inq_dimid(nc, "trajectory", &d);
+    nc_inq_dimlen(nc, d, &ntraj);
+    nc_inq_dimid(nc, "obs", &d);
+    nc_inq_dimlen(nc, d, &nfile);
+    CHECK(ntraj == nfirst && nfile == nobs, "%zu trajectories (%zu distinct ids), %zu observations (%zu)", ntraj,
+          nfirst, nfile, nobs);
+    if (ntraj == nfirst && nfile == nobs) {
+        int *tix = malloc(nobs * sizeof *tix);
+        long long *tid = malloc(ntraj * sizeof *tid);
+        CHECK(nc_inq_varid(nc, "trajectory_index", &v) == NC_NOERR && nc_get_var_int(nc, v, tix) == NC_NOERR &&
+                  nc_inq_varid(nc, "trajectory_id", &v) == NC_NOERR && nc_get_var_longlong(nc, v, tid) == NC_NOERR,
+              "read trajectory_index and trajectory_id");
+        size_t bad = 0, badid = 0;
+        for (size_t k = 0; k < nobs; k++)
+            bad += tix[k] != want[k];
+        for (size_t j = 0; j < ntraj; j++)
+            badid += tid[j] != first[j];
+        CHECK(bad == 0 && badid == 0, "trajectory indices in first-met order: %zu of %zu differ, %zu ids", bad, nobs,
+              badid);
+        free(tix);
+        free(tid);
+    }
+    nc_close(nc);
+}
+
 /* Fault injection: error path and kill path. */
 static void test_faults(const char *root)
 {
@@ -672,6 +776,7 @@ int main(void)
     char root[] = "/tmp/sphice-products-XXXXXX";
     CHECK(mkdtemp(root) != NULL, "mkdtemp");
     test_full(root);
+    test_trajectory_ids(root);
     test_faults(root);
     test_bad_input(root);
     if (!getenv("SPHICE_KEEP"))

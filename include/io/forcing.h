@@ -131,6 +131,14 @@ void forcing_close(forcing *f);
 int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const double *lat,
                       forcing_sample *out, sph_error *err);
 
+/* The points of the following forcing_sample_at calls are points base ..
+ * base + n - 1 of a larger set (a caller that samples its points in chunks,
+ * service/coupling.c): the per-point work arrays then hold one chunk, and
+ * only each point's last grid cell (the search's starting guess) is kept
+ * for the whole set, at index base + p. 0 (the default): the points are
+ * the set. The samples do not depend on it. */
+void forcing_set_point_base(forcing *f, size_t base);
+
 /* Description of what was found, for `sphice check` (JSON or table). */
 typedef struct forcing_var_info {
     char source[SPHICE_MAX_NAME + 1], standard_name[96], variable[64], file[512], units[64];

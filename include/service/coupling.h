@@ -41,10 +41,14 @@ typedef struct fc_coupling {
     double *tair, *qair, *swdn, *lwdn, *sst, *fw;
     double *snowfall, *precip;  /* kg m-2 s-1 */
     double *mld, *bathy;        /* mixed-layer depth, sea-floor depth (NaN: none), m */
-    double *q[CPL_NQ];          /* one source's sample */
+    /* one source's sample of one chunk of particles: [wcap], the particles
+     * k0 .. k0 + wcap - 1 of a fill's chunk k0 (the forcing's per-point work
+     * arrays hold one chunk too: forcing_set_point_base) */
+    double *q[CPL_NQ];
     unsigned char *bad;         /* the source could not serve this particle */
-    long *ids_before;           /* ids and positions at the last fill (error messages) */
-    double *lon_before, *lat_before;
+    size_t chunk;               /* particles per chunk (0 at coupling_alloc: 65536) */
+    size_t wcap;                /* min(cap, chunk) */
+    long *ids_before;           /* ids at the last fill, positions lon, lat (error messages) */
     size_t n_before;
     geo_plane_table *plane;     /* domain.plane_tables (NULL: PROJ per particle); owned */
     double *cs, *sn;            /* [cap] cos and sin of the grid angle from plane */

@@ -16,6 +16,9 @@
  * threads: per-particle writes only, so any thread count gives the same
  * forcing bit for bit. */
 #define COUPLING_OMP_MIN 4096
+/* Points per forcing call (fc_coupling.chunk's default): the per-point work
+ * arrays of the samples and of the forcing's stencils hold one chunk. */
+#define COUPLING_CHUNK 65536
 
 void coupling_format_lonlat(double lon, double lat, char *buf, size_t len)
 {
@@ -118,16 +121,19 @@ int coupling_open(fc_coupling *c, const struct sph_config *cfg, const forecast_r
 int coupling_alloc(fc_coupling *c, size_t cap, sph_error *err)
 {
     size_t n = cap ? cap : 1;
+    if (!c->chunk)
+        c->chunk = COUPLING_CHUNK;
+    size_t w = n < c->chunk ? n : c->chunk; /* one chunk's samples (coupling_fill) */
+    c->wcap = w;
     double **arrays[] = {&c->lon, &c->lat, &c->angle, &c->ue, &c->vn, &c->uwe, &c->vwn, &c->gxe,
                          &c->gyn, &c->ssh, &c->tair, &c->qair, &c->swdn, &c->lwdn, &c->sst, &c->fw,
-                         &c->lon_before, &c->lat_before, &c->snowfall, &c->precip, &c->mld, &c->bathy,
-                         &c->cs, &c->sn};
+                         &c->snowfall, &c->precip, &c->mld, &c->bathy, &c->cs, &c->sn};
     int ok = 1;
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         ok &= (*arrays[k] = calloc(n, sizeof(double))) != NULL;
     for (int k = 0; k < CPL_NQ; k++)
-        ok &= (c->q[k] = calloc(n, sizeof(double))) != NULL;
-    ok &= (c->bad = calloc(n, 1)) != NULL;
+        ok &= (c->q[k] = calloc(w, sizeof(double))) != NULL;
+    ok &= (c->bad = calloc(w, 1)) != NULL;
     ok &= (c->ids_before = calloc(n, sizeof(long))) != NULL;
     return ok ? SPH_OK : sph_err_set(err, SPH_ERR_NOMEM, "forecast: out of memory (%zu particles)", n);
 }
@@ -152,8 +158,8 @@ void coupling_free(fc_coupling *c)
         forcing_close(c->forc[k]);
     c->nforc = 0;
     double *arrays[] = {c->lon, c->lat, c->angle, c->ue, c->vn, c->uwe, c->vwn, c->gxe, c->gyn,
-                        c->ssh, c->tair, c->qair, c->swdn, c->lwdn, c->sst, c->fw, c->lon_before,
-                        c->lat_before, c->snowfall, c->precip, c->mld, c->bathy, c->cs, c->sn};
+                        c->ssh, c->tair, c->qair, c->swdn, c->lwdn, c->sst, c->fw,
+                        c->snowfall, c->precip, c->mld, c->bathy, c->cs, c->sn};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         free(arrays[k]);
     for (int k = 0; k < CPL_NQ; k++)
@@ -181,12 +187,22 @@ static void sample_view(fc_coupling *c, size_t k, forcing_sample *s)
         *slot[q] = c->dynamics_only && !dyn[q] ? NULL : c->q[q] + k;
 }
 
-/* Samples source src at the n particles into c->q. An ocean or tide
- * source whose grid has no water near some particles (a coast the ocean
- * model does not resolve) serves the others; those get no current, no
- * sea-surface slope and the other defaults (c->bad). Any other failure,
- * or a source that can serve no particle at all, is an error. */
-static int sample_source(fc_coupling *c, size_t src, double t, size_t n, unsigned *got, sph_error *err)
+/* The coverage fallback of one source over a fill (sample_source). */
+typedef struct cpl_bad {
+    size_t nbad, first_bad;
+    int rc;                     /* the whole call's code of the first chunk that fell back */
+    char msg[sizeof(((sph_error *)0)->msg)], why[sizeof(((sph_error *)0)->msg)];
+} cpl_bad;
+
+/* Samples source src at the n particles k0 .. k0 + n - 1 (one chunk of the
+ * ntot of the fill) into c->q[.][0 .. n). An ocean or tide source whose
+ * grid has no water near some particles (a coast the ocean model does not
+ * resolve) serves the others; those get no current, no sea-surface slope
+ * and the other defaults (c->bad); fb counts them over the fill's chunks
+ * (the caller's end of the fill checks that some particle was served). Any
+ * other failure is an error. */
+static int sample_source(fc_coupling *c, size_t src, double t, size_t k0, size_t n, size_t ntot,
+                         unsigned *got, cpl_bad *fb, sph_error *err)
 {
     forcing_sample s;
     sample_view(c, 0, &s);
@@ -195,52 +211,70 @@ static int sample_source(fc_coupling *c, size_t src, double t, size_t n, unsigne
     sph_error_clear(&local);
     char when[32];
     time_format_iso(t, when, sizeof when);
-    int rc = forcing_sample_at(c->forc[src], t, n, c->lon, c->lat, &s, &local);
+    forcing_set_point_base(c->forc[src], k0);
+    int rc = forcing_sample_at(c->forc[src], t, n, c->lon + k0, c->lat + k0, &s, &local);
     if (rc == SPH_OK) {
         *got = s.provided;
         return SPH_OK;
     }
-    if (rc != SPH_ERR_COVERAGE || c->forc_kind[src] == FORCING_ATMOSPHERE || n < 2)
+    if (rc != SPH_ERR_COVERAGE || c->forc_kind[src] == FORCING_ATMOSPHERE || ntot < 2)
         return sph_err_set(err, rc, "forcing at %s: %s", when, local.msg);
-    size_t nbad = 0, first_bad = 0;
+    if (!fb->rc) {
+        fb->rc = rc;
+        snprintf(fb->msg, sizeof fb->msg, "%s", local.msg);
+    }
     unsigned flags = 0;
-    char why[sizeof local.msg] = "";
+    forcing_set_point_base(c->forc[src], 0); /* one point per call */
     for (size_t k = 0; k < n; k++) {
         forcing_sample one;
         sample_view(c, k, &one);
         sph_error e1;
         sph_error_clear(&e1);
-        int r1 = forcing_sample_at(c->forc[src], t, 1, c->lon + k, c->lat + k, &one, &e1);
+        int r1 = forcing_sample_at(c->forc[src], t, 1, c->lon + k0 + k, c->lat + k0 + k, &one, &e1);
         if (r1 == SPH_OK) {
             flags |= one.provided;
         } else if (r1 == SPH_ERR_COVERAGE) {
-            if (!nbad++) {
-                first_bad = k;
-                snprintf(why, sizeof why, "%s", e1.msg); /* outside its grid or read window */
+            if (!fb->nbad++) {
+                fb->first_bad = k0 + k;
+                snprintf(fb->why, sizeof fb->why, "%s", e1.msg); /* outside its grid or read window */
             }
             c->bad[k] = 1;
         } else {
             return sph_err_set(err, r1, "forcing at %s: %s", when, e1.msg);
         }
     }
-    if (nbad == n)
-        return sph_err_set(err, rc, "forcing at %s: %s", when, local.msg);
+    *got = flags;
+    return SPH_OK;
+}
+
+/* The end of source src's fill: no particle served is an error, some not
+ * served are reported (once per run). */
+static int source_fallbacks(fc_coupling *c, size_t src, double t, size_t ntot, const cpl_bad *fb,
+                            sph_error *err)
+{
+    if (!fb->rc)
+        return SPH_OK;
+    char when[32];
+    time_format_iso(t, when, sizeof when);
+    if (fb->nbad == ntot)
+        return sph_err_set(err, fb->rc, "forcing at %s: %s", when, fb->msg);
+    if (!fb->nbad)
+        return SPH_OK;
     if (!c->coast_fallbacks) {
         char ll[64];
-        coupling_format_lonlat(c->lon[first_bad], c->lat[first_bad], ll, sizeof ll);
+        coupling_format_lonlat(c->lon[fb->first_bad], c->lat[fb->first_bad], ll, sizeof ll);
         log_warn("forecast %s: forcing %s has no water near %zu particle(s) (first at %s, %s): "
                  "no current or sea-surface slope there (reported once): %s", c->cname,
-                 c->forc_name[src], nbad, ll, when, why);
+                 c->forc_name[src], fb->nbad, ll, when, fb->why);
     }
-    c->coast_fallbacks += (long)nbad;
-    *got = flags;
+    c->coast_fallbacks += (long)fb->nbad;
     return SPH_OK;
 }
 
 /* Adds one source's sample to the particle forcing: currents and SSH sum
  * over sources (ocean + tide, as the forcing reader does), other
  * quantities come from the first source that provides them. */
-static void merge_source(fc_coupling *c, size_t n, unsigned got, unsigned before)
+static void merge_source(fc_coupling *c, size_t k0, size_t n, unsigned got, unsigned before)
 {
     static const struct { int q; unsigned flag; int sum; } map[] = {
         {CPL_Q_UE, FQ_WIND, 0}, {CPL_Q_VN, FQ_WIND, 0}, {CPL_Q_TAIR, FQ_TAIR, 0},
@@ -254,8 +288,8 @@ static void merge_source(fc_coupling *c, size_t n, unsigned got, unsigned before
     for (size_t m = 0; m < sizeof map / sizeof map[0]; m++) {
         if (!(got & map[m].flag) || (!map[m].sum && (before & map[m].flag)))
             continue;
-        const double *q = c->q[map[m].q];
-        double *d = dst[map[m].q];
+        const double *q = c->q[map[m].q]; /* the chunk k0 .. k0 + n - 1 */
+        double *d = dst[map[m].q] + k0;
         const unsigned char *bad = c->bad;
         const int sum = map[m].sum;
 #pragma omp parallel for schedule(static) if (n >= COUPLING_OMP_MIN)
@@ -299,13 +333,24 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
         c->mld[k] = c->bathy[k] = NAN; /* the mixed layer's configured depth */
     }
     unsigned provided = 0;
-    for (size_t src = 0; src < c->nforc; src++) {
-        unsigned got = 0;
-        int rc2 = sample_source(c, src, t, n, &got, err);
+    for (size_t src = 0; src < c->nforc; src++) { /* each source in chunks of c->wcap particles */
+        unsigned got_all = 0;
+        cpl_bad fb;
+        memset(&fb, 0, sizeof fb);
+        for (size_t k0 = 0; k0 < n; k0 += c->wcap) {
+            size_t nk = n - k0 < c->wcap ? n - k0 : c->wcap;
+            unsigned got = 0;
+            int rc2 = sample_source(c, src, t, k0, nk, n, &got, &fb, err);
+            if (rc2)
+                return rc2;
+            merge_source(c, k0, nk, got, provided);
+            got_all |= got;
+        }
+        forcing_set_point_base(c->forc[src], 0);
+        int rc2 = source_fallbacks(c, src, t, n, &fb, err);
         if (rc2)
             return rc2;
-        merge_source(c, n, got, provided);
-        provided |= got;
+        provided |= got_all;
     }
     /* dynamics only: the thermal quantities found at the last full fill */
     c->provided = dyn ? provided | (c->provided & ~(unsigned)CPL_DYNAMICS) : provided;
@@ -358,9 +403,7 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
         P->snowfall[k] = sf > 0.0 ? sf : 0.0;
     }
     /* for messages about a step that fails */
-    memcpy(c->ids_before, P->id, n * sizeof *P->id);
-    memcpy(c->lon_before, c->lon, n * sizeof *c->lon);
-    memcpy(c->lat_before, c->lat, n * sizeof *c->lat);
+    memcpy(c->ids_before, P->id, n * sizeof *P->id); /* their positions: c->lon, c->lat */
     c->n_before = n;
     return SPH_OK;
 }

@@ -152,7 +152,7 @@ static void particle_where(const engine *e, long id, char *buf, size_t len)
     for (size_t k = 0; k < c->n_before; k++)
         if (c->ids_before[k] == id) {
             char ll[64];
-            coupling_format_lonlat(c->lon_before[k], c->lat_before[k], ll, sizeof ll);
+            coupling_format_lonlat(c->lon[k], c->lat[k], ll, sizeof ll);
             snprintf(buf, len, "particle %ld at %s", id, ll);
             return;
         }

@@ -1319,6 +1319,8 @@ static void put(double *dst, const double *src, size_t n, int add)
         dst[p] = add ? dst[p] + src[p] : src[p];
 }
 
+void forcing_set_point_base(forcing *f, size_t base) { f->point_base = base; }
+
 int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const double *lat,
                       forcing_sample *out, sph_error *err)
 {
@@ -1337,6 +1339,9 @@ int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const d
         f->tmp_n = n;
     }
     f->stamp++;
+    for (size_t i = 0; i < f->nsrc; i++) /* the point hints' offset (forcing_set_point_base) */
+        for (fgrid *g = f->src[i].grids; g; g = g->next)
+            g->hint_base = f->point_base;
     double *A = f->tmp[0], *B = f->tmp[1], *C = f->tmp[2], *D = f->tmp[3];
     for (size_t i = 0; i < f->nsrc; i++) {
         fsource *s = &f->src[i];

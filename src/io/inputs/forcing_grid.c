@@ -352,7 +352,7 @@ size_t fgrid_bytes(const fgrid *g)
         b += (g->fnx + g->fny) * sizeof(double);
     b += (g->lon2 ? n : 0) * sizeof(double) + (g->lat2 ? n : 0) * sizeof(double);
     b += (g->cosang ? n : 0) * sizeof(double) + (g->sinang ? n : 0) * sizeof(double);
-    b += g->npoints * (4 * sizeof(size_t) + 4 * sizeof(double) + sizeof(int) + sizeof(size_t));
+    b += g->npoints * (4 * sizeof(size_t) + 4 * sizeof(double) + sizeof(int)) + g->nhint * sizeof(size_t);
     return b;
 }
 
@@ -653,32 +653,42 @@ size_t fgrid_stencils(fgrid *g, unsigned long stamp, size_t n, const double *lon
         int *ok = realloc(g->ok, n * sizeof *ok);
         if (ok)
             g->ok = ok;
-        size_t *hint = realloc(g->hint, n * sizeof *hint);
-        if (hint) {
-            for (size_t p = g->npoints; p < n; p++)
-                hint[p] = (size_t)-1;
-            g->hint = hint;
-        }
-        if (!idx || !w || !ok || !hint)
+        if (!idx || !w || !ok)
             return n; /* out of memory: the caller reports every point as outside */
         g->npoints = n;
     }
+    /* the hints are per point of the whole set (forcing_set_point_base) */
+    const size_t base = g->hint_base;
+    if (base + n > g->nhint) {
+        size_t *h = realloc(g->hint, (base + n) * sizeof *h);
+        if (!h)
+            return n;
+        for (size_t p = g->nhint; p < base + n; p++)
+            h[p] = (size_t)-1;
+        g->hint = h;
+        g->nhint = base + n;
+    }
+    size_t *hint = g->hint + base;
     if (g->curvilinear) { /* serial: a point's walk starts from its predecessor's cell */
+        /* the predecessor of a chunk's first point: the previous chunk's last */
+        int prev_ok = base > 0 && g->last_end == base && g->last_ok;
         for (size_t p = 0; p < n; p++) {
-            if (g->hint[p] == (size_t)-1 && p > 0 && g->ok[p - 1])
-                g->hint[p] = g->hint[p - 1];
-            int rc = locate_curvilinear(g, lon[p], lat[p], &g->hint[p], g->idx + 4 * p, g->w + 4 * p);
+            if (hint[p] == (size_t)-1 && (p > 0 ? g->ok[p - 1] : prev_ok))
+                hint[p] = g->hint[base + p - 1];
+            int rc = locate_curvilinear(g, lon[p], lat[p], &hint[p], g->idx + 4 * p, g->w + 4 * p);
             g->ok[p] = rc == 0;
             outside += rc != 0;
         }
     } else { /* per-point writes only: the same stencils with any number of threads */
 #pragma omp parallel for schedule(static) reduction(+ : outside) if (n >= FORCING_OMP_MIN)
         for (size_t p = 0; p < n; p++) {
-            int rc = locate_regular(g, lon[p], lat[p], &g->hint[p], g->idx + 4 * p, g->w + 4 * p);
+            int rc = locate_regular(g, lon[p], lat[p], &hint[p], g->idx + 4 * p, g->w + 4 * p);
             g->ok[p] = rc == 0;
             outside += rc != 0;
         }
     }
+    g->last_end = base + n;
+    g->last_ok = n > 0 && g->ok[n - 1];
     g->stamp = stamp;
     return outside;
 }

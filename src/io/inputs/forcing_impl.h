@@ -66,8 +66,12 @@ typedef struct fgrid {
     double *w;             /* 4 per point */
     int *ok;               /* 1 if the point lies in the grid */
     size_t *hint;          /* last cell per point, or (size_t)-1: curvilinear j*nx+i, regular
-                              the file's row << 32 | column (forcing_grid.c) */
-    size_t npoints;
+                              the file's row << 32 | column (forcing_grid.c); [nhint], point
+                              p of a call at hint_base + p (forcing_set_point_base) */
+    size_t npoints;        /* points idx, w and ok hold (one call's, at most one chunk) */
+    size_t nhint, hint_base;
+    size_t last_end;       /* hint_base + n of the last stencil call, and whether its last */
+    int last_ok;           /* point lay in the grid (the curvilinear walk's predecessor) */
     unsigned long stamp;   /* call number the stencils belong to */
     struct fgrid *next;
 } fgrid;
@@ -167,6 +171,7 @@ struct forcing {
     unsigned long stamp;
     double *tmp[6];          /* per-call work arrays of npoints */
     size_t tmp_n;
+    size_t point_base;       /* forcing_set_point_base */
 };
 
 /* ---- format drivers ----

@@ -1096,6 +1096,7 @@ static void writer_free(prod_writer *p)
     free(p->persistence);
     free(p->obs);
     free(p->ids);
+    free(p->dense);
     gis_store_free(p->gis);
     free(p->st_series);
     free(p->st_times);

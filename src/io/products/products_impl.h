@@ -73,8 +73,10 @@ struct prod_writer {
     int pt_nc;
     int pt_v_tid, pt_v_tindex, pt_v[9];
     size_t pt_nobs, pt_ntraj;
-    id_slot *ids;
-    size_t ids_cap;
+    id_slot *ids;              /* trajectory of an id outside [0, dense_n): open hash */
+    size_t ids_cap, ids_used;
+    int *dense;                /* trajectory of id in [0, dense_n), -1: none (ids are dense) */
+    size_t dense_n;
 
     /* edge history for GeoJSON */
     edge_set *edges;

@@ -5,6 +5,7 @@
  * (one block per products_add_time), which products_read_particles uses. */
 #include "products_impl.h"
 
+#include <limits.h>
 #include <math.h>
 #include <netcdf.h>
 #include <stdlib.h>
@@ -126,17 +127,20 @@ static size_t hash_id(long id, size_t mask)
     return (size_t)(x >> 17) & mask;
 }
 
-static int ids_grow(prod_writer *p)
+/* The hash rebuilt with ncap slots, without the ids below `below` (now in
+ * the dense table). */
+static int ids_rehash(prod_writer *p, size_t ncap, long below)
 {
-    size_t ncap = p->ids_cap ? 2 * p->ids_cap : 1024;
     id_slot *n = malloc(ncap * sizeof *n);
     if (!n)
         return -1;
     for (size_t k = 0; k < ncap; k++)
         n[k].index = -1;
+    p->ids_used = 0;
     for (size_t k = 0; k < p->ids_cap; k++) {
-        if (p->ids[k].index < 0)
+        if (p->ids[k].index < 0 || (p->ids[k].id >= 0 && p->ids[k].id < below))
             continue;
+        p->ids_used++;
         size_t h = hash_id(p->ids[k].id, ncap - 1);
         while (n[h].index >= 0)
             h = (h + 1) & (ncap - 1);
@@ -148,10 +152,48 @@ static int ids_grow(prod_writer *p)
     return 0;
 }
 
-/* Trajectory index of a particle id, appending a new trajectory if unseen. */
+/* The dense table grown to cover id (4 bytes per id instead of the hash's
+ * 32 per trajectory: memory at 1e6 particles); the hash's ids it now
+ * covers move into it. */
+static int dense_grow(prod_writer *p, long id)
+{
+    size_t nn = p->dense_n ? 2 * p->dense_n : 4096;
+    while (nn <= (size_t)id)
+        nn *= 2;
+    int *d = realloc(p->dense, nn * sizeof *d);
+    if (!d)
+        return -1;
+    for (size_t k = p->dense_n; k < nn; k++)
+        d[k] = -1;
+    p->dense = d;
+    p->dense_n = nn;
+    size_t moved = 0;
+    for (size_t k = 0; k < p->ids_cap; k++)
+        if (p->ids[k].index >= 0 && p->ids[k].id >= 0 && (size_t)p->ids[k].id < nn) {
+            d[p->ids[k].id] = (int)p->ids[k].index;
+            moved++;
+        }
+    return moved ? ids_rehash(p, p->ids_cap, (long)nn) : 0;
+}
+
+/* Trajectory index of a particle id, appending a new trajectory if unseen:
+ * ids from 0 up to about twice the trajectories (a seeding's, new ice's) in
+ * a dense table, others in an open hash; the indices are the order in which
+ * ids are first met either way. */
 static long traj_index(prod_writer *p, long id, int *is_new)
 {
-    if (2 * (p->pt_ntraj + 1) > p->ids_cap && ids_grow(p) != 0)
+    if (p->pt_ntraj >= INT_MAX)
+        return -1;
+    if (id >= 0 && (size_t)id >= p->dense_n && (size_t)id < 2 * (p->pt_ntraj + 1) + 4096 &&
+        dense_grow(p, id) != 0)
+        return -1;
+    if (id >= 0 && (size_t)id < p->dense_n) {
+        *is_new = p->dense[id] < 0;
+        if (*is_new)
+            p->dense[id] = (int)p->pt_ntraj++;
+        return p->dense[id];
+    }
+    if (2 * (p->ids_used + 1) > p->ids_cap && ids_rehash(p, p->ids_cap ? 2 * p->ids_cap : 1024, 0) != 0)
         return -1;
     size_t mask = p->ids_cap - 1, h = hash_id(id, mask);
     while (p->ids[h].index >= 0) {
@@ -163,6 +205,7 @@ static long traj_index(prod_writer *p, long id, int *is_new)
     }
     p->ids[h].id = id;
     p->ids[h].index = (long)p->pt_ntraj++;
+    p->ids_used++;
     *is_new = 1;
     return p->ids[h].index;
 }
