@@ -628,7 +628,14 @@ int dd_step(dd_ctx *d, sph_status *st)
     sph_model *m = d->m;
     sph_particles *P = sph_model_particles(m);
     sph_status_clear(st);
-    double H = 3.0 * sph_model_kernel_radius(m) * d->hmax;
+    /* the halo depth in kernel supports (docs/domain.md, "Halo depth"):
+     * an owned particle's divergence reads its neighbours' stress (depth
+     * 1), computed here from their density, loose flag and strain rates,
+     * which read their own neighbours (depth 2); with the gradient
+     * correction also their neighbours' correction matrices, which read
+     * the densities one support further (depth 3). Measured: 2 supports
+     * bit-identical in test_mpi_dd and test_mpi_run, 1.5 not. */
+    double H = (sph_model_params(m)->gradient_correction ? 3.0 : 2.0) * sph_model_kernel_radius(m) * d->hmax;
     if (d->o.rebalance_every > 0 && d->steps > 0 && d->steps % d->o.rebalance_every == 0) {
         measure_cost(d, P, P->n);
         partition(d);
