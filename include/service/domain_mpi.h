@@ -7,7 +7,8 @@
  * sph_model holds the particles it owns; before every step particles that
  * drifted into another rank's cells migrate there, and every particle
  * within the halo width of another rank's cells is copied to it as a halo
- * particle. The halo width is 3 kernel supports of the largest smoothing
+ * particle. The halo width is 2 kernel supports (3 with the gradient
+ * correction) of the largest smoothing
  * length, so that everything the step computes before the stress solver
  * (density, gradient correction, the active set) is exact on the halo
  * particles an owned one reads; inside the mEVP iteration the halo's
