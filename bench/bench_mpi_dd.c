@@ -12,7 +12,14 @@
  * s per step, halo copies per step as a fraction of the owned particles,
  * halo bytes per step (copies + every iteration's refresh) and per
  * particle-step, migration bytes per step, the largest rank's share of
- * the particles (balance). bench/bench_mpi_dd.sh runs the series. Not an
+ * the particles (balance), the largest and smallest rank's wall s per step
+ * completing the halo refreshes (MPI_Waitall) in the old order (STEPS
+ * steps run first with the refresh completed right after the norms'
+ * reduction; BENCH_MPI_DD_NO_OLD=1 skips them) and with the interior-first
+ * overlap (the timed steps), the largest rank's wall s per step in the
+ * norms' reduction (MPI_Allreduce) in each order, and the largest rank's peak resident memory
+ * (VmHWM, MB; rank 0 also held the serial model it initialised).
+ * bench/bench_mpi_dd.sh runs the series. Not an
  * MPI build: says so and exits 0. */
 #include <math.h>
 #include <stdio.h>
@@ -37,6 +44,20 @@ static double cpu_now(void)
     struct timespec ts;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* This process's peak resident memory (VmHWM), MB; 0 if unreadable. */
+static double peak_rss_mb(void)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    double kb = 0;
+    while (f && fgets(line, sizeof line, f))
+        if (sscanf(line, "VmHWM: %lf", &kb) == 1)
+            break;
+    if (f)
+        fclose(f);
+    return kb / 1024.0;
 }
 
 static void params(sph_params *p, int iters)
@@ -112,6 +133,25 @@ int main(int argc, char **argv)
         MPI_Abort(MPI_COMM_WORLD, 2);
     sph_model_free(root);
     t_init = MPI_Wtime() - t_init;
+    /* the old order first (the refresh completed right after the norms'
+     * reduction), STEPS steps, for its wait time; then the timed STEPS
+     * with the interior-first overlap */
+    double wait_old = 0, wait_old_min = 0, red_old = 0;
+    if (size > 1 && !getenv("BENCH_MPI_DD_NO_OLD")) {
+        dd_set_overlap(d, 0);
+        dd_reset_stats(d);
+        MPI_Barrier(MPI_COMM_WORLD);
+        for (int s = 0; s < steps; s++)
+            if (dd_step(d, &st) != SPH_STEP_OK)
+                MPI_Abort(MPI_COMM_WORLD, 2);
+        dd_stats ws;
+        dd_run_stats(d, &ws);
+        wait_old = ws.wait_s;
+        wait_old_min = ws.wait_min_s;
+        red_old = ws.reduce_s;
+        dd_set_overlap(d, 1);
+        dd_reset_stats(d);
+    }
     MPI_Barrier(MPI_COMM_WORLD);
     double w0 = MPI_Wtime(), c0 = cpu_now();
     for (int s = 0; s < steps; s++)
@@ -127,17 +167,21 @@ int main(int argc, char **argv)
     MPI_Allreduce(MPI_IN_PLACE, &wall, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
     dd_stats ds;
     dd_run_stats(d, &ds);
+    double rss = peak_rss_mb(), rss_max = rss;
+    MPI_Allreduce(MPI_IN_PLACE, &rss_max, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
     dd_budget b;
     dd_budget_global(d, &b);
     if (rank == 0) {
         double ps = (double)N * steps;
-        char row[512];
-        snprintf(row, sizeof row, "%d,%ld,%d,%d,%.4f,%.4f,%.4f,%.4f,%.1f,%.2f,%.1f,%.3f,%.1f", size, N, steps, iters,
-                 wall / steps, cmax / steps, csum / steps, (double)ds.halo / ps, ds.halo_bytes / steps,
-                 ds.halo_bytes / ps, ds.migrate_bytes / steps, (double)ds.owned_max * size / (double)ds.owned,
-                 t_init);
+        char row[768];
+        snprintf(row, sizeof row, "%d,%ld,%d,%d,%.4f,%.4f,%.4f,%.4f,%.1f,%.2f,%.1f,%.3f,%.1f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.1f",
+                 size, N, steps, iters, wall / steps, cmax / steps, csum / steps, (double)ds.halo / ps,
+                 ds.halo_bytes / steps, ds.halo_bytes / ps, ds.migrate_bytes / steps,
+                 (double)ds.owned_max * size / (double)ds.owned, t_init, wait_old / steps, wait_old_min / steps,
+                 red_old / steps, ds.wait_s / steps, ds.wait_min_s / steps, ds.reduce_s / steps, rss_max);
         printf("ranks,N,steps,iters,wall_step_s,cpu_max_step_s,cpu_sum_step_s,halo_frac,halo_bytes_step,"
-               "halo_bytes_per_particle_step,migrate_bytes_step,imbalance,init_s\n%s\n", row);
+               "halo_bytes_per_particle_step,migrate_bytes_step,imbalance,init_s,wait_old_max_step_s,"
+               "wait_old_min_step_s,reduce_old_step_s,wait_max_step_s,wait_min_step_s,reduce_step_s,rss_max_mb\n%s\n", row);
         if (csv) {
             FILE *f = fopen(csv, "a");
             if (f) {

@@ -2,7 +2,7 @@
 # The model on paper of docs/domain.md: a 72 h pan-Arctic 3 km forecast on
 # 64 to 1024 ranks, from the halo fraction and volume bench_mpi_dd measured
 # (docs/bench/mpi_dd.csv) and stated machine constants.
-#   sh bench/mpi_dd_model.sh [N] [ITERS] [T_PI] [ALPHA_US] [BETA_GBS] [CORES]
+#   [CSV=FILE] sh bench/mpi_dd_model.sh [N] [ITERS] [T_PI] [ALPHA_US] [BETA_GBS] [CORES]
 # N particles (1.5e6: 13.5e6 km2 of winter ice at 9 km2 each), ITERS mEVP
 # iterations per step (120, the default), T_PI s per particle-iteration
 # (measured on one rank, bench_mpi_dd strong 1 rank: cpu_max_step_s /
@@ -10,7 +10,7 @@
 # rank, CORES the ranks one 1-hour window has for the ensemble.
 N=${1:-1500000}
 IT=${2:-120}
-CSV=docs/bench/mpi_dd.csv
+CSV=${CSV:-docs/bench/mpi_dd.csv}
 TPI=${3:-$(awk -F, '$1 == "strong" && $2 == 1 && $3 > n { n = $3; t = $7 / ($3 * $5) } END { printf "%.3g", t }' "$CSV")}
 # halo fraction f = K sqrt(P / N): K from the 4-rank rows (pieces with two
 # inner sides); a piece inside a large decomposition has four: 2 K

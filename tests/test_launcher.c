@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "engine_case.h"
 #include "exec_case.h"
 #include "service/cycle.h"
 #include "service/config.h"
@@ -58,7 +59,10 @@ static pid_t serve(const char *cfg, const char *engine, const char *log)
 {
     pid_t pid = fork();
     if (pid == 0) {
-        setenv("SPHICE_TEST_ENGINE", engine, 1);
+        if (engine)
+            setenv("SPHICE_TEST_ENGINE", engine, 1);
+        else /* the real engine */
+            unsetenv("SPHICE_TEST_ENGINE");
         int fd = open(log, O_CREAT | O_WRONLY | O_APPEND, 0644);
         if (fd >= 0) {
             dup2(fd, 1);
@@ -308,6 +312,107 @@ static int count_procs(const char *what)
     return n;
 }
 
+/* The real engine's decomposed cycle (parallel.decomposition "domain")
+ * launched by serve under mpirun -np 2: the small engine case's packed ice
+ * reaching within a kernel support of its coast (test_mpi_run's first
+ * case) with an atmosphere whose time axis covers the wall clock (serve
+ * names its cycles by it). Recorded ok; the products equal, by
+ * tools/same-products.sh, those of the plain build's serial canonical run
+ * of the same cycle and configuration; SIGTERM to serve during a longer
+ * decomposed cycle leaves no rank. */
+static void domain_config(const char *name, const char *launcher, const char *program, double hours, char *cfg,
+                          size_t len)
+{
+    char text[8192], d[200], extra[1400];
+    snprintf(d, sizeof d, "%s/%s", tmp, name);
+    snprintf(extra, sizeof extra,
+             "\"parallel\": {\"decomposition\": \"domain\"},"
+             " \"launcher\": {\"command\": \"%s\", \"program\": \"%s\"},", launcher, program);
+    ec_config(text, sizeof text, tmp, 300, "[\"wind\"]", "ice_packed.nc", extra);
+    int ok = ec_config_replace(text, sizeof text, "\"thermo\": {\"dt\": 600}",
+                               "\"thermo\": {\"dt\": 0}, \"physics\": \"full\", \"evp\": {\"iterations\": 30}");
+    char sched[300];
+    snprintf(sched, sizeof sched, "\"schedule\": {\"every_seconds\": 3600, \"catch_up\": false, \"forecast_hours\": %g,",
+             hours);
+    ok = ok && ec_config_replace(text, sizeof text, "\"schedule\": {\"every_hours\": 6, \"forecast_hours\": 6,", sched);
+    char from[2000], to[2000];
+    snprintf(from, sizeof from, "\"dir\": \"%s/out\"", tmp);
+    snprintf(to, sizeof to, "\"dir\": \"%s/out\"", d);
+    ok = ok && ec_config_replace(text, sizeof text, from, to);
+    snprintf(from, sizeof from, "\"state_dir\": \"%s/state\", \"cache_dir\": \"%s/cache\"", tmp, tmp);
+    snprintf(to, sizeof to, "\"state_dir\": \"%s/state\", \"cache_dir\": \"%s/cache\"", d, d);
+    ok = ok && ec_config_replace(text, sizeof text, from, to);
+    CHECK(ok, "%s: the engine case's configuration edited", name);
+    snprintf(cfg, len, "%s/%s.json", tmp, name);
+    sph_error e;
+    sph_error_clear(&e);
+    CHECK(atomic_write_file(cfg, text, strlen(text), &e) == SPH_OK, "%s", e.msg);
+}
+
+static void test_mpirun_domain(const char *mpi, const char *launcher)
+{
+    char p[900];
+    snprintf(p, sizeof p, "%s/ice_packed.nc", tmp);
+    ec_write_ice_at(p, 35, 21, 121.2, 40.1, 0.02, 0.02, 1.0, 1.0, -1); /* to 121.88 E, the coast at 121.9 */
+    snprintf(p, sizeof p, "%s/mask.nc", tmp);
+    ec_write_mask(p);
+    double now = time_now();
+    snprintf(p, sizeof p, "%s/atm.nc", tmp); /* hourly, from 6 h before the wall clock's hour to 10 h after */
+    ec_write_atm_axis(p, "hours since 1970-01-01 00:00:00", floor(now / 3600.0) - 6.0, 17, NC_NETCDF4);
+
+    char cfg[800], log[800], cmd[4000];
+    domain_config("dd", launcher, mpi, 1, cfg, sizeof cfg);
+    snprintf(log, sizeof log, "%s/dd.log", tmp);
+    double cyc = this_cycle();
+    pid_t pid = serve(cfg, NULL, log);
+    history_run r;
+    wait_row("dd", cyc, "ok|failed", 180, &r);
+    CHECK(!strcmp(r.result, "ok"), "domain: the decomposed cycle under %s recorded ok (%s: %s)", launcher, r.result,
+          r.message);
+    history_run_clear(&r);
+    kill(pid, SIGTERM);
+    CHECK(xc_wait_exit(pid, 20) == 0, "domain: serve exits 0");
+    snprintf(cmd, sizeof cmd, "grep -q 'decomposition \"domain\" over 2 ranks' %s", log);
+    CHECK(system(cmd) == 0, "domain: the launched run was decomposed over 2 ranks (%s)", log);
+    char name[32], iso[32];
+    cycle_name(cyc, name, sizeof name);
+    time_format_iso(cyc, iso, sizeof iso);
+    snprintf(cmd, sizeof cmd, "OMP_NUM_THREADS=1 %s run %s --cycle %s --hours 1 --out %s/dd-serial "
+             "--force >%s/dd-serial.log 2>&1", exe, cfg, iso, tmp, tmp);
+    CHECK(system(cmd) == 0, "domain: the serial canonical run of cycle %s (%s/dd-serial.log)", iso, tmp);
+    snprintf(cmd, sizeof cmd, "sh tools/same-products.sh %s/dd-serial/%s %s/dd/out/%s", tmp, name, tmp, name);
+    CHECK(system(cmd) == 0, "domain: every product serve published equals the serial canonical run's (%s)", cmd);
+    if (check_failed_)
+        show_log(log);
+
+    /* SIGTERM to serve during a 9 h decomposed cycle: every rank goes */
+    domain_config("ddcancel", launcher, mpi, 9, cfg, sizeof cfg);
+    snprintf(log, sizeof log, "%s/ddcancel.log", tmp);
+    pid = serve(cfg, NULL, log);
+    wait_row("ddcancel", cyc, "running", 60, &r);
+    history_run_clear(&r);
+    char what[900];
+    snprintf(what, sizeof what, "%s/ddcancel/state/launch-", tmp);
+    double end = time_monotonic() + 30;
+    while (count_procs(what) < 3 && time_monotonic() < end) /* mpirun and two ranks */
+        nap(0.05);
+    nap(1.0); /* into the decomposed steps */
+    int before = count_procs(what);
+    CHECK(before >= 3, "domain: mpirun and its ranks run (%d processes)", before);
+    kill(pid, SIGTERM);
+    CHECK(xc_wait_exit(pid, 40) == 0, "domain: serve exits 0 after cancelling the decomposed job");
+    end = time_monotonic() + 5;
+    while (count_procs(what) > 0 && time_monotonic() < end)
+        nap(0.05);
+    CHECK(count_procs(what) == 0, "domain: no rank left (%d of %d)", count_procs(what), before);
+    wait_row("ddcancel", cyc, "cancelled|ok|failed", 2, &r);
+    CHECK(!strcmp(r.result, "cancelled"), "domain: the decomposed job recorded cancelled (%s: %s)", r.result,
+          r.message);
+    history_run_clear(&r);
+    if (check_failed_)
+        show_log(log);
+}
+
 /* Under mpirun with the MPI build (skipped with one line without them). */
 static void test_mpirun(void)
 {
@@ -365,6 +470,9 @@ static void test_mpirun(void)
     history_run_clear(&r);
     if (check_failed_)
         show_log(log);
+    snprintf(launcher, sizeof launcher, "mpirun --oversubscribe%s -x OMP_NUM_THREADS=1 -np 2", root);
+    setenv("OMP_NUM_THREADS", "1", 1);
+    test_mpirun_domain(mpi, launcher);
 }
 
 int main(void)

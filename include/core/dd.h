@@ -57,6 +57,14 @@ typedef struct sph_dd_hooks {
     /* Sums nsum accumulators and takes the maximum of nmax doubles over
      * the ranks, in place. */
     void (*reduce)(void *ctx, sph_xsum *sums, int nsum, double *maxes, int nmax);
+    /* 0 (the default): the refresh posted after an iteration is completed
+     * (SPH_DD_ITER_WAIT) inside the next one, after the strain rates and
+     * stresses of the interior particles (owned, every neighbour an owned
+     * particle: no halo copy, no coast ghost) are computed, so the messages
+     * travel during that work; then the boundary particles. 1: the old
+     * order (completed right after the norms' reduction). The same answer
+     * either way (each particle's arithmetic is unchanged). */
+    int no_overlap;
 } sph_dd_hooks;
 
 /* Canonical mode on (1) or off (0); allocates its workspace (outside a

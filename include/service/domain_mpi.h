@@ -7,12 +7,14 @@
  * sph_model holds the particles it owns; before every step particles that
  * drifted into another rank's cells migrate there, and every particle
  * within the halo width of another rank's cells is copied to it as a halo
- * particle. The halo width is 3 kernel supports of the largest smoothing
+ * particle. The halo width is 2 kernel supports (3 with the gradient
+ * correction) of the largest smoothing
  * length, so that everything the step computes before the stress solver
  * (density, gradient correction, the active set) is exact on the halo
  * particles an owned one reads; inside the mEVP iteration the halo's
  * velocity and stress are refreshed from their owners after every
- * iteration (nonblocking, overlapped with the norms' reduction). The
+ * iteration (nonblocking, overlapped with the norms' reduction and the
+ * next iteration's interior particles). The
  * model runs in canonical mode (core/dd.h), so the owned particles end
  * every step bit for bit as in a serial canonical run.
  */
@@ -44,6 +46,10 @@ typedef struct dd_stats {
     double migrate_bytes;  /* bytes sent for migration */
     long owned_max;        /* the most particles one rank owns now */
     int ghosts_merging;    /* a rank merged crowded coast ghosts (order not canonical) */
+    double wait_s;         /* wall s a rank spent completing halo refreshes (MPI_Waitall):
+                              this rank's; the largest over the ranks from dd_run_stats */
+    double wait_min_s;     /* dd_run_stats: the smallest over the ranks */
+    double reduce_s;       /* wall s in the mEVP norms' MPI_Allreduce (the largest rank's) */
 } dd_stats;
 
 /* Budgets of the owned particles over all ranks, exact (core/dd.h sph_xsum). */
@@ -66,6 +72,11 @@ int dd_step(dd_ctx *d, sph_status *st);
 /* Collective: the statistics over the ranks into out. */
 void dd_run_stats(dd_ctx *d, dd_stats *out);
 void dd_reset_stats(dd_ctx *d);
+/* 1 (the default): the halo refresh is completed inside the next mEVP
+ * iteration, after the interior particles' strain and stress; 0: right
+ * after the norms' reduction (the old order; core/dd.h no_overlap). The
+ * same answer either way; for bench_mpi_dd's comparison. */
+void dd_set_overlap(dd_ctx *d, int on);
 void dd_budget_global(dd_ctx *d, dd_budget *b);
 /* b's source terms (growth, melt, snow, outflow, removed particles: core/dd.h)
  * over every rank, as of the last dd_step or dd_scatter (the same on every

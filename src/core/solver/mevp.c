@@ -26,6 +26,11 @@
 typedef struct mevp_work {
     double *t11, *t22, *t12; /* the rheology's target stress, per particle */
     double *res2;            /* per particle: (beta |u' - u|)^2 of the last iteration */
+    /* under a decomposition (core/dd.h no_overlap 0): the active set split
+     * into interior particles (owned, every neighbour owned and real) and
+     * the rest, each in the active set's order */
+    int *inner, *outer;
+    size_t ninner, nouter;
     double *ds2;             /* per particle: squared stress change of the last iteration */
     /* model.evp.anderson (depth > 0 at create): the iterate before the
      * sweep, the last sweep's residual f = g(x) - x and image g, and the
@@ -48,6 +53,8 @@ static void mevp_free(void *ws)
     free(w->t12);
     free(w->res2);
     free(w->ds2);
+    free(w->inner);
+    free(w->outer);
     free(w->x0);
     free(w->fprev);
     free(w->gprev);
@@ -68,7 +75,9 @@ static int mevp_create(const sph_model *m, void **ws)
     w->t12 = calloc(n, sizeof(double));
     w->res2 = calloc(n, sizeof(double));
     w->ds2 = calloc(n, sizeof(double));
-    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2;
+    w->inner = malloc((n + 1) * sizeof(int));
+    w->outer = malloc((n + 1) * sizeof(int));
+    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2 && w->inner && w->outer;
     w->depth = m->prm.evp_anderson;
     w->nslot = n;
     if (ok && w->depth > 0) {
@@ -98,14 +107,12 @@ typedef struct mevp_sums {
     double ds2, p2; /* squared stress changes and strengths (model.evp.change_tol) */
 } mevp_sums;
 
-static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt)
+/* The rheology's stress and its relaxation for the particles of list
+ * (per particle: the order of the list does not matter). */
+static void mevp_relax(sph_model *m, mevp_work *w, const int *act, size_t na, double dt)
 {
     sph_particles *P = m->P;
     const sph_params *p = &m->prm;
-    const int *act = m->active;
-    size_t na = m->nactive;
-    sph_ghost_velocity(m, P->u, P->v, 1);
-    sph_strain_pass(m, act, na);
     m->rheo->stress(m, act, na, w->t11, w->t22, w->t12);
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
     for (size_t i = 0; i < na; i++) {
@@ -131,6 +138,52 @@ static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt)
         P->s11[k] += (t11 - P->s11[k]) * ia;
         P->s22[k] += (t22 - P->s22[k]) * ia;
         P->s12[k] += (t12 - P->s12[k]) * ia;
+    }
+}
+
+/* Splits the active set into interior particles (owned, every neighbour
+ * an owned live particle: their strain rates read no halo copy and no
+ * coast ghost) and the rest (core/dd.h no_overlap). */
+static void mevp_split(sph_model *m, mevp_work *w)
+{
+    const sph_nbr *nb = m->nb;
+    const unsigned char *own = m->dd_owned;
+    size_t n = m->P->n;
+    w->ninner = w->nouter = 0;
+    for (size_t i = 0; i < m->nactive; i++) {
+        int k = m->active[i];
+        int in = own[k];
+        for (int q = 0; in && q < nb->count[k]; q++) {
+            size_t j = (size_t)nb->idx[nb->off[k] + (size_t)q];
+            in = j < n && own[j];
+        }
+        if (in)
+            w->inner[w->ninner++] = k;
+        else
+            w->outer[w->nouter++] = k;
+    }
+}
+
+/* pending: a halo refresh is in flight (posted after the last iteration);
+ * the interior particles' strain and stress are computed before it is
+ * completed, then the boundary ones'. */
+static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pending)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    const int *act = m->active;
+    size_t na = m->nactive;
+    if (pending) {
+        sph_strain_pass(m, w->inner, w->ninner);
+        mevp_relax(m, w, w->inner, w->ninner, dt);
+        m->dd->exchange(m->dd->ctx, m, SPH_DD_ITER_WAIT);
+        sph_ghost_velocity(m, P->u, P->v, 1);
+        sph_strain_pass(m, w->outer, w->nouter);
+        mevp_relax(m, w, w->outer, w->nouter, dt);
+    } else {
+        sph_ghost_velocity(m, P->u, P->v, 1);
+        sph_strain_pass(m, act, na);
+        mevp_relax(m, w, act, na, dt);
     }
     sph_ghost_stress(m);
     sph_divergence_pass(m, act, na);
@@ -330,16 +383,25 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
     double rms_ref = 0.0;
     int it_ref = 0;
     m->stats.stalled = 0;
+    /* under a decomposition: the refresh completed inside the next
+     * iteration, after the interior particles' work (core/dd.h) */
+    const int overlap = m->dd && !m->dd->no_overlap;
+    int pending = 0;
+    if (overlap)
+        mevp_split(m, w);
     for (it = 0; it < p->evp_iterations; it++) {
         if (aa)
             aa_save(m, w);
-        mevp_sums s = mevp_iteration(m, w, dt);
+        mevp_sums s = mevp_iteration(m, w, dt, pending);
+        pending = 0;
         double nna = (double)na;
         if (m->dd)
             m->dd->exchange(m->dd->ctx, m, SPH_DD_ITER_POST);
         if (m->canonical) /* owned particles, exact, over the ranks (core/dd.h) */
             sph_dd_mevp_norms(m, m->active, na, w->res2, &s.dmax, &s.s2, &s.q2, &s.u2, &nna);
-        if (m->dd)
+        if (overlap)
+            pending = 1;
+        else if (m->dd)
             m->dd->exchange(m->dd->ctx, m, SPH_DD_ITER_WAIT);
         double r = s.dmax;
         resid = r;
@@ -347,9 +409,12 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
          * at rest has no scale of its own) */
         double urms = sqrt(s.u2 / nna);
         rel = sqrt(s.q2 / nna) / fmax(urms, SPH_MEVP_SPEED_FLOOR);
-        if (!isfinite(r))
+        if (!isfinite(r)) {
+            if (pending)
+                m->dd->exchange(m->dd->ctx, m, SPH_DD_ITER_WAIT);
             return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_NONFINITE, -1, "mEVP residual", r, 0.0,
                                   "is not finite (the stress iteration diverged)");
+        }
         if (r < p->evp_tol || (p->evp_rel_tol > 0.0 && rel < p->evp_rel_tol)) {
             it++;
             break;
@@ -377,6 +442,8 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
         if (aa && it + 1 < p->evp_iterations)
             aa_mix(m, w, it, dt);
     }
+    if (pending) /* the halo current after the solver, as without the overlap */
+        m->dd->exchange(m->dd->ctx, m, SPH_DD_ITER_WAIT);
     m->stats.iterations = it;
     m->stats.residual = resid;
     m->stats.rel_residual = rel;
