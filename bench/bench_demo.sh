@@ -18,18 +18,22 @@
 #   free_drift the seed's settings: the floor of what auto can save (no
 #              stress anywhere) and its error
 # or the runs DEMO_VARIANTS lists,
-# "PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE[:REL_TOL[:GC]]]]] ...", e.g.
+# "PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE[:REL_TOL[:GC[:KERNEL]]]]]]] ...", e.g.
 # "full:30:300 full:60:120:0.014" (the reference's time settings at the
 # seed's spacing and the reverse: how the error splits between them) or
 # "auto:60:120:0.02:0.1" (model.auto_tolerance 0.1) or
 # "auto:0:120:0.02:0.01:1e-3:1" (model.evp.rel_tol 1e-3 and
-# model.gradient_correction on; issue 22).
+# model.gradient_correction on; issue 22) or
+# "auto:0:120:0.02:0.01:0:0:wendland_c2" (model.kernel; empty fields keep
+# the demo's values).
 # 96 h, the issue's and the demo's length (until the coast-ghost fixes of
 # the core no refined run reached 96 h and the default was 36 h; those rows
 # are kept as demo_36h in docs/bench/results.csv). A run that fails is a
 # row with its status. The problem column is "demo" for 96 h against the
 # default reference, else demo_<H>h and/or _ref_<settings>.
-# Products: fields, edge and particles only (no maps, GeoJSON, stations), so
+# The method column is the physics with _gc (gradient correction on),
+# _rel<REL_TOL> (the residual rule on) and _<KERNEL> (not the Gaussian)
+# appended. Products: fields, edge and particles only (no maps, GeoJSON, stations), so
 # that CPU time is the model's and the products' it is compared on.
 # Each run's CPU (user + system), wall and peak RSS come from GNU time
 # (/usr/bin/time) of the sphice process. Errors (build/tools/demo_compare)
@@ -83,6 +87,7 @@ one() { # PATTERN: the line must occur exactly once
 }
 one '^ *"dt": *[0-9.]*,$'
 one '^ *"physics": *"[a-z_]*",$'
+one '^ *"kernel": *"[a-z_0-9]*",$'
 one '^ *"solver": *"mevp",$'
 one '^ *"spacing": *[0-9.]*,$'
 one '^ *"products": *{'
@@ -94,14 +99,17 @@ SEED_SPACING=$(sed -n 's/^ *"spacing": *\([0-9.]*\),$/\1/p' "$CONFIG")
 SEED_ITER=$("$BUILD/sphice" config-doc | sed -n 's/^| `model.evp.iterations` | int | `\([0-9]*\)`.*/\1/p')
 [ -n "$SEED_ITER" ] || die "could not read the default of model.evp.iterations from sphice config-doc"
 
-# write_config NAME PHYSICS DT ITERATIONS SPACING [AUTO_TOLERANCE [REL_TOL [GC]]] -> $W/NAME.json
+# write_config NAME PHYSICS DT ITERATIONS SPACING [AUTO_TOLERANCE [REL_TOL [GC [KERNEL]]]] -> $W/NAME.json
 write_config() {
     tol_line=""
     [ -n "${6:-}" ] && tol_line=" \"auto_tolerance\": $6,"
     [ -n "${8:-}" ] && [ "$8" = 1 ] && tol_line="$tol_line \"gradient_correction\": true,"
     rel_item=""
     [ -n "${7:-}" ] && rel_item=", \"rel_tol\": $7"
+    kernel_expr=""
+    [ -n "${9:-}" ] && kernel_expr="s/^\( *\"kernel\": *\)\"[a-z_0-9]*\",\$/\1\"$9\",/"
     sed -e "s/^\( *\"physics\": *\)\"[a-z_]*\",\$/\1\"$2\",$tol_line/" \
+        -e "${kernel_expr:-s/^//}" \
         -e "s/^\( *\"dt\": *\)[0-9.]*,\$/\1$3,/" \
         -e "s/^\( *\"solver\": *\"mevp\",\)\$/\1 \"evp\": { \"iterations\": $4$rel_item },/" \
         -e "s/^\( *\"spacing\": *\)[0-9.]*,\$/\1$5,/" \
@@ -110,7 +118,8 @@ write_config() {
         -e "s#^\( *\"cache_dir\": *\"\)[^\"]*\"#\1$W/$1.cache\"#" "$CONFIG" >"$W/$1.json.tmp"
     grep -q "\"physics\": \"$2\"," "$W/$1.json.tmp" && grep -q "\"dt\": $3," "$W/$1.json.tmp" &&
         grep -q "\"iterations\": $4$rel_item }" "$W/$1.json.tmp" && grep -q "\"spacing\": $5," "$W/$1.json.tmp" &&
-        { [ -z "${6:-}" ] || grep -q "\"auto_tolerance\": $6," "$W/$1.json.tmp"; } ||
+        { [ -z "${6:-}" ] || grep -q "\"auto_tolerance\": $6," "$W/$1.json.tmp"; } &&
+        { [ -z "${9:-}" ] || grep -q "\"kernel\": \"$9\"," "$W/$1.json.tmp"; } ||
         die "could not write $W/$1.json"
     mv "$W/$1.json.tmp" "$W/$1.json"
 }
@@ -180,41 +189,48 @@ fi
 for v in $VARIANTS; do
     # PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE]]], the seed's values
     # (and the configured auto_tolerance) where left out
-    IFS=: read -r phys dt iter spacing tol rel gc <<EOV
+    IFS=: read -r phys dt iter spacing tol rel gc kern <<EOV
 $v
 EOV
     iter=${iter:-$SEED_ITER}
     spacing=${spacing:-$SEED_SPACING}
     case "$phys:$dt:$iter:$spacing:$tol" in
-        *[!a-z_0-9.:]*|:*|*::?*) die "DEMO_VARIANTS entry \"$v\": expected PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE[:REL_TOL[:GC]]]]]" ;;
+        *[!a-z_0-9.:]*|:*|*::?*) die "DEMO_VARIANTS entry \"$v\": expected PHYSICS:DT[:ITERATIONS[:SPACING[:AUTO_TOLERANCE[:REL_TOL[:GC[:KERNEL]]]]]]]" ;;
     esac
-    name="${phys}_dt${dt}_it${iter}_s$spacing${tol:+_tol$tol}${rel:+_rel$rel}${gc:+_gc$gc}"
-    write_config "$name" "$phys" "$dt" "$iter" "$spacing" "$tol" "$rel" "$gc"
+    case "$kern" in ''|gaussian|wendland_c2|cubic_spline) ;; *) die "DEMO_VARIANTS entry \"$v\": kernel \"$kern\": expected gaussian, wendland_c2 or cubic_spline" ;; esac
+    name="${phys}_dt${dt}_it${iter}_s$spacing${tol:+_tol$tol}${rel:+_rel$rel}${gc:+_gc$gc}${kern:+_$kern}"
+    write_config "$name" "$phys" "$dt" "$iter" "$spacing" "$tol" "$rel" "$gc" "$kern"
     run_model "$name"
     dtl=$dt
     if [ "$dt" = 0 ]; then # auto time stepping: the step the run took (cycle.json)
         used=$(sed -n 's/^[[:space:]]*"dt":[[:space:]]*\([0-9.]*\),*$/\1/p' "$W/$name"/*/cycle.json 2>/dev/null | head -1)
         dtl="auto${used:+:$used}"
     fi
-    cfg="dt=$dtl;iterations=$iter;spacing=$spacing;hours=$HOURS${tol:+;auto_tolerance=$tol}${rel:+;rel_tol=$rel}${gc:+;gradient_correction=$gc}"
+    # the method (the charts' colour): the physics, and the solver keys the
+    # variant sets away from their defaults
+    method=$phys
+    [ "${gc:-0}" = 1 ] && method="${method}_gc"
+    case "${rel:-0}" in 0|0.0) ;; *) method="${method}_rel$rel" ;; esac
+    [ -n "$kern" ] && [ "$kern" != gaussian ] && method="${method}_$kern"
+    cfg="dt=$dtl;iterations=$iter;spacing=$spacing;hours=$HOURS${tol:+;auto_tolerance=$tol}${rel:+;rel_tol=$rel}${gc:+;gradient_correction=$gc}${kern:+;kernel=$kern}"
     if [ "$STATUS" = ok ] && [ $REF_OK = 0 ]; then
         STATUS=no_reference
-        row "$phys" "$cfg" "" "" ""
+        row "$method" "$cfg" "" "" ""
     elif [ "$STATUS" = ok ]; then
         # the representation floor: the same comparison at the first output
         # time (the seeding spacings differ), for the log only
         "$BUILD/tools/demo_compare" --hours 0 "$W/reference" "$W/$name" 2>&1 >/dev/null | sed 's/^/at t0: /' >&2 || true
         if errs=$("$BUILD/tools/demo_compare" --hours "$HOURS" "$W/reference" "$W/$name" 2>"$W/$name.compare.txt"); then
             cat "$W/$name.compare.txt" >&2
-            row "$phys" "$cfg" "$(echo "$errs" | cut -d, -f1)" "$(echo "$errs" | cut -d, -f2)" \
+            row "$method" "$cfg" "$(echo "$errs" | cut -d, -f1)" "$(echo "$errs" | cut -d, -f2)" \
                 "$(echo "$errs" | cut -d, -f3)"
         else
             cat "$W/$name.compare.txt" >&2
             STATUS=compare_failed
-            row "$phys" "$cfg" "" "" ""
+            row "$method" "$cfg" "" "" ""
         fi
     else
         tail -n 1 "$W/$name.log" >&2
-        row "$phys" "$cfg" "" "" ""
+        row "$method" "$cfg" "" "" ""
     fi
 done

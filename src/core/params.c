@@ -58,7 +58,7 @@ static const sph_param rows[] = {
     DBL("sml_max_factor", sml_max_factor, 2, 1, 10, "h0", "Variable smoothing length kept below this times h0."),
     BOOL("coast_no_slip", coast_no_slip, 0, "Coasts: no-slip (mirror ghosts reverse velocity) instead of free slip."),
     BOOL("variable_sml", variable_sml, 1, "Variable smoothing length (seed eq. 10)."),
-    BOOL("gradient_correction", gradient_correction, 0, "Kernel gradient correction (Bonet & Lok 1999) in the strain rates and the stress divergence: linear fields exact where the smoothing length varies; R300's ridged zone +0.47 % instead of +2.7 %; off by default until the benchmark matrix is re-run with it (docs/dynamics.md)."),
+    BOOL("gradient_correction", gradient_correction, 0, "Kernel gradient correction (Bonet & Lok 1999) in the strain rates and the stress divergence: linear fields exact where the smoothing length varies; R300's ridged zone +0.47 % instead of +2.7 %; off by default: in the re-run speed-accuracy matrix it costs 5.7 % more CPU on the demo and makes its three errors worse (docs/bench.md, Defaults by the Pareto front)."),
     DBL("sml_factor", sml_factor, 1, 0.5, 3, "spacing", "Initial smoothing length h0 = sml_factor x initial particle spacing."),
     ENUM("solver", solver, solver_names, SPH_SOLVER_MEVP, "Momentum solver: explicit (sub-stepped), mevp (modified/adaptive EVP), implicit (Picard + GMRES)."),
     ENUM("unstable", unstable, unstable_names, SPH_UNSTABLE_SUBSTEP, "Explicit solver beyond its stability limit: substep, or refuse (fail)."),
