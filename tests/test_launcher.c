@@ -320,8 +320,8 @@ static int count_procs(const char *what)
  * tools/same-products.sh, those of the plain build's serial canonical run
  * of the same cycle and configuration; SIGTERM to serve during a longer
  * decomposed cycle leaves no rank. */
-static void domain_config(const char *name, const char *launcher, const char *program, double hours, char *cfg,
-                          size_t len)
+static void domain_config(const char *name, const char *launcher, const char *program, double hours, int iters,
+                          char *cfg, size_t len)
 {
     char text[8192], d[200], extra[1400];
     snprintf(d, sizeof d, "%s/%s", tmp, name);
@@ -329,8 +329,9 @@ static void domain_config(const char *name, const char *launcher, const char *pr
              "\"parallel\": {\"decomposition\": \"domain\"},"
              " \"launcher\": {\"command\": \"%s\", \"program\": \"%s\"},", launcher, program);
     ec_config(text, sizeof text, tmp, 300, "[\"wind\"]", "ice_packed.nc", extra);
-    int ok = ec_config_replace(text, sizeof text, "\"thermo\": {\"dt\": 600}",
-                               "\"thermo\": {\"dt\": 0}, \"physics\": \"full\", \"evp\": {\"iterations\": 30}");
+    char model[200];
+    snprintf(model, sizeof model, "\"thermo\": {\"dt\": 0}, \"physics\": \"full\", \"evp\": {\"iterations\": %d}", iters);
+    int ok = ec_config_replace(text, sizeof text, "\"thermo\": {\"dt\": 600}", model);
     char sched[300];
     snprintf(sched, sizeof sched, "\"schedule\": {\"every_seconds\": 3600, \"catch_up\": false, \"forecast_hours\": %g,",
              hours);
@@ -361,7 +362,7 @@ static void test_mpirun_domain(const char *mpi, const char *launcher)
     ec_write_atm_axis(p, "hours since 1970-01-01 00:00:00", floor(now / 3600.0) - 6.0, 17, NC_NETCDF4);
 
     char cfg[800], log[800], cmd[4000];
-    domain_config("dd", launcher, mpi, 1, cfg, sizeof cfg);
+    domain_config("dd", launcher, mpi, 1, 30, cfg, sizeof cfg);
     snprintf(log, sizeof log, "%s/dd.log", tmp);
     double cyc = this_cycle();
     pid_t pid = serve(cfg, NULL, log);
@@ -386,7 +387,8 @@ static void test_mpirun_domain(const char *mpi, const char *launcher)
         show_log(log);
 
     /* SIGTERM to serve during a 9 h decomposed cycle: every rank goes */
-    domain_config("ddcancel", launcher, mpi, 9, cfg, sizeof cfg);
+    /* 100 times the iterations: the job outlasts the wait below on any machine */
+    domain_config("ddcancel", launcher, mpi, 9, 3000, cfg, sizeof cfg);
     snprintf(log, sizeof log, "%s/ddcancel.log", tmp);
     pid = serve(cfg, NULL, log);
     wait_row("ddcancel", cyc, "running", 60, &r);
