@@ -35,6 +35,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "tmpdir.h"
 #include "core/model.h"
 #include "io/ocean_fluxes.h"
 #include "io/ocean_grid.h"
@@ -687,16 +688,7 @@ int main(void)
     for (size_t k = 0; made && k < sizeof parts / sizeof parts[0]; k++)
         parts[k]();
     /* the files are all directly in dir */
-    DIR *dd = made ? opendir(dir) : NULL;
-    for (struct dirent *de = dd ? readdir(dd) : NULL; de; de = readdir(dd)) {
-        char f[1024];
-        snprintf(f, sizeof f, "%s/%s", dir, de->d_name);
-        if (de->d_name[0] != '.')
-            unlink(f);
-    }
-    if (dd)
-        closedir(dd);
     if (made)
-        rmdir(dir);
+        tmpdir_remove(dir);
     return check_summary("test_ocean_fluxes_curv");
 }

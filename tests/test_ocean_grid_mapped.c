@@ -32,6 +32,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "tmpdir.h"
 #include "io/ocean_grid.h"
 #include "raster_provider.h"
 
@@ -296,16 +297,7 @@ int main(void)
         rotated();
         refused();
     }
-    DIR *dd = made ? opendir(dir) : NULL;
-    for (struct dirent *de = dd ? readdir(dd) : NULL; de; de = readdir(dd)) {
-        char f[1024];
-        snprintf(f, sizeof f, "%s/%s", dir, de->d_name);
-        if (de->d_name[0] != '.')
-            unlink(f);
-    }
-    if (dd)
-        closedir(dd);
     if (made)
-        rmdir(dir);
+        tmpdir_remove(dir);
     return check_summary("test_ocean_grid_mapped");
 }
