@@ -43,6 +43,33 @@ static double uniform(void)
     return ((double)(rng >> 11) + 0.5) / 9007199254740992.0;
 }
 
+/* Drives the loading nose (the spheres with DEM_FIX_ROTATION) down for at
+ * most `steps` steps of dt, until the load falls below 0.3 of its peak
+ * after a bond broke (in tension; any: or in shear). The peak load (N);
+ * p_first (not NULL): the load when the first bond broke in tension. */
+static double push_nose(dem *d, double dt, long steps, int any, double *p_first, const char *what)
+{
+    sph_status st;
+    double pmax = 0.0;
+    int bad = 0;
+    if (p_first)
+        *p_first = -1.0;
+    for (long k = 0; k < steps; k++) {
+        bad |= dem_step(d, dt, &st) != SPH_STEP_OK;
+        double P = 0.0;
+        for (size_t i = 0; i < d->n; i++)
+            if (d->flags[i] & DEM_FIX_ROTATION)
+                P += d->fz[i];
+        pmax = fmax(pmax, P);
+        if (p_first && *p_first < 0.0 && d->bonds_broken_tension > 0)
+            *p_first = P;
+        if (pmax > 0.0 && P < 0.3 * pmax && d->bonds_broken_tension + (any ? d->bonds_broken_shear : 0) > 0)
+            break; /* failed */
+    }
+    CHECK(!bad, "%s: steps ok", what);
+    return pmax;
+}
+
 static double flexural(int s, double sigma0, double weibull_m, double *sigma_mean, double *crack)
 {
     int nx = 12 * s, ny = 1, nz = 3 * s;
@@ -86,23 +113,8 @@ static double flexural(int s, double sigma0, double weibull_m, double *sigma_mea
     /* elastic deflection at failure ~ sigma L^2 / (6 E h); stop at 6 x */
     double dmax = 6.0 * sigma0 * span * span / (6.0 * p.bond_modulus * M_PI / 4.0 * h);
     long steps = (long)(dmax / v / dt);
-    sph_status st;
-    double pmax = 0.0, p_first = -1.0;
-    int bad = 0;
-    for (long k = 0; k < steps; k++) {
-        bad |= dem_step(d, dt, &st) != SPH_STEP_OK;
-        double P = 0.0;
-        for (size_t i = 0; i < d->n; i++)
-            if (d->flags[i] & DEM_FIX_ROTATION)
-                P += d->fz[i];
-        pmax = fmax(pmax, P);
-        if (p_first < 0.0 && d->bonds_broken_tension > 0) {
-            p_first = P;
-        }
-        if (pmax > 0.0 && P < 0.3 * pmax && d->bonds_broken_tension > 0)
-            break; /* failed */
-    }
-    CHECK(!bad, "steps ok");
+    double p_first;
+    double pmax = push_nose(d, dt, steps, 0, &p_first, "scaled specimen");
     CHECK(d->bonds_broken_tension > 0, "scale %d: the specimen broke", s);
     double sf = 3.0 * pmax * span / (2.0 * b * h * h);
     *crack = 3.0 * p_first * span / (2.0 * b * h * h);
@@ -175,20 +187,7 @@ static double flexural_hcp(double r, int nx, int ny, int nz, double sigma_t, dou
     double dt = p.dt_safety * dem_dt_critical(d);
     double dmax = 6.0 * sigma_t * span * span / (6.0 * p.bond_modulus * M_PI / 4.0 * h);
     long steps = (long)(dmax / v / dt);
-    sph_status st;
-    double pmax = 0.0;
-    int bad = 0;
-    for (long k = 0; k < steps; k++) {
-        bad |= dem_step(d, dt, &st) != SPH_STEP_OK;
-        double P = 0.0;
-        for (size_t i = 0; i < d->n; i++)
-            if (d->flags[i] & DEM_FIX_ROTATION)
-                P += d->fz[i];
-        pmax = fmax(pmax, P);
-        if (pmax > 0.0 && P < 0.3 * pmax && d->bonds_broken_tension + d->bonds_broken_shear > 0)
-            break;
-    }
-    CHECK(!bad, "hcp specimen: steps ok");
+    double pmax = push_nose(d, dt, steps, 1, NULL, "hcp specimen");
     *broken_t = d->bonds_broken_tension;
     *broken_s = d->bonds_broken_shear;
     *span_out = span;
