@@ -129,6 +129,69 @@ static void attribution(const sph_thermo_params *pc, int years, double dt)
           "%.4f vs %.4f MJ/m^2", (E[1] - E[0]) / 1e6, dfatm);
 }
 
+/* Optional (SPHICE_MU71_DAILY=FILE): the test's columns under a daily
+ * forcing file in the layout of the Bitz-Lipscomb column's own MU71 forcing
+ * (C.M. Bitz's column as ported in andrewpauling/pyBL99, column/data.mu71:
+ * 365 rows of shortwave down, longwave down, upward sensible, upward latent,
+ * all in mW/m^2, and MU71's albedo; each step linear between the previous
+ * day's row and the day's row, as that column does). The file is not in
+ * this repository; docs/thermo.md ("Fourth look") gives what it measures:
+ * the same column, only the forcing's representation changed. Nothing is
+ * asserted beyond reading the file. */
+static void daily_file(const sph_thermo_params *pz, const sph_thermo_params *pm, const char *path, int years,
+                       double dt)
+{
+    static double D[365][5];
+    FILE *fp = fopen(path, "r");
+    int ok = fp != NULL;
+    for (int i = 0; ok && i < 365; i++)
+        for (int j = 0; j < 5; j++)
+            ok = ok && fscanf(fp, "%lf", &D[i][j]) == 1 && isfinite(D[i][j]);
+    if (fp)
+        fclose(fp);
+    CHECK(ok, "SPHICE_MU71_DAILY=%s: 365 rows of 5 numbers", path);
+    if (!ok)
+        return;
+    const int nper = (int)(86400.0 / dt + 0.5);
+    for (int run = 0; run < 3; run++) {
+        sph_thermo_params p = run == 0 ? *pz : *pm;
+        if (run == 2)
+            p.sw_pen_frac = 0.0;
+        sph_column_solver *s = sph_column_solver_create();
+        sph_column c;
+        sph_column_init(&p, &c, 3.0, 0.0, -25.0);
+        sph_column_forcing f;
+        sph_column_forcing_default(&f);
+        f.fw = 2.0;
+        cycle y = {0};
+        for (int yr = 0; yr < years; yr++) {
+            y = (cycle){0.0, y.mean, -1e30, 1e30, 0.0, 1e30};
+            for (int d = 0; d < 365; d++)
+                for (int k = 0; k < nper; k++) {
+                    const double *a = D[d > 0 ? d - 1 : (yr > 0 ? 364 : 0)], *b = D[d], w = (k + 1.0) / nper;
+                    f.swdn = 1e-3 * (a[0] + w * (b[0] - a[0]));
+                    f.lwdn = 1e-3 * (a[1] + w * (b[1] - a[1]));
+                    f.fsens = -1e-3 * (a[2] + w * (b[2] - a[2]));
+                    f.flat = -1e-3 * (a[3] + w * (b[3] - a[3]));
+                    f.albedo = a[4] + w * (b[4] - a[4]);
+                    f.snowfall = snowfall(d + (k + 0.5) / nper);
+                    sph_column_result r;
+                    if (run == 0)
+                        sph_column_step_zero_layer(&p, &c, &f, dt, s, &r);
+                    else
+                        sph_column_step_multi_layer(&p, &c, &f, dt, s, &r);
+                    y.mean += c.thick / (365.0 * nper);
+                    y.hmax = fmax(y.hmax, c.thick);
+                    y.hmin = fmin(y.hmin, c.thick);
+                }
+        }
+        sph_column_solver_free(s);
+        printf("  daily file %s, %s: mean %.3f m, max %.3f, min %.3f, last-year change %+.4f m\n", path,
+               run == 0 ? "zero-layer, snow" : run == 1 ? "multi-layer, snow (BL99)" : "multi-layer, snow, i0 = 0",
+               y.mean, y.hmax, y.hmin, y.mean - y.prev_mean);
+    }
+}
+
 /* A published range check: a CHECK under SPHICE_LONG, else a KNOWN GAP line. */
 static void range(int hard, double v, double lo, double hi, const char *what, const char *published)
 {
@@ -188,5 +251,7 @@ int main(void)
     }
     if (hard)
         attribution(&pc, years, dt);
+    if (getenv("SPHICE_MU71_DAILY"))
+        daily_file(&p, &pc, getenv("SPHICE_MU71_DAILY"), years, dt);
     return check_summary("test_snow_mu71");
 }
