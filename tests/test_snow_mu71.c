@@ -23,7 +23,10 @@
  * Asserted under SPHICE_LONG (make check-long): the multi-layer mean in
  * BL99's range and its cycle within MU71's maximum and minimum. Measured
  * (docs/thermo.md): the multi-layer mean is 3.40 m, above BL99's range;
- * without SPHICE_LONG the gap is printed as a KNOWN GAP line instead.
+ * without SPHICE_LONG the gap is printed as a KNOWN GAP line instead. Its
+ * cause, measured against Bitz's BL99 column (docs/thermo.md, "Fourth
+ * look"): this forcing's reading of the monthly table; on BL99's own daily
+ * file (SPHICE_MU71_DAILY below) the same column gives 2.74 m.
  * Also under SPHICE_LONG: where the penetrating shortwave goes (one year
  * with i0 = 0.17 against i0 = 0 from the same converged column), with the
  * energy difference between the two equal to the difference of the
