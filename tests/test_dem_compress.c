@@ -284,7 +284,8 @@ int main(void)
     dem_params p;
     dem_params_default(&p);
     const double r = 0.05, rate = 0.02;
-    const int nx = 10, ny = 5, nz = 3;
+    /* SPHICE_QUICK (valgrind): a smaller specimen, the same checks */
+    const int nx = check_quick() ? 6 : 10, ny = check_quick() ? 3 : 5, nz = 3;
     bond_in_compression();
 
     /* 2. unbreakable bonds: a linear lattice */
