@@ -8,9 +8,13 @@
  * docs/dem.md: sigma_t 0.133 MPa, tau_c 0.222 MPa), the ice moves at
  * 0.5 m/s.
  *
- * make check runs a reduced sheet (narrower, shorter, 1 s); SPHICE_LONG
+ * make check runs a reduced sheet (narrower, shorter, 0.15 s); SPHICE_LONG
  * runs the full 7 200 particles (SPHICE_DEM_LEG="nx ny nz speed duration
- * settle assert_mean" overrides it). The load is reported beside the
+ * settle assert_mean ramp [gap [sigma_t tau_c]]" overrides it: ramp > 0
+ * starts the sheet at rest and brings its driven edges to the speed in
+ * that time; gap is the sheet's front to the leg at the start, m (0.01);
+ * sigma_t, tau_c the bond strengths in MPa instead of the core's defaults,
+ * e.g. test_dem_compress's joint calibration). The load is reported beside the
  * seed's and ISO 19906's; the assertions are what can honestly be
  * asserted: the load stays below the ISO 19906 sub-Arctic global crushing
  * load (which the seed's own mean lies 29 times below), the ice fails,
@@ -31,12 +35,18 @@ typedef struct leg_case {
     double r, speed, duration, diameter, settle;
     int assert_mean; /* the full case: mean between the seed's / 4 and ISO */
     double ramp;     /* > 0: the sheet starts at rest, its edges reach the speed in this time, s */
+    double gap;      /* the sheet's front to the leg at the start, m */
+    double sigma_t, tau_c; /* bond strengths, Pa (0: the core's defaults) */
 } leg_case;
 
 static void run_leg(const leg_case *c)
 {
     dem_params p;
     dem_params_default(&p);
+    if (c->sigma_t > 0.0)
+        p.bond_tensile = c->sigma_t;
+    if (c->tau_c > 0.0)
+        p.bond_shear = c->tau_c;
     size_t np = (size_t)c->nx * c->ny * c->nz;
     dem *d = dem_create(np, 8 * np, &p);
     CHECK(d != NULL, "created");
@@ -56,7 +66,7 @@ static void run_leg(const leg_case *c)
     }
     d->s.kind = DEM_STRUCT_CYLINDER;
     d->s.diameter = c->diameter;
-    d->s.x0 = front + 0.5 * c->diameter + 0.01;
+    d->s.x0 = front + 0.5 * c->diameter + c->gap;
     d->s.y0 = 0.5 * sqrt(3.0) * r * (c->ny - 1);
     d->s.mass = 300e3;
     d->s.damping_ratio = 0.03;
@@ -128,11 +138,51 @@ static void run_leg(const leg_case *c)
            " %ld steps of %.3g s (%.2f s simulated, %.1f s wall, %d threads)\n",
            d->n, c->nx, c->ny, c->nz, width, h, c->speed, c->diameter, steps, dt, c->duration, wall,
            omp_get_max_threads());
+    printf("leg case: bonds sigma_t %.4g MPa, tau_c %.4g MPa; gap to the leg at the start %.3g m, ramp %.3g s\n",
+           p.bond_tensile / 1e6, p.bond_shear / 1e6, c->gap, c->ramp);
     printf("leg case: bonds intact %ld, broken in tension %ld, in shear %ld\n", d->bonds_intact,
            d->bonds_broken_tension, d->bonds_broken_shear);
     printf("leg case: mean %.2f kN, max %.2f kN, max/mean %.2f, std %.2f kN, dominant frequency %.2f Hz"
            " (seed: mean 35.29 kN, max 87.45 kN, ratio 2.48)\n",
            mean / 1e3, max / 1e3, max / mean, sd / 1e3, freq);
+    /* the load spectrum of the 1 kHz series: one-sided DFT amplitude 2 |F_j| / n
+     * of the fluctuation (mean removed), its three largest bins and the RMS
+     * of the fluctuation in bands a factor 4 wide (Parseval) */
+    if (nd >= 8) {
+        double tot = 0.0, band[6] = {0}, pk_a[3] = {0}, pk_f[3] = {0};
+        const double edge[7] = {0.0, 2.0, 8.0, 32.0, 128.0, 512.0, 1e9};
+        double fs = 1.0 / (dt * (double)k), df = fs / (double)nd;
+        for (long j = 1; j <= nd / 2; j++) {
+            double re = 0.0, im = 0.0;
+            for (long q = 0; q < nd; q++) {
+                double ph = 2.0 * M_PI * (double)j * (double)q / (double)nd;
+                re += (fd[q] - m2) * cos(ph);
+                im -= (fd[q] - m2) * sin(ph);
+            }
+            double a = 2.0 * sqrt(re * re + im * im) / (double)nd, fq = (double)j * df;
+            double pw = 0.5 * a * a; /* the bin's share of the variance */
+            tot += pw;
+            for (int b = 0; b < 6; b++)
+                if (fq >= edge[b] && fq < edge[b + 1])
+                    band[b] += pw;
+            for (int t = 0; t < 3; t++)
+                if (a > pk_a[t]) {
+                    for (int u = 2; u > t; u--) {
+                        pk_a[u] = pk_a[u - 1];
+                        pk_f[u] = pk_f[u - 1];
+                    }
+                    pk_a[t] = a;
+                    pk_f[t] = fq;
+                    break;
+                }
+        }
+        printf("leg case: spectrum (1 kHz block means, %ld samples, resolution %.2f Hz): largest amplitudes %.3f kN at %.2f Hz,"
+               " %.3f kN at %.2f Hz, %.3f kN at %.2f Hz; RMS of the fluctuation %.3f kN, by band"
+               " 0-2 / 2-8 / 8-32 / 32-128 / 128-500 Hz: %.3f / %.3f / %.3f / %.3f / %.3f kN\n",
+               nd, df, pk_a[0] / 1e3, pk_f[0], pk_a[1] / 1e3, pk_f[1], pk_a[2] / 1e3, pk_f[2], sqrt(tot) / 1e3,
+               sqrt(band[0]) / 1e3, sqrt(band[1]) / 1e3, sqrt(band[2]) / 1e3, sqrt(band[3]) / 1e3,
+               sqrt(band[4] + band[5]) / 1e3);
+    }
     printf("leg case: statistics from %.2f s after the first contact; max over the whole run %.2f kN\n",
            c->settle, fall / 1e3);
     printf("leg case: structure max displacement %.3g mm, max acceleration %.3g m/s2, natural frequency %.2f Hz\n",
@@ -161,15 +211,20 @@ static void run_leg(const leg_case *c)
 int main(void)
 {
     if (check_long()) {
-        leg_case full = {40, 60, 3, 0.05, 0.5, 3.0, 1.6, 0.3, 1, 0.0};
-        const char *e = getenv("SPHICE_DEM_LEG"); /* "nx ny nz speed duration settle" */
-        if (e)
-            sscanf(e, "%d %d %d %lf %lf %lf %d %lf", &full.nx, &full.ny, &full.nz, &full.speed,
-                   &full.duration, &full.settle, &full.assert_mean, &full.ramp);
+        leg_case full = {40, 60, 3, 0.05, 0.5, 3.0, 1.6, 0.3, 1, 0.0, 0.01, 0.0, 0.0};
+        /* "nx ny nz speed duration settle assert_mean ramp [gap [sigma_t tau_c (MPa)]]" */
+        const char *e = getenv("SPHICE_DEM_LEG");
+        if (e) {
+            double st = 0.0, tc = 0.0;
+            sscanf(e, "%d %d %d %lf %lf %lf %d %lf %lf %lf %lf", &full.nx, &full.ny, &full.nz, &full.speed,
+                   &full.duration, &full.settle, &full.assert_mean, &full.ramp, &full.gap, &st, &tc);
+            full.sigma_t = st * 1e6;
+            full.tau_c = tc * 1e6;
+        }
         run_leg(&full);
     } else {
         /* reduced: the same ice and leg, a 2.27 m wide, 0.6 m long sheet, 0.15 s */
-        leg_case quick = {6, 26, 3, 0.05, 0.5, 0.15, 1.6, 0.05, 0, 0.0};
+        leg_case quick = {6, 26, 3, 0.05, 0.5, 0.15, 1.6, 0.05, 0, 0.0, 0.01, 0.0, 0.0};
         run_leg(&quick);
     }
     return check_summary("test_dem_leg");
