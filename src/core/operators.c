@@ -6,13 +6,11 @@
 #include "model_impl.h"
 
 #include <math.h>
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
 
 #include "core/kernel.h"
 #include "core/neighbours.h"
 #include "core/rheology.h"
+#include "lanes.h"
 
 /* ------------------------------------------------------------------ */
 /* SPH passes                                                          */
@@ -119,12 +117,7 @@ void sph_select_active(sph_model *m)
  * -std=c11). The common part of the two lists runs in the lanes, each
  * longer list's rest in scalar code, so every particle's result is bit
  * for bit the scalar pass's. */
-typedef double sph_v2d __attribute__((vector_size(16)));
-
-static inline sph_v2d ld2(const double *a, size_t i0, size_t i1)
-{
-    return (sph_v2d){a[i0], a[i1]};
-}
+/* (sph_v2d, ld2: lanes.h) */
 
 /* Strain rates (seed eq. 15, sign settled by the linear-field test) and
  * the fluctuating velocity for the collision rheology, for the listed
@@ -577,16 +570,7 @@ static inline double parcel_newton(const parcel_sys *q0, double cw, double sw)
  * on their latency). */
 #define PARCEL_LANES 8
 #if defined(__GNUC__)
-typedef long long sph_v2l __attribute__((vector_size(16)));
-#if defined(__SSE2__)
-static inline sph_v2d sqrt2(sph_v2d x) { return (sph_v2d)_mm_sqrt_pd((__m128d)x); }
-#else
-static inline sph_v2d sqrt2(sph_v2d x) { return (sph_v2d){sqrt(x[0]), sqrt(x[1])}; }
-#endif
-static inline sph_v2d sel2(sph_v2l keep, sph_v2d old, sph_v2d nw)
-{
-    return (sph_v2d)((keep & (sph_v2l)old) | (~keep & (sph_v2l)nw));
-}
+/* (sph_v2l, sqrt2, sel2: lanes.h) */
 
 /* One Newton step in two lanes (parcel_newton's operations, same order). */
 static inline __attribute__((always_inline)) void newton_two(sph_v2d a, sph_v2d b, sph_v2d G, sph_v2d vcw,

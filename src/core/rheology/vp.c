@@ -2,6 +2,7 @@
  * list, its viscosity bound, the projection of the EVP stress memory onto
  * the yield ellipse, and the plastic-wave step bound with replacement
  * pressure. The per-particle law is sph_vp_stress (include/core/rheology.h). */
+#include "../lanes.h"
 #include "../model_impl.h"
 
 #include <math.h>
@@ -15,18 +16,65 @@
  * drifts with growing kinetic energy at 0.205 (5 km 180 s; 2.5 km 90 s). */
 #define SPH_REPLACEMENT_COURANT_MAX 0.15
 
+/* sph_vp_stress (include/core/rheology.h) for two particles in two lanes,
+ * each lane the scalar law's operations in its order (lanes.h); inv_e2 is
+ * its 1 / e^2. Returns zeta. */
+static inline sph_v2d vp_stress_two(const sph_params *p, double inv_e2, sph_v2d P, sph_v2d e11,
+                                    sph_v2d e22, sph_v2d e12, sph_v2d *s11, sph_v2d *s22,
+                                    sph_v2d *s12)
+{
+    const sph_v2d ie2 = splat2(inv_e2), dmin = splat2(p->delta_min), two = splat2(2.0);
+    sph_v2d eI = e11 + e22;
+    sph_v2d d = e11 - e22;
+    sph_v2d eII2 = d * d + splat2(4.0) * e12 * e12;
+    sph_v2d Delta = sqrt2(eI * eI + eII2 * ie2);
+    sph_v2d Dreg = sel2((sph_v2l)(Delta > dmin), Delta, dmin);
+    sph_v2d zeta = P / (two * Dreg);
+    sph_v2d cap = splat2(p->zeta_max_factor) * P;
+    zeta = sel2((sph_v2l)(zeta > cap), cap, zeta);
+    sph_v2d eta = zeta * ie2;
+    sph_v2d Pr = p->replacement_pressure ? two * zeta * Delta : P;
+    sph_v2d iso = (zeta - eta) * eI - splat2(0.5) * Pr;
+    *s11 = two * eta * e11 + iso;
+    *s22 = two * eta * e22 + iso;
+    *s12 = two * eta * e12;
+    return zeta;
+}
+
+static inline void vp_stress_one(sph_model *m, size_t k, double *s11, double *s22, double *s12)
+{
+    const sph_particles *P = m->P;
+    if (!sph_stress_loose(m, k, s11, s22, s12))
+        m->zeta[k] = sph_vp_stress(&m->prm, P->pres[k], P->e11[k], P->e22[k], P->e12[k], &s11[k],
+                                   &s22[k], &s12[k]);
+}
+
+/* List entries 2i and 2i + 1 in two lanes where neither is loose. */
 static void vp_stress(sph_model *m, const int *list, size_t count, double *s11, double *s22,
                       double *s12)
 {
     const sph_particles *P = m->P;
     const sph_params *p = &m->prm;
+    const double inv_e2 = 1.0 / (p->ecc * p->ecc);
+    const size_t half = count / 2;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
-    for (size_t i = 0; i < count; i++) {
-        size_t k = list ? (size_t)list[i] : i;
-        if (!sph_stress_loose(m, k, s11, s22, s12))
-            m->zeta[k] = sph_vp_stress(p, P->pres[k], P->e11[k], P->e22[k], P->e12[k],
-                                       &s11[k], &s22[k], &s12[k]);
+    for (size_t i = 0; i < half; i++) {
+        size_t k0 = list ? (size_t)list[2 * i] : 2 * i, k1 = list ? (size_t)list[2 * i + 1] : 2 * i + 1;
+        if (m->loose[k0] || m->loose[k1]) {
+            vp_stress_one(m, k0, s11, s22, s12);
+            vp_stress_one(m, k1, s11, s22, s12);
+            continue;
+        }
+        sph_v2d a11, a22, a12;
+        sph_v2d z = vp_stress_two(p, inv_e2, ld2(P->pres, k0, k1), ld2(P->e11, k0, k1),
+                                  ld2(P->e22, k0, k1), ld2(P->e12, k0, k1), &a11, &a22, &a12);
+        st2(m->zeta, k0, k1, z);
+        st2(s11, k0, k1, a11);
+        st2(s22, k0, k1, a22);
+        st2(s12, k0, k1, a12);
     }
+    if (count % 2)
+        vp_stress_one(m, list ? (size_t)list[count - 1] : count - 1, s11, s22, s12);
 }
 
 /* zeta never exceeds either cap: P / (2 Delta_min) and zeta_max_factor P */
