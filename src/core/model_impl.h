@@ -134,6 +134,10 @@ struct sph_rheology_ops {
      * spacing `spacing`, with the refusal's message in *why; HUGE_VAL
      * where it imposes none. */
     double (*stable_dt)(const sph_params *p, double spacing, const char **why);
+    /* 1: stress is sph_vp_stress per particle (zeta into m->zeta, loose
+     * particles zero), which a solver may evaluate inline instead of
+     * calling stress (mEVP's fused stress and relaxation) */
+    int vp_law;
 };
 
 /* For a rheology's stress pass: a loose particle (free drift) carries no
@@ -166,6 +170,9 @@ struct sph_solver_ops {
      * `spacing`, with the refusal's message in *why; HUGE_VAL where
      * nothing bounds it (a solver that sub-steps itself or is implicit). */
     double (*stable_dt)(const sph_params *p, double spacing, const char **why);
+    /* 1: reads m->binv with the gradient correction off too (its identity,
+     * model.c prepare_lists); 0: only with the correction on */
+    int binv_always;
 };
 
 /* The table for sph_params.solver; NULL when out of range. */

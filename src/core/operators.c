@@ -275,13 +275,16 @@ static double coast_divergence(const sph_model *m, size_t k)
     const sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
     const size_t base = nb->off[k], n = P->n;
+    /* without the correction B^-1 is the identity, which m->binv holds only
+     * where a reader needs it (model.c prepare_lists): the same values */
+    static const double ident[3] = {1.0, 0.0, 1.0};
+    const double *bi = m->prm.gradient_correction ? m->binv + 6 * k : ident;
     double a = 0.0;
     for (int q = 0; q < nb->count[k]; q++) {
         size_t s = base + (size_t)q;
         size_t j = (size_t)nb->idx[s];
         if (j < n)
             continue;
-        const double *bi = m->binv + 6 * k;
         double gx = bi[0] * nb->gx[s] + bi[1] * nb->gy[s], gy = bi[1] * nb->gx[s] + bi[2] * nb->gy[s];
         a += P->mass[j] * ((P->u[j] - P->u[k]) * gx + (P->v[j] - P->v[k]) * gy);
     }

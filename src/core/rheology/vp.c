@@ -4,6 +4,7 @@
  * pressure. The per-particle law is sph_vp_stress (include/core/rheology.h). */
 #include "../lanes.h"
 #include "../model_impl.h"
+#include "vp_lanes.h"
 
 #include <math.h>
 
@@ -15,31 +16,6 @@
  * docs/dynamics.md): holds its steady state at 0.137 (5 km, 120 s),
  * drifts with growing kinetic energy at 0.205 (5 km 180 s; 2.5 km 90 s). */
 #define SPH_REPLACEMENT_COURANT_MAX 0.15
-
-/* sph_vp_stress (include/core/rheology.h) for two particles in two lanes,
- * each lane the scalar law's operations in its order (lanes.h); inv_e2 is
- * its 1 / e^2. Returns zeta. */
-static inline sph_v2d vp_stress_two(const sph_params *p, double inv_e2, sph_v2d P, sph_v2d e11,
-                                    sph_v2d e22, sph_v2d e12, sph_v2d *s11, sph_v2d *s22,
-                                    sph_v2d *s12)
-{
-    const sph_v2d ie2 = splat2(inv_e2), dmin = splat2(p->delta_min), two = splat2(2.0);
-    sph_v2d eI = e11 + e22;
-    sph_v2d d = e11 - e22;
-    sph_v2d eII2 = d * d + splat2(4.0) * e12 * e12;
-    sph_v2d Delta = sqrt2(eI * eI + eII2 * ie2);
-    sph_v2d Dreg = sel2((sph_v2l)(Delta > dmin), Delta, dmin);
-    sph_v2d zeta = P / (two * Dreg);
-    sph_v2d cap = splat2(p->zeta_max_factor) * P;
-    zeta = sel2((sph_v2l)(zeta > cap), cap, zeta);
-    sph_v2d eta = zeta * ie2;
-    sph_v2d Pr = p->replacement_pressure ? two * zeta * Delta : P;
-    sph_v2d iso = (zeta - eta) * eI - splat2(0.5) * Pr;
-    *s11 = two * eta * e11 + iso;
-    *s22 = two * eta * e22 + iso;
-    *s12 = two * eta * e12;
-    return zeta;
-}
 
 static inline void vp_stress_one(sph_model *m, size_t k, double *s11, double *s22, double *s12)
 {
@@ -66,7 +42,7 @@ static void vp_stress(sph_model *m, const int *list, size_t count, double *s11, 
             continue;
         }
         sph_v2d a11, a22, a12;
-        sph_v2d z = vp_stress_two(p, inv_e2, ld2(P->pres, k0, k1), ld2(P->e11, k0, k1),
+        sph_v2d z = sph_vp_stress_two(p, inv_e2, ld2(P->pres, k0, k1), ld2(P->e11, k0, k1),
                                   ld2(P->e22, k0, k1), ld2(P->e12, k0, k1), &a11, &a22, &a12);
         st2(m->zeta, k0, k1, z);
         st2(s11, k0, k1, a11);
@@ -134,6 +110,6 @@ static double vp_stable_dt(const sph_params *p, double spacing, const char **why
 }
 
 const sph_rheology_ops sph_rheology_vp = {
-    .name = "vp", .fields = 0, .stress = vp_stress, .zeta_bound = vp_zeta_bound,
+    .name = "vp", .fields = 0, .vp_law = 1, .stress = vp_stress, .zeta_bound = vp_zeta_bound,
     .project_memory = vp_project_memory, .stable_dt = vp_stable_dt,
 };

@@ -4,7 +4,9 @@
  * each iteration; its step is bounded by the measured stability envelope. */
 #include "../lanes.h"
 #include "../model_impl.h"
+#include "../rheology/vp_lanes.h"
 #include "core/dd.h"
+#include "core/rheology.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -117,12 +119,13 @@ typedef struct mevp_sums {
     double ds2, p2; /* squared stress changes and strengths (model.evp.change_tol) */
 } mevp_sums;
 
-/* The stress relaxation of particle k (alpha: aEVP's or the fixed one). */
-static inline void relax_one(sph_model *m, mevp_work *w, size_t k, double dt, double visc)
+/* The stress relaxation of particle k towards the rheology's stress
+ * (t11, t22, t12); alpha: aEVP's or the fixed one. */
+static inline void relax_one(sph_model *m, mevp_work *w, size_t k, double t11, double t22,
+                             double t12, double dt, double visc)
 {
     sph_particles *P = m->P;
     const sph_params *p = &m->prm;
-    double t11 = w->t11[k], t22 = w->t22[k], t12 = w->t12[k];
     double z = m->zeta[k];
     double alpha = p->evp_alpha;
     if (p->evp_adaptive) {
@@ -145,11 +148,11 @@ static inline void relax_one(sph_model *m, mevp_work *w, size_t k, double dt, do
 }
 
 /* relax_one for k0 and k1 in two lanes (lanes.h: the same bits). */
-static inline void relax_two(sph_model *m, mevp_work *w, size_t k0, size_t k1, double dt, double visc)
+static inline void relax_two(sph_model *m, mevp_work *w, size_t k0, size_t k1, sph_v2d t11,
+                             sph_v2d t22, sph_v2d t12, double dt, double visc)
 {
     sph_particles *P = m->P;
     const sph_params *p = &m->prm;
-    sph_v2d t11 = ld2(w->t11, k0, k1), t22 = ld2(w->t22, k0, k1), t12 = ld2(w->t12, k0, k1);
     sph_v2d alpha = splat2(p->evp_alpha);
     if (p->evp_adaptive) {
         sph_v2d z = ld2(m->zeta, k0, k1), h = ld2(P->sml, k0, k1);
@@ -167,20 +170,62 @@ static inline void relax_two(sph_model *m, mevp_work *w, size_t k0, size_t k1, d
     st2(P->s12, k0, k1, s12 + d12);
 }
 
+/* The VP law (rheology/vp.c's stress pass, per particle) and the
+ * relaxation of k in one go: no target-stress arrays in between. */
+static inline void vp_relax_one(sph_model *m, mevp_work *w, size_t k, double dt, double visc)
+{
+    const sph_particles *P = m->P;
+    double t11 = 0.0, t22 = 0.0, t12 = 0.0;
+    if (m->loose[k])
+        m->zeta[k] = 0.0; /* sph_stress_loose */
+    else
+        m->zeta[k] = sph_vp_stress(&m->prm, P->pres[k], P->e11[k], P->e22[k], P->e12[k], &t11, &t22,
+                                   &t12);
+    relax_one(m, w, k, t11, t22, t12, dt, visc);
+}
+
 /* The rheology's stress and its relaxation for the particles of list
  * (per particle: the order of the list does not matter); entries 2i and
- * 2i + 1 in two lanes. */
+ * 2i + 1 in two lanes. The VP law (rheology vp_law) is evaluated here,
+ * fused with the relaxation; another rheology's stress pass fills the
+ * workspace's target stress first. */
 static void mevp_relax(sph_model *m, mevp_work *w, const int *act, size_t na, double dt)
 {
     const sph_params *p = &m->prm;
-    m->rheo->stress(m, act, na, w->t11, w->t22, w->t12);
     const double visc = 1.0 + 1.0 / (p->ecc * p->ecc);
     const size_t half = na / 2;
+    if (m->rheo->vp_law) {
+        const sph_particles *P = m->P;
+        const double inv_e2 = 1.0 / (p->ecc * p->ecc);
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
-    for (size_t i = 0; i < half; i++)
-        relax_two(m, w, (size_t)act[2 * i], (size_t)act[2 * i + 1], dt, visc);
-    if (na % 2)
-        relax_one(m, w, (size_t)act[na - 1], dt, visc);
+        for (size_t i = 0; i < half; i++) {
+            size_t k0 = (size_t)act[2 * i], k1 = (size_t)act[2 * i + 1];
+            if (m->loose[k0] || m->loose[k1]) {
+                vp_relax_one(m, w, k0, dt, visc);
+                vp_relax_one(m, w, k1, dt, visc);
+                continue;
+            }
+            sph_v2d t11, t22, t12;
+            sph_v2d z = sph_vp_stress_two(p, inv_e2, ld2(P->pres, k0, k1), ld2(P->e11, k0, k1),
+                                          ld2(P->e22, k0, k1), ld2(P->e12, k0, k1), &t11, &t22, &t12);
+            st2(m->zeta, k0, k1, z);
+            relax_two(m, w, k0, k1, t11, t22, t12, dt, visc);
+        }
+        if (na % 2)
+            vp_relax_one(m, w, (size_t)act[na - 1], dt, visc);
+        return;
+    }
+    m->rheo->stress(m, act, na, w->t11, w->t22, w->t12);
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
+    for (size_t i = 0; i < half; i++) {
+        size_t k0 = (size_t)act[2 * i], k1 = (size_t)act[2 * i + 1];
+        relax_two(m, w, k0, k1, ld2(w->t11, k0, k1), ld2(w->t22, k0, k1), ld2(w->t12, k0, k1), dt,
+                  visc);
+    }
+    if (na % 2) {
+        size_t k = (size_t)act[na - 1];
+        relax_one(m, w, k, w->t11[k], w->t22[k], w->t12[k], dt, visc);
+    }
 }
 
 /* Splits the active set into interior particles (owned, every neighbour
