@@ -190,6 +190,11 @@ void sph_mark_near_land(sph_model *m, double radius);
 void sph_build_ghosts(sph_model *m);
 void sph_ghost_velocity(sph_model *m, double *u, double *v, int mirror);
 void sph_ghost_stress(sph_model *m);
+/* The air stress on each ghost's source into air[2 g], air[2 g + 1] (m->ng
+ * ghosts), and sph_ghost_stress with it (NULL: computed there): for a
+ * solver that calls the ghost stress many times in a step. */
+void sph_ghost_air_setup(sph_model *m, double *air);
+void sph_ghost_stress_air(sph_model *m, const double *air);
 void sph_move_and_constrain(sph_model *m);
 void sph_remove_outflow(sph_model *m);
 

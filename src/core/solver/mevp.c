@@ -39,6 +39,7 @@ typedef struct mevp_work {
      * tay / rho_h), which a step's iterations do not change: computed once
      * per step for the active set (the same operations, the same bits) */
     double *qax, *qay;
+    double *gair; /* [2 x slots] the air stress on each coast ghost's source, once per step */
     /* model.evp.anderson (depth > 0 at create): the iterate before the
      * sweep, the last sweep's residual f = g(x) - x and image g, and the
      * ring of their differences; 5 components (u, v, s11, s22, s12) of
@@ -62,6 +63,7 @@ static void mevp_free(void *ws)
     free(w->ds2);
     free(w->qax);
     free(w->qay);
+    free(w->gair);
     free(w->inner);
     free(w->outer);
     free(w->x0);
@@ -86,9 +88,10 @@ static int mevp_create(const sph_model *m, void **ws)
     w->ds2 = calloc(n, sizeof(double));
     w->qax = calloc(n, sizeof(double));
     w->qay = calloc(n, sizeof(double));
+    w->gair = calloc(2 * n, sizeof(double));
     w->inner = malloc((n + 1) * sizeof(int));
     w->outer = malloc((n + 1) * sizeof(int));
-    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2 && w->qax && w->qay && w->inner &&
+    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2 && w->qax && w->qay && w->gair && w->inner &&
              w->outer;
     w->depth = m->prm.evp_anderson;
     w->nslot = n;
@@ -184,6 +187,8 @@ static inline void vp_relax_one(sph_model *m, mevp_work *w, size_t k, double dt,
     relax_one(m, w, k, t11, t22, t12, dt, visc);
 }
 
+#define MEVP_VP_BLOCK 32
+
 /* The rheology's stress and its relaxation for the particles of list
  * (per particle: the order of the list does not matter); entries 2i and
  * 2i + 1 in two lanes. The VP law (rheology vp_law) is evaluated here,
@@ -195,21 +200,38 @@ static void mevp_relax(sph_model *m, mevp_work *w, const int *act, size_t na, do
     const double visc = 1.0 + 1.0 / (p->ecc * p->ecc);
     const size_t half = na / 2;
     if (m->rheo->vp_law) {
+        /* blocks of MEVP_VP_BLOCK pairs: the law for the block into a
+         * buffer on the stack, then the block's relaxation (two short
+         * chains of divisions and roots, as the two passes had, instead of
+         * one long one per pair) */
         const sph_particles *P = m->P;
         const double inv_e2 = 1.0 / (p->ecc * p->ecc);
+        const size_t nblk = (half + MEVP_VP_BLOCK - 1) / MEVP_VP_BLOCK;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
-        for (size_t i = 0; i < half; i++) {
-            size_t k0 = (size_t)act[2 * i], k1 = (size_t)act[2 * i + 1];
-            if (m->loose[k0] || m->loose[k1]) {
-                vp_relax_one(m, w, k0, dt, visc);
-                vp_relax_one(m, w, k1, dt, visc);
-                continue;
+        for (size_t b = 0; b < nblk; b++) {
+            sph_v2d t11[MEVP_VP_BLOCK], t22[MEVP_VP_BLOCK], t12[MEVP_VP_BLOCK];
+            unsigned char lz[MEVP_VP_BLOCK];
+            const size_t i0 = b * MEVP_VP_BLOCK;
+            const size_t i1 = i0 + MEVP_VP_BLOCK < half ? i0 + MEVP_VP_BLOCK : half;
+            for (size_t i = i0; i < i1; i++) {
+                size_t k0 = (size_t)act[2 * i], k1 = (size_t)act[2 * i + 1];
+                lz[i - i0] = m->loose[k0] || m->loose[k1];
+                if (lz[i - i0])
+                    continue;
+                sph_v2d z = sph_vp_stress_two(p, inv_e2, ld2(P->pres, k0, k1), ld2(P->e11, k0, k1),
+                                              ld2(P->e22, k0, k1), ld2(P->e12, k0, k1), &t11[i - i0],
+                                              &t22[i - i0], &t12[i - i0]);
+                st2(m->zeta, k0, k1, z);
             }
-            sph_v2d t11, t22, t12;
-            sph_v2d z = sph_vp_stress_two(p, inv_e2, ld2(P->pres, k0, k1), ld2(P->e11, k0, k1),
-                                          ld2(P->e22, k0, k1), ld2(P->e12, k0, k1), &t11, &t22, &t12);
-            st2(m->zeta, k0, k1, z);
-            relax_two(m, w, k0, k1, t11, t22, t12, dt, visc);
+            for (size_t i = i0; i < i1; i++) {
+                size_t k0 = (size_t)act[2 * i], k1 = (size_t)act[2 * i + 1];
+                if (lz[i - i0]) {
+                    vp_relax_one(m, w, k0, dt, visc);
+                    vp_relax_one(m, w, k1, dt, visc);
+                } else {
+                    relax_two(m, w, k0, k1, t11[i - i0], t22[i - i0], t12[i - i0], dt, visc);
+                }
+            }
         }
         if (na % 2)
             vp_relax_one(m, w, (size_t)act[na - 1], dt, visc);
@@ -330,7 +352,7 @@ static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pendi
         sph_strain_pass(m, act, na);
         mevp_relax(m, w, act, na, dt);
     }
-    sph_ghost_stress(m);
+    sph_ghost_stress_air(m, w->gair);
     sph_divergence_pass(m, act, na);
     /* velocity update, entries 2i and 2i + 1 of the active set in two
      * lanes; the max change is reduced serially afterwards */
@@ -539,6 +561,7 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
     if (overlap)
         mevp_split(m, w);
     momentum_setup(m, w);
+    sph_ghost_air_setup(m, w->gair);
     for (it = 0; it < p->evp_iterations; it++) {
         if (aa)
             aa_save(m, w);
