@@ -52,7 +52,12 @@ typedef struct sph_nbr {
     int *count;      /* [cap] neighbours of each query particle (self included) */
     size_t *off;     /* [cap] first slot of each query particle's list */
     int *idx;        /* [cap * max_nb] */
-    double *w;       /* [cap * max_nb] W_kj */
+    double *w;       /* [cap * max_nb] W_kj, written only while keep_w */
+    /* 1 (sph_nbr_create's default): builds store W_kj; 0: they do not, and
+     * w's pages are never touched (the model clears it where no pass reads
+     * W: without summation density and the collision rheology's v';
+     * 8 bytes per pair, 112 MB at 1.25e6 particles) */
+    int keep_w;
     double *gx, *gy; /* [cap * max_nb] grad_k W_kj */
     /* cell grid of the last build */
     size_t max_cells;

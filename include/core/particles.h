@@ -170,6 +170,10 @@ typedef struct sph_particles {
 /* Allocates every array for `cap` particles and `nlayers` layers (zeroed,
  * forcing NaN-free defaults: fsens/flat NaN). Returns NULL on failure. */
 sph_particles *sph_particles_create(size_t cap, int nlayers);
+/* The same with the fluxes' "not given" (fsens, flat NaN) written for the
+ * first `live` slots only (at most cap): the slots beyond are a model's coast
+ * ghosts, whose fluxes nothing reads, and their pages stay untouched. */
+sph_particles *sph_particles_create_live(size_t cap, size_t live, int nlayers);
 void sph_particles_free(sph_particles *p); /* NULL does nothing */
 /* Removes particle k by moving the last one into its slot (O(1)). */
 void sph_particles_remove(sph_particles *p, size_t k);

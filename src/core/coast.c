@@ -294,13 +294,22 @@ void sph_ghost_velocity(sph_model *m, double *u, double *v, int mirror)
  * coast never pulls. Without it the first rows at a wall compressed until
  * their own stress made up the missing gradient (R300: 2.1 m instead of
  * 1.27 m at the wall). Corner ghosts (two walls) are mirrored only. */
-static double ghost_normal_force(const sph_model *m, size_t k, double nx, double ny)
+/* The air stress on ghost g's source (the first part of ghost_normal_force:
+ * wind and drag factor do not change within a step). */
+static inline void ghost_air(const sph_model *m, size_t k, double *tax, double *tay)
 {
     const sph_particles *P = m->P;
     const sph_params *p = &m->prm;
     double ua = P->ua[k], va = P->va[k], sa = hypot(ua, va);
-    double tax = p->rho_a * p->Ca * sa * (ua * m->cos_air - va * m->sin_air);
-    double tay = p->rho_a * p->Ca * sa * (ua * m->sin_air + va * m->cos_air);
+    *tax = p->rho_a * p->Ca * sa * (ua * m->cos_air - va * m->sin_air);
+    *tay = p->rho_a * p->Ca * sa * (ua * m->sin_air + va * m->cos_air);
+}
+
+static double ghost_normal_force(const sph_model *m, size_t k, double nx, double ny, double tax,
+                                 double tay)
+{
+    const sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
     double rx = P->uw[k] - P->u[k], ry = P->vw[k] - P->v[k], sw = hypot(rx, ry);
     double twx = p->rho_w * p->Cw * sw * (rx * m->cos_water - ry * m->sin_water);
     double twy = p->rho_w * p->Cw * sw * (rx * m->sin_water + ry * m->cos_water);
@@ -310,7 +319,13 @@ static double ghost_normal_force(const sph_model *m, size_t k, double nx, double
     return fx * nx + fy * ny;
 }
 
-void sph_ghost_stress(sph_model *m)
+void sph_ghost_air_setup(sph_model *m, double *air)
+{
+    for (size_t g = 0; g < m->ng; g++)
+        ghost_air(m, (size_t)m->ghost_src[g], &air[2 * g], &air[2 * g + 1]);
+}
+
+void sph_ghost_stress_air(sph_model *m, const double *air)
 {
     sph_particles *P = m->P;
     size_t n = P->n;
@@ -321,7 +336,14 @@ void sph_ghost_stress(sph_model *m)
                                m->ghost_n2y[g], &a, &b, &c);
         double nx = m->ghost_nx[g], ny = m->ghost_ny[g];
         if (m->ghost_n2x[g] == 0.0 && m->ghost_n2y[g] == 0.0) {
-            double fn = ghost_normal_force(m, k, nx, ny);
+            double tax, tay;
+            if (air) {
+                tax = air[2 * g];
+                tay = air[2 * g + 1];
+            } else {
+                ghost_air(m, k, &tax, &tay);
+            }
+            double fn = ghost_normal_force(m, k, nx, ny, tax, tay);
             if (fn < 0.0) {
                 double d = 0.5 * ((P->x[k] - P->x[q]) * nx + (P->y[k] - P->y[q]) * ny);
                 /* at most the ice's own strength: a stress step the ice
@@ -342,6 +364,7 @@ void sph_ghost_stress(sph_model *m)
     }
 }
 
+void sph_ghost_stress(sph_model *m) { sph_ghost_stress_air(m, NULL); }
 
 /* Keeps particles out of land; removes those leaving an open boundary. */
 void sph_move_and_constrain(sph_model *m)

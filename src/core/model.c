@@ -79,7 +79,8 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
      * take memory) */
     int parcels_run = p->physics == SPH_PHYSICS_FREE_DRIFT && p->free_drift_parcels;
     size_t c2 = with_mask && !parcels_run ? 4 * cap : cap;
-    m->P = sph_particles_create(c2, nl);
+    /* the slots beyond cap are ghosts only (start_checks: n <= cap) */
+    m->P = sph_particles_create_live(c2, cap, nl);
     m->nb = sph_nbr_create(cap, c2, p->max_neighbours);
     m->ghost_src = calloc(c2, sizeof(int));
     m->ghost_nx = calloc(c2, sizeof(double));
@@ -286,13 +287,22 @@ static int prepare_lists(sph_model *m, sph_status *st)
     /* B^-1 = I (no correction) for the slots in use: set once per slot, so
      * that the pages beyond the live particles and ghosts stay untouched
      * (4 x capacity x 48 bytes with a land mask; 190 MB at 1e6) */
-    for (size_t q = m->binv_ident; q < nall; q++) {
-        double *b = m->binv + 6 * q;
-        b[0] = b[2] = b[3] = b[5] = 1.0;
-        b[1] = b[4] = 0.0;
+    /* Only where B^-1 is read: with the correction (whose pass overwrites
+     * every slot in use) or by a solver that reads the identity too
+     * (solver->binv_always); elsewhere its pages stay untouched (48 bytes
+     * per slot: 57 MB at 1.25e6 particles) */
+    if (m->prm.gradient_correction || m->solver->binv_always) {
+        for (size_t q = m->binv_ident; q < nall; q++) {
+            double *b = m->binv + 6 * q;
+            b[0] = b[2] = b[3] = b[5] = 1.0;
+            b[1] = b[4] = 0.0;
+        }
+        if (nall > m->binv_ident)
+            m->binv_ident = nall;
     }
-    if (nall > m->binv_ident)
-        m->binv_ident = nall;
+    /* W_kj is read by the summation density and the collision rheology's
+     * v' only: otherwise the lists leave it out (8 bytes per pair) */
+    m->nb->keep_w = m->prm.summation_density || (m->rheo->fields & SPH_RHEO_FIELD_VFLUCT) != 0;
     double cell = m->kern.radius * sph_max_sml(P, nall);
     sph_nbr_grid(m->nb, nall, P->x, P->y, cell);
     long over = -1;

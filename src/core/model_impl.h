@@ -134,6 +134,10 @@ struct sph_rheology_ops {
      * spacing `spacing`, with the refusal's message in *why; HUGE_VAL
      * where it imposes none. */
     double (*stable_dt)(const sph_params *p, double spacing, const char **why);
+    /* 1: stress is sph_vp_stress per particle (zeta into m->zeta, loose
+     * particles zero), which a solver may evaluate inline instead of
+     * calling stress (mEVP's fused stress and relaxation) */
+    int vp_law;
 };
 
 /* For a rheology's stress pass: a loose particle (free drift) carries no
@@ -166,6 +170,9 @@ struct sph_solver_ops {
      * `spacing`, with the refusal's message in *why; HUGE_VAL where
      * nothing bounds it (a solver that sub-steps itself or is implicit). */
     double (*stable_dt)(const sph_params *p, double spacing, const char **why);
+    /* 1: reads m->binv with the gradient correction off too (its identity,
+     * model.c prepare_lists); 0: only with the correction on */
+    int binv_always;
 };
 
 /* The table for sph_params.solver; NULL when out of range. */
@@ -183,6 +190,11 @@ void sph_mark_near_land(sph_model *m, double radius);
 void sph_build_ghosts(sph_model *m);
 void sph_ghost_velocity(sph_model *m, double *u, double *v, int mirror);
 void sph_ghost_stress(sph_model *m);
+/* The air stress on each ghost's source into air[2 g], air[2 g + 1] (m->ng
+ * ghosts), and sph_ghost_stress with it (NULL: computed there): for a
+ * solver that calls the ghost stress many times in a step. */
+void sph_ghost_air_setup(sph_model *m, double *air);
+void sph_ghost_stress_air(sph_model *m, const double *air);
 void sph_move_and_constrain(sph_model *m);
 void sph_remove_outflow(sph_model *m);
 

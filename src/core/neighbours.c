@@ -15,6 +15,7 @@ sph_nbr *sph_nbr_create(size_t cap, size_t cap_all, int max_nb)
     nb->cap = cap;
     nb->max_nb = max_nb;
     nb->cap_all = cap_all;
+    nb->keep_w = 1;
     nb->max_cells = 4 * cap_all + 64;
     size_t pairs = cap * (size_t)max_nb;
     nb->count = calloc(cap, sizeof(int));
@@ -137,7 +138,8 @@ static inline void add_pair(sph_nbr *nb, const sph_kernel *k, size_t q, int j, c
     sph_kernel_eval(k, r2, hh, &W, &F);
     size_t s = base + (size_t)*cnt;
     nb->idx[s] = j;
-    nb->w[s] = W;
+    if (nb->keep_w)
+        nb->w[s] = W;
     nb->gx[s] = F * dx;
     nb->gy[s] = F * dy;
     (*cnt)++;

@@ -6,13 +6,11 @@
 #include "model_impl.h"
 
 #include <math.h>
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
 
 #include "core/kernel.h"
 #include "core/neighbours.h"
 #include "core/rheology.h"
+#include "lanes.h"
 
 /* ------------------------------------------------------------------ */
 /* SPH passes                                                          */
@@ -119,12 +117,7 @@ void sph_select_active(sph_model *m)
  * -std=c11). The common part of the two lists runs in the lanes, each
  * longer list's rest in scalar code, so every particle's result is bit
  * for bit the scalar pass's. */
-typedef double sph_v2d __attribute__((vector_size(16)));
-
-static inline sph_v2d ld2(const double *a, size_t i0, size_t i1)
-{
-    return (sph_v2d){a[i0], a[i1]};
-}
+/* (sph_v2d, ld2: lanes.h) */
 
 /* Strain rates (seed eq. 15, sign settled by the linear-field test) and
  * the fluctuating velocity for the collision rheology, for the listed
@@ -209,11 +202,12 @@ static inline __attribute__((always_inline)) void strain_one(sph_model *m, size_
 /* The strain rates of k0 and k1 in two lanes (no v'; gc: the gradient
  * correction, a constant in each instantiation). */
 static inline __attribute__((always_inline)) void strain_two(sph_model *m, size_t k0, size_t k1,
-                                                            int gc)
+                                                            int gc, int packed)
 {
     const sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
     const double *restrict u = P->u, *restrict v = P->v, *restrict mass = P->mass;
+    const double *restrict pk = nb->pk;
     const double *restrict gxs = nb->gx, *restrict gys = nb->gy;
     const int *restrict idx = nb->idx;
     const size_t b0 = nb->off[k0], b1 = nb->off[k1];
@@ -223,9 +217,20 @@ static inline __attribute__((always_inline)) void strain_two(sph_model *m, size_
     for (int q = 0; q < cm; q++) {
         size_t s0 = b0 + (size_t)q, s1 = b1 + (size_t)q;
         size_t j0 = (size_t)idx[s0], j1 = (size_t)idx[s1];
-        sph_v2d du = ld2(u, j0, j1) - uk, dv = ld2(v, j0, j1) - vk;
+        sph_v2d du, dv, mj;
+        if (packed) { /* pack_velocity_slot's records: (u, v) in one 16-byte load */
+            const sph_v2d *r0 = (const sph_v2d *)(const void *)(pk + 4 * j0),
+                          *r1 = (const sph_v2d *)(const void *)(pk + 4 * j1);
+            const sph_v2d a0 = r0[0], a1 = r1[0];
+            du = (sph_v2d){a0[0], a1[0]} - uk;
+            dv = (sph_v2d){a0[1], a1[1]} - vk;
+            mj = (sph_v2d){pk[4 * j0 + 2], pk[4 * j1 + 2]};
+        } else {
+            du = ld2(u, j0, j1) - uk;
+            dv = ld2(v, j0, j1) - vk;
+            mj = ld2(mass, j0, j1);
+        }
         sph_v2d gx = ld2(gxs, s0, s1), gy = ld2(gys, s0, s1);
-        sph_v2d mj = ld2(mass, j0, j1);
         a11 += mj * du * gx;
         a22 += mj * dv * gy;
         if (gc) {
@@ -243,6 +248,16 @@ static inline __attribute__((always_inline)) void strain_two(sph_model *m, size_
     strain_finish(m, k1, gc, 0, acc1);
 }
 
+/* The strain pass's per-slot record in nb->pk (u, v, m_j; the divergence
+ * fills its own afterwards): the pair loop gathers one record per
+ * neighbour instead of three arrays (the same values, bit for bit). */
+static inline void pack_velocity_slot(const sph_particles *P, double *pk, size_t j)
+{
+    pk[0] = P->u[j];
+    pk[1] = P->v[j];
+    pk[2] = P->mass[j];
+}
+
 #define SPH_LIST_K(i) (list ? (size_t)list[(i)] : (size_t)(i))
 #define SPH_STRAIN_LOOP(GC, FL)                                                                \
     _Pragma("omp parallel for schedule(static) if (SPH_OMP_WORTH(count))")                  \
@@ -254,16 +269,38 @@ void sph_strain_pass(sph_model *m, const int *list, size_t count)
     int want_fluct = (m->rheo->fields & SPH_RHEO_FIELD_VFLUCT) != 0;
     const int gc = m->prm.gradient_correction != 0;
     if (!want_fluct) {
-        /* list entries 2i and 2i + 1 in two lanes */
-        const size_t half = count / 2;
-        if (gc) {
-#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
-            for (size_t i = 0; i < half; i++)
-                strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 1);
-        } else {
-#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
-            for (size_t i = 0; i < half; i++)
-                strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0);
+        /* list entries 2i and 2i + 1 in two lanes; where the lists visit
+         * more pairs than there are slots, through per-slot records */
+        const sph_nbr *nb = m->nb;
+        const size_t nall = m->P->n + m->ng, half = count / 2;
+        size_t pairs = 0;
+        for (size_t i = 0; i < count; i++)
+            pairs += (size_t)nb->count[SPH_LIST_K(i)];
+        const int packed = pairs > nall && nb->pk;
+#pragma omp parallel if (SPH_OMP_WORTH(count))
+        {
+            if (packed) {
+#pragma omp for schedule(static)
+                for (size_t j = 0; j < nall; j++)
+                    pack_velocity_slot(m->P, nb->pk + 4 * j, j);
+            }
+            if (gc && packed) {
+#pragma omp for schedule(static)
+                for (size_t i = 0; i < half; i++)
+                    strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 1, 1);
+            } else if (gc) {
+#pragma omp for schedule(static)
+                for (size_t i = 0; i < half; i++)
+                    strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 1, 0);
+            } else if (packed) {
+#pragma omp for schedule(static)
+                for (size_t i = 0; i < half; i++)
+                    strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0, 1);
+            } else {
+#pragma omp for schedule(static)
+                for (size_t i = 0; i < half; i++)
+                    strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0, 0);
+            }
         }
         if (count % 2)
             strain_one(m, SPH_LIST_K(count - 1), gc, 0);
@@ -282,13 +319,16 @@ static double coast_divergence(const sph_model *m, size_t k)
     const sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
     const size_t base = nb->off[k], n = P->n;
+    /* without the correction B^-1 is the identity, which m->binv holds only
+     * where a reader needs it (model.c prepare_lists): the same values */
+    static const double ident[3] = {1.0, 0.0, 1.0};
+    const double *bi = m->prm.gradient_correction ? m->binv + 6 * k : ident;
     double a = 0.0;
     for (int q = 0; q < nb->count[k]; q++) {
         size_t s = base + (size_t)q;
         size_t j = (size_t)nb->idx[s];
         if (j < n)
             continue;
-        const double *bi = m->binv + 6 * k;
         double gx = bi[0] * nb->gx[s] + bi[1] * nb->gy[s], gy = bi[1] * nb->gx[s] + bi[2] * nb->gy[s];
         a += P->mass[j] * ((P->u[j] - P->u[k]) * gx + (P->v[j] - P->v[k]) * gy);
     }
@@ -376,9 +416,13 @@ static inline __attribute__((always_inline)) void divergence_two(const sph_model
     for (int q = 0; q < cm; q++) {
         size_t s0 = b0 + (size_t)q, s1 = b1 + (size_t)q;
         size_t j0 = (size_t)idx[s0], j1 = (size_t)idx[s1];
-        const double *r0 = pk + 4 * j0, *r1 = pk + 4 * j1;
-        sph_v2d t11 = (sph_v2d){r0[0], r1[0]} + tk11, t22 = (sph_v2d){r0[1], r1[1]} + tk22,
-                t12 = (sph_v2d){r0[2], r1[2]} + tk12;
+        /* each record as two 16-byte loads (pk is 32-byte aligned), the
+         * lanes' values paired by unpacking: half the loads of one per value */
+        const sph_v2d *r0 = (const sph_v2d *)(const void *)(pk + 4 * j0),
+                      *r1 = (const sph_v2d *)(const void *)(pk + 4 * j1);
+        const sph_v2d a0 = r0[0], a1 = r1[0], e0 = r0[1], e1 = r1[1];
+        sph_v2d t11 = (sph_v2d){a0[0], a1[0]} + tk11, t22 = (sph_v2d){a0[1], a1[1]} + tk22,
+                t12 = (sph_v2d){e0[0], e1[0]} + tk12;
         sph_v2d gx = ld2(gxs, s0, s1), gy = ld2(gys, s0, s1);
         if (gc) {
             const size_t p0 = 6 * j0 + 3, p1 = 6 * j1 + 3;
@@ -388,7 +432,7 @@ static inline __attribute__((always_inline)) void divergence_two(const sph_model
             gy = 0.5 * (c1v * gx + c2v * gy);
             gx = cx;
         }
-        sph_v2d mj = {r0[3], r1[3]};
+        sph_v2d mj = {e0[1], e1[1]};
         ax += mj * (t11 * gx + t12 * gy);
         ay += mj * (t12 * gx + t22 * gy);
     }
@@ -577,16 +621,7 @@ static inline double parcel_newton(const parcel_sys *q0, double cw, double sw)
  * on their latency). */
 #define PARCEL_LANES 8
 #if defined(__GNUC__)
-typedef long long sph_v2l __attribute__((vector_size(16)));
-#if defined(__SSE2__)
-static inline sph_v2d sqrt2(sph_v2d x) { return (sph_v2d)_mm_sqrt_pd((__m128d)x); }
-#else
-static inline sph_v2d sqrt2(sph_v2d x) { return (sph_v2d){sqrt(x[0]), sqrt(x[1])}; }
-#endif
-static inline sph_v2d sel2(sph_v2l keep, sph_v2d old, sph_v2d nw)
-{
-    return (sph_v2d)((keep & (sph_v2l)old) | (~keep & (sph_v2l)nw));
-}
+/* (sph_v2l, sqrt2, sel2: lanes.h) */
 
 /* One Newton step in two lanes (parcel_newton's operations, same order). */
 static inline __attribute__((always_inline)) void newton_two(sph_v2d a, sph_v2d b, sph_v2d G, sph_v2d vcw,

@@ -21,6 +21,11 @@ const sph_particle_field sph_particle_fields[SPH_PARTICLE_NFIELDS] = {
 
 sph_particles *sph_particles_create(size_t cap, int nlayers)
 {
+    return sph_particles_create_live(cap, cap, nlayers);
+}
+
+sph_particles *sph_particles_create_live(size_t cap, size_t live, int nlayers)
+{
     if (cap == 0 || nlayers < 1 || nlayers > SPH_MAX_LAYERS)
         return NULL;
     sph_particles *p = calloc(1, sizeof *p);
@@ -37,7 +42,7 @@ sph_particles *sph_particles_create(size_t cap, int nlayers)
         sph_particles_free(p);
         return NULL;
     }
-    for (size_t k = 0; k < cap; k++) {
+    for (size_t k = 0; k < live && k < cap; k++) {
         p->fsens[k] = NAN;
         p->flat[k] = NAN;
     }

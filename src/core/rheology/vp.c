@@ -2,7 +2,9 @@
  * list, its viscosity bound, the projection of the EVP stress memory onto
  * the yield ellipse, and the plastic-wave step bound with replacement
  * pressure. The per-particle law is sph_vp_stress (include/core/rheology.h). */
+#include "../lanes.h"
 #include "../model_impl.h"
+#include "vp_lanes.h"
 
 #include <math.h>
 
@@ -15,18 +17,40 @@
  * drifts with growing kinetic energy at 0.205 (5 km 180 s; 2.5 km 90 s). */
 #define SPH_REPLACEMENT_COURANT_MAX 0.15
 
+static inline void vp_stress_one(sph_model *m, size_t k, double *s11, double *s22, double *s12)
+{
+    const sph_particles *P = m->P;
+    if (!sph_stress_loose(m, k, s11, s22, s12))
+        m->zeta[k] = sph_vp_stress(&m->prm, P->pres[k], P->e11[k], P->e22[k], P->e12[k], &s11[k],
+                                   &s22[k], &s12[k]);
+}
+
+/* List entries 2i and 2i + 1 in two lanes where neither is loose. */
 static void vp_stress(sph_model *m, const int *list, size_t count, double *s11, double *s22,
                       double *s12)
 {
     const sph_particles *P = m->P;
     const sph_params *p = &m->prm;
+    const double inv_e2 = 1.0 / (p->ecc * p->ecc);
+    const size_t half = count / 2;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
-    for (size_t i = 0; i < count; i++) {
-        size_t k = list ? (size_t)list[i] : i;
-        if (!sph_stress_loose(m, k, s11, s22, s12))
-            m->zeta[k] = sph_vp_stress(p, P->pres[k], P->e11[k], P->e22[k], P->e12[k],
-                                       &s11[k], &s22[k], &s12[k]);
+    for (size_t i = 0; i < half; i++) {
+        size_t k0 = list ? (size_t)list[2 * i] : 2 * i, k1 = list ? (size_t)list[2 * i + 1] : 2 * i + 1;
+        if (m->loose[k0] || m->loose[k1]) {
+            vp_stress_one(m, k0, s11, s22, s12);
+            vp_stress_one(m, k1, s11, s22, s12);
+            continue;
+        }
+        sph_v2d a11, a22, a12;
+        sph_v2d z = sph_vp_stress_two(p, inv_e2, ld2(P->pres, k0, k1), ld2(P->e11, k0, k1),
+                                  ld2(P->e22, k0, k1), ld2(P->e12, k0, k1), &a11, &a22, &a12);
+        st2(m->zeta, k0, k1, z);
+        st2(s11, k0, k1, a11);
+        st2(s22, k0, k1, a22);
+        st2(s12, k0, k1, a12);
     }
+    if (count % 2)
+        vp_stress_one(m, list ? (size_t)list[count - 1] : count - 1, s11, s22, s12);
 }
 
 /* zeta never exceeds either cap: P / (2 Delta_min) and zeta_max_factor P */
@@ -86,6 +110,6 @@ static double vp_stable_dt(const sph_params *p, double spacing, const char **why
 }
 
 const sph_rheology_ops sph_rheology_vp = {
-    .name = "vp", .fields = 0, .stress = vp_stress, .zeta_bound = vp_zeta_bound,
+    .name = "vp", .fields = 0, .vp_law = 1, .stress = vp_stress, .zeta_bound = vp_zeta_bound,
     .project_memory = vp_project_memory, .stable_dt = vp_stable_dt,
 };

@@ -326,5 +326,5 @@ static int implicit_solve(sph_model *m, void *ws, sph_status *st)
 /* no measured bound */
 const sph_solver_ops sph_solver_implicit = {
     .name = "implicit", .create = implicit_create, .free = implicit_free,
-    .solve = implicit_solve, .stable_dt = NULL,
+    .solve = implicit_solve, .stable_dt = NULL, .binv_always = 1,
 };

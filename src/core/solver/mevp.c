@@ -2,8 +2,11 @@
  * pseudo-time iterations whose fixed point is the implicit time-discrete
  * momentum equation. Its workspace holds the rheology's target stress of
  * each iteration; its step is bounded by the measured stability envelope. */
+#include "../lanes.h"
 #include "../model_impl.h"
+#include "../rheology/vp_lanes.h"
 #include "core/dd.h"
+#include "core/rheology.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -32,6 +35,11 @@ typedef struct mevp_work {
     int *inner, *outer;
     size_t ninner, nouter;
     double *ds2;             /* per particle: squared stress change of the last iteration */
+    /* per particle: the air stress over M (sph_momentum's tax / rho_h,
+     * tay / rho_h), which a step's iterations do not change: computed once
+     * per step for the active set (the same operations, the same bits) */
+    double *qax, *qay;
+    double *gair; /* [2 x slots] the air stress on each coast ghost's source, once per step */
     /* model.evp.anderson (depth > 0 at create): the iterate before the
      * sweep, the last sweep's residual f = g(x) - x and image g, and the
      * ring of their differences; 5 components (u, v, s11, s22, s12) of
@@ -53,6 +61,9 @@ static void mevp_free(void *ws)
     free(w->t12);
     free(w->res2);
     free(w->ds2);
+    free(w->qax);
+    free(w->qay);
+    free(w->gair);
     free(w->inner);
     free(w->outer);
     free(w->x0);
@@ -75,9 +86,13 @@ static int mevp_create(const sph_model *m, void **ws)
     w->t12 = calloc(n, sizeof(double));
     w->res2 = calloc(n, sizeof(double));
     w->ds2 = calloc(n, sizeof(double));
+    w->qax = calloc(n, sizeof(double));
+    w->qay = calloc(n, sizeof(double));
+    w->gair = calloc(2 * n, sizeof(double));
     w->inner = malloc((n + 1) * sizeof(int));
     w->outer = malloc((n + 1) * sizeof(int));
-    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2 && w->inner && w->outer;
+    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2 && w->qax && w->qay && w->gair && w->inner &&
+             w->outer;
     w->depth = m->prm.evp_anderson;
     w->nslot = n;
     if (ok && w->depth > 0) {
@@ -107,37 +122,131 @@ typedef struct mevp_sums {
     double ds2, p2; /* squared stress changes and strengths (model.evp.change_tol) */
 } mevp_sums;
 
-/* The rheology's stress and its relaxation for the particles of list
- * (per particle: the order of the list does not matter). */
-static void mevp_relax(sph_model *m, mevp_work *w, const int *act, size_t na, double dt)
+/* The stress relaxation of particle k towards the rheology's stress
+ * (t11, t22, t12); alpha: aEVP's or the fixed one. */
+static inline void relax_one(sph_model *m, mevp_work *w, size_t k, double t11, double t22,
+                             double t12, double dt, double visc)
 {
     sph_particles *P = m->P;
     const sph_params *p = &m->prm;
+    double z = m->zeta[k];
+    double alpha = p->evp_alpha;
+    if (p->evp_adaptive) {
+        /* aEVP (Kimmritz, Losch & Danilov 2016): alpha = beta = 2 sqrt(gamma),
+         * gamma = dt lambda_max of the SPH viscous operator. Power
+         * iteration on lattices gives lambda_max h^2 / nu = 0.68-0.74
+         * (Gaussian, h = dx) and 1.15-1.23 (Wendland C2, cubic spline,
+         * h = 1.3 dx), nu = zeta (1 + e^-2) / M; SPH_VISCOUS_EIG = 1.25
+         * bounds them all (docs/dynamics.md). visc = 1 + e^-2. */
+        double gam = SPH_VISCOUS_EIG * z * visc * dt / (P->dens[k] * P->sml[k] * P->sml[k]);
+        alpha = sph_fmax(2.0 * sqrt(gam), 10.0);
+    }
+    m->scratch[k] = alpha; /* beta = alpha */
+    double ia = 1.0 / alpha;
+    double d11 = (t11 - P->s11[k]) * ia, d22 = (t22 - P->s22[k]) * ia, d12 = (t12 - P->s12[k]) * ia;
+    w->ds2[k] = d11 * d11 + d22 * d22 + 2.0 * d12 * d12;
+    P->s11[k] += d11; /* (t11 - s11) ia, as d11 */
+    P->s22[k] += d22;
+    P->s12[k] += d12;
+}
+
+/* relax_one for k0 and k1 in two lanes (lanes.h: the same bits). */
+static inline void relax_two(sph_model *m, mevp_work *w, size_t k0, size_t k1, sph_v2d t11,
+                             sph_v2d t22, sph_v2d t12, double dt, double visc)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    sph_v2d alpha = splat2(p->evp_alpha);
+    if (p->evp_adaptive) {
+        sph_v2d z = ld2(m->zeta, k0, k1), h = ld2(P->sml, k0, k1);
+        sph_v2d gam = splat2(SPH_VISCOUS_EIG) * z * splat2(visc) * splat2(dt) /
+                      (ld2(P->dens, k0, k1) * h * h);
+        alpha = fmax2(splat2(2.0) * sqrt2(gam), splat2(10.0));
+    }
+    st2(m->scratch, k0, k1, alpha);
+    sph_v2d ia = splat2(1.0) / alpha;
+    sph_v2d s11 = ld2(P->s11, k0, k1), s22 = ld2(P->s22, k0, k1), s12 = ld2(P->s12, k0, k1);
+    sph_v2d d11 = (t11 - s11) * ia, d22 = (t22 - s22) * ia, d12 = (t12 - s12) * ia;
+    st2(w->ds2, k0, k1, d11 * d11 + d22 * d22 + splat2(2.0) * d12 * d12);
+    st2(P->s11, k0, k1, s11 + d11);
+    st2(P->s22, k0, k1, s22 + d22);
+    st2(P->s12, k0, k1, s12 + d12);
+}
+
+/* The VP law (rheology/vp.c's stress pass, per particle) and the
+ * relaxation of k in one go: no target-stress arrays in between. */
+static inline void vp_relax_one(sph_model *m, mevp_work *w, size_t k, double dt, double visc)
+{
+    const sph_particles *P = m->P;
+    double t11 = 0.0, t22 = 0.0, t12 = 0.0;
+    if (m->loose[k])
+        m->zeta[k] = 0.0; /* sph_stress_loose */
+    else
+        m->zeta[k] = sph_vp_stress(&m->prm, P->pres[k], P->e11[k], P->e22[k], P->e12[k], &t11, &t22,
+                                   &t12);
+    relax_one(m, w, k, t11, t22, t12, dt, visc);
+}
+
+#define MEVP_VP_BLOCK 32
+
+/* The rheology's stress and its relaxation for the particles of list
+ * (per particle: the order of the list does not matter); entries 2i and
+ * 2i + 1 in two lanes. The VP law (rheology vp_law) is evaluated here,
+ * fused with the relaxation; another rheology's stress pass fills the
+ * workspace's target stress first. */
+static void mevp_relax(sph_model *m, mevp_work *w, const int *act, size_t na, double dt)
+{
+    const sph_params *p = &m->prm;
+    const double visc = 1.0 + 1.0 / (p->ecc * p->ecc);
+    const size_t half = na / 2;
+    if (m->rheo->vp_law) {
+        /* blocks of MEVP_VP_BLOCK pairs: the law for the block into a
+         * buffer on the stack, then the block's relaxation (two short
+         * chains of divisions and roots, as the two passes had, instead of
+         * one long one per pair) */
+        const sph_particles *P = m->P;
+        const double inv_e2 = 1.0 / (p->ecc * p->ecc);
+        const size_t nblk = (half + MEVP_VP_BLOCK - 1) / MEVP_VP_BLOCK;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
+        for (size_t b = 0; b < nblk; b++) {
+            sph_v2d t11[MEVP_VP_BLOCK], t22[MEVP_VP_BLOCK], t12[MEVP_VP_BLOCK];
+            unsigned char lz[MEVP_VP_BLOCK];
+            const size_t i0 = b * MEVP_VP_BLOCK;
+            const size_t i1 = i0 + MEVP_VP_BLOCK < half ? i0 + MEVP_VP_BLOCK : half;
+            for (size_t i = i0; i < i1; i++) {
+                size_t k0 = (size_t)act[2 * i], k1 = (size_t)act[2 * i + 1];
+                lz[i - i0] = m->loose[k0] || m->loose[k1];
+                if (lz[i - i0])
+                    continue;
+                sph_v2d z = sph_vp_stress_two(p, inv_e2, ld2(P->pres, k0, k1), ld2(P->e11, k0, k1),
+                                              ld2(P->e22, k0, k1), ld2(P->e12, k0, k1), &t11[i - i0],
+                                              &t22[i - i0], &t12[i - i0]);
+                st2(m->zeta, k0, k1, z);
+            }
+            for (size_t i = i0; i < i1; i++) {
+                size_t k0 = (size_t)act[2 * i], k1 = (size_t)act[2 * i + 1];
+                if (lz[i - i0]) {
+                    vp_relax_one(m, w, k0, dt, visc);
+                    vp_relax_one(m, w, k1, dt, visc);
+                } else {
+                    relax_two(m, w, k0, k1, t11[i - i0], t22[i - i0], t12[i - i0], dt, visc);
+                }
+            }
+        }
+        if (na % 2)
+            vp_relax_one(m, w, (size_t)act[na - 1], dt, visc);
+        return;
+    }
     m->rheo->stress(m, act, na, w->t11, w->t22, w->t12);
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
-    for (size_t i = 0; i < na; i++) {
-        size_t k = (size_t)act[i];
-        double t11 = w->t11[k], t22 = w->t22[k], t12 = w->t12[k];
-        double z = m->zeta[k];
-        double alpha = p->evp_alpha;
-        if (p->evp_adaptive) {
-            /* aEVP (Kimmritz, Losch & Danilov 2016): alpha = beta = 2 sqrt(gamma),
-             * gamma = dt lambda_max of the SPH viscous operator. Power
-             * iteration on lattices gives lambda_max h^2 / nu = 0.68-0.74
-             * (Gaussian, h = dx) and 1.15-1.23 (Wendland C2, cubic spline,
-             * h = 1.3 dx), nu = zeta (1 + e^-2) / M; SPH_VISCOUS_EIG = 1.25
-             * bounds them all (docs/dynamics.md). */
-            double gam = SPH_VISCOUS_EIG * z * (1.0 + 1.0 / (p->ecc * p->ecc)) * dt /
-                         (P->dens[k] * P->sml[k] * P->sml[k]);
-            alpha = fmax(2.0 * sqrt(gam), 10.0);
-        }
-        m->scratch[k] = alpha; /* beta = alpha */
-        double ia = 1.0 / alpha;
-        double d11 = (t11 - P->s11[k]) * ia, d22 = (t22 - P->s22[k]) * ia, d12 = (t12 - P->s12[k]) * ia;
-        w->ds2[k] = d11 * d11 + d22 * d22 + 2.0 * d12 * d12;
-        P->s11[k] += (t11 - P->s11[k]) * ia;
-        P->s22[k] += (t22 - P->s22[k]) * ia;
-        P->s12[k] += (t12 - P->s12[k]) * ia;
+    for (size_t i = 0; i < half; i++) {
+        size_t k0 = (size_t)act[2 * i], k1 = (size_t)act[2 * i + 1];
+        relax_two(m, w, k0, k1, ld2(w->t11, k0, k1), ld2(w->t22, k0, k1), ld2(w->t12, k0, k1), dt,
+                  visc);
+    }
+    if (na % 2) {
+        size_t k = (size_t)act[na - 1];
+        relax_one(m, w, k, w->t11[k], w->t22[k], w->t12[k], dt, visc);
     }
 }
 
@@ -164,6 +273,64 @@ static void mevp_split(sph_model *m, mevp_work *w)
     }
 }
 
+/* The air stress over M of the active set (sph_momentum's tax / rho_h and
+ * tay / rho_h: wind, drag factor and M do not change within a step). */
+static void momentum_setup(sph_model *m, mevp_work *w)
+{
+    const sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    const double ca = m->cos_air, sna = m->sin_air;
+    const size_t na = m->nactive;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
+    for (size_t i = 0; i < na; i++) {
+        size_t k = (size_t)m->active[i];
+        double rho_h = P->dens[k];
+        double ua = P->ua[k], va = P->va[k];
+        double sa = sqrt(ua * ua + va * va);
+        double dA = sph_drag_factor(m, k);
+        double tax = dA * p->rho_a * p->Ca * sa * (ua * ca - va * sna);
+        double tay = dA * p->rho_a * p->Ca * sa * (ua * sna + va * ca);
+        w->qax[k] = tax / rho_h;
+        w->qay[k] = tay / rho_h;
+    }
+}
+
+/* One iteration's velocity update of k0 and k1 in two lanes: lane l is
+ * sph_momentum (model_impl.h) for its particle with the step's air stress
+ * from momentum_setup, then the velocity change and the momentum residual,
+ * each operation as the scalar code's, in its order (lanes.h). */
+static inline void momentum_two(sph_model *m, mevp_work *w, size_t k0, size_t k1, double dt)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    const sph_v2d beta = p->evp_adaptive ? ld2(m->scratch, k0, k1) : splat2(p->evp_beta);
+    const sph_v2d up = ld2(P->u, k0, k1), vp = ld2(P->v, k0, k1);
+    const sph_v2d un = ld2(m->un, k0, k1), vn = ld2(m->vn, k0, k1);
+    const sph_v2d rho_h = ld2(P->dens, k0, k1);
+    const sph_v2d dA = p->drag_scaling == SPH_DRAG_CONCENTRATION ? ld2(P->conc, k0, k1) : splat2(1.0);
+    const sph_v2d uw = ld2(P->uw, k0, k1), vw = ld2(P->vw, k0, k1);
+    const sph_v2d dux = uw - up, duy = vw - vp;
+    const sph_v2d c = dA * splat2(p->rho_w) * splat2(p->Cw) * sqrt2(dux * dux + duy * duy) / rho_h;
+    const sph_v2d cw = splat2(m->cos_water), sw = splat2(m->sin_water), vdt = splat2(dt);
+    const sph_v2d f = ld2(m->fcor, k0, k1), half = splat2(0.5), g = splat2(p->gravity);
+    const sph_v2d rx = beta * up + un +
+                       vdt * (ld2(P->ax, k0, k1) + ld2(w->qax, k0, k1) + c * (cw * uw - sw * vw) -
+                              g * ld2(P->sshx, k0, k1) + half * f * vn);
+    const sph_v2d ry = beta * vp + vn +
+                       vdt * (ld2(P->ay, k0, k1) + ld2(w->qay, k0, k1) + c * (sw * uw + cw * vw) -
+                              g * ld2(P->sshy, k0, k1) - half * f * un);
+    const sph_v2d d11 = splat2(1.0) + beta + vdt * c * cw, d22 = d11;
+    const sph_v2d d12 = -vdt * (c * sw + half * f), d21 = -d12;
+    const sph_v2d det = d11 * d22 - d12 * d21;
+    const sph_v2d u = (d22 * rx - d12 * ry) / det;
+    const sph_v2d v = (d11 * ry - d21 * rx) / det;
+    st2(m->dvel, k0, k1, fmax2(fabs2(u - up), fabs2(v - vp)));
+    const sph_v2d bu = beta * (u - up), bv = beta * (v - vp);
+    st2(w->res2, k0, k1, bu * bu + bv * bv);
+    st2(P->u, k0, k1, u);
+    st2(P->v, k0, k1, v);
+}
+
 /* pending: a halo refresh is in flight (posted after the last iteration);
  * the interior particles' strain and stress are computed before it is
  * completed, then the boundary ones'. */
@@ -185,16 +352,20 @@ static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pendi
         sph_strain_pass(m, act, na);
         mevp_relax(m, w, act, na, dt);
     }
-    sph_ghost_stress(m);
+    sph_ghost_stress_air(m, w->gair);
     sph_divergence_pass(m, act, na);
-    /* velocity update; the max change is reduced serially afterwards */
+    /* velocity update, entries 2i and 2i + 1 of the active set in two
+     * lanes; the max change is reduced serially afterwards */
+    const size_t half = na / 2;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
-    for (size_t i = 0; i < na; i++) {
-        size_t k = (size_t)act[i];
+    for (size_t i = 0; i < half; i++)
+        momentum_two(m, w, (size_t)act[2 * i], (size_t)act[2 * i + 1], dt);
+    if (na % 2) {
+        size_t k = (size_t)act[na - 1];
         double beta = p->evp_adaptive ? m->scratch[k] : p->evp_beta;
         double u, v;
         sph_momentum(m, k, beta, P->u[k], P->v[k], m->un[k], m->vn[k], dt, &u, &v);
-        m->dvel[k] = fmax(fabs(u - P->u[k]), fabs(v - P->v[k]));
+        m->dvel[k] = sph_fmax(fabs(u - P->u[k]), fabs(v - P->v[k]));
         /* the momentum residual of the time-discrete equation at u':
          * (I + dt D) u' - rhs = -beta (u' - u) */
         double bu = beta * (u - P->u[k]), bv = beta * (v - P->v[k]);
@@ -206,7 +377,7 @@ static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pendi
     for (size_t i = 0; i < na; i++) {
         size_t k = (size_t)act[i];
         double d = m->dvel[k];
-        s.dmax = fmax(s.dmax, d);
+        s.dmax = sph_fmax(s.dmax, d);
         s.s2 += d * d;
         s.q2 += w->res2[k];
         s.u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
@@ -389,6 +560,8 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
     int pending = 0;
     if (overlap)
         mevp_split(m, w);
+    momentum_setup(m, w);
+    sph_ghost_air_setup(m, w->gair);
     for (it = 0; it < p->evp_iterations; it++) {
         if (aa)
             aa_save(m, w);
