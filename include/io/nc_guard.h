@@ -71,6 +71,16 @@ void nc_guard_set_timeout(double seconds);
  * its death, instead of the fuzzer's crash handling); NULL: none. */
 void nc_guard_set_child_hook(void (*hook)(void));
 
+/* The process's NetCDF/HDF5 lock (HDF5 as Debian builds it is not
+ * thread-safe): a thread that calls NetCDF while another may (the
+ * products' background writer, service/forecast_writer.c, and the forcing's
+ * slice reads, io/inputs/forcing.c) holds it around its calls; the forks
+ * of the checks above take it too, so that a child never starts from a
+ * state another thread is changing. Recursive; a process with one thread
+ * in NetCDF need not take it. */
+void nc_guard_lock(void);
+void nc_guard_unlock(void);
+
 /* Statistics since the process started: netCDF-4 files checked in a child,
  * and those refused because the child died or ran past the deadline. */
 void nc_guard_stats(long *probed, long *died, long *timed_out);

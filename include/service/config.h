@@ -67,6 +67,7 @@ enum { CFG_LAND_RES_CRUDE = 0, CFG_LAND_RES_LOW, CFG_LAND_RES_INTERMEDIATE, CFG_
        CFG_LAND_RES_FULL };
 enum { CFG_GRID_REGULAR = 0, CFG_GRID_RASTER };
 enum { CFG_OFX_GRID_AUTO = 0, CFG_OFX_GRID_OUTPUT, CFG_OFX_GRID_OCEAN }; /* output.ocean_fluxes_grid */
+enum { CFG_WRITER_AUTO = 0, CFG_WRITER_ON, CFG_WRITER_OFF }; /* output.writer_thread */
 enum { CFG_LATE_FAIL = 0, CFG_LATE_STALE };
 enum { CFG_DECOMP_MEMBERS = 0, CFG_DECOMP_DOMAIN }; /* parallel.decomposition */
 enum { CFG_ENGINE_FORECAST = 0, CFG_ENGINE_TEST_DOUBLE };
@@ -127,6 +128,8 @@ struct sph_config {
         int retention_cycles;
         int ocean_fluxes;       /* <prefix>_ocean_fluxes.nc (docs/ocean-coupling.md) */
         int ocean_fluxes_grid;  /* CFG_OFX_GRID_* */
+        int writer_thread;      /* CFG_WRITER_*: the products written on a thread of their own */
+        int deflate_level;      /* zlib level of the NetCDF products, 0: uncompressed */
     } output;
 
     struct { char *path, *conc_var; int format; } observations;

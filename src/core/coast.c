@@ -400,7 +400,18 @@ void sph_move_and_constrain(sph_model *m)
 void sph_remove_outflow(sph_model *m)
 {
     sph_particles *P = m->P;
-    for (size_t k = P->n; k-- > 0;) {
+    if (!m->has_mask || m->mask.closed_outside)
+        return; /* outside_open is 0 everywhere */
+    /* the highest particle outside, on the threads (a max reduction: the
+     * same whatever their count); the removals below, serially, from there
+     * down: a removal moves the last particle, already looked at, into k */
+    const size_t n = P->n;
+    size_t top = 0; /* 1 + the highest index outside; 0: none */
+#pragma omp parallel for schedule(static) reduction(max : top) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++)
+        if (k + 1 > top && outside_open(m, P->x[k], P->y[k]))
+            top = k + 1;
+    for (size_t k = top; k-- > 0;) {
         if (outside_open(m, P->x[k], P->y[k])) {
             m->budget.outflow += P->mass[k];
             m->budget.snow_to_ocean += sph_particle_snow_mass(&m->prm.thermo, P, k);

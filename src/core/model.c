@@ -98,13 +98,14 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     m->dvel = calloc(c2, sizeof(double));
     m->binv = calloc(6 * c2, sizeof(double)); /* B^-1 = I set as slots come into use */
     m->fcor = calloc(c2, sizeof(double));
+    m->sum_part = calloc(SPH_SUM_NQ * (c2 / SPH_SUM_BLOCK + 2), sizeof(double));
     m->scratch = calloc(c2 * SPH_MAX_LAYERS, sizeof(double));
     m->order = calloc(c2, sizeof(int));
     m->active = calloc(c2, sizeof(int));
     m->loose = calloc(c2, 1);
     m->tw = sph_thermo_work_create(c2, nl);
     int ok = m->P && m->nb && m->ghost_src && m->ghost_nx && m->ghost_ny && m->ghost_n2x && m->ghost_n2y && m->gh_head && m->gh_next && m->un && m->vn &&
-             m->zeta && m->dvel && m->binv && m->fcor && m->scratch && m->order && m->active && m->loose && m->tw;
+             m->zeta && m->dvel && m->binv && m->fcor && m->sum_part && m->scratch && m->order && m->active && m->loose && m->tw;
     if (ok && with_mask) {
         size_t nc = (size_t)mask->nx * (size_t)mask->ny;
         m->land = malloc(nc);
@@ -152,6 +153,7 @@ void sph_model_free(sph_model *m)
     free(m->dvel);
     free(m->binv);
     free(m->fcor);
+    free(m->sum_part);
     free(m->scratch);
     free(m->order);
     free(m->active);
@@ -399,6 +401,7 @@ static void parcels_prepare(sph_model *m)
         sph_reorder(m);
     m->ng = 0;
     sph_diagnose_pass(m);
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
     for (size_t k = 0; k < n; k++) {
         P->regime[k] &= (unsigned char)~(SPH_REGIME_FREE_DRIFT | SPH_REGIME_RHEOLOGY |
                                          SPH_REGIME_NEAR_COAST);
@@ -407,17 +410,49 @@ static void parcels_prepare(sph_model *m)
     m->nactive = 0;
 }
 
-static void update_budget(sph_model *m)
+/* The budget's sums over particles [k0, k1) in index order: mass, area,
+ * volume, kinetic energy, snow. */
+static void budget_sums(const sph_model *m, size_t k0, size_t k1, double out[SPH_SUM_NQ])
 {
-    sph_particles *P = m->P;
+    const sph_particles *P = m->P;
     double mass = 0, area = 0, vol = 0, ke = 0, snow = 0;
-    for (size_t k = 0; k < P->n; k++) { /* serial: bit-reproducible */
+    for (size_t k = k0; k < k1; k++) {
         mass += P->mass[k];
         snow += sph_particle_snow_mass(&m->prm.thermo, P, k);
         area += P->mass[k] / (m->prm.rho_i * P->thick[k]);
         vol += P->mass[k] / m->prm.rho_i;
         ke += 0.5 * P->mass[k] * (P->u[k] * P->u[k] + P->v[k] * P->v[k]);
     }
+    out[0] = mass;
+    out[1] = area;
+    out[2] = vol;
+    out[3] = ke;
+    out[4] = snow;
+}
+
+static void update_budget(sph_model *m)
+{
+    sph_particles *P = m->P;
+    /* bit-reproducible whatever the thread count: blocks of SPH_SUM_BLOCK
+     * in index order, their sums in block order (one block: the plain sum) */
+    const size_t n = P->n, nb = (n + SPH_SUM_BLOCK - 1) / SPH_SUM_BLOCK;
+    double tot[SPH_SUM_NQ];
+    if (nb <= 1) {
+        budget_sums(m, 0, n, tot);
+    } else {
+        double *part = m->sum_part;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+        for (size_t b = 0; b < nb; b++) {
+            size_t k1 = (b + 1) * SPH_SUM_BLOCK;
+            budget_sums(m, b * SPH_SUM_BLOCK, k1 < n ? k1 : n, part + SPH_SUM_NQ * b);
+        }
+        for (int q = 0; q < SPH_SUM_NQ; q++)
+            tot[q] = 0.0;
+        for (size_t b = 0; b < nb; b++)
+            for (int q = 0; q < SPH_SUM_NQ; q++)
+                tot[q] += part[SPH_SUM_NQ * b + q];
+    }
+    double mass = tot[0], area = tot[1], vol = tot[2], ke = tot[3], snow = tot[4];
     m->budget.mass = mass;
     m->budget.area = area;
     m->budget.volume = vol;
@@ -430,11 +465,30 @@ static void update_budget(sph_model *m)
     }
 }
 
+/* 1 when particle k fails one of check_health's per-particle tests. */
+static inline int particle_unhealthy(const sph_particles *P, const sph_params *p, size_t k)
+{
+    if (!isfinite(P->x[k]) || !isfinite(P->y[k]) || !isfinite(P->u[k]) || !isfinite(P->v[k]) ||
+        !isfinite(P->thick[k]) || !isfinite(P->mass[k]))
+        return 1;
+    double sp2 = P->u[k] * P->u[k] + P->v[k] * P->v[k];
+    double sp = sp2 > 0.81 * p->speed_limit * p->speed_limit ? hypot(P->u[k], P->v[k]) : 0.0;
+    return sp > p->speed_limit || !(P->dens[k] / p->rho_i <= p->thickness_limit);
+}
+
 static int check_health(sph_model *m, sph_status *st)
 {
     sph_particles *P = m->P;
     const sph_params *p = &m->prm;
-    for (size_t k = 0; k < P->n; k++) {
+    /* the first failing particle in index order (a min reduction: the same
+     * particle whatever the thread count), then its report below */
+    const size_t n = P->n;
+    size_t first = n;
+#pragma omp parallel for schedule(static) reduction(min : first) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++)
+        if (k < first && particle_unhealthy(P, p, k))
+            first = k;
+    for (size_t k = first; k < n; k++) {
         const double vals[] = {P->x[k], P->y[k], P->u[k], P->v[k], P->thick[k], P->mass[k]};
         static const char *const names[] = {"x position", "y position", "x velocity",
                                             "y velocity", "thickness", "mass"};
@@ -705,7 +759,9 @@ static void regime_fractions(sph_model *m)
 {
     sph_particles *P = m->P;
     size_t fd = 0, rh = 0, zl = 0, ml = 0;
-    for (size_t k = 0; k < P->n; k++) {
+    const size_t np = P->n;
+#pragma omp parallel for schedule(static) reduction(+ : fd, rh, zl, ml) if (SPH_OMP_WORTH(np))
+    for (size_t k = 0; k < np; k++) {
         fd += (P->regime[k] & SPH_REGIME_FREE_DRIFT) != 0;
         rh += (P->regime[k] & SPH_REGIME_RHEOLOGY) != 0;
         zl += (P->regime[k] & SPH_REGIME_ZERO_LAYER) != 0;

@@ -40,6 +40,11 @@
 /* Threads pay off only above a few thousand particles: the solver runs
  * thousands of short passes per step, each a fork/join. */
 #define SPH_OMP_WORTH(n) ((n) >= 4096)
+/* The budget's sums (update_budget): each block of SPH_SUM_BLOCK particles
+ * summed in index order, then the blocks' sums in block order, whatever
+ * the thread count; with at most one block, the plain sum in index order. */
+#define SPH_SUM_BLOCK 16384
+#define SPH_SUM_NQ 5
 /* Smallest concentration a parcel is diluted to by divergence. */
 #define SPH_CONC_MIN 0.05
 #define DEG2RAD (M_PI / 180.0)
@@ -83,6 +88,7 @@ struct sph_model {
     unsigned char *loose; /* per particle: free drift in auto mode */
     double dens_scale;   /* lattice calibration of the truncated kernel */
     double *fcor;        /* Coriolis parameter per particle, set each step */
+    double *sum_part;    /* the budget's partial sums, SPH_SUM_NQ per block of SPH_SUM_BLOCK particles */
     double cos_air, sin_air, cos_water, sin_water; /* turning angles */
     sph_thermo_work *tw;
     double *binv;    /* [6*c2] gradient correction per particle: B^-1 of the strain

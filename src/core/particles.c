@@ -109,6 +109,9 @@ static int all_zero_bytes(const void *a, size_t nbytes)
     return 1;
 }
 
+/* copies, element by element: the same in any split over threads */
+#define PERM_OMP_ _Pragma("omp parallel for schedule(static) if (n >= 4096)")
+
 void sph_particles_permute(sph_particles *p, const int *order, double *scratch)
 {
     size_t n = p->n;
@@ -120,8 +123,10 @@ void sph_particles_permute(sph_particles *p, const int *order, double *scratch)
         size_t c_ = SPH_FIELD_COUNT(p, count);                                              \
         type *s_ = (type *)(void *)scratch;                                                 \
         for (size_t l_ = 0; l_ < c_; l_++) { /* layer by layer: n entries of scratch */     \
+            PERM_OMP_                                                                       \
             for (size_t i = 0; i < n; i++)                                                  \
                 s_[i] = p->name[(size_t)order[i] * c_ + l_];                                \
+            PERM_OMP_                                                                       \
             for (size_t i = 0; i < n; i++)                                                  \
                 p->name[i * c_ + l_] = s_[i];                                               \
         }                                                                                   \
@@ -129,6 +134,7 @@ void sph_particles_permute(sph_particles *p, const int *order, double *scratch)
     SPH_PARTICLE_FIELDS(PERM_)
 #undef PERM_
 }
+#undef PERM_OMP_
 
 void *sph_particles_field(const sph_particles *p, int k)
 {

@@ -69,6 +69,7 @@ static const char *const landfrom_names[] = {"auto", "mask", "fill", NULL};
 static const char *const landpol_names[] = {"auto", "land_is_1", "water_is_1", NULL};
 static const char *const grid_names[] = {"regular", "raster", NULL};
 static const char *const ofx_grid_names[] = {"auto", "output", "ocean", NULL};
+static const char *const writer_names[] = {"auto", "on", "off", NULL};
 static const char *const late_names[] = {"fail", "stale", NULL};
 static const char *const engine_names[] = {"forecast", "test-double", NULL};
 static const char *const level_names[] = {"error", "warn", "info", "debug", NULL};
@@ -238,6 +239,15 @@ static const cfg_key tail_keys[] = {
        "curvilinear with 2-D lon/lat, and its land, the cells over the domain; on a curvilinear grid the "
        "stress is along the grid's own axes), output (the output grid) or auto (ocean when an ocean source "
        "has files, else output). A grid given by its mapping alone is placed by the mapping (a rotated pole, or a projection with its ellipsoid); one not orthogonal is refused: set output."),
+    C_("output.writer_thread", CT_ENUM, output.writer_thread, "\"auto\"", 0, 0, R, writer_names,
+       "Where the products of each output time are written: on (a thread of their own, while the next steps run; "
+       "the same files), off (in the step loop), auto (on when OpenMP may use two threads or more, so that a "
+       "one-thread run stays on one core). Off whatever it says with output.ocean_fluxes or "
+       "parallel.decomposition \"domain\" (docs/engine.md)."),
+    C_("output.deflate_level", CT_INT, output.deflate_level, "4", 0, 9, R, NULL,
+       "zlib level of the variables of the fields and particles files (with the shuffle filter), 1 fastest, 9 "
+       "smallest; 0: uncompressed (the same values; the files about 3.5 times larger). A product-format choice: "
+       "docs/bench.md \"Free drift\" measures it."),
     C_("output.edge_threshold", CT_DOUBLE, output.edge_threshold, "0.15", 0.01, 0.99, R, NULL,
        "Concentration defining the ice edge."),
     C_("output.edge_reference.lon", CT_DOUBLE, output.edge_reference.lon, "0", -180, 360, R, NULL,

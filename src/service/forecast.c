@@ -66,6 +66,7 @@ static void fmt_status(const sph_status *st, char *buf, size_t len)
 
 static void engine_free(engine *e)
 {
+    fc_bgw_stop(e); /* before the writer it writes into */
     products_abort(e->pw);
     e->pw = NULL;
     fc_dd_end(e); /* parallel.decomposition "domain" (forecast_domain.c) */
@@ -314,6 +315,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         goto fail;
     if ((rc = fc_dd_agree(e, rc, er)))
         goto fail;
+    if ((rc = fc_bgw_start(e, er))) /* output.writer_thread (forecast_writer.c) */
+        goto fail;
 
     /* restart file for the next cycle */
     double t_next = schedule_next(cfg, e->t0);
@@ -360,6 +363,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         double t = e->t0 + s * dt;
         if (e->dd != 2 && s > 0 && (rc = fc_fill_forcing(e, t, er)))
             goto fail;
+        fc_bgw_kick(e); /* the last output time's products, now that this step's forcing is read */
         sph_status st;
         if (e->dd != 2 && sph_model_step(e->m, &st) != SPH_STEP_OK) {
             rc = step_error(e, &st, s + 1, t, er);
@@ -381,7 +385,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         if (e->dd && (s + 1 == restart_step || out_now) && /* the particles in id order (on rank 0) */
             ((rc = fc_dd_sync(e, er)) || (rc = fc_dd_agree(e, rc, er))))
             goto fail;
-        if (s + 1 == restart_step && ((rc = fc_write_restart(e, t1, er)) || (rc = fc_dd_agree(e, rc, er))))
+        if (s + 1 == restart_step &&
+            ((rc = fc_bgw_wait(e, er)) || (rc = fc_write_restart(e, t1, er)) || (rc = fc_dd_agree(e, rc, er))))
             goto fail;
         if (out_now) {
             if ((rc = fc_write_output(e, t1, er)) || (rc = fc_dd_agree(e, rc, er)))
@@ -391,6 +396,8 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
                 next_out += out_dt;
         }
     }
+    if ((rc = fc_bgw_wait(e, er))) /* the last output time's products */
+        goto fail;
     if (nsteps == 0 && ((rc = fc_write_restart(e, e->t0, er)) || (rc = fc_dd_agree(e, rc, er))))
         goto fail;
     if (e->dd == 2 && e->dd_rank > 0) { /* a worker of the decomposition: rank 0 closes and publishes */

@@ -4,6 +4,7 @@
  *                      cold start (seeding) and warm start
  *   coupling.c         forcing -> particles (service/coupling.h)
  *   forecast_output.c  output grid, products, observation, restart file
+ *   forecast_writer.c  the products' background writer (output.writer_thread)
  */
 #ifndef SPHICE_SERVICE_FORECAST_IMPL_H
 #define SPHICE_SERVICE_FORECAST_IMPL_H
@@ -25,6 +26,8 @@
 
 #define DEG2RAD (M_PI / 180.0)
 #define METRES_PER_DEGREE (6371000.0 * DEG2RAD) /* along a meridian, sphere R = 6371 km */
+
+typedef struct fc_bgw fc_bgw;
 
 typedef struct engine {
     const struct sph_config *cfg;
@@ -54,6 +57,7 @@ typedef struct engine {
     double *g_snow; /* snow thickness on the ice, m */
     unsigned char *g_land;
     prod_writer *pw;
+    fc_bgw *bgw;             /* output.writer_thread: the products' writer thread, NULL: none */
     /* output.ocean_fluxes (forecast_output.c): the writer, the start of the
      * interval being summed, per-particle scratch (6 x cap) and the output
      * grid's cell areas and axes */
@@ -117,6 +121,24 @@ static inline int fc_fill_forcing(engine *e, double t, sph_error *err)
         fc_member_perturb_forcing(e->req->member, sph_model_particles(e->m), t - e->t0);
     return rc;
 }
+
+/* forecast_writer.c: output.writer_thread. fc_bgw_start once the products
+ * (and the ocean fluxes) are open: the thread when fc_bgw_wanted says so.
+ * fc_bgw_submit (fc_write_output): waits for the previous output time's
+ * job (its error, if it failed), copies what the steps change and prepares
+ * the job; fc_bgw_kick starts it (after the next step's forcing fill);
+ * fc_bgw_wait: until the job is written (before the restart file, before
+ * closing), its rc and line; fc_bgw_stop (engine_free): waits for a
+ * running job, drops a prepared one, ends the thread. Without a thread:
+ * all no-ops. */
+int fc_bgw_wanted(const engine *e);
+int fc_bgw_start(engine *e, sph_error *err);
+int fc_bgw_submit(engine *e, double t, const prod_fields *f, const prod_particles_view *pv, sph_error *err);
+void fc_bgw_kick(engine *e);
+int fc_bgw_wait(engine *e, sph_error *err);
+void fc_bgw_stop(engine *e);
+/* OpenMP's thread count for the next parallel region (1 without OpenMP) */
+int fc_max_threads(void);
 
 /* forecast_domain.c: parallel.decomposition "domain" (docs/domain.md).
  * fc_dd_begin: the refusals, the mode, rank 0's jobs to the workers (before

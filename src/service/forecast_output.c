@@ -138,6 +138,7 @@ int fc_open_products(engine *e, prod_station *stations, sph_error *err)
     o.loads.bond_shear = cfg->loads.dem_bond_shear * 1e6;
     o.loads.cancel = e->cancel;
     o.write_particles = cfg->output.products.particles;
+    o.deflate_level = cfg->output.deflate_level;
     o.write_geojson = cfg->output.products.geojson;
     o.write_snow = fc_snow_possible(cfg);
     if (cfg->output.products.maps) {
@@ -276,6 +277,10 @@ int fc_write_output(engine *e, double t, sph_error *err)
         }
         return SPH_OK;
     }
+    /* the previous output time's job reads the arrays written below */
+    int wrc = fc_bgw_wait(e, err);
+    if (wrc)
+        return wrc;
     sph_particles *P = sph_model_particles(e->m);
     size_t n = P->n;
     const double rho_i = e->cfg->model.rho_i;
@@ -333,7 +338,10 @@ int fc_write_output(engine *e, double t, sph_error *err)
     prod_particles_view pv = {.n = n, .lon = e->olon, .lat = e->olat, .u_east = e->pue, .v_north = e->pvn,
                               .mass = P->mass, .thick = P->thick, .conc = P->conc, .snow = P->snow,
                               .id = P->id};
-    int rc = products_add_time(e->pw, t, &f, e->cfg->output.products.particles ? &pv : NULL, err);
+    const prod_particles_view *pvp = e->cfg->output.products.particles ? &pv : NULL;
+    if (e->bgw) /* output.writer_thread: written while the next steps run (forecast_writer.c) */
+        return fc_bgw_submit(e, t, &f, pvp, err);
+    int rc = products_add_time(e->pw, t, &f, pvp, err);
     if (rc == SPH_OK && e->ofx && t > e->ofx_t0)
         rc = ofx_record(e, t, err);
     return rc;

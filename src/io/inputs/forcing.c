@@ -5,6 +5,7 @@
  * driver is forcing_netcdf.c. Grids are in forcing_grid.c, harmonic tides
  * in forcing_tide.c. */
 #include "forcing_impl.h"
+#include "io/nc_guard.h"
 #include "util/log.h"
 #include "util/timeutil.h"
 
@@ -543,13 +544,17 @@ static int read_slice_at(forcing *f, fvar *v, size_t ti, size_t mi, double *dst,
     const fvfile *vf = &v->vfiles[ft ? ft->vf : 0];
     const char *path = s->paths[vf->file];
     void *fh;
-    if (src_file(s, vf->file, &fh, err))
-        return err->code;
     size_t nx = v->grid->nx, ny = v->grid->ny, n = nx * ny;
     double *raw = dst;
     if (vf->transpose && !(raw = malloc(n * sizeof *raw)))
         return forcing_fail(err, s, path, SPH_ERR_NOMEM, "out of memory");
-    int rc = s->drv->slice(s, path, fh, v, vf, ft ? ft->k : 0, mi, raw, err);
+    /* slices are read during the run, while the products' background
+     * writer may be inside NetCDF (io/nc_guard.h) */
+    nc_guard_lock();
+    int rc = src_file(s, vf->file, &fh, err) ? err->code : 0;
+    if (!rc)
+        rc = s->drv->slice(s, path, fh, v, vf, ft ? ft->k : 0, mi, raw, err);
+    nc_guard_unlock();
     if (rc) {
         if (raw != dst)
             free(raw);

@@ -26,6 +26,7 @@
 #include <netcdf.h>
 #include <limits.h>
 #include <poll.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdatomic.h>
@@ -367,6 +368,17 @@ static atomic_long n_probed, n_died, n_timed_out;
 static _Atomic double probe_timeout = 20.0;
 static void (*_Atomic child_hook)(void);
 
+static pthread_mutex_t nc_mutex = PTHREAD_RECURSIVE_MUTEX_INITIALIZER_NP;
+void nc_guard_lock(void) { pthread_mutex_lock(&nc_mutex); }
+void nc_guard_unlock(void) { pthread_mutex_unlock(&nc_mutex); }
+/* In a forked child (one thread): the lock the parent's thread held at the
+ * fork, free again */
+static void nc_lock_reset_in_child(void)
+{
+    static const pthread_mutex_t fresh = PTHREAD_RECURSIVE_MUTEX_INITIALIZER_NP;
+    memcpy(&nc_mutex, &fresh, sizeof nc_mutex);
+}
+
 void nc_guard_set_timeout(double seconds) { probe_timeout = seconds > 0 ? seconds : 20.0; }
 void nc_guard_set_child_hook(void (*hook)(void)) { child_hook = hook; }
 
@@ -532,7 +544,10 @@ __attribute__((noinline)) static void clear_stack_below(void)
 int nc_guard_nc_open(const char *path, int *ncid)
 {
     clear_stack_below();
-    return nc_open(path, NC_NOWRITE, ncid);
+    nc_guard_lock();
+    int st = nc_open(path, NC_NOWRITE, ncid);
+    nc_guard_unlock();
+    return st;
 }
 
 /* One file: 0 walked, 3 nc_open refused it, 4 an inquiry failed (both
@@ -583,7 +598,12 @@ static int fresh_probe(const char *path, uint64_t size, double deadline, int *st
     *st = 0;
     if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0)
         return -3;
+    nc_guard_lock(); /* no other thread inside HDF5 while the child's copy is taken */
     pid_t pid = fork();
+    if (pid != 0)
+        nc_guard_unlock();
+    else
+        nc_lock_reset_in_child();
     if (pid < 0) {
         close(sv[0]);
         close(sv[1]);
@@ -853,7 +873,12 @@ int nc_guard_open_isolated(const char *path, const char *label, int *ncid, sph_e
     if (!realpath(path, abs))
         snprintf(abs, sizeof abs, "%s", path);
     n_probed++;
+    nc_guard_lock(); /* as fresh_probe */
     pid_t pid = fork();
+    if (pid != 0)
+        nc_guard_unlock();
+    else
+        nc_lock_reset_in_child();
     if (pid < 0) {
         close(sv[0]);
         close(sv[1]);
