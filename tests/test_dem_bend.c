@@ -33,6 +33,7 @@
 
 #include "check.h"
 #include "core/dem.h"
+#include "dem_specimen.h"
 
 static uint64_t rng = 0x9E3779B97F4A7C15ull;
 static double uniform(void)
@@ -47,28 +48,6 @@ static double uniform(void)
  * most `steps` steps of dt, until the load falls below 0.3 of its peak
  * after a bond broke (in tension; any: or in shear). The peak load (N);
  * p_first (not NULL): the load when the first bond broke in tension. */
-static double push_nose(dem *d, double dt, long steps, int any, double *p_first, const char *what)
-{
-    sph_status st;
-    double pmax = 0.0;
-    int bad = 0;
-    if (p_first)
-        *p_first = -1.0;
-    for (long k = 0; k < steps; k++) {
-        bad |= dem_step(d, dt, &st) != SPH_STEP_OK;
-        double P = 0.0;
-        for (size_t i = 0; i < d->n; i++)
-            if (d->flags[i] & DEM_FIX_ROTATION)
-                P += d->fz[i];
-        pmax = fmax(pmax, P);
-        if (p_first && *p_first < 0.0 && d->bonds_broken_tension > 0)
-            *p_first = P;
-        if (pmax > 0.0 && P < 0.3 * pmax && d->bonds_broken_tension + (any ? d->bonds_broken_shear : 0) > 0)
-            break; /* failed */
-    }
-    CHECK(!bad, "%s: steps ok", what);
-    return pmax;
-}
 
 static double flexural(int s, double sigma0, double weibull_m, double *sigma_mean, double *crack)
 {
@@ -126,74 +105,6 @@ static double flexural(int s, double sigma0, double weibull_m, double *sigma_mea
 }
 
 
-/* The leg's sheet as a specimen (the calibration of Li, Long & Wang and
- * Song & Park 2022: the bonds' micro-strengths chosen so that a simulated
- * three-point bending specimen reaches the measured flexural strength):
- * close-packed (hcp) layers of spheres of radius r as dem_add_sheet_hcp
- * builds the leg's and the station's sheet (nz = 3, r = 0.05 m: 0.263 m
- * deep, the seed's 0.26 m ice of 0.1 m spheres), nx = 12 spheres long,
- * ny rows wide, every bond of the same strengths (as the leg's sheet):
- * tensile sigma_t, shear tau_c. sigma_f = 3 P L / (2 b h^2) with b the
- * rows' share of the width, ny sqrt(3) r, h the sheet's outer depth. */
-static double flexural_hcp(double r, int nx, int ny, int nz, double sigma_t, double tau_c,
-                           long *broken_t, long *broken_s, double *span_out)
-{
-    dem_params p;
-    dem_params_default(&p);
-    p.water_density = p.gravity = 0.0;
-    p.local_damping = 0.7;
-    p.bond_tensile = sigma_t;
-    p.bond_shear = tau_c;
-    size_t np = (size_t)nx * ny * nz;
-    dem *d = dem_create(np, 8 * np, &p);
-    dem_add_sheet_hcp(d, 0.0, 0.0, nx, ny, nz, r, 0.0, 0.0);
-    double zmin = HUGE_VAL, zmax = -HUGE_VAL, xlo = HUGE_VAL, xhi = -HUGE_VAL;
-    for (size_t i = 0; i < d->n; i++) {
-        zmin = fmin(zmin, d->z[i]);
-        zmax = fmax(zmax, d->z[i]);
-    }
-    for (size_t i = 0; i < d->n; i++)
-        if (d->z[i] < zmin + 0.5 * r) {
-            xlo = fmin(xlo, d->x[i]);
-            xhi = fmax(xhi, d->x[i]);
-        }
-    double xl = 0.0, xr = 0.0;
-    int nl = 0, nr = 0;
-    for (size_t i = 0; i < d->n; i++) {
-        if (!(d->z[i] < zmin + 0.5 * r))
-            continue;
-        if (d->x[i] < xlo + 1.01 * r) {
-            d->flags[i] = DEM_FIX_TRANSLATION; /* a pin line */
-            xl += d->x[i];
-            nl++;
-        } else if (d->x[i] > xhi - 1.01 * r) {
-            d->flags[i] = DEM_FIX_Z; /* a roller line */
-            xr += d->x[i];
-            nr++;
-        }
-    }
-    xl /= nl;
-    xr /= nr;
-    double xmid = 0.5 * (xl + xr), span = xr - xl, v = 0.01;
-    int nload = 0;
-    for (size_t i = 0; i < d->n; i++)
-        if (d->z[i] > zmax - 0.5 * r && fabs(d->x[i] - xmid) < 1.01 * r) {
-            d->flags[i] = DEM_FIX_TRANSLATION | DEM_FIX_ROTATION; /* the loading nose */
-            dem_set_velocity(d, (long)i, 0.0, 0.0, -v);
-            nload++;
-        }
-    CHECK(nload >= 1 && nl >= 1 && nr >= 1, "hcp specimen: supports and nose");
-    double b = ny * sqrt(3.0) * r, h = 2.0 * r + (nz - 1) * 2.0 * r * sqrt(2.0 / 3.0);
-    double dt = p.dt_safety * dem_dt_critical(d);
-    double dmax = 6.0 * sigma_t * span * span / (6.0 * p.bond_modulus * M_PI / 4.0 * h);
-    long steps = (long)(dmax / v / dt);
-    double pmax = push_nose(d, dt, steps, 1, NULL, "hcp specimen");
-    *broken_t = d->bonds_broken_tension;
-    *broken_s = d->bonds_broken_shear;
-    *span_out = span;
-    dem_free(d);
-    return 3.0 * pmax * span / (2.0 * b * h * h);
-}
 
 /* The measured three-point-bending strength of Bohai ice, 0.5-0.7 MPa
  * (Xiu et al. 2022, Front. Energy Res. 10:970051): its middle, the target */

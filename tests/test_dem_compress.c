@@ -39,6 +39,7 @@
 
 #include "check.h"
 #include "core/dem.h"
+#include "dem_specimen.h"
 
 enum { PLATEN_LO = 8, PLATEN_HI = 16 }; /* test-only flag bits beside DEM_FIX_* */
 
@@ -133,75 +134,13 @@ static void compress(double r, int nx, int ny, int nz, double sigma_t, double ta
     dem_free(d);
 }
 
-/* The three-point-bending specimen of test_dem_bend's calibration (12 x 3 x 3
- * close-packed spheres of r, pin and roller lines under the bottom layer,
- * a loading nose on the top layer at mid-span at 0.01 m/s, dry, local
- * damping 0.7): sigma_f = 3 P L / (2 b h^2), b = ny sqrt(3) r. */
+/* The three-point-bending specimen of test_dem_bend's calibration
+ * (tests/dem_specimen.h): 12 x 3 x 3 close-packed spheres of r. */
 static double flexural(double r, double sigma_t, double tau_c)
 {
-    const int nx = 12, ny = 3, nz = 3;
-    dem_params p;
-    dem_params_default(&p);
-    p.water_density = p.gravity = 0.0;
-    p.local_damping = 0.7;
-    p.bond_tensile = sigma_t;
-    p.bond_shear = tau_c;
-    size_t np = (size_t)nx * ny * nz;
-    dem *d = dem_create(np, 8 * np, &p);
-    dem_add_sheet_hcp(d, 0.0, 0.0, nx, ny, nz, r, 0.0, 0.0);
-    double zmin = HUGE_VAL, zmax = -HUGE_VAL, xlo = HUGE_VAL, xhi = -HUGE_VAL;
-    for (size_t i = 0; i < d->n; i++) {
-        zmin = fmin(zmin, d->z[i]);
-        zmax = fmax(zmax, d->z[i]);
-    }
-    for (size_t i = 0; i < d->n; i++)
-        if (d->z[i] < zmin + 0.5 * r) {
-            xlo = fmin(xlo, d->x[i]);
-            xhi = fmax(xhi, d->x[i]);
-        }
-    double xl = 0.0, xr = 0.0;
-    int nl = 0, nr = 0;
-    for (size_t i = 0; i < d->n; i++) {
-        if (!(d->z[i] < zmin + 0.5 * r))
-            continue;
-        if (d->x[i] < xlo + 1.01 * r) {
-            d->flags[i] = DEM_FIX_TRANSLATION;
-            xl += d->x[i];
-            nl++;
-        } else if (d->x[i] > xhi - 1.01 * r) {
-            d->flags[i] = DEM_FIX_Z;
-            xr += d->x[i];
-            nr++;
-        }
-    }
-    xl /= nl;
-    xr /= nr;
-    double xmid = 0.5 * (xl + xr), span = xr - xl, v = 0.01;
-    for (size_t i = 0; i < d->n; i++)
-        if (d->z[i] > zmax - 0.5 * r && fabs(d->x[i] - xmid) < 1.01 * r) {
-            d->flags[i] = DEM_FIX_TRANSLATION | DEM_FIX_ROTATION;
-            dem_set_velocity(d, (long)i, 0.0, 0.0, -v);
-        }
-    double b = ny * sqrt(3.0) * r, h = 2.0 * r + (nz - 1) * 2.0 * r * sqrt(2.0 / 3.0);
-    double dt = p.dt_safety * dem_dt_critical(d);
-    double dmax = 6.0 * sigma_t * span * span / (6.0 * p.bond_modulus * M_PI / 4.0 * h);
-    long steps = (long)(dmax / v / dt);
-    sph_status st;
-    double pmax = 0.0;
-    int bad = 0;
-    for (long k = 0; k < steps; k++) {
-        bad |= dem_step(d, dt, &st) != SPH_STEP_OK;
-        double P = 0.0;
-        for (size_t i = 0; i < d->n; i++)
-            if (d->flags[i] & DEM_FIX_ROTATION)
-                P += d->fz[i];
-        pmax = fmax(pmax, P);
-        if (pmax > 0.0 && P < 0.3 * pmax && d->bonds_broken_tension + d->bonds_broken_shear > 0)
-            break;
-    }
-    CHECK(!bad, "bending: steps ok");
-    dem_free(d);
-    return 3.0 * pmax * span / (2.0 * b * h * h);
+    long bt, bs;
+    double span;
+    return flexural_hcp(r, 12, 3, 3, sigma_t, tau_c, &bt, &bs, &span);
 }
 
 /* Both strengths for a bending strength sigma_f and a compressive peak sigma_c
