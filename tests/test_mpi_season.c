@@ -3,13 +3,15 @@
  * service/domain_mpi.c, docs/domain.md "The mixed layer").
  *
  * The plain build's program runs the serial reference: one model in
- * canonical mode with the slab mixed layer on a 4 x 3 grid of 10 km cells
+ * canonical mode with the slab mixed layer on a 6 x 4 grid of 10 km cells
  * (depths 5 to 30 m, a land corner, open edges elsewhere, restoring to
  * SST/SSS over 5 days), a patch of 16 ice particles and open water
  * elsewhere, free drift under a steady wind (ice leaves through the east
  * edge), the auto column: 3 cold days (frazil, new particles, merging of
- * the thin ones), 2 warm sunny days (melt-out: particles removed), 3 cold
- * days, hourly; 192 steps. It writes the particles, every array of the
+ * the thin ones), a warm sunny day (melt-out: particles removed), 4 cold
+ * days, hourly; 192 steps. (Continuity density, the core's default: the
+ * service refuses it with new particles, docs/ocean.md; the identity does
+ * not depend on it.) It writes the particles, every array of the
  * mixed layer and the budget to a temporary directory, and checks the
  * serial run itself: creation, merging, melt-out removal and outflow
  * happened, the energy, water and salt budgets of ice plus ocean and the
