@@ -124,11 +124,11 @@ layers: $(LIB_OBJ) $(MAIN_OBJ)
 	if [ $$fail -ne 0 ]; then exit 1; fi; \
 	echo "layers: ok"
 
-# The MPI build for test_ensemble_mpi and test_mpi_dd, when OpenMPI's mpicc is installed.
+# The MPI build for test_ensemble_mpi, test_mpi_dd and test_mpi_season, when OpenMPI's mpicc is installed.
 .PHONY: mpi-build
 mpi-build:
 	@if command -v mpicc >/dev/null 2>&1 && [ "$(MPI)" != 1 ]; then \
-	  $(MAKE) --no-print-directory MPI=1 BUILD=build-mpi build-mpi/sphice build-mpi/tests/test_mpi_dd; \
+	  $(MAKE) --no-print-directory MPI=1 BUILD=build-mpi build-mpi/sphice build-mpi/tests/test_mpi_dd build-mpi/tests/test_mpi_season; \
 	else echo "mpi-build: mpicc not installed: test_ensemble_mpi will skip (sh tools/install-deps.sh --mpi)"; fi
 
 # The test suite: every test program, then the summary line.

@@ -246,11 +246,14 @@ static void compare_warm(const char *ser_bin, const char *mpi_bin, const char *n
     }
 }
 
-/* One refused combination: exit 1 and one line naming key. */
-static void refused(const char *bin, const char *what, const char *from, const char *to, const char *extra,
-                    const char *key)
+/* One refused combination (from -> to, and from2 -> to2 unless NULL):
+ * exit 1 and one line naming key. */
+static void refused2(const char *bin, const char *what, const char *from, const char *to, const char *from2,
+                     const char *to2, const char *extra, const char *key)
 {
     write_config("refuse.json", from, to, extra);
+    if (from2)
+        edit_config("refuse.json", from2, to2);
     char cmd[4096], log[1300];
     snprintf(log, sizeof log, "%s/refuse.log", dir);
     snprintf(cmd, sizeof cmd, "OMP_NUM_THREADS=1 %s run %s/refuse.json --cycle 1999-02-08T06:00Z --hours 1 --out "
@@ -270,6 +273,12 @@ static void refused(const char *bin, const char *what, const char *from, const c
     CHECK(access(out, F_OK) != 0, "%s: nothing published", what);
 }
 
+static void refused(const char *bin, const char *what, const char *from, const char *to, const char *extra,
+                    const char *key)
+{
+    refused2(bin, what, from, to, NULL, NULL, extra, key);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -284,8 +293,9 @@ int main(int argc, char **argv)
     const char *dom = "\"parallel\": {\"decomposition\": \"domain\"},";
 
     /* the refusals (the plain build: fast, before any input is read) */
-    refused(ser_bin, "the mixed layer", "\"physics\": \"full\"", "\"physics\": \"full\", \"ocean\": {\"mixed_layer\": true}",
-            dom, "model.ocean.mixed_layer");
+    refused2(ser_bin, "the mixed layer with the ocean-fluxes file", "\"physics\": \"full\"",
+             "\"physics\": \"full\", \"ocean\": {\"mixed_layer\": true}", "\"interval_hours\": 1",
+             "\"interval_hours\": 1, \"ocean_fluxes\": true", dom, "output.ocean_fluxes");
     refused(ser_bin, "the implicit solver", "\"physics\": \"full\"", "\"physics\": \"full\", \"solver\": \"implicit\"",
             dom, "model.solver");
     refused(ser_bin, "an ensemble", NULL, NULL, "\"parallel\": {\"decomposition\": \"domain\"}, \"ensemble\": {\"members\": 2},",
@@ -390,6 +400,31 @@ int main(int argc, char **argv)
     /* the next cycle warm-started from it: the restart carries the last
      * interval's accumulators, which the new file must not count */
     compare_warm(ser_bin, mpi_bin, "restart-fluxes", "fluxes-serial", "fluxes.json");
+
+    /* the mixed layer with new ice in open water (issue 20): the thin
+     * strip and open water elsewhere under the cold air (-10 C), a 2 m
+     * slab at its freezing point, new particles from 2 mm of frazil,
+     * merging on; 2 h with two hourly outputs and the restart (its mixed
+     * layer among its variables) */
+    write_config("season.json", "\"thermo\": {\"dt\": 0}",
+                 "\"thermo\": {\"dt\": 600}, \"summation_density\": true, \"ocean\": {\"mixed_layer\": true, "
+                 "\"depth\": 2}, \"new_ice\": {\"create\": true, \"thickness\": 0.002, \"merge\": true, "
+                 "\"merge_distance\": 1.05}", dom);
+    edit_config("season.json", "ice1.nc", "ice_thin.nc");
+    edit_config("season.json", "[\"wind\"]", "[\"wind\", \"tair\"]");
+    compare_runs(ser_bin, mpi_bin, "season", "season.json", 2);
+    {
+        double s0 = cycle_number("season", "particles_start"), s1 = cycle_number("season", "particles_end");
+        double er = cycle_number("season", "energy_budget_residual");
+        double wr = cycle_number("season", "water_budget_residual");
+        double sr = cycle_number("season", "salt_budget_residual");
+        CHECK(s1 > s0, "season: new particles in open water (%.0f -> %.0f)", s0, s1);
+        CHECK(er >= 0 && er < 1e-12 && wr >= 0 && wr < 1e-12 && sr >= 0 && sr < 1e-12,
+              "season: the energy, water and salt budgets close (%.3g %.3g %.3g)", er, wr, sr);
+        printf("  mixed layer and new ice: %.0f -> %.0f particles, residuals energy %.3g water %.3g salt %.3g\n", s0,
+               s1, er, wr, sr);
+    }
+    compare_warm(ser_bin, mpi_bin, "restart-season", "season-serial", "season.json");
 
     /* a failure fails every rank: forcing that ends at +9 h for a 12 h run
      * (every rank's coupling_open refuses it, after rank 0 sent the jobs) */

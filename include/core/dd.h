@@ -47,7 +47,9 @@ enum {
                             (after any reordering of the step): map particles */
     SPH_DD_ITER_POST = 2, /* an mEVP iteration updated u, v, s11, s22, s12:
                              start sending the owned boundary values */
-    SPH_DD_ITER_WAIT = 3  /* before the next iteration: the halo must be current */
+    SPH_DD_ITER_WAIT = 3, /* before the next iteration: the halo must be current */
+    SPH_DD_OCEAN = 4      /* the mixed layer's step (a thermodynamic step, before and
+                             after the columns): fill the view (sph_model_dd_view) */
 };
 
 typedef struct sph_dd_hooks {
@@ -65,6 +67,10 @@ typedef struct sph_dd_hooks {
      * order (completed right after the norms' reduction). The same answer
      * either way (each particle's arithmetic is unchanged). */
     int no_overlap;
+    /* 1 on exactly one rank (the driver's rank 0): the rank that takes the
+     * particles the mixed layer creates (the next step's migration moves
+     * them to their owners) and books their mass in its sources. */
+    int lead;
 } sph_dd_hooks;
 
 /* Canonical mode on (1) or off (0); allocates its workspace (outside a
@@ -102,6 +108,16 @@ const sph_xsum *sph_model_dd_sources(const sph_model *m);
 /* b's source terms (growth ... snow_to_ocean, outflow, removed_particles)
  * = base's plus the accumulators' values. */
 void sph_dd_budget_sources(sph_budget *b, const sph_budget *base, const sph_xsum src[SPH_DD_NSRC]);
+
+/* The mixed layer under decomposition (canonical mode; docs/domain.md):
+ * its step runs on a view of every rank's particles, gathered by the
+ * driver at SPH_DD_OCEAN: the driver copies every rank's owned particles
+ * (sph_model_dd_owned) into the view (every field, any order: the core
+ * sorts it by id), sets its n, writes each one's sph_model_dd_local_ea
+ * value into *ea at the same position, and replaces *rc by the worst
+ * of every rank's *rc (SPH_STEP_FATAL if any, else any other failure). NULL when the model has no view. */
+sph_particles *sph_model_dd_view(sph_model *m, double **ea, int **rc);
+const double *sph_model_dd_local_ea(const sph_model *m);
 
 /* The kernel's support in units of the smoothing length. */
 double sph_model_kernel_radius(const sph_model *m);

@@ -421,7 +421,9 @@ void sph_remove_outflow(sph_model *m)
                 sph_xsum_add(&m->dd_src[SPH_DD_SRC_SNOW_TO_OCEAN], sph_particle_snow_mass(&m->prm.thermo, P, k));
                 sph_xsum_add(&m->dd_src[SPH_DD_SRC_REMOVED], 1.0);
             }
-            if (sph_ocean_on(m)) /* its fluxes so far to the edge cell */
+            /* its fluxes so far to the edge cell (by its owner only in
+             * canonical mode: a halo copy's are its owner's) */
+            if (sph_ocean_on(m) && (!m->canonical || m->dd_owned[k]))
                 sph_ocean_take_particle(m, k);
             sph_dd_remove(m, k);
         }

@@ -103,7 +103,7 @@ int sph_model_set_canonical(sph_model *m, int on)
     if (!m->dd_key || !m->dd_owned)
         return -1;
     m->canonical = 1;
-    return 0;
+    return sph_dd_ocean_alloc(m); /* the mixed layer's view (ocean/ocean_dd.c) */
 }
 
 void sph_model_set_dd(sph_model *m, const sph_dd_hooks *h) { m->dd = h; }
@@ -114,6 +114,9 @@ double sph_model_kernel_radius(const sph_model *m) { return m->kern.radius; }
 
 void sph_model_dd_coast(sph_model *m, double sml0_max)
 {
+    /* as sph_model_init: new particles' smoothing length too */
+    if (sph_ocean_on(m) && m->prm.ocean.create)
+        sml0_max = fmax(sml0_max, m->prm.sml_factor * m->ocean->g.ds);
     if (m->has_mask)
         sph_mark_near_land(m, m->kern.radius * m->prm.sml_max_factor * sml0_max);
 }

@@ -162,6 +162,7 @@ void sph_model_free(sph_model *m)
     free(m->near_land);
     free(m->dd_key);
     free(m->dd_owned);
+    sph_dd_ocean_free(m);
     sph_thermo_work_free(m->tw);
     sph_ocean_free(m->ocean);
     if (m->solver && m->solver->free)
@@ -476,6 +477,8 @@ static inline int particle_unhealthy(const sph_particles *P, const sph_params *p
     return sp > p->speed_limit || !(P->dens[k] / p->rho_i <= p->thickness_limit);
 }
 
+static int check_ocean_budget(sph_model *m, sph_status *st);
+
 static int check_health(sph_model *m, sph_status *st)
 {
     sph_particles *P = m->P;
@@ -511,8 +514,9 @@ static int check_health(sph_model *m, sph_status *st)
                                   p->thickness_limit,
                                   "exceeds the thickness limit (numerical pile-up)");
     }
-    if (m->dd) /* a rank holds halo copies too: the driver checks the global budget */
-        return SPH_STEP_OK;
+    if (m->dd) /* a rank holds halo copies too: the driver checks the global mass budget; the
+                  ocean's budgets are global on every rank (ocean/ocean_dd.c) */
+        return check_ocean_budget(m, st);
     const sph_budget *b = &m->budget;
     double expect = sph_budget_expected(b);
     /* the scale includes the sources: ice that formed and melted away
@@ -527,6 +531,13 @@ static int check_health(sph_model *m, sph_status *st)
     if (fabs(b->snow - sexp) > stol)
         return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_MASS, -1, "total snow mass", b->snow, sexp,
                               "changed beyond round-off with no source or sink to explain it");
+    return check_ocean_budget(m, st);
+}
+
+static int check_ocean_budget(sph_model *m, sph_status *st)
+{
+    const sph_params *p = &m->prm;
+    const sph_budget *b = &m->budget;
     if (b->ocean) { /* ice plus ocean: energy, water, salt */
         double re = sph_budget_energy_residual(b), rw = sph_budget_water_residual(b);
         double rs = sph_budget_salt_residual(b);
@@ -711,6 +722,8 @@ int sph_model_resume(sph_model *m, const sph_model_clock *c, sph_status *st)
         sph_mark_near_land(m, m->kern.radius * p->sml_max_factor * new_ice_sml(m, sml0_max));
     m->dens_scale = c->dens_scale;
     m->budget = c->budget;
+    if (m->canonical) /* a resumed model (or a rank after the scatter) owns all it holds */
+        memset(m->dd_owned, 1, P->n);
     if (sph_ocean_on(m)) { /* the mixed layer is not in restart files (docs/ocean.md) */
         sph_ocean_mark(m);
         if (!m->budget.ocean) {
@@ -737,7 +750,7 @@ int sph_model_ocean_create(sph_model *m, const sph_ocean_grid *g)
     double S0 = p->thermo.ocean_salinity;
     double Tf = sph_ocean_freezing_point(p->ocean.freezing, p->thermo.mu, S0);
     m->ocean = sph_ocean_create(g, m->cap, p->ocean.depth, S0, Tf);
-    if (!m->ocean)
+    if (!m->ocean || sph_dd_ocean_alloc(m))
         return SPH_STEP_FATAL;
     sph_ocean *o = m->ocean;
     /* the sea fraction of each cell from the land mask, sampled 8 x 8 */
@@ -880,7 +893,12 @@ int sph_model_step(sph_model *m, sph_status *st)
             for (size_t k = 0; k < P->n; k++)
                 m->dvel[k] = P->mass[k];
             double tdt = m->thermo_accum;
-            if (sph_ocean_on(m))
+            /* canonical mode: the ocean's step on the view of every rank's
+             * particles in id order (ocean/ocean_dd.c) */
+            const int ocean_dd = sph_ocean_on(m) && m->canonical;
+            if (ocean_dd && (rc = sph_dd_ocean_before(m, tdt, st)) != SPH_STEP_OK)
+                return rc;
+            if (sph_ocean_on(m) && !ocean_dd)
                 sph_ocean_before(m, tdt);
             rc = sph_thermo_step(&p->thermo, P, tdt, m->tw, &m->budget, st);
             if (rc == SPH_STEP_OK && m->canonical) /* exact, owned only (core/dd.h) */
@@ -913,9 +931,11 @@ int sph_model_step(sph_model *m, sph_status *st)
                             P->dens0[k] *= f;
                     }
             m->thermo_accum = 0.0;
+            if (ocean_dd && (rc = sph_dd_ocean_after(m, tdt, rc, st)) != SPH_STEP_OK)
+                return rc; /* every rank's status agreed first */
             if (rc != SPH_STEP_OK)
                 return rc;
-            if (sph_ocean_on(m) && (rc = sph_ocean_after(m, tdt, m->tw, st)) != SPH_STEP_OK)
+            if (sph_ocean_on(m) && !ocean_dd && (rc = sph_ocean_after(m, tdt, m->tw, st)) != SPH_STEP_OK)
                 return rc;
             for (size_t k = P->n; k-- > 0;)
                 if (!(P->mass[k] > 0.0))

@@ -110,6 +110,21 @@ struct sph_model {
      * (core/dd.h), on top of dd_base (the budget at init or resume) */
     sph_xsum dd_src[SPH_DD_NSRC];
     sph_budget dd_base;
+    /* canonical mode with the mixed layer (ocean/ocean_dd.c): the ocean's
+     * step runs on a global view of the particles, every rank's owned ones
+     * in id order (the driver's SPH_DD_OCEAN gathers them), allocated with
+     * capacity cap by sph_dd_ocean_alloc: og_ea the atmospheric energy of
+     * each (the thermodynamic step's), og_lea the same per local slot,
+     * og_mine the ids this rank owned when the view was gathered (sorted),
+     * og_maxid the largest id of the view then; og_on 1 while m->P is the
+     * view; og_rc the worst step status over the ranks (the gather's) */
+    sph_particles *og;
+    double *og_ea, *og_lea, *og_scratch;
+    long *og_pair, *og_mine;
+    int *og_order;
+    size_t og_nmine;
+    long og_maxid;
+    int og_on, og_rc;
 };
 
 /* Array length of the per-particle workspaces: live particles and ghosts. */
@@ -256,6 +271,26 @@ int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_stat
 /* Hands particle k's accumulated fluxes into the ocean (ofx_*) to its
  * cell's accumulators and zeroes them, before k is removed mid-record. */
 void sph_ocean_take_particle(sph_model *m, size_t k);
+/* sph_ocean_after with the particles' atmospheric energy from ea[k]
+ * instead of tw (the canonical view's, ocean_dd.c). */
+int sph_ocean_after_ea(sph_model *m, double dt, const sph_thermo_work *tw, const double *ea, sph_status *st);
+
+/* Canonical mode with the mixed layer (ocean/ocean_dd.c, docs/domain.md):
+ * the view's workspace (outside a step; 0 on success, also when not
+ * needed), and the ocean's two halves of a thermodynamic step on the view
+ * of every rank's owned particles in id order. before: sets sst and fw of
+ * every local slot; after: the cells, removal, creation and merging on the
+ * view, then the local particles become this rank's share of the view (the
+ * ids it owned; the new ones on the lead rank); rc_in: this rank's status
+ * of the thermodynamic step, agreed over the ranks first. */
+int sph_dd_ocean_alloc(sph_model *m);
+void sph_dd_ocean_free(sph_model *m);
+int sph_dd_ocean_before(sph_model *m, double dt, sph_status *st);
+int sph_dd_ocean_after(sph_model *m, double dt, int rc_in, sph_status *st);
+/* Canonical mode: the ice enthalpy (J) and mass (kg) of the particles as
+ * exact sums, over the view, or over the owned particles summed over the
+ * ranks (the driver's reduce). */
+void sph_dd_ice_totals(const sph_model *m, double (*enth)(const sph_model *, size_t), double *e, double *mass);
 
 /* ------------------------------------------------------------------ */
 /* canonical mode for domain decomposition (dd.c, core/dd.h)          */

@@ -414,6 +414,61 @@ static void iter_wait(dd_ctx *d, sph_model *m)
     }
 }
 
+/* SPH_DD_OCEAN (core/dd.h): every rank's owned particles, each row with
+ * its atmospheric energy, gathered on every rank into the model's view,
+ * and the worst status over the ranks. */
+static void ocean_view(dd_ctx *d, sph_model *m)
+{
+    double *ea;
+    int *rcp;
+    sph_particles *V = sph_model_dd_view(m, &ea, &rcp);
+    const sph_particles *P = sph_model_particles(m);
+    const unsigned char *own = sph_model_dd_owned(m);
+    const double *lea = sph_model_dd_local_ea(m);
+    const size_t rb = d->rowbytes + sizeof(double);
+    int S = d->size, n = 0;
+    if (grow((void **)&d->pk, &d->pk_cap, (P->n + 1) * rb, 1))
+        abort(); /* no way to fail a hook (map_slots) */
+    for (size_t k = 0; k < P->n; k++) {
+        if (!own[k])
+            continue;
+        unsigned char *row = d->pk + (size_t)n * rb;
+        pack_row(P, k, row);
+        memcpy(row + d->rowbytes, &lea[k], sizeof(double));
+        n++;
+    }
+    int mine[2] = {n, *rcp};
+    int *all = malloc(4 * (size_t)S * sizeof(int));
+    if (!all)
+        abort();
+    MPI_Allgather(mine, 2, MPI_INT, all, 2, MPI_INT, d->comm);
+    long tot = 0;
+    int worst_rc = 0;
+    int *cnt = all + 2 * S, *disp = all + 3 * S;
+    for (int r = 0; r < S; r++) {
+        int q = all[2 * r + 1]; /* any failure; a fatal one first */
+        if (q == SPH_STEP_FATAL || (q != SPH_STEP_OK && worst_rc == SPH_STEP_OK))
+            worst_rc = q;
+        cnt[r] = all[2 * r] * (int)rb;
+        disp[r] = (int)(tot * (long)rb);
+        tot += all[2 * r];
+    }
+    if ((size_t)tot > V->cap || grow((void **)&d->upk, &d->upk_cap, (size_t)tot * rb + 1, 1)) {
+        fprintf(stderr, "sphice: domain decomposition: the mixed layer's view of %ld particles exceeds the "
+                        "capacity %zu on rank %d\n", tot, V->cap, d->rank);
+        MPI_Abort(d->comm, 3);
+    }
+    MPI_Allgatherv(d->pk, n * (int)rb, MPI_BYTE, d->upk, cnt, disp, MPI_BYTE, d->comm);
+    for (long i = 0; i < tot; i++) {
+        const unsigned char *row = d->upk + (size_t)i * rb;
+        unpack_row(V, (size_t)i, row);
+        memcpy(&ea[i], row + d->rowbytes, sizeof(double));
+    }
+    V->n = (size_t)tot;
+    *rcp = worst_rc;
+    free(all);
+}
+
 static void hook_exchange(void *ctx, sph_model *m, int stage)
 {
     dd_ctx *d = ctx;
@@ -423,6 +478,8 @@ static void hook_exchange(void *ctx, sph_model *m, int stage)
         iter_post(d, m);
     else if (stage == SPH_DD_ITER_WAIT)
         iter_wait(d, m);
+    else if (stage == SPH_DD_OCEAN)
+        ocean_view(d, m);
 }
 
 /* One reduction per call: the accumulators' digits summed and the maxima
@@ -520,6 +577,7 @@ dd_ctx *dd_create(MPI_Comm comm, sph_model *m, const dd_options *o)
     d->hooks.ctx = d;
     d->hooks.exchange = hook_exchange;
     d->hooks.reduce = hook_reduce;
+    d->hooks.lead = d->rank == 0;
     sph_model_set_dd(m, &d->hooks);
     return d;
 }

@@ -417,6 +417,9 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         fc_dd_budget(e, &ddb);
         b = &ddb;
         res->run.budget_residual = sph_budget_residual(b);
+        res->run.energy_residual = sph_budget_energy_residual(b); /* the mixed layer's, the stepped model's */
+        res->run.water_residual = sph_budget_water_residual(b);
+        res->run.salt_residual = sph_budget_salt_residual(b);
     }
     products_set_run_info(e->pw, &res->run);
     if ((rc = fc_land_gate(e, er)))

@@ -44,10 +44,12 @@ static int refuse(const engine *e, sph_error *err)
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config: %s runs one member over the ranks, but ensemble.members is %d (set "
                            "ensemble.members 1 or parallel.decomposition \"members\")", KEY, c->ensemble.members);
-    if (p->ocean.mixed_layer)
+    if (p->ocean.mixed_layer && c->output.ocean_fluxes)
         return sph_err_set(err, SPH_ERR_CONFIG,
-                           "config: %s does not support the ocean mixed layer (its cells are shared between "
-                           "ranks): set model.ocean.mixed_layer false or parallel.decomposition \"members\"", KEY);
+                           "config: %s does not support the ocean-fluxes file with the mixed layer (the cells' "
+                           "accumulators of particles leaving at an open boundary are summed in each rank's "
+                           "order): set output.ocean_fluxes false, model.ocean.mixed_layer false or "
+                           "parallel.decomposition \"members\"", KEY);
     if (p->physics != SPH_PHYSICS_FREE_DRIFT && p->solver != SPH_SOLVER_MEVP)
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config: %s supports only the mEVP stress solver (the explicit and implicit solvers "
@@ -138,9 +140,54 @@ static void exact_budget(const engine *e, const sph_particles *P, sph_budget *b)
     b->kinetic_energy = sph_xsum_value(&acc[4]);
 }
 
+#ifdef SPHICE_MPI
+/* The mixed layer's state: every per-cell array but the workspace. */
+enum { OCEAN_NSTATE = 27 };
+static void ocean_state(sph_ocean *o, double *a[OCEAN_NSTATE])
+{
+    double *const v[OCEAN_NSTATE] = {o->temp, o->sal, o->depth, o->water, o->salt, o->frazil, o->frazil_enth,
+                                     o->seafrac, o->tair, o->qair, o->ua, o->va, o->swdn, o->lwdn, o->lat,
+                                     o->sst_restore, o->sss_restore, o->ow_heat, o->ow_fresh, o->ow_salt,
+                                     o->ofx_heat, o->ofx_water, o->ofx_salt, o->ofx_heat_ice, o->ofx_taux,
+                                     o->ofx_tauy, o->ofx_swbase};
+    memcpy(a, v, sizeof v);
+}
+
+/* dst's mixed layer takes src's state (same grid). */
+static void ocean_copy(sph_ocean *dst, sph_ocean *src)
+{
+    double *a[OCEAN_NSTATE], *b[OCEAN_NSTATE];
+    ocean_state(dst, a);
+    ocean_state(src, b);
+    for (int q = 0; q < OCEAN_NSTATE; q++)
+        memcpy(a[q], b[q], src->ncell * sizeof(double));
+}
+#endif
+
 void fc_dd_budget(const engine *e, sph_budget *b)
 {
     *b = e->dd_b0;
+    /* the mixed layer's budgets (energy, water, salt, the created and
+     * merged counts): the stepped model's, global on every rank (core
+     * ocean/ocean_dd.c) */
+    const sph_budget *ob = sph_model_budget(e->dd == 2 && e->dd_m ? e->dd_m : e->m);
+    if (ob->ocean) {
+        b->ocean = 1;
+        b->energy_initial = ob->energy_initial;
+        b->energy = ob->energy;
+        b->energy_surface = ob->energy_surface;
+        b->energy_restoring = ob->energy_restoring;
+        b->energy_outflow = ob->energy_outflow;
+        b->water_initial = ob->water_initial;
+        b->water = ob->water;
+        b->water_outflow = ob->water_outflow;
+        b->salt_initial = ob->salt_initial;
+        b->salt = ob->salt;
+        b->salt_restoring = ob->salt_restoring;
+        b->salt_outflow = ob->salt_outflow;
+        b->created_particles = ob->created_particles;
+        b->merged_particles = ob->merged_particles;
+    }
     /* the sources (thermodynamics, open boundaries): exact sums over the
      * owned particles (core/dd.h), over every rank when decomposed */
     if (e->dd == 1) {
@@ -206,6 +253,31 @@ int fc_dd_setup(engine *e, sph_error *err)
     }
     if ((rc = fc_dd_agree(e, rc, err)))
         return rc;
+    /* the mixed layer: every rank's decomposed model gets rank 0's grid and
+     * state (after its cold start's first fill, or a warm start's restart
+     * file), and every rank samples the cells' forcing itself from then on */
+    if (e->prm.ocean.mixed_layer) {
+        sph_ocean_grid g;
+        memset(&g, 0, sizeof g);
+        if (e->dd_rank == 0 && sph_model_ocean(e->m))
+            g = sph_model_ocean(e->m)->g;
+        MPI_Bcast(&g, (int)sizeof g, MPI_BYTE, 0, MPI_COMM_WORLD);
+        if (sph_model_ocean_create(e->dd_m, &g) != SPH_STEP_OK)
+            rc = sph_err_set(err, SPH_ERR_NOMEM, "forecast: cannot create the mixed layer (%d x %d cells)", g.nx,
+                             g.ny);
+        else if (e->dd_rank > 0)
+            rc = fc_ocean_points(e, &g, err);
+        if ((rc = fc_dd_agree(e, rc, err)))
+            return rc;
+        sph_ocean *o = sph_model_ocean(e->dd_m);
+        if (e->dd_rank == 0)
+            ocean_copy(o, sph_model_ocean(e->m));
+        double *a[OCEAN_NSTATE];
+        ocean_state(o, a);
+        for (int q = 0; q < OCEAN_NSTATE; q++)
+            MPI_Bcast(a[q], (int)o->ncell, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+        e->ocean_fresh = 0;
+    }
     sph_status st;
     memset(&st, 0, sizeof st);
     if (dd_scatter(e->dd_ctx, sph_model_particles(e->m), &clk, &st) != SPH_STEP_OK)
@@ -227,7 +299,10 @@ int fc_dd_step(engine *e, long s, double t, const volatile sig_atomic_t *cancel,
         iso(t, when, sizeof when);
         rc = sph_err_set(err, SPH_ERR_CANCELLED, "forecast %s: cancelled at model time %s", e->cname, when);
     } else if (s > 0) { /* the owned particles' forcing (the halo's comes with the copies) */
-        rc = coupling_fill(&e->cpl, e->proj, &e->cfg->model.thermo, e->thermo_on, P, t, err);
+        if (e->ocean_pts) /* every rank's mixed layer, first (as fc_fill_forcing) */
+            rc = fc_ocean_fill_to(e, sph_model_ocean(e->dd_m), t, err);
+        if (rc == SPH_OK)
+            rc = coupling_fill(&e->cpl, e->proj, &e->cfg->model.thermo, e->thermo_on, P, t, err);
     }
     if ((rc = fc_dd_agree(e, rc, err)))
         return rc;
@@ -285,6 +360,9 @@ int fc_dd_sync(engine *e, sph_error *err)
 #ifdef SPHICE_MPI
     if (e->dd == 2 && dd_gather(e->dd_ctx, e->dd_rank == 0 ? sph_model_particles(e->m) : NULL) != 0)
         return sph_err_set(err, SPH_ERR_NOMEM, "forecast %s: gathering the particles failed", e->cname);
+    /* the mixed layer, the same on every rank, into the engine's model (its restart file) */
+    if (e->dd == 2 && e->dd_rank == 0 && sph_model_ocean(e->m) && sph_model_ocean(e->dd_m))
+        ocean_copy(sph_model_ocean(e->m), sph_model_ocean(e->dd_m));
 #endif
     (void)err;
     return SPH_OK;

@@ -108,6 +108,11 @@ static inline void iso(double t, char *buf, size_t len) { time_format_iso(t, buf
 size_t fc_ocean_capacity(const engine *e, size_t count);
 int fc_ocean_setup(engine *e, sph_error *err);
 int fc_ocean_fill(engine *e, double t, sph_error *err);
+/* The same into another model's mixed layer o (parallel.decomposition
+ * "domain": every rank's decomposed model, forecast_domain.c), and the
+ * cells' sample points of grid g (e->ocean_pts; a worker's, from rank 0's grid). */
+int fc_ocean_fill_to(engine *e, sph_ocean *o, double t, sph_error *err);
+int fc_ocean_points(engine *e, const sph_ocean_grid *g, sph_error *err);
 
 /* The particles' forcing at time t (service/coupling.h). */
 static inline int fc_fill_forcing(engine *e, double t, sph_error *err)

@@ -82,18 +82,27 @@ int fc_ocean_setup(engine *e, sph_error *err)
     if (nc > e->cap)
         return sph_err_set(err, SPH_ERR_CONFIG, "config: model.ocean.cell %g m gives more cells (%zu) than the "
                            "model holds particles (%zu)", cell, nc, e->cap);
+    int rc = fc_ocean_points(e, &g, err);
+    if (rc)
+        return rc;
+    e->ocean_fresh = e->req->warm_start == NULL;
+    log_info("forecast %s: mixed layer on a %d x %d grid of %.0f m cells, depth %g m%s", e->cname, nx, ny, cell,
+             p->ocean.depth, p->ocean.create ? ", new ice in open water" : "");
+    return SPH_OK;
+}
+
+int fc_ocean_points(engine *e, const sph_ocean_grid *g, sph_error *err)
+{
+    size_t nc = (size_t)g->nx * (size_t)g->ny;
     e->ocean_pts = sph_particles_create(nc, 1);
     if (!e->ocean_pts)
         return sph_err_set(err, SPH_ERR_NOMEM, "forecast: out of memory (mixed layer)");
     e->ocean_pts->n = nc;
     for (size_t c = 0; c < nc; c++) {
-        e->ocean_pts->x[c] = x0 + ((double)(c % (size_t)nx) + 0.5) * cell;
-        e->ocean_pts->y[c] = y0 + ((double)(c / (size_t)nx) + 0.5) * cell;
+        e->ocean_pts->x[c] = g->x0 + ((double)(c % (size_t)g->nx) + 0.5) * g->dx;
+        e->ocean_pts->y[c] = g->y0 + ((double)(c / (size_t)g->nx) + 0.5) * g->dy;
         e->ocean_pts->id[c] = (long)c;
     }
-    e->ocean_fresh = e->req->warm_start == NULL;
-    log_info("forecast %s: mixed layer on a %d x %d grid of %.0f m cells, depth %g m%s", e->cname, nx, ny, cell,
-             p->ocean.depth, p->ocean.create ? ", new ice in open water" : "");
     return SPH_OK;
 }
 
@@ -129,9 +138,10 @@ static int bathy_refusal(engine *e, double b, size_t c, sph_error *err)
                        "model's own mask)", src, file, var, b, ll);
 }
 
-int fc_ocean_fill(engine *e, double t, sph_error *err)
+int fc_ocean_fill(engine *e, double t, sph_error *err) { return fc_ocean_fill_to(e, sph_model_ocean(e->m), t, err); }
+
+int fc_ocean_fill_to(engine *e, sph_ocean *o, double t, sph_error *err)
 {
-    sph_ocean *o = sph_model_ocean(e->m);
     sph_particles *Q = e->ocean_pts;
     if (!o || !Q)
         return SPH_OK;

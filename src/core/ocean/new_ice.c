@@ -9,6 +9,7 @@
  * are created from the frazil, and thin crowded particles merged.
  * Everything serial and in index order (bit-reproducible), no allocation. */
 #include "../model_impl.h"
+#include "core/dd.h"
 #include "core/ocean.h"
 
 #include <stdlib.h>
@@ -66,6 +67,10 @@ static double particle_enthalpy(const sph_model *m, size_t k)
 
 static void ice_totals(const sph_model *m, double *e, double *mass)
 {
+    if (m->canonical) { /* exact, over every rank (ocean_dd.c) */
+        sph_dd_ice_totals(m, particle_enthalpy, e, mass);
+        return;
+    }
     double se = 0.0, sm = 0.0;
     for (size_t k = 0; k < m->P->n; k++) {
         se += particle_enthalpy(m, k);
@@ -415,6 +420,8 @@ static int create_in_cell(sph_model *m, size_t c, double reach, long *next_id, s
         }
     }
     m->budget.new_ice += o->frazil[c];
+    if (m->canonical && (!m->dd || m->dd->lead)) /* the sources, once over the ranks (ocean_dd.c) */
+        sph_xsum_add(&m->dd_src[SPH_DD_SRC_NEW_ICE], o->frazil[c]);
     m->budget.created_particles += (long)nfree;
     o->frazil[c] = 0.0;
     o->frazil_enth[c] = 0.0;
@@ -554,6 +561,11 @@ static void merge_thin(sph_model *m)
 
 int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_status *st)
 {
+    return sph_ocean_after_ea(m, dt, tw, NULL, st);
+}
+
+int sph_ocean_after_ea(sph_model *m, double dt, const sph_thermo_work *tw, const double *eav, sph_status *st)
+{
     sph_ocean *o = m->ocean;
     sph_particles *P = m->P;
     const sph_params *p = &m->prm;
@@ -564,7 +576,7 @@ int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_stat
     memset(o->acc_e, 0, o->ncell * sizeof(double));
     memset(o->acc_w, 0, o->ncell * sizeof(double));
     for (size_t k = 0; k < P->n; k++) {
-        double ea = sph_thermo_energy_atm(tw, k);
+        double ea = eav ? eav[k] : sph_thermo_energy_atm(tw, k);
         double de = particle_enthalpy(m, k) - o->penth[k];
         m->budget.energy_surface += ea + o->psnowfall[k];
         foot_span s; /* the footprint before the step, as cfoot */
