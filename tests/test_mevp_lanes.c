@@ -12,7 +12,9 @@
  * u, v, s11, s22, s12 and zeta over the active set: an odd particle count
  * (the lone last particle), loose particles among packed ones (auto
  * physics: the scalar pairs), aEVP and fixed alpha, 1 and 2 threads above
- * the threading threshold. */
+ * the threading threshold. The solver's sweeps after the first read
+ * the divergence's 1 / M^2 per slot from the solve's first (M is
+ * constant within a solve); the reference computes it in every sweep. */
 #include <omp.h>
 #include <string.h>
 
@@ -154,6 +156,9 @@ static void check_case(int nx, int ny, int adaptive, int threads)
     sph_status_clear(&st);
     CHECK(b->solver->solve(b, b->solver_ws, &st) == SPH_STEP_OK, "solve");
     CHECK(b->stats.iterations == SWEEPS, "%d sweeps (%d)", SWEEPS, b->stats.iterations);
+    /* the solve's 1 / M^2 per slot (sweeps 2 on read it) is its own:
+     * a divergence pass after it computes afresh */
+    CHECK(b->div_imd2 == NULL && b->div_imd2_ready == 0, "the solve's 1 / M^2 cache released");
     omp_set_num_threads(1);
     const sph_particles *A = a->P, *B = b->P;
     const int *act = a->active;

@@ -96,6 +96,12 @@ struct sph_model {
     sph_ocean *ocean;  /* the mixed layer (sph_model_ocean_create); NULL: none */
     size_t binv_ident;  /* slots [0, binv_ident) hold the identity or the correction;
                            beyond, untouched zero pages (memory: model.c) */
+    /* 1 / M_j^2 per slot for the divergence's records (pack_stress_slot):
+     * M does not change within a stress solve, so a solver that owns such
+     * an array points here for the solve (NULL otherwise); div_imd2_ready:
+     * filled by this solve's first divergence pass (operators.c) */
+    double *div_imd2;
+    int div_imd2_ready;
     sph_budget budget;
     sph_step_stats stats;
     double time, thermo_accum;

@@ -345,9 +345,8 @@ static double coast_divergence(const sph_model *m, size_t k)
  * reads it, instead of a division and four products per pair. The values
  * are the same operations on the same operands (bit for bit), and each
  * particle's sum runs over its list in the list's order either way. */
-static inline void pack_stress_slot(const sph_particles *P, double *pk, size_t j)
+static inline void pack_stress_slot(const sph_particles *P, double *pk, size_t j, double iMj2)
 {
-    double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
     pk[0] = P->s11[j] * iMj2;
     pk[1] = P->s22[j] * iMj2;
     pk[2] = P->s12[j] * iMj2;
@@ -493,11 +492,28 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count)
         return;
     }
     double *pk = nb->pk;
+    double *imd2 = m->div_imd2;
+    const int ready = m->div_imd2_ready;
 #pragma omp parallel if (SPH_OMP_WORTH(count))
     {
+        /* 1 / M_j^2: within a stress solve (m->div_imd2) computed by its
+         * first pass and read by the others, the same operation on the
+         * same operand (M is constant within a solve) */
+        if (imd2 && ready) {
 #pragma omp for schedule(static)
-        for (size_t j = 0; j < nall; j++)
-            pack_stress_slot(P, pk + 4 * j, j);
+            for (size_t j = 0; j < nall; j++)
+                pack_stress_slot(P, pk + 4 * j, j, imd2[j]);
+        } else if (imd2) {
+#pragma omp for schedule(static)
+            for (size_t j = 0; j < nall; j++) {
+                imd2[j] = 1.0 / (P->dens[j] * P->dens[j]);
+                pack_stress_slot(P, pk + 4 * j, j, imd2[j]);
+            }
+        } else {
+#pragma omp for schedule(static)
+            for (size_t j = 0; j < nall; j++)
+                pack_stress_slot(P, pk + 4 * j, j, 1.0 / (P->dens[j] * P->dens[j]));
+        }
         /* list entries 2i and 2i + 1 in two lanes */
         const size_t half = count / 2;
         if (gc) {
@@ -513,6 +529,8 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count)
         if (count % 2)
             divergence_packed(m, SPH_LIST_K(count - 1), gc);
     }
+    if (imd2)
+        m->div_imd2_ready = 1;
 }
 
 /* Free drift (no internal force) for the particles not in the active set. */

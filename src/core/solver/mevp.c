@@ -40,6 +40,7 @@ typedef struct mevp_work {
      * per step for the active set (the same operations, the same bits) */
     double *qax, *qay;
     double *gair; /* [2 x slots] the air stress on each coast ghost's source, once per step */
+    double *imd2; /* per slot: 1 / M^2 for the divergence's records (sph_model.div_imd2) */
     /* model.evp.anderson (depth > 0 at create): the iterate before the
      * sweep, the last sweep's residual f = g(x) - x and image g, and the
      * ring of their differences; 5 components (u, v, s11, s22, s12) of
@@ -64,6 +65,7 @@ static void mevp_free(void *ws)
     free(w->qax);
     free(w->qay);
     free(w->gair);
+    free(w->imd2);
     free(w->inner);
     free(w->outer);
     free(w->x0);
@@ -89,9 +91,10 @@ static int mevp_create(const sph_model *m, void **ws)
     w->qax = calloc(n, sizeof(double));
     w->qay = calloc(n, sizeof(double));
     w->gair = calloc(2 * n, sizeof(double));
+    w->imd2 = calloc(n, sizeof(double));
     w->inner = malloc((n + 1) * sizeof(int));
     w->outer = malloc((n + 1) * sizeof(int));
-    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2 && w->qax && w->qay && w->gair && w->inner &&
+    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2 && w->qax && w->qay && w->gair && w->imd2 && w->inner &&
              w->outer;
     w->depth = m->prm.evp_anderson;
     w->nslot = n;
@@ -373,16 +376,29 @@ static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pendi
         P->u[k] = u;
         P->v[k] = v;
     }
+    /* the stress sums only for model.evp.change_tol, their only reader
+     * (each sum is its own chain: leaving two out changes no other) */
     mevp_sums s = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-    for (size_t i = 0; i < na; i++) {
-        size_t k = (size_t)act[i];
-        double d = m->dvel[k];
-        s.dmax = sph_fmax(s.dmax, d);
-        s.s2 += d * d;
-        s.q2 += w->res2[k];
-        s.u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
-        s.ds2 += w->ds2[k];
-        s.p2 += P->pres[k] * P->pres[k];
+    if (p->evp_change_tol > 0.0) {
+        for (size_t i = 0; i < na; i++) {
+            size_t k = (size_t)act[i];
+            double d = m->dvel[k];
+            s.dmax = sph_fmax(s.dmax, d);
+            s.s2 += d * d;
+            s.q2 += w->res2[k];
+            s.u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
+            s.ds2 += w->ds2[k];
+            s.p2 += P->pres[k] * P->pres[k];
+        }
+    } else {
+        for (size_t i = 0; i < na; i++) {
+            size_t k = (size_t)act[i];
+            double d = m->dvel[k];
+            s.dmax = sph_fmax(s.dmax, d);
+            s.s2 += d * d;
+            s.q2 += w->res2[k];
+            s.u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
+        }
     }
     return s;
 }
@@ -531,9 +547,24 @@ static void aa_mix(sph_model *m, mevp_work *w, int it, double dt)
         }
 }
 
+static int mevp_solve_iterations(sph_model *m, mevp_work *w, sph_status *st);
+
+/* The iterations with the divergence's 1 / M^2 per slot computed once
+ * (sph_model.div_imd2: M is constant within the solve; its first
+ * divergence pass fills it, after the first ghost stresses). */
 static int mevp_solve(sph_model *m, void *ws, sph_status *st)
 {
     mevp_work *w = ws;
+    m->div_imd2 = w->imd2;
+    m->div_imd2_ready = 0;
+    int rc = mevp_solve_iterations(m, w, st);
+    m->div_imd2 = NULL;
+    m->div_imd2_ready = 0;
+    return rc;
+}
+
+static int mevp_solve_iterations(sph_model *m, mevp_work *w, sph_status *st)
+{
     const sph_params *p = &m->prm;
     double dt = p->dt;
     size_t na = m->nactive;
