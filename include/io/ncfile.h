@@ -32,4 +32,13 @@ int ncfile_abandoned(void);
  * NetCDF (test_ncfile_memory, make soak). */
 void ncfile_release_memory(void);
 
+/* Turns HDF5's error printing off for the calling thread. netCDF-4 turns it
+ * off when it first initialises HDF5, but a thread-safe HDF5 keeps the
+ * setting per thread: without this every other thread that opens a file
+ * prints HDF5-DIAG stacks on stderr for the attributes netCDF probes and
+ * does not find (netCDF 4.9's _Quantize* on every variable). Every thread
+ * that makes NetCDF calls (the daemon's cycle worker, the products' writer)
+ * calls it first (test_hdf5_quiet). */
+void ncfile_thread_quiet(void);
+
 #endif

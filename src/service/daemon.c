@@ -15,6 +15,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "io/ncfile.h"
 #include "service/config.h"
 #include "service/cycle.h"
 #include "service/history.h"
@@ -375,6 +376,7 @@ static char *route(void *ctx, const char *path, int *code, const char **ctype)
 static void *worker_main(void *arg)
 {
     svc *s = arg;
+    ncfile_thread_quiet(); /* HDF5's error printing is per thread */
     sph_error_clear(&s->werr);
     /* the configuration cannot change under the worker: a reload waits for it (apply_pending) */
     if (s->cfg->launcher.command[0])

@@ -26,6 +26,7 @@
 #endif
 
 #include "io/nc_guard.h"
+#include "io/ncfile.h"
 
 enum { BGW_IDLE, BGW_PREPARED, BGW_RUNNING, BGW_DONE };
 
@@ -51,6 +52,7 @@ struct fc_bgw {
 static void *bgw_main(void *arg)
 {
     fc_bgw *w = arg;
+    ncfile_thread_quiet(); /* HDF5's error printing is per thread */
     pthread_mutex_lock(&w->mu);
     for (;;) {
         while (w->state != BGW_RUNNING && !w->quit)

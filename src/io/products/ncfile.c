@@ -28,6 +28,8 @@ int ncfile_close(int *ncid)
 
 int ncfile_abandoned(void) { return atomic_load(&abandoned); }
 
+void ncfile_thread_quiet(void) { (void)H5Eset_auto2(H5E_DEFAULT, NULL, NULL); }
+
 void ncfile_release_memory(void)
 {
     /* Only with nothing of HDF5's open (an abandoned file counts): closing
