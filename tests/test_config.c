@@ -100,9 +100,64 @@ static void test_defaults_match_core(void)
     sph_config_free(c);
 }
 
+/* domain.plane_tables: "auto" by default; the JSON booleans still select
+ * true and false (configurations written before the key had "auto"), and
+ * the dump writes them back as booleans. */
+static void test_plane_tables_key(void)
+{
+    const char *json[] = {"", "true", "false", "\"auto\"", "\"true\""};
+    const int want[] = {CFG_TABLES_AUTO, CFG_TABLES_TRUE, CFG_TABLES_FALSE, CFG_TABLES_AUTO, CFG_TABLES_TRUE};
+    for (int k = 0; k < 5; k++) {
+        char text[4096];
+        if (k == 0)
+            snprintf(text, sizeof text, "%s}", minimal);
+        else
+            snprintf(text, sizeof text,
+                     "{\"domain\": {\"lon_min\": 119, \"lon_max\": 122, \"lat_min\": 38, \"lat_max\": 41,"
+                     " \"plane_tables\": %s}, \"forcing\": [{\"name\": \"atm\", \"kind\": \"atmosphere\","
+                     " \"urls\": \"/data/a.nc\"}], \"output\": {\"dir\": \"/tmp/out\"}}", json[k]);
+        struct sph_config *c = NULL;
+        sph_error e;
+        sph_error_clear(&e);
+        int rc = sph_config_parse(text, "t.json", &c, &e);
+        CHECK(rc == 0 && c && c->domain.plane_tables == want[k], "domain.plane_tables %s: rc %d value %d want %d (%s)",
+              k ? json[k] : "(default)", rc, c ? c->domain.plane_tables : -1, want[k], e.msg);
+        if (c) {
+            char *dump = sph_config_to_json(c);
+            const char *w = want[k] == CFG_TABLES_AUTO ? "\"plane_tables\":\t\"auto\"" :
+                            want[k] == CFG_TABLES_TRUE ? "\"plane_tables\":\ttrue" : "\"plane_tables\":\tfalse";
+            CHECK(dump && strstr(dump, w), "the dump writes domain.plane_tables back as %s", w);
+            free(dump);
+        }
+        sph_config_free(c);
+    }
+    struct sph_config *c = NULL;
+    char text[4096];
+    snprintf(text, sizeof text,
+             "{\"domain\": {\"lon_min\": 119, \"lon_max\": 122, \"lat_min\": 38, \"lat_max\": 41,"
+             " \"plane_tables\": 1}, \"forcing\": [{\"name\": \"atm\", \"kind\": \"atmosphere\","
+             " \"urls\": \"/data/a.nc\"}], \"output\": {\"dir\": \"/tmp/out\"}}");
+    sph_error e;
+    sph_error_clear(&e);
+    int rc = sph_config_parse(text, "t.json", &c, &e);
+    CHECK(rc == SPH_ERR_CONFIG && !c && strstr(e.msg, "domain.plane_tables"),
+          "a number for domain.plane_tables is refused naming the key: %s", e.msg);
+    sph_config_free(c);
+    /* a boolean is no value of an enum without true and false */
+    snprintf(text, sizeof text,
+             "{\"domain\": {\"lon_min\": 119, \"lon_max\": 122, \"lat_min\": 38, \"lat_max\": 41},"
+             " \"forcing\": [{\"name\": \"atm\", \"kind\": \"atmosphere\", \"urls\": \"/data/a.nc\"}],"
+             " \"output\": {\"dir\": \"/tmp/out\", \"writer_thread\": true}}");
+    sph_error_clear(&e);
+    rc = sph_config_parse(text, "t.json", &c, &e);
+    CHECK(rc == SPH_ERR_CONFIG && !c && strstr(e.msg, "writer_thread"), "writer_thread true refused: %s", e.msg);
+    sph_config_free(c);
+}
+
 int main(void)
 {
     test_defaults_match_core();
+    test_plane_tables_key();
     /* the shipped example */
     struct sph_config *c = NULL;
     sph_error e;

@@ -68,6 +68,7 @@ enum { CFG_LAND_RES_CRUDE = 0, CFG_LAND_RES_LOW, CFG_LAND_RES_INTERMEDIATE, CFG_
 enum { CFG_GRID_REGULAR = 0, CFG_GRID_RASTER };
 enum { CFG_OFX_GRID_AUTO = 0, CFG_OFX_GRID_OUTPUT, CFG_OFX_GRID_OCEAN }; /* output.ocean_fluxes_grid */
 enum { CFG_WRITER_AUTO = 0, CFG_WRITER_ON, CFG_WRITER_OFF }; /* output.writer_thread */
+enum { CFG_TABLES_AUTO = 0, CFG_TABLES_TRUE, CFG_TABLES_FALSE }; /* domain.plane_tables */
 enum { CFG_LATE_FAIL = 0, CFG_LATE_STALE };
 enum { CFG_DECOMP_MEMBERS = 0, CFG_DECOMP_DOMAIN }; /* parallel.decomposition */
 enum { CFG_ENGINE_FORECAST = 0, CFG_ENGINE_TEST_DOUBLE };
@@ -84,7 +85,7 @@ struct sph_config {
         char *name;
         double lon_min, lon_max, lat_min, lat_max;
         char *projection;       /* "auto" or a PROJ string */
-        int plane_tables;       /* lon/lat and grid angle from tables (io/geo.h) */
+        int plane_tables;       /* CFG_TABLES_*: lon/lat and grid angle from tables (io/geo.h) */
     } domain;
 
     sph_params model;           /* every field has a key under model. */

@@ -70,6 +70,8 @@ static const char *const landpol_names[] = {"auto", "land_is_1", "water_is_1", N
 static const char *const grid_names[] = {"regular", "raster", NULL};
 static const char *const ofx_grid_names[] = {"auto", "output", "ocean", NULL};
 static const char *const writer_names[] = {"auto", "on", "off", NULL};
+/* an enum that lists "true" and "false" also takes the JSON booleans (and writes them back) */
+static const char *const tables_names[] = {"auto", "true", "false", NULL}; /* CFG_TABLES_* */
 static const char *const late_names[] = {"fail", "stale", NULL};
 static const char *const engine_names[] = {"forecast", "test-double", NULL};
 static const char *const level_names[] = {"error", "warn", "info", "debug", NULL};
@@ -143,8 +145,8 @@ static const cfg_key head_keys[] = {
     C_("domain.lat_max", CT_DOUBLE, domain.lat_max, NULL, -90, 90, R, NULL, "North edge, degrees north."),
     C_("domain.projection", CT_STRING, domain.projection, "\"auto\"", 1, 511, R, NULL,
        "\"auto\" (local transverse Mercator at the domain centre) or a PROJ string."),
-    C_("domain.plane_tables", CT_BOOL, domain.plane_tables, "false", 0, 0, R, NULL,
-       "Longitude, latitude and the east/north rotation of the particles from tables computed once per run on a 1 km plane grid (bilinear; within 2 cm and 1e-10 rad of PROJ for aeqd, docs/engine.md) instead of PROJ and trigonometry per particle and step; refused within 2 degrees of a pole."),
+    C_("domain.plane_tables", CT_ENUM, domain.plane_tables, "\"auto\"", 0, 0, R, tables_names,
+       "Longitude, latitude and the east/north rotation of the particles from tables computed once per run on a 1 km plane grid (bilinear; within 2 cm and 1e-10 rad of PROJ for aeqd, docs/engine.md) instead of PROJ and trigonometry per particle and step. true: refused within 2 degrees of a pole or beyond 4e7 nodes; auto (a JSON string): tables unless the domain is such, then PROJ per particle with one log line; false: PROJ per particle."),
 
 };
 
@@ -600,6 +602,12 @@ static int key_set(const cfg_key *k, void *base, const cJSON *n, const char *whe
         return SPH_OK;
     }
     case CT_ENUM: {
+        if (cJSON_IsBool(n)) /* only an enum that lists "true" and "false" */
+            for (int i = 0; k->names[i]; i++)
+                if (!strcmp(k->names[i], cJSON_IsTrue(n) ? "true" : "false")) {
+                    *(int *)p = i;
+                    return SPH_OK;
+                }
         if (!cJSON_IsString(n))
             return BAD("expected string, got %s", json_kind(n));
         for (int i = 0; k->names[i]; i++)
@@ -1113,7 +1121,12 @@ static cJSON *key_to_json(const cfg_key *k, const void *base)
     case CT_INT: return cJSON_CreateNumber(*(const int *)p);
     case CT_DOUBLE: return cJSON_CreateNumber(*(const double *)p);
     case CT_STRING: return cJSON_CreateString(*(char *const *)p ? *(char *const *)p : "");
-    case CT_ENUM: return cJSON_CreateString(k->names[*(const int *)p]);
+    case CT_ENUM: {
+        const char *v = k->names[*(const int *)p];
+        if (!strcmp(v, "true") || !strcmp(v, "false")) /* the boolean values of a bool-or-auto key */
+            return cJSON_CreateBool(v[0] == 't');
+        return cJSON_CreateString(v);
+    }
     case CT_TODLIST: {
         const cfg_todlist *l = p;
         cJSON *a = cJSON_CreateArray();
