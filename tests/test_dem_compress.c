@@ -135,12 +135,14 @@ static void compress(double r, int nx, int ny, int nz, double sigma_t, double ta
 }
 
 /* The three-point-bending specimen of test_dem_bend's calibration
- * (tests/dem_specimen.h): 12 x 3 x 3 close-packed spheres of r. */
+ * (tests/dem_specimen.h): 3 x 3 close-packed rows of spheres of r, the
+ * span 16 times the depth, the nose a roller. */
 static double flexural(double r, double sigma_t, double tau_c)
 {
     long bt, bs;
     double span;
-    return flexural_hcp(r, 12, 3, 3, sigma_t, tau_c, &bt, &bs, &span);
+    int nx = hcp_nx_for_span(r, 3, DEM_SPECIMEN_SPAN_DEPTH);
+    return flexural_hcp(r, nx, 3, 3, sigma_t, tau_c, &bt, &bs, &span);
 }
 
 /* Both strengths for a bending strength sigma_f and a compressive peak sigma_c
