@@ -199,7 +199,8 @@ static void test_break(int nx, double E, double ramp)
            p_first, p_first / Pf, sf_first / 1e6, sf_first / d->p.bond_tensile, x_first,
            layer_first == 0 ? "the bottom" : "not the bottom", p_fail, p_fail / Pf, sf_fail / 1e6,
            d->bonds_broken_tension, d->bonds_broken_shear, omp_get_wtime() - t0);
-    CHECK(p_first > 0.0 && layer_first == 0, "the first bond broke in the bottom layer (in tension under the end lifted)");
+    CHECK(p_first > 0.0 && layer_first == 0,
+          "the first bond broke in the bottom layer (in tension under the lifted end)");
     CHECK(fabs(x_first - M_PI / 4.0 / s.beta) < 0.25 * M_PI / 4.0 / s.beta,
           "first break %.2f m from the end, Hetenyi's moment extreme at %.2f m", x_first,
           M_PI / 4.0 / s.beta);
