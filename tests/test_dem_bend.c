@@ -23,7 +23,9 @@
  * the one measured before).
  *
  * The calibration (calibration(), first): the leg's close-packed sheet as a
- * specimen with uniform bonds; make check asserts that the core's default
+ * specimen with uniform bonds (tests/dem_specimen.h: the span 16 times the
+ * depth, ASTM D790's ratio; the loading nose a roller, free to rotate and
+ * slide, as a rig's is); make check asserts that the core's default
  * bonds give the measured 0.6 MPa within 3 %; SPHICE_LONG (or
  * SPHICE_DEM_CALIBRATE=1) bisects sigma_t (tau_c at the default ratio) for
  * 0.6 MPa and asserts the default within 2 % of it. */
@@ -44,10 +46,9 @@ static double uniform(void)
     return ((double)(rng >> 11) + 0.5) / 9007199254740992.0;
 }
 
-/* Drives the loading nose (the spheres with DEM_FIX_ROTATION) down for at
- * most `steps` steps of dt, until the load falls below 0.3 of its peak
- * after a bond broke (in tension; any: or in shear). The peak load (N);
- * p_first (not NULL): the load when the first bond broke in tension. */
+/* The scale-effect specimens below keep session 5's nose (fixed in
+ * translation and rotation, started at full speed) and span (11 sphere
+ * spacings, 3.7 depths): their Weibull slope is relative, not a strength. */
 
 static double flexural(int s, double sigma0, double weibull_m, double *sigma_mean, double *crack)
 {
@@ -93,7 +94,7 @@ static double flexural(int s, double sigma0, double weibull_m, double *sigma_mea
     double dmax = 6.0 * sigma0 * span * span / (6.0 * p.bond_modulus * M_PI / 4.0 * h);
     long steps = (long)(dmax / v / dt);
     double p_first;
-    double pmax = push_nose(d, dt, steps, 0, &p_first, "scaled specimen");
+    double pmax = push_nose(d, dt, steps, 0, 0.0, &p_first, "scaled specimen");
     CHECK(d->bonds_broken_tension > 0, "scale %d: the specimen broke", s);
     double sf = 3.0 * pmax * span / (2.0 * b * h * h);
     *crack = 3.0 * p_first * span / (2.0 * b * h * h);
@@ -115,7 +116,7 @@ static void calibration(void)
     dem_params p;
     dem_params_default(&p);
     const double r = 0.05, ratio = p.bond_shear / p.bond_tensile;
-    const int nx = 12, ny = 3, nz = 3;
+    const int ny = 3, nz = 3, nx = hcp_nx_for_span(r, nz, DEM_SPECIMEN_SPAN_DEPTH);
     long bt, bs;
     double span;
     /* the core's defaults (the calibrated values) against the measurement */
@@ -151,9 +152,10 @@ static void calibration(void)
            "the core's default sigma_t %.4g MPa\n", cal / 1e6, ratio * cal / 1e6, ratio, p.bond_tensile / 1e6);
     /* the cone case's sheet (test_dem_cone: two layers of 0.2 m spheres, 0.363 m)
      * with the same bonds: the calibration is for the leg's particle size only */
-    double sc = flexural_hcp(0.1, nx, ny, 2, p.bond_tensile, p.bond_shear, &bt, &bs, &span);
+    int nxc = hcp_nx_for_span(0.1, 2, DEM_SPECIMEN_SPAN_DEPTH);
+    double sc = flexural_hcp(0.1, nxc, ny, 2, p.bond_tensile, p.bond_shear, &bt, &bs, &span);
     printf("calibration: the cone case's sheet as a specimen (%d x %d x 2 of r 0.100 m, span %.3f m, depth %.3f m), "
-           "default bonds: sigma_f %.4g MPa\n", nx, ny, span, 0.2 + 0.2 * sqrt(2.0 / 3.0), sc / 1e6);
+           "default bonds: sigma_f %.4g MPa\n", nxc, ny, span, 0.2 + 0.2 * sqrt(2.0 / 3.0), sc / 1e6);
     CHECK(fabs(p.bond_tensile / cal - 1.0) < 0.02, "the default sigma_t within 2 %% of the bisected %.4g MPa",
           cal / 1e6);
 }

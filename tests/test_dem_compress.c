@@ -4,7 +4,7 @@
  * A vertical leg in level ice fails the ice in crushing (the seed, section
  * 3.2.2: "在海冰与直立腿结构相互作用过程中,海冰以挤压破碎为主"), a
  * compressive failure at the contact. The bonds are calibrated in bending
- * (test_dem_bend: sigma_t 0.133 MPa, tau_c 0.222 MPa for the measured
+ * (test_dem_bend: sigma_t 0.334 MPa, tau_c 0.558 MPa for the measured
  * 0.6 MPa flexural strength of Bohai ice). This test loads the same sheet
  * in compression:
  *
@@ -135,12 +135,14 @@ static void compress(double r, int nx, int ny, int nz, double sigma_t, double ta
 }
 
 /* The three-point-bending specimen of test_dem_bend's calibration
- * (tests/dem_specimen.h): 12 x 3 x 3 close-packed spheres of r. */
+ * (tests/dem_specimen.h): 3 x 3 close-packed rows of spheres of r, the
+ * span 16 times the depth, the nose a roller. */
 static double flexural(double r, double sigma_t, double tau_c)
 {
     long bt, bs;
     double span;
-    return flexural_hcp(r, 12, 3, 3, sigma_t, tau_c, &bt, &bs, &span);
+    int nx = hcp_nx_for_span(r, 3, DEM_SPECIMEN_SPAN_DEPTH);
+    return flexural_hcp(r, nx, 3, 3, sigma_t, tau_c, &bt, &bs, &span);
 }
 
 /* Both strengths for a bending strength sigma_f and a compressive peak sigma_c
@@ -257,7 +259,8 @@ int main(void)
           " the spheres never crush", c.s_end / 1e6, c.peak / 1e6);
 
     if (check_long() || getenv("SPHICE_DEM_COMPRESS_SWEEP")) {
-        const double taus[] = {0.222e6, 0.444e6, 0.888e6, 1.776e6, 3.552e6};
+        const double taus[] = {p.bond_shear, 2 * p.bond_shear, 4 * p.bond_shear, 8 * p.bond_shear,
+                               16 * p.bond_shear};
         double prev = 0.0;
         for (int k = 0; k < 5; k++) {
             comp_result s;

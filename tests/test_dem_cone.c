@@ -9,15 +9,23 @@
  * make check runs a small sheet for a short time and asserts what the
  * physics guarantees there: contact, ride-up above the waterline, tension
  * failure, the load pointing into the drift and down the cone, the ratio
- * of the load's components bounded by the face's friction factor. The
- * comparison with Ralston (the mean within the published range) is the
- * SPHICE_LONG case (SPHICE_DEM_CONE="nx ny speed duration E_b" overrides
- * it); docs/dem.md gives the range's source. The long case's sheet is 6 m
- * long and its bond modulus 0.1 GPa: Ralston's load does not depend on E,
- * and the characteristic length (E h^3 / (12 rho_w g (1 - nu^2)))^(1/4),
- * 7.9 m at 1 GPa, falls to 4.5 m, so that the bending failure happens
- * between the cone and the sheet's driven rear edge (on a sheet shorter
- * than it, the clamped rear edge broke first); the step is 3x longer. */
+ * of the load's components bounded by the face's friction factor.
+ *
+ * SPHICE_LONG (session 8's rebuild, docs/dem.md "The cone case rebuilt"):
+ * the seed's 0.263 m ice as four close-packed layers of r = 0.0381 m
+ * spheres (h/d = 3.45; NRL 2019 found DEM flexural strength unreliable
+ * below h/d 4.5, and 3 is what the cost allowed), a 2.4 m by 3.0 m sheet
+ * whose front is pre-shaped to the cone (the axis on the front edge, the
+ * spheres inside the face at each layer's height left out: the edge a
+ * first breaking cycle leaves, so contact spans the waterline's front half
+ * instead of one sphere of a straight edge), the sides free, the rear edge
+ * driven from rest to 0.5 m/s in 0.2 s, 1.2 s; the default bonds; the bond
+ * modulus 0.1 GPa (Ralston's load does not depend on E; the step is 3x
+ * longer). The PEAK (the largest 10 ms mean of H) is asserted within
+ * [CONE_PEAK_LO, CONE_PEAK_HI] x Ralston's H, a range of this project's
+ * making (no published DEM-against-Ralston numbers were found; its
+ * provenance is in docs/dem.md). SPHICE_DEM_CONE="nx ny speed duration E_b
+ * [nz r shaped ramp [sigma_t tau_c]]" overrides the case. */
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -25,6 +33,16 @@
 
 #include "check.h"
 #include "core/dem.h"
+
+/* The range of the peak against Ralston's H that the long case asserts
+ * (docs/dem.md, "The cone case rebuilt": its provenance): Croasdale et al.
+ * (OTC-27385, 2016) found ISO 19906's sloping-structure algorithm 1.6 times
+ * the measured peaks of 50 Confederation Bridge events, so a peak of
+ * H / 1.6, halved for the lower bound; the upper bound is the mean's range's
+ * 1.5 kept (Ralston's is an upper bound for slow ice, model tests show
+ * steep cones at speed above quasi-static methods) */
+#define CONE_PEAK_LO (1.0 / 1.6 / 2.0)
+#define CONE_PEAK_HI 1.5
 
 /* Ralston / IEC 61400-3 Annex E written out again, with K and E of
  * modulus sin 45 deg (parameter m = 0.5) from Abramowitz & Stegun, table
@@ -89,27 +107,77 @@ typedef struct cone_case {
     int nx, ny, nz;
     double r, speed, duration, bond_modulus;
     double diameter, neck, angle;
-    int compare; /* assert the mean against Ralston's range */
+    int compare; /* assert the peak against Ralston's range */
+    int shaped;  /* the sheet's front pre-shaped to the cone's waterline, its sides free */
+    double sigma_t, tau_c; /* bond strengths, Pa (0: the core's defaults) */
+    double ramp; /* > 0: the sheet starts at rest, its rear edge reaches the speed in this time, s */
 } cone_case;
+
+/* The sheet of dem_add_sheet_hcp with the spheres inside the cone's face
+ * (and a gap) left out: the cone's axis on the sheet's front edge, so that
+ * the front is a half-circle notch following the face at every layer's
+ * height -- the edge a first breaking cycle leaves, in contact over the
+ * waterline's front half at once. Bonds: the touching pairs, as
+ * dem_add_sheet_hcp bonds them. Returns the spheres kept. */
+static long sheet_shaped(dem *d, const cone_case *c, double x0, double y0, double gap)
+{
+    size_t np = (size_t)c->nx * c->ny * c->nz;
+    dem *t = dem_create(np, 8 * np, &d->p);
+    if (!t || dem_add_sheet_hcp(t, 0.0, 0.0, c->nx, c->ny, c->nz, c->r, c->speed, 0.0) != 0) {
+        dem_free(t);
+        return -1;
+    }
+    double a = c->angle * M_PI / 180.0, ta = tan(a), rw = 0.5 * c->diameter;
+    long kept = 0;
+    for (size_t i = 0; i < t->n; i++) {
+        double rho = hypot(t->x[i] - x0, t->y[i] - y0);
+        /* a centre at height z touches the face at rho = rw - z / tan a + r / sin a */
+        if (rho < rw - t->z[i] / ta + t->r[i] / sin(a) + gap)
+            continue;
+        long q = dem_add_particle(d, t->x[i], t->y[i], t->z[i], t->r[i]);
+        if (q < 0)
+            break;
+        dem_set_velocity(d, q, c->ramp > 0.0 ? 0.0 : c->speed, 0.0, 0.0);
+        kept++;
+    }
+    dem_free(t);
+    dem_bond_touching(d, 1e-6);
+    return kept;
+}
 
 static void run_cone(const cone_case *c)
 {
     dem_params p;
     dem_params_default(&p);
     p.bond_modulus = c->bond_modulus;
+    if (c->sigma_t > 0.0) {
+        p.bond_tensile = c->sigma_t;
+        p.bond_shear = c->tau_c;
+    }
     size_t np = (size_t)c->nx * c->ny * c->nz;
     dem *d = dem_create(np, 8 * np, &p);
     CHECK(d != NULL, "created");
     double r = c->r;
-    long first = dem_add_sheet_hcp(d, 0.0, 0.0, c->nx, c->ny, c->nz, r, c->speed, 0.0);
-    CHECK(first == 0, "sheet built");
+    double a = c->angle * M_PI / 180.0, ta = tan(a);
     double ymax = sqrt(3.0) * r * (c->ny - 1) + r, ztop = -HUGE_VAL;
+    if (c->shaped) {
+        /* the axis on the front edge, mid-width */
+        double xfront = 2.0 * r * (c->nx - 1) + r;
+        d->s.x0 = xfront;
+        d->s.y0 = 0.5 * sqrt(3.0) * r * (c->ny - 1);
+        long kept = sheet_shaped(d, c, d->s.x0, d->s.y0, 0.01);
+        CHECK(kept > 0 && (size_t)kept < np, "shaped sheet built: %ld of %zu spheres", kept, np);
+    } else {
+        long first = dem_add_sheet_hcp(d, 0.0, 0.0, c->nx, c->ny, c->nz, r, c->speed, 0.0);
+        CHECK(first == 0, "sheet built");
+    }
     for (size_t i = 0; i < d->n; i++) {
         ztop = fmax(ztop, d->z[i] + r);
-        /* the rear edge and the two side edges move with the far-field ice */
-        if (d->x[i] < 3.0 * r || d->y[i] < 2.0 * r || d->y[i] > ymax - 2.0 * r) {
+        /* the rear edge (and, on the straight sheet, the two side edges) move
+         * with the far-field ice */
+        if (d->x[i] < 3.0 * r || (!c->shaped && (d->y[i] < 2.0 * r || d->y[i] > ymax - 2.0 * r))) {
             d->flags[i] = DEM_FIX_TRANSLATION | DEM_FIX_ROTATION;
-            dem_set_velocity(d, (long)i, c->speed, 0.0, 0.0);
+            dem_set_velocity(d, (long)i, c->ramp > 0.0 ? 0.0 : c->speed, 0.0, 0.0);
         }
     }
     double h = 2 * r + (c->nz - 1) * 2 * r * sqrt(2.0 / 3.0);
@@ -118,14 +186,15 @@ static void run_cone(const cone_case *c)
     d->s.neck_diameter = c->neck;
     d->s.cone_angle = c->angle;
     d->s.z_waterline = 0.0;
-    /* the sheet's nearest sphere on the axis 1 cm off the cone's face: a
-     * centre at horizontal distance dx from the face touches at dx = r / sin a */
-    double a = c->angle * M_PI / 180.0, ta = tan(a);
-    d->s.y0 = 0.5 * sqrt(3.0) * r * (c->ny - 1);
-    d->s.x0 = -HUGE_VAL;
-    for (size_t i = 0; i < d->n; i++)
-        if (fabs(d->y[i] - d->s.y0) < r)
-            d->s.x0 = fmax(d->s.x0, d->x[i] + 0.5 * c->diameter - d->z[i] / ta + r / sin(a) + 0.01);
+    if (!c->shaped) {
+        /* the sheet's nearest sphere on the axis 1 cm off the cone's face: a
+         * centre at horizontal distance dx from the face touches at dx = r / sin a */
+        d->s.y0 = 0.5 * sqrt(3.0) * r * (c->ny - 1);
+        d->s.x0 = -HUGE_VAL;
+        for (size_t i = 0; i < d->n; i++)
+            if (fabs(d->y[i] - d->s.y0) < r)
+                d->s.x0 = fmax(d->s.x0, d->x[i] + 0.5 * c->diameter - d->z[i] / ta + r / sin(a) + 0.01);
+    }
     d->s.mass = 0.0; /* fixed: Ralston's load is on a rigid cone */
     double dt = 0.9 * p.dt_safety * dem_dt_critical(d);
     long steps = (long)(c->duration / dt);
@@ -143,6 +212,12 @@ static void run_cone(const cone_case *c)
     long blk = (long)(1e-3 / dt) > 0 ? (long)(1e-3 / dt) : 1, nblk = 0, inblk = 0;
     double *blocks = malloc((size_t)(steps / blk + 1) * sizeof *blocks), bsum = 0.0;
     for (long s = 0; s < steps; s++) {
+        if (c->ramp > 0.0 && (double)s * dt <= c->ramp + dt) {
+            double u = c->speed * fmin(1.0, (double)(s + 1) * dt / c->ramp);
+            for (size_t i = 0; i < d->n; i++)
+                if (d->flags[i] & DEM_FIX_TRANSLATION)
+                    d->vx[i] = u;
+        }
         if (dem_step(d, dt, &st) != SPH_STEP_OK) {
             bad = 1;
             break;
@@ -210,6 +285,36 @@ static void run_cone(const cone_case *c)
         dem_load_stats(blocks, (size_t)nblk, blk * dt, &bm, &bx, &bs, &freq);
     printf("cone case: load spectrum of H (%ld blocks of 1 ms): dominant frequency %.2f Hz, std %.2f kN;"
            " max / mean %.2f\n", nblk, freq, bs / 1e3, mh > 0 ? hmax / mh : NAN);
+    /* the peak: the largest 10 ms mean of H (Ralston's is a quasi-static
+     * peak; a single step's contact spike is not), and the breaking cycles:
+     * the 10 ms means rising above half that peak after falling below a
+     * fifth of it (a load build-up ended by a failure and a clearing) */
+    long w10 = 10, cycles = 0, tpk = 0;
+    double pk = 0.0;
+    for (long k = 0; k + w10 <= nblk; k += w10) {
+        double m = 0.0;
+        for (long q = k; q < k + w10; q++)
+            m += blocks[q] / (double)w10;
+        if (m > pk) {
+            pk = m;
+            tpk = k;
+        }
+    }
+    int high = 0;
+    for (long k = 0; k + w10 <= nblk; k += w10) {
+        double m = 0.0;
+        for (long q = k; q < k + w10; q++)
+            m += blocks[q] / (double)w10;
+        if (!high && m > 0.5 * pk) {
+            high = 1;
+            cycles++;
+        } else if (high && m < 0.2 * pk)
+            high = 0;
+    }
+    printf("cone case: peak H (largest 10 ms mean) %.2f kN at %.3f s after the first contact (raw max %.2f kN);"
+           " Ralston H %.2f kN: peak / Ralston %.3f, raw max / Ralston %.3f, mean / Ralston %.3f;"
+           " load cycles (10 ms means above 0.5 peak after below 0.2 peak) %ld\n",
+           pk / 1e3, tpk * blk * dt, hmax / 1e3, L.h / 1e3, pk / L.h, hmax / L.h, mh / L.h, cycles);
     free(blocks);
     CHECK(mh > 0.0 && mv > 0.0, "the load pushes along the drift and down the cone");
     CHECK(d->bonds_broken_tension > 0, "the sheet failed in tension (bending)");
@@ -222,20 +327,33 @@ static void run_cone(const cone_case *c)
     CHECK(mh / mv > ta * 0.999, "H/V %.3f at least tan a %.3f", mh / mv, ta);
     if (c->compare)
         /* docs/dem.md: the range published comparisons report */
-        CHECK(mh > 0.25 * L.h && mh < 1.5 * L.h, "mean %.2f kN within [0.25, 1.5] x Ralston %.2f kN",
-              mh / 1e3, L.h / 1e3);
+        CHECK(pk > CONE_PEAK_LO * L.h && pk < CONE_PEAK_HI * L.h,
+              "peak %.2f kN within [%.2f, %.2f] x Ralston %.2f kN", pk / 1e3, CONE_PEAK_LO, CONE_PEAK_HI,
+              L.h / 1e3);
     dem_free(d);
 }
 
 int main(void)
 {
+    setvbuf(stdout, NULL, _IOLBF, 0);
     test_ralston_formula();
-    cone_case full = {30, 16, 2, 0.1, 0.2, 1.5, 1.0e8, 1.2, 0.6, 60.0, 1};
-    cone_case quick = {6, 16, 2, 0.1, 0.5, 0.3, 1.0e9, 1.2, 0.6, 60.0, 0};
+    /* the long case (docs/dem.md, "The cone case rebuilt"): four close-packed
+     * layers of r = 0.0381 m spheres, 0.263 m (h/d 3.45), a 2.4 m by 3.0 m
+     * sheet whose front is the cone's waterline notch, free sides, the rear
+     * edge driven, started from rest; E_b 0.1 GPa (a 3x longer step, as
+     * before), the default bonds */
+    cone_case full = {32, 46, 4, 0.0381216, 0.5, 1.2, 1.0e8, 1.2, 0.6, 60.0, 1, 1, 0.0, 0.0, 0.2};
+    cone_case quick = {6, 16, 2, 0.1, 0.5, 0.3, 1.0e9, 1.2, 0.6, 60.0, 0, 0, 0.0, 0.0, 0.0};
     cone_case *c = check_long() ? &full : &quick;
+    /* "nx ny speed duration E_b [nz r shaped ramp [sigma_t tau_c (MPa)]]" */
     const char *e = getenv("SPHICE_DEM_CONE");
-    if (e)
-        sscanf(e, "%d %d %lf %lf %lf", &c->nx, &c->ny, &c->speed, &c->duration, &c->bond_modulus);
+    if (e) {
+        double st = 0.0, tc = 0.0;
+        sscanf(e, "%d %d %lf %lf %lf %d %lf %d %lf %lf %lf", &c->nx, &c->ny, &c->speed, &c->duration,
+               &c->bond_modulus, &c->nz, &c->r, &c->shaped, &c->ramp, &st, &tc);
+        c->sigma_t = st * 1e6;
+        c->tau_c = tc * 1e6;
+    }
     run_cone(c);
     return check_summary("test_dem_cone");
 }

@@ -5,7 +5,7 @@
  * The seed gives neither the bond strengths nor the ice speed: the bonds
  * take the core's defaults, calibrated so that a bending specimen of this
  * sheet reaches the measured flexural strength of Bohai ice (test_dem_bend,
- * docs/dem.md: sigma_t 0.133 MPa, tau_c 0.222 MPa), the ice moves at
+ * docs/dem.md: sigma_t 0.334 MPa, tau_c 0.558 MPa), the ice moves at
  * 0.5 m/s.
  *
  * make check runs a reduced sheet (narrower, shorter, 0.15 s); SPHICE_LONG
@@ -192,7 +192,7 @@ static void run_leg(const leg_case *c)
     if (c->assert_mean)
         CHECK(mean > 35.29e3 / 4.0 && mean < iso, "mean %.1f kN between seed/4 and ISO %.1f kN",
               mean / 1e3, iso / 1e3);
-    /* bonds of 0.133 MPa tensile and 0.222 MPa shear strength (and the
+    /* bonds of 0.334 MPa tensile and 0.558 MPa shear strength (and the
      * 0.6 / 1 MPa before the calibration) cannot pass the ISO 19906
      * crushing pressure (2.5 MPa here) over the contact, even in the first
      * impact */

@@ -6,7 +6,7 @@
  * A 2-D run in the vertical x-z plane (every centre at y = 0, so every
  * force stays in the plane): the thin ice is a chain of spheres of
  * diameter h (width b = h) bonded by the core's parallel bonds with their
- * default strengths (docs/dem.md: sigma_t = 0.133 MPa, tau_c = 0.222 MPa,
+ * default strengths (docs/dem.md: sigma_t = 0.334 MPa, tau_c = 0.558 MPa,
  * calibrated on the leg's 0.1 m spheres, E_b = 1 GPa), floating at Archimedes' level (draft found here by
  * bisection), with a random imperfection of 0.02 r; its first RUBBLE
  * spheres at the floe are loose (rubble blocks of size h already broken

@@ -527,7 +527,7 @@ static void test_config(void)
                   c->loads.dem_cache_thickness == 0.05 && c->loads.dem_min_thickness == 0.1 &&
                   c->loads.dem_max_particles == 20000 && c->loads.map_threshold_kn == 500 &&
                   c->loads.dem_elastic_modulus == 0.5 && c->loads.dem_bond_tensile == 0.7 &&
-                  c->loads.dem_bond_shear == 0.222,
+                  c->loads.dem_bond_shear == 0.558,
               "loads keys read, defaults kept");
         CHECK(c->stations[0].structure_mass == 500 && c->stations[0].structure_stiffness == 1e5 &&
                   c->stations[0].structure_damping == 0.05,

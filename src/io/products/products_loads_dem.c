@@ -67,8 +67,8 @@ void prod_loads_options_default(prod_loads_options *o)
     o->cache_speed = 0.02;
     o->map_threshold = 500e3;
     o->elastic_modulus = 1.0e9; /* the seed's E of sea ice (its section 2.1) */
-    o->bond_tensile = 0.133e6;  /* calibrated: 0.6 MPa flexural strength at 0.1 m spheres */
-    o->bond_shear = 0.222e6;    /* (test_dem_bend, docs/dem.md) */
+    o->bond_tensile = 0.334e6;  /* calibrated: 0.6 MPa flexural strength at 0.1 m spheres */
+    o->bond_shear = 0.558e6;    /* (test_dem_bend, docs/dem.md) */
     o->cancel = NULL;
 }
 
