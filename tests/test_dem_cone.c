@@ -38,10 +38,13 @@
  * (docs/dem.md, "The cone case rebuilt": its provenance): Croasdale et al.
  * (OTC-27385, 2016) found ISO 19906's sloping-structure algorithm 1.6 times
  * the measured peaks of 50 Confederation Bridge events, so a peak of
- * H / 1.6, halved for the lower bound; the upper bound is the mean's range's
- * 1.5 kept (Ralston's is an upper bound for slow ice, model tests show
- * steep cones at speed above quasi-static methods) */
-#define CONE_PEAK_LO (1.0 / 1.6 / 2.0)
+ * H / 1.6 is the lower bound (no published scatter to widen it by: an
+ * earlier draft halved it, a choice made while the run was in progress,
+ * and so dropped); the upper bound is the mean's range's 1.5 kept
+ * (Ralston's is an upper bound for slow ice, model tests show steep cones
+ * at speed above quasi-static methods). The rebuilt case's 0.330 fails
+ * it: a known gap of issue 25 (docs/dem.md). */
+#define CONE_PEAK_LO (1.0 / 1.6)
 #define CONE_PEAK_HI 1.5
 
 /* Ralston / IEC 61400-3 Annex E written out again, with K and E of
