@@ -64,6 +64,10 @@ static void params(sph_params *p)
     p->ocean.merge_distance = 1.05;
     p->ocean.restore_days = 5.0;
     p->ocean.freezing = SPH_FREEZING_UNESCO;
+    /* the ocean-fluxes accumulators (output.ocean_fluxes): the particles
+     * leaving through the east edge hand theirs to the cells, which every
+     * rank books in id order (ocean_dd.c) */
+    p->thermo.ocean_fluxes = 1;
 }
 
 /* The model of the case (canonical mode on or off), its mixed layer set,
@@ -120,8 +124,9 @@ static void forcing(sph_model *m, int h)
 /* The mixed layer's arrays compared and written */
 #define OCEAN_ARRAYS(o)                                                                                     \
     {(o)->temp, (o)->sal, (o)->depth, (o)->water, (o)->salt, (o)->frazil, (o)->frazil_enth, (o)->ow_heat, \
-     (o)->ow_fresh, (o)->ow_salt, (o)->ofx_heat, (o)->ofx_water, (o)->ofx_salt, (o)->cfoot}
-enum { NOCEAN = 14 };
+     (o)->ow_fresh, (o)->ow_salt, (o)->ofx_heat, (o)->ofx_water, (o)->ofx_salt, (o)->ofx_heat_ice,       \
+     (o)->ofx_taux, (o)->ofx_tauy, (o)->ofx_swbase, (o)->cfoot}
+enum { NOCEAN = 18 };
 
 /* The ocean's budget (the fields the particles' exact sums do not give) */
 static inline void ocean_budget(const sph_budget *b, double v[14])
