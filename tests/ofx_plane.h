@@ -12,8 +12,10 @@
 #include "core/particles.h"
 #include "io/ocean_fluxes.h"
 
+#ifndef NXG /* a test may take another size of the same layout */
 #define NXG 10
 #define NYG 4
+#endif
 #define DXG 3000.0
 
 /* The grid (its arrays static: one grid per test program). */

@@ -15,7 +15,12 @@
  * mixed layer and the budget to a temporary directory, and checks the
  * serial run itself: creation, merging, melt-out removal and outflow
  * happened, the energy, water and salt budgets of ice plus ocean and the
- * mass budget close (round-off), no particle on land.
+ * mass budget close (round-off), no particle on land. The ocean-fluxes
+ * accumulators are on (thermo.ocean_fluxes, as output.ocean_fluxes sets
+ * it): regridded the engine's way onto a 3 km plane grid, the integrals of
+ * hfds, siflfwbot and siflsaltbot equal the particles' plus the cells'
+ * totals within 1e-10 relative (the issue's rule), the cells holding what
+ * the particles that melted out or left gave.
  *
  * Then the MPI build's copy of this program (build-mpi/tests/test_mpi_season,
  * `make mpi-build`) runs under `mpirun --oversubscribe -np 2` and `-np 4`
@@ -24,7 +29,8 @@
  * halo; every rank steps its own mixed layer. Its particles gathered and
  * sorted by id must equal the serial ones bit for bit in every field; every
  * array of the mixed layer on every rank must equal the serial one bit for
- * bit; the ocean's budget (energy, water, salt and their terms, the
+ * bit (the seven flux accumulators of the cells among them: the particles
+ * leaving through the east edge are booked by every rank in id order); the ocean's budget (energy, water, salt and their terms, the
  * created and merged counts) equal on every rank and equal to the serial
  * one; the global exact mass, momentum and energy diagnostics and the mass
  * budget's sources (growth, new ice, melt, outflow) equal the serial ones.
@@ -43,6 +49,10 @@
 #include "core/ocean.h"
 #include "lattice.h"
 #include "ocean_column.h"
+/* the fluxes file on 20 x 14 cells of 3 km over the 60 x 40 km plane */
+#define NXG 20
+#define NYG 14
+#include "ofx_plane.h"
 #ifdef SPHICE_MPI
 #include <mpi.h>
 
@@ -64,6 +74,10 @@ static void params(sph_params *p)
     p->ocean.merge_distance = 1.05;
     p->ocean.restore_days = 5.0;
     p->ocean.freezing = SPH_FREEZING_UNESCO;
+    /* the ocean-fluxes accumulators (output.ocean_fluxes): the particles
+     * leaving through the east edge hand theirs to the cells, which every
+     * rank books in id order (ocean_dd.c) */
+    p->thermo.ocean_fluxes = 1;
 }
 
 /* The model of the case (canonical mode on or off), its mixed layer set,
@@ -120,8 +134,9 @@ static void forcing(sph_model *m, int h)
 /* The mixed layer's arrays compared and written */
 #define OCEAN_ARRAYS(o)                                                                                     \
     {(o)->temp, (o)->sal, (o)->depth, (o)->water, (o)->salt, (o)->frazil, (o)->frazil_enth, (o)->ow_heat, \
-     (o)->ow_fresh, (o)->ow_salt, (o)->ofx_heat, (o)->ofx_water, (o)->ofx_salt, (o)->cfoot}
-enum { NOCEAN = 14 };
+     (o)->ow_fresh, (o)->ow_salt, (o)->ofx_heat, (o)->ofx_water, (o)->ofx_salt, (o)->ofx_heat_ice,       \
+     (o)->ofx_taux, (o)->ofx_tauy, (o)->ofx_swbase, (o)->cfoot}
+enum { NOCEAN = 18 };
 
 /* The ocean's budget (the fields the particles' exact sums do not give) */
 static inline void ocean_budget(const sph_budget *b, double v[14])
@@ -181,6 +196,69 @@ static sph_model *serial(int canonical, size_t *nmax_cold, size_t *nmin_warm, do
     return m;
 }
 
+/* The issue's rule for the ocean-fluxes file: regridded the way the engine
+ * does it (ofx_add_particles for the live particles, ofx_add_cell_amounts
+ * for the cells, each slab cell to the file cell of its centre: the
+ * engine's ofx_add_ocean_cells), the file's
+ * integrals of hfds, siflfwbot and siflsaltbot equal the particles' plus
+ * the cells' totals over the run (the cells' holding what the particles
+ * that melted out or left through the east edge gave) within 1e-10
+ * relative. */
+static void grid_sums(sph_model *m, const char *dir)
+{
+    const sph_ocean *o = sph_model_ocean(m);
+    const sph_particles *P = sph_model_particles(m);
+    static double rad[CAP], tx[CAP], ty[CAP], ia[CAP], iv[CAP];
+    char path[1024];
+    long to[3];
+    sph_error err;
+    ofx_writer *w = ofx_plane_open(dir, path, sizeof path, to, &err);
+    CHECK(w != NULL, "fluxes file: open: %s", err.msg);
+    if (!w)
+        return;
+    long cto[NX * NY];
+    for (size_t c = 0; c < (size_t)(NX * NY); c++)
+        cto[c] = ofx_locate(w, NAN, NAN, ((double)(c % NX) + 0.5) * CELL, ((double)(c / NX) + 0.5) * CELL,
+                            hypot(CELL, CELL) + DXG);
+    ofx_particles op = ofx_plane_particles(P, sph_model_params(m)->rho_i, rad, ia, iv, tx, ty);
+    double pe = 0.0, pw = 0.0, ps = 0.0, ce = 0.0, cw = 0.0, cs = 0.0, lost[3] = {0, 0, 0}, hi = 0.0;
+    for (size_t k = 0; k < P->n; k++) {
+        pe += P->ofx_heat_ice[k] + P->ofx_heat_lead[k];
+        pw += P->ofx_water[k];
+        ps += P->ofx_salt[k];
+    }
+    for (size_t c = 0; c < o->ncell; c++) {
+        ce += o->ofx_heat[c] + o->ofx_heat_ice[c]; /* the removed particles' under-ice heat is part of hfds */
+        cw += o->ofx_water[c];
+        cs += o->ofx_salt[c];
+        hi += fabs(o->ofx_heat_ice[c]);
+    }
+    const double dt = NSTEP * 3600.0;
+    CHECK(ofx_add_particles(w, &op, &err) == SPH_OK, "fluxes file: particles: %s", err.msg);
+    double rot[2 * NX * NY];
+    for (size_t c = 0; c < o->ncell; c++) {
+        rot[c] = 1.0; /* the plane is the file's x/y */
+        rot[o->ncell + c] = 0.0;
+    }
+    CHECK(ofx_add_ocean_cells(w, o->ncell, cto, rot, o->ofx_heat, o->ofx_water, o->ofx_salt, o->ofx_heat_ice,
+                              o->ofx_taux, o->ofx_tauy, o->ofx_swbase, dt, lost, &err) == SPH_OK,
+          "fluxes file: cells: %s", err.msg);
+    CHECK(lost[0] == 0.0 && lost[1] == 0.0 && lost[2] == 0.0 && ofx_lost(w) == 0,
+          "fluxes file: no cell or particle lost (%zu particles)", ofx_lost(w));
+    CHECK(ofx_write_record(w, 1e9, 1e9 + dt, &err) == SPH_OK, "fluxes file: record: %s", err.msg);
+    CHECK(ofx_close(w, &err) == SPH_OK, "fluxes file: close: %s", err.msg);
+    CHECK(hi > 0.0, "the removed particles' under-ice heat reached the cells (%.3e J)", hi);
+    const char *names[3] = {"hfds", "siflfwbot", "siflsaltbot"};
+    const double tot[3] = {pe + ce, pw + cw, ps + cs};
+    for (int f = 0; f < 3; f++) {
+        double s = ofx_plane_integral(path, names[f], 0, NULL) * dt;
+        printf("  fluxes file %s: grid %.12e, particles + cells %.12e\n", names[f], s, tot[f]);
+        CHECK(fabs(s - tot[f]) <= 1e-10 * fabs(tot[f]) && tot[f] != 0.0,
+              "fluxes file %s: the grid's integral equals the particles' plus the cells' within 1e-10", names[f]);
+    }
+    unlink(path);
+}
+
 static void write_ref(const char *dir)
 {
     size_t nmax[2], nmin[2];
@@ -216,6 +294,7 @@ static void write_ref(const char *dir)
     /* the canonical order is another order of the same sums, but a
      * round-off can flip a discrete choice (a cell's creation, a merge), so
      * the two runs are not compared beyond the print */
+    grid_sums(mm[1], dir);
     const sph_budget *b0 = sph_model_budget(mm[0]), *b1 = sph_model_budget(mm[1]);
     printf("  canonical vs default order: ice plus ocean energy %.6e vs %.6e J (relative %.1e)\n", b1->energy,
            b0->energy, fabs(b1->energy - b0->energy) / fabs(b0->energy));

@@ -48,8 +48,11 @@ enum {
     SPH_DD_ITER_POST = 2, /* an mEVP iteration updated u, v, s11, s22, s12:
                              start sending the owned boundary values */
     SPH_DD_ITER_WAIT = 3, /* before the next iteration: the halo must be current */
-    SPH_DD_OCEAN = 4      /* the mixed layer's step (a thermodynamic step, before and
+    SPH_DD_OCEAN = 4,     /* the mixed layer's step (a thermodynamic step, before and
                              after the columns): fill the view (sph_model_dd_view) */
+    SPH_DD_OUTFLOW = 5    /* after a step's removals at open boundaries, with the
+                             mixed layer and thermo.ocean_fluxes: gather every rank's
+                             rows (sph_model_dd_outflow) */
 };
 
 typedef struct sph_dd_hooks {
@@ -118,6 +121,13 @@ void sph_dd_budget_sources(sph_budget *b, const sph_budget *base, const sph_xsum
  * of every rank's *rc (SPH_STEP_FATAL if any, else any other failure). NULL when the model has no view. */
 sph_particles *sph_model_dd_view(sph_model *m, double **ea, int **rc);
 const double *sph_model_dd_local_ea(const sph_model *m);
+/* The accumulators of the particles that left at an open boundary in this
+ * step (canonical mode with the mixed layer and thermo.ocean_fluxes): rows
+ * of 11 doubles (id, x, y, footprint, seven accumulators). Returns this
+ * rank's nlocal rows; at SPH_DD_OUTFLOW the driver copies every rank's rows
+ * (any order: the core books them in id order) into *all and sets **nall;
+ * at most *cap rows in all. */
+double *sph_model_dd_outflow(sph_model *m, size_t *nlocal, double **all, size_t **nall, size_t *cap);
 
 /* The kernel's support in units of the smoothing length. */
 double sph_model_kernel_radius(const sph_model *m);

@@ -423,9 +423,15 @@ void sph_remove_outflow(sph_model *m)
             }
             /* its fluxes so far to the edge cell (by its owner only in
              * canonical mode: a halo copy's are its owner's) */
-            if (sph_ocean_on(m) && (!m->canonical || m->dd_owned[k]))
-                sph_ocean_take_particle(m, k);
+            if (sph_ocean_on(m) && (!m->canonical || m->dd_owned[k])) {
+                if (sph_dd_ocean_stashes(m)) /* booked below in id order, every rank's */
+                    sph_dd_ocean_stash_outflow(m, k);
+                else
+                    sph_ocean_take_particle(m, k);
+            }
             sph_dd_remove(m, k);
         }
     }
+    if (sph_dd_ocean_stashes(m)) /* on every rank, each step (a collective when decomposed) */
+        sph_dd_ocean_book_outflow(m);
 }

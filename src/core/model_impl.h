@@ -131,6 +131,12 @@ struct sph_model {
     size_t og_nmine;
     long og_maxid;
     int og_on, og_rc;
+    /* the particles that left at an open boundary in this step with
+     * output.ocean_fluxes on (sph_ocean_stash_particle's rows, capacity
+     * cap): og_out this rank's owned ones, og_outg every rank's (the
+     * driver's SPH_DD_OUTFLOW gathers them), booked in id order */
+    double *og_out, *og_outg;
+    size_t og_nout, og_noutg;
 };
 
 /* Array length of the per-particle workspaces: live particles and ghosts. */
@@ -277,6 +283,14 @@ int sph_ocean_after(sph_model *m, double dt, const sph_thermo_work *tw, sph_stat
 /* Hands particle k's accumulated fluxes into the ocean (ofx_*) to its
  * cell's accumulators and zeroes them, before k is removed mid-record. */
 void sph_ocean_take_particle(sph_model *m, size_t k);
+/* Canonical mode (ocean/ocean_dd.c): a particle leaving at an open
+ * boundary is stashed instead (a row: id, x, y, footprint, then its seven
+ * accumulators in take_particle's order, which it zeroes), and the rows of
+ * every rank are booked into the cells in id order (sph_ocean_book_stashed,
+ * exactly what take_particle adds for that particle). */
+#define SPH_OCEAN_OUT_ROW 11
+void sph_ocean_stash_particle(sph_model *m, size_t k, double rec[SPH_OCEAN_OUT_ROW]);
+void sph_ocean_book_stashed(sph_model *m, const double rec[SPH_OCEAN_OUT_ROW]);
 /* sph_ocean_after with the particles' atmospheric energy from ea[k]
  * instead of tw (the canonical view's, ocean_dd.c). */
 int sph_ocean_after_ea(sph_model *m, double dt, const sph_thermo_work *tw, const double *ea, sph_status *st);
@@ -293,6 +307,17 @@ int sph_dd_ocean_alloc(sph_model *m);
 void sph_dd_ocean_free(sph_model *m);
 int sph_dd_ocean_before(sph_model *m, double dt, sph_status *st);
 int sph_dd_ocean_after(sph_model *m, double dt, int rc_in, sph_status *st);
+/* Stashes owned particle k that leaves at an open boundary (canonical
+ * mode with the mixed layer and thermo.ocean_fluxes). */
+void sph_dd_ocean_stash_outflow(sph_model *m, size_t k);
+/* After the removals of a step, on every rank: gathers every rank's
+ * stashed rows and books them into the cells in id order. */
+void sph_dd_ocean_book_outflow(sph_model *m);
+/* 1 where the leaving particles' accumulators go through the stash. */
+static inline int sph_dd_ocean_stashes(const sph_model *m)
+{
+    return m->canonical && m->og && m->prm.thermo.ocean_fluxes && sph_ocean_on(m);
+}
 /* Canonical mode: the ice enthalpy (J) and mass (kg) of the particles as
  * exact sums, over the view, or over the owned particles summed over the
  * ranks (the driver's reduce). */

@@ -469,6 +469,37 @@ static void ocean_view(dd_ctx *d, sph_model *m)
     free(all);
 }
 
+/* SPH_DD_OUTFLOW (core/dd.h): every rank's rows of the particles that
+ * left at an open boundary in this step, gathered on every rank. */
+static void outflow_rows(dd_ctx *d, sph_model *m)
+{
+    enum { ROW = 11 };
+    size_t nl = 0, *nall = NULL, cap = 0;
+    double *all = NULL;
+    const double *mine = sph_model_dd_outflow(m, &nl, &all, &nall, &cap);
+    int S = d->size, n = (int)nl;
+    int *cnt = malloc(2 * (size_t)S * sizeof(int));
+    if (!cnt)
+        abort(); /* no way to fail a hook (map_slots) */
+    int *disp = cnt + S;
+    MPI_Allgather(&n, 1, MPI_INT, cnt, 1, MPI_INT, d->comm);
+    long tot = 0;
+    for (int r = 0; r < S; r++) {
+        disp[r] = (int)(tot * ROW);
+        tot += cnt[r];
+        cnt[r] *= ROW;
+    }
+    if ((size_t)tot > cap) {
+        fprintf(stderr, "sphice: domain decomposition: %ld particles left at open boundaries, more than the "
+                        "capacity %zu on rank %d\n", tot, cap, d->rank);
+        MPI_Abort(d->comm, 3);
+    }
+    if (tot > 0)
+        MPI_Allgatherv(mine, n * ROW, MPI_DOUBLE, all, cnt, disp, MPI_DOUBLE, d->comm);
+    *nall = (size_t)tot;
+    free(cnt);
+}
+
 static void hook_exchange(void *ctx, sph_model *m, int stage)
 {
     dd_ctx *d = ctx;
@@ -480,6 +511,8 @@ static void hook_exchange(void *ctx, sph_model *m, int stage)
         iter_wait(d, m);
     else if (stage == SPH_DD_OCEAN)
         ocean_view(d, m);
+    else if (stage == SPH_DD_OUTFLOW)
+        outflow_rows(d, m);
 }
 
 /* One reduction per call: the accumulators' digits summed and the maxima

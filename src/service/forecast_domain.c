@@ -46,10 +46,10 @@ static int refuse(const engine *e, sph_error *err)
                            "ensemble.members 1 or parallel.decomposition \"members\")", KEY, c->ensemble.members);
     if (p->ocean.mixed_layer && c->output.ocean_fluxes)
         return sph_err_set(err, SPH_ERR_CONFIG,
-                           "config: %s does not support the ocean-fluxes file with the mixed layer (the cells' "
-                           "accumulators of particles leaving at an open boundary are summed in each rank's "
-                           "order): set output.ocean_fluxes false, model.ocean.mixed_layer false or "
-                           "parallel.decomposition \"members\"", KEY);
+                           "config: %s does not support the ocean-fluxes file with the mixed layer (on 4 "
+                           "ranks the stress of particles leaving at an open boundary, which their cells "
+                           "record, differs from the serial run's; docs/domain.md): set output.ocean_fluxes "
+                           "false, model.ocean.mixed_layer false or parallel.decomposition \"members\"", KEY);
     if (p->physics != SPH_PHYSICS_FREE_DRIFT && p->solver != SPH_SOLVER_MEVP)
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config: %s supports only the mEVP stress solver (the explicit and implicit solvers "
@@ -276,6 +276,11 @@ int fc_dd_setup(engine *e, sph_error *err)
         ocean_state(o, a);
         for (int q = 0; q < OCEAN_NSTATE; q++)
             MPI_Bcast(a[q], (int)o->ncell, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+        /* a warm start's restart carries the last record's cell
+         * accumulators, which the new ocean-fluxes file must not count (the
+         * serial path clears them when it opens the file) */
+        if (e->cfg->output.ocean_fluxes)
+            sph_ocean_clear_fluxes(o);
         e->ocean_fresh = 0;
     }
     sph_status st;

@@ -273,6 +273,7 @@ int fc_write_output(engine *e, double t, sph_error *err)
          * accumulators restart from zero, as the serial run's do */
         if (e->cfg->output.ocean_fluxes && t > e->ofx_t0) {
             fc_ofx_zero(sph_model_particles(e->dd_m));
+            sph_ocean_clear_fluxes(sph_model_ocean(e->dd_m)); /* the mixed layer's cells too */
             e->ofx_t0 = t;
         }
         return SPH_OK;
@@ -741,8 +742,10 @@ static int ofx_record(engine *e, double t, sph_error *err)
                  "water cells; their fluxes are not in the record ending %.0f s after the cycle (particles_lost)",
                  e->cname, ofx_lost(e->ofx), t - e->t0);
     fc_ofx_zero(P);
-    if (e->dd_m) /* the decomposed run's particles, whose gathered copies were recorded */
+    if (e->dd_m) { /* the decomposed run's particles and cells, whose copies were recorded */
         fc_ofx_zero(sph_model_particles(e->dd_m));
+        sph_ocean_clear_fluxes(sph_model_ocean(e->dd_m));
+    }
     e->ofx_t0 = t;
     return SPH_OK;
 }

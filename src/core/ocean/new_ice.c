@@ -450,6 +450,32 @@ void sph_ocean_take_particle(sph_model *m, size_t k)
     take_particle_foot(m, k, particle_foot(m, k));
 }
 
+void sph_ocean_stash_particle(sph_model *m, size_t k, double rec[SPH_OCEAN_OUT_ROW])
+{
+    sph_particles *P = m->P;
+    double *const from[7] = {P->ofx_heat_lead, P->ofx_water, P->ofx_salt, P->ofx_heat_ice,
+                             P->ofx_taux, P->ofx_tauy, P->ofx_swbase};
+    rec[0] = (double)P->id[k];
+    rec[1] = P->x[k];
+    rec[2] = P->y[k];
+    rec[3] = particle_foot(m, k);
+    for (int q = 0; q < 7; q++) {
+        rec[4 + q] = from[q][k];
+        from[q][k] = 0.0;
+    }
+}
+
+void sph_ocean_book_stashed(sph_model *m, const double rec[SPH_OCEAN_OUT_ROW])
+{
+    sph_ocean *o = m->ocean;
+    double *const to[7] = {o->ofx_heat, o->ofx_water, o->ofx_salt, o->ofx_heat_ice,
+                           o->ofx_taux, o->ofx_tauy, o->ofx_swbase};
+    foot_span s;
+    span_init(o, rec[1], rec[2], rec[3], &s);
+    for (int q = 0; q < 7; q++)
+        span_add(o, &s, rec[4 + q], to[q]);
+}
+
 /* Merges particle j into k: mass, momentum, ice volume, enthalpy, snow
  * volume and footprint are summed; position mass-weighted. */
 static void merge_into(sph_model *m, size_t k, size_t j)

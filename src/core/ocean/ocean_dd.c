@@ -31,6 +31,10 @@ void sph_dd_ocean_free(sph_model *m)
     free(m->og_pair);
     free(m->og_mine);
     free(m->og_order);
+    free(m->og_out);
+    free(m->og_outg);
+    m->og_out = m->og_outg = NULL;
+    m->og_nout = m->og_noutg = 0;
     m->og = NULL;
     m->og_ea = m->og_lea = m->og_scratch = NULL;
     m->og_pair = m->og_mine = NULL;
@@ -49,7 +53,11 @@ int sph_dd_ocean_alloc(sph_model *m)
     m->og_pair = calloc(2 * cap, sizeof(long));
     m->og_mine = calloc(cap, sizeof(long));
     m->og_order = calloc(cap, sizeof(int));
-    if (!m->og || !m->og_ea || !m->og_lea || !m->og_scratch || !m->og_pair || !m->og_mine || !m->og_order) {
+    m->og_out = calloc(cap * SPH_OCEAN_OUT_ROW, sizeof(double));
+    m->og_outg = calloc(cap * SPH_OCEAN_OUT_ROW, sizeof(double));
+    m->og_nout = m->og_noutg = 0;
+    if (!m->og || !m->og_ea || !m->og_lea || !m->og_scratch || !m->og_pair || !m->og_mine || !m->og_order ||
+        !m->og_out || !m->og_outg) {
         sph_dd_ocean_free(m);
         return -1;
     }
@@ -66,6 +74,19 @@ sph_particles *sph_model_dd_view(sph_model *m, double **ea, int **rc)
 }
 
 const double *sph_model_dd_local_ea(const sph_model *m) { return m->og_lea; }
+
+double *sph_model_dd_outflow(sph_model *m, size_t *nlocal, double **all, size_t **nall, size_t *cap)
+{
+    if (nlocal)
+        *nlocal = m->og_nout;
+    if (all)
+        *all = m->og_outg;
+    if (nall)
+        *nall = &m->og_noutg;
+    if (cap)
+        *cap = m->og ? m->og->cap : 0;
+    return m->og_out;
+}
 
 /* Heap sort of n longs in place (ids are unique: any sort gives the same
  * order; libc's qsort may allocate). a[2 i] the key, a[2 i + 1] its value
@@ -242,4 +263,39 @@ void sph_dd_ice_totals(const sph_model *m, double (*enth)(const sph_model *, siz
         m->dd->reduce(m->dd->ctx, acc, 2, NULL, 0);
     *e = sph_xsum_value(&acc[0]);
     *mass = sph_xsum_value(&acc[1]);
+}
+
+/* The particles leaving at an open boundary (docs/domain.md "The ocean
+ * fluxes"): each owner stashes its leaving particles' accumulators instead
+ * of adding them to its own copy of the cells in its own order; after the
+ * removals every rank books every rank's rows in id order, so every rank's
+ * cells get the same additions in the same order as the serial canonical
+ * run's. */
+void sph_dd_ocean_stash_outflow(sph_model *m, size_t k)
+{
+    if (m->og_nout >= m->og->cap)
+        return; /* cannot happen: at most the rank's particles leave */
+    sph_ocean_stash_particle(m, k, m->og_out + m->og_nout * SPH_OCEAN_OUT_ROW);
+    m->og_nout++;
+}
+
+void sph_dd_ocean_book_outflow(sph_model *m)
+{
+    if (m->dd) {
+        m->dd->exchange(m->dd->ctx, m, SPH_DD_OUTFLOW);
+    } else {
+        memcpy(m->og_outg, m->og_out, m->og_nout * SPH_OCEAN_OUT_ROW * sizeof(double));
+        m->og_noutg = m->og_nout;
+    }
+    m->og_nout = 0;
+    size_t n = m->og_noutg;
+    long *pr = m->og_pair;
+    for (size_t i = 0; i < n; i++) {
+        pr[2 * i] = (long)m->og_outg[i * SPH_OCEAN_OUT_ROW];
+        pr[2 * i + 1] = (long)i;
+    }
+    heap_sort(pr, 2, n);
+    for (size_t i = 0; i < n; i++)
+        sph_ocean_book_stashed(m, m->og_outg + (size_t)pr[2 * i + 1] * SPH_OCEAN_OUT_ROW);
+    m->og_noutg = 0;
 }
