@@ -180,7 +180,8 @@ static int trans_one(PJ *pj, PJ_DIRECTION dir, double a, double b, double *outa,
         proj_errno_reset(pj);
         return 1;
     }
-    *outa = r.xy.x;
+    /* unprojected longitudes in -180..180 */
+    *outa = dir == PJ_INV ? remainder(r.xy.x, 360.0) : r.xy.x;
     *outb = r.xy.y;
     return 0;
 }
@@ -238,11 +239,7 @@ int geo_forward(const geo_proj *p, size_t n, const double *lon, const double *la
 int geo_inverse(const geo_proj *p, size_t n, const double *x, const double *y, double *lon,
                 double *lat, sph_error *err)
 {
-    int rc = transform(p, PJ_INV, n, x, y, lon, lat, err);
-    for (size_t i = 0; i < n; i++)
-        if (isfinite(lon[i]))
-            lon[i] = remainder(lon[i], 360.0); /* -180..180 */
-    return rc;
+    return transform(p, PJ_INV, n, x, y, lon, lat, err); /* longitudes -180..180 */
 }
 
 double geo_grid_angle(const geo_proj *p, double lon, double lat)
