@@ -368,7 +368,7 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
         double t = e->t0 + s * dt;
         if (e->dd != 2 && s > 0 && (rc = fc_fill_forcing(e, t, er)))
             goto fail;
-        fc_bgw_kick(e); /* the last output time's products, now that this step's forcing is read */
+        fc_bgw_kick(e); /* the last output time's products, from the second fill after it (forecast_writer.c) */
         sph_status st;
         if (e->dd != 2 && sph_model_step(e->m, &st) != SPH_STEP_OK) {
             rc = step_error(e, &st, s + 1, t, er);

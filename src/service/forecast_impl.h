@@ -131,7 +131,8 @@ static inline int fc_fill_forcing(engine *e, double t, sph_error *err)
  * (and the ocean fluxes) are open: the thread when fc_bgw_wanted says so.
  * fc_bgw_submit (fc_write_output): waits for the previous output time's
  * job (its error, if it failed), copies what the steps change and prepares
- * the job; fc_bgw_kick starts it (after the next step's forcing fill);
+ * the job; fc_bgw_kick, after each step's forcing fill, starts it at the
+ * second call after the submit (the fill that reads the next slice);
  * fc_bgw_wait: until the job is written (before the restart file, before
  * closing), its rc and line; fc_bgw_stop (engine_free): waits for a
  * running job, drops a prepared one, ends the thread. Without a thread:

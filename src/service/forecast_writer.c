@@ -8,9 +8,12 @@
  * (mass, thickness, concentration, snow, id), which the steps change. So
  * one snapshot is enough: fc_write_output waits for the previous job
  * before it overwrites the arrays. The job is prepared at the output time
- * and started once the next step's forcing has been filled (fc_bgw_kick),
- * so that the forcing slice that output time needs is read before the
- * writer takes the NetCDF lock.
+ * and started at the second forcing fill after it (fc_bgw_kick counts
+ * down BGW_KICK_FILLS): a forcing interval is (t_lo, t_hi], so with
+ * outputs on forcing times the first fill after an output still reads
+ * the interval that ends there and the second one reads the next slice;
+ * started after that read, the job does not hold the NetCDF lock while
+ * the step loop waits for a slice.
  *
  * NetCDF: the job holds the process's NetCDF/HDF5 lock (io/nc_guard.h)
  * for its whole products_add_time; the only NetCDF calls of the step loop
@@ -30,11 +33,15 @@
 
 enum { BGW_IDLE, BGW_PREPARED, BGW_RUNNING, BGW_DONE };
 
+/* the forcing fills after an output time before its job starts */
+enum { BGW_KICK_FILLS = 2 };
+
 struct fc_bgw {
     pthread_t th;
     pthread_mutex_t mu;
     pthread_cond_t cv;
     int state;   /* BGW_*, under mu */
+    int fills;   /* BGW_PREPARED: fc_bgw_kick calls before it starts the job */
     int quit;
     prod_writer *pw;
     /* the job */
@@ -136,7 +143,8 @@ void fc_bgw_kick(engine *e)
     if (!w)
         return;
     pthread_mutex_lock(&w->mu);
-    kick_locked(w);
+    if (w->state == BGW_PREPARED && --w->fills <= 0)
+        kick_locked(w);
     pthread_mutex_unlock(&w->mu);
 }
 
@@ -210,6 +218,7 @@ int fc_bgw_submit(engine *e, double t, const prod_fields *f, const prod_particle
     }
     pthread_mutex_lock(&w->mu);
     w->state = BGW_PREPARED;
+    w->fills = BGW_KICK_FILLS;
     pthread_mutex_unlock(&w->mu);
     return SPH_OK;
 }

@@ -7,11 +7,25 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+/* Up to GEO_MAX_TEAM OpenMP threads share a long transform (at least
+ * GEO_OMP_MIN points), each through its own PJ (thread 0 the object's
+ * own, the others copies built from the same definition on first use):
+ * every point is transformed alone, so the values are the same whatever
+ * the thread count. */
+#define GEO_MAX_TEAM 64
+#define GEO_OMP_MIN 512
 
 struct geo_proj {
     PJ_CONTEXT *ctx;     /* one per object: PJ objects are not thread-safe */
     PJ *pj;              /* geographic (lon, lat degrees) -> plane (x, y metres) */
     pthread_mutex_t lock; /* serialises proj_trans on this object */
+    int nteam;                          /* copies built for threads 1 .. nteam */
+    PJ_CONTEXT *team_ctx[GEO_MAX_TEAM]; /* [t - 1]: thread t's context and PJ */
+    PJ *team_pj[GEO_MAX_TEAM];
     double lon0, lat0;
     char definition[512];
 };
@@ -110,6 +124,10 @@ void geo_proj_free(geo_proj *p)
 {
     if (!p)
         return;
+    for (int t = 0; t < p->nteam; t++) {
+        proj_destroy(p->team_pj[t]);
+        proj_context_destroy(p->team_ctx[t]);
+    }
     proj_destroy(p->pj);
     proj_context_destroy(p->ctx);
     pthread_mutex_destroy(&p->lock);
@@ -126,27 +144,82 @@ void geo_proj_centre(const geo_proj *p, double *lon0, double *lat0)
         *lat0 = p->lat0;
 }
 
+/* The PJs of threads 1 .. want - 1 (caller holds the lock): how many
+ * threads can take part (1 where a copy cannot be built: the transform is
+ * then serial, the same values). */
+static int team_reserve(geo_proj *p, int want)
+{
+    if (want > GEO_MAX_TEAM + 1)
+        want = GEO_MAX_TEAM + 1;
+    while (p->nteam < want - 1) {
+        PJ_CONTEXT *ctx = proj_context_create();
+        if (!ctx)
+            break;
+        proj_log_level(ctx, PJ_LOG_NONE);
+        PJ *raw = proj_create_crs_to_crs(ctx, geographic_crs, p->definition, NULL), *pj = NULL;
+        if (raw) {
+            pj = proj_normalize_for_visualization(ctx, raw);
+            proj_destroy(raw);
+        }
+        if (!pj) {
+            proj_context_destroy(ctx);
+            break;
+        }
+        p->team_ctx[p->nteam] = ctx;
+        p->team_pj[p->nteam] = pj;
+        p->nteam++;
+    }
+    return p->nteam + 1 < want ? p->nteam + 1 : want;
+}
+
+static int trans_one(PJ *pj, PJ_DIRECTION dir, double a, double b, double *outa, double *outb)
+{
+    PJ_COORD r = proj_trans(pj, dir, proj_coord(a, b, 0, HUGE_VAL));
+    if (!isfinite(a) || !isfinite(b) || !isfinite(r.xy.x) || !isfinite(r.xy.y) || r.xy.x == HUGE_VAL) {
+        *outa = *outb = NAN;
+        proj_errno_reset(pj);
+        return 1;
+    }
+    /* unprojected longitudes in -180..180 */
+    *outa = dir == PJ_INV ? remainder(r.xy.x, 360.0) : r.xy.x;
+    *outb = r.xy.y;
+    return 0;
+}
+
 /* One direction for n points. The mutex is logically mutable state of a
- * const object: it only serialises use of the PJ. */
+ * const object: it only serialises use of the PJs. */
 static int transform(const geo_proj *cp, PJ_DIRECTION dir, size_t n, const double *a,
                      const double *b, double *outa, double *outb, sph_error *err)
 {
     geo_proj *p = (geo_proj *)cp;
-    size_t bad = 0, first_bad = 0;
+    size_t bad = 0, first_bad = n;
     pthread_mutex_lock(&p->lock);
-    for (size_t i = 0; i < n; i++) {
-        PJ_COORD c = proj_coord(a[i], b[i], 0, HUGE_VAL);
-        PJ_COORD r = proj_trans(p->pj, dir, c);
-        if (!isfinite(a[i]) || !isfinite(b[i]) || !isfinite(r.xy.x) || !isfinite(r.xy.y) ||
-            r.xy.x == HUGE_VAL) {
-            if (!bad++)
-                first_bad = i;
-            outa[i] = outb[i] = NAN;
-            proj_errno_reset(p->pj);
-        } else {
-            outa[i] = r.xy.x;
-            outb[i] = r.xy.y;
+    int team = 1;
+#ifdef _OPENMP
+    if (n >= GEO_OMP_MIN && omp_get_max_threads() > 1 && !omp_in_parallel())
+        team = team_reserve(p, omp_get_max_threads());
+#endif
+    if (team > 1) {
+#pragma omp parallel num_threads(team) reduction(+ : bad) reduction(min : first_bad)
+        {
+#ifdef _OPENMP
+            int t = omp_get_thread_num();
+#else
+            int t = 0;
+#endif
+            PJ *pj = t == 0 ? p->pj : p->team_pj[t - 1];
+#pragma omp for schedule(static)
+            for (size_t i = 0; i < n; i++)
+                if (trans_one(pj, dir, a[i], b[i], outa + i, outb + i)) {
+                    bad++;
+                    if (i < first_bad)
+                        first_bad = i;
+                }
         }
+    } else {
+        for (size_t i = 0; i < n; i++)
+            if (trans_one(p->pj, dir, a[i], b[i], outa + i, outb + i) && !bad++)
+                first_bad = i;
     }
     pthread_mutex_unlock(&p->lock);
     if (bad)
@@ -166,11 +239,7 @@ int geo_forward(const geo_proj *p, size_t n, const double *lon, const double *la
 int geo_inverse(const geo_proj *p, size_t n, const double *x, const double *y, double *lon,
                 double *lat, sph_error *err)
 {
-    int rc = transform(p, PJ_INV, n, x, y, lon, lat, err);
-    for (size_t i = 0; i < n; i++)
-        if (isfinite(lon[i]))
-            lon[i] = remainder(lon[i], 360.0); /* -180..180 */
-    return rc;
+    return transform(p, PJ_INV, n, x, y, lon, lat, err); /* longitudes -180..180 */
 }
 
 double geo_grid_angle(const geo_proj *p, double lon, double lat)

@@ -341,6 +341,13 @@ static int fields_define(prod_writer *p, sph_error *err)
         NCT(nc_def_var(nc, s->name, NC_FLOAT, 3, dims3, &p->v_data[k]), "define variable in");
         v = p->v_data[k];
         NCT(nc_def_var_chunking(nc, v, NC_CHUNKED, chunk), "set chunking in");
+        /* one time record per chunk, written once: a cache of one chunk
+         * compresses and writes each record when the next one comes (in
+         * products_add_time, on the writer thread where there is one)
+         * rather than all of them at the close (netCDF's default cache held
+         * the whole forecast); the file's data are the same */
+        NCT(nc_set_var_chunk_cache(nc, v, (size_t)g->nlat * (size_t)g->nlon * sizeof(float) + 4096, 31, 1.0f),
+            "set chunk cache in");
         if (p->opts.deflate_level > 0)
             NCT(nc_def_var_deflate(nc, v, 1, 1, p->opts.deflate_level), "set deflate in");
         NCT(nc_put_att_float(nc, v, "_FillValue", NC_FLOAT, 1, &fill), "write attribute in");
