@@ -220,10 +220,11 @@ int prod_particles_add(prod_writer *p, double t, const prod_particles_view *pv, 
     if (!pv->lon || !pv->lat || !pv->id)
         return sph_err_set(err, SPH_ERR_PARAM, "products: particles need lon, lat and id");
     size_t n = pv->n;
-    /* the time and the float fields go out in chunks of PT_CHUNK values
-     * (their work arrays: 12 bytes per particle less at 1e6) */
+    /* the trajectory indices, the time and the float fields go out in
+     * chunks of PT_CHUNK values (their work arrays: 16 bytes per particle
+     * less at 1e6) */
     const size_t chunk = n < PT_CHUNK ? n : PT_CHUNK;
-    int *tix = malloc(n * sizeof *tix);
+    int *tix = malloc(chunk * sizeof *tix);
     double *d = malloc(chunk * sizeof *d);
     float *f = malloc(chunk * sizeof *f);
     int rc = SPH_OK;
@@ -242,7 +243,6 @@ int prod_particles_add(prod_writer *p, double t, const prod_particles_view *pv, 
             rc = sph_err_set(err, SPH_ERR_NOMEM, "products: out of memory (particle ids)");
             break;
         }
-        tix[k] = (int)ti;
         if (is_new) {
             if (!newid && !(newid = malloc((n - k) * sizeof *newid))) {
                 rc = sph_err_set(err, SPH_ERR_NOMEM, "products: out of memory (%zu particles)", n);
@@ -260,7 +260,21 @@ int prod_particles_add(prod_writer *p, double t, const prod_particles_view *pv, 
     if (rc != SPH_OK)
         goto done;
     size_t start = p->pt_nobs, count = n;
-    int st = nc_put_vara_int(p->pt_nc, p->pt_v_tindex, &start, &count, tix);
+    int st = NC_NOERR;
+    /* every id is known now: traj_index finds the index given above */
+    for (size_t k0 = 0; k0 < n && st == NC_NOERR; k0 += chunk) {
+        size_t s0 = start + k0, c0 = n - k0 < chunk ? n - k0 : chunk;
+        for (size_t k = 0; k < c0; k++) {
+            int is_new;
+            long ti = traj_index(p, pv->id[k0 + k], &is_new);
+            if (ti < 0) {
+                rc = sph_err_set(err, SPH_ERR_NOMEM, "products: out of memory (particle ids)");
+                goto done;
+            }
+            tix[k] = (int)ti;
+        }
+        st = nc_put_vara_int(p->pt_nc, p->pt_v_tindex, &s0, &c0, tix);
+    }
     for (size_t k = 0; k < chunk; k++)
         d[k] = t;
     for (size_t k0 = 0; k0 < n && st == NC_NOERR; k0 += chunk) {
