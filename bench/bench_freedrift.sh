@@ -28,7 +28,8 @@
 # Output (stdout): one CSV row per run,
 #   size,method,threads,particles,steps,cpu_s,wall_s,peak_rss_mb,us_per_particle_step,floor_us,ratio_to_floor
 # Environment: BUILD (build), BENCH_OUT (bench/out), FD_SIZES, FD_HOURS,
-# FD_BEFORE, FD_BEFORE_HOURS, FD_BASE, FD_METHODS ("before sph parcels"), FD_THREADS2.
+# FD_BEFORE, FD_BEFORE_HOURS, FD_BASE, FD_METHODS ("before sph parcels"), FD_THREADS2,
+# FD_CONFIG_ONLY.
 # perf: install linux-perf (Debian) and run
 #   perf record -g build/sphice run <BENCH_OUT>/freedrift/1e4_parcels_t1.json --cycle 1999-02-07T22:00Z --hours 48 --out /tmp/x --force
 set -eu
@@ -76,6 +77,12 @@ config() {
     echo "$f"
 }
 
+# FD_CONFIG_ONLY=1: only write the 1-thread configurations and print their
+# paths (bench/bench_mem1e6.sh builds its cases from them)
+if [ -n "${FD_CONFIG_ONLY:-}" ]; then
+    for size in $SIZES; do for method in $METHODS; do config "$size" "$method" 1; done; done
+    exit 0
+fi
 echo "size,method,threads,particles,steps,cpu_s,wall_s,peak_rss_mb,us_per_particle_step,floor_us,ratio_to_floor"
 for size in $SIZES; do
     for method in $METHODS; do

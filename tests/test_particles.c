@@ -1,7 +1,7 @@
 /* The particle field list (core/particles.h, SPH_PARTICLE_FIELDS): every
  * field of the list is allocated, permuted, copied and moved by removal,
- * entry by entry; the table agrees with the struct. Restart files of every
- * field: test_restart. */
+ * entry by entry; the table agrees with the struct; the thermal forcing's
+ * release. Restart files of every field: test_restart. */
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
@@ -186,10 +186,57 @@ done:
     sph_particles_free(C);
 }
 
+/* sph_particles_release_thermal_forcing: the nine thermal forcing fields
+ * zero (fresh arrays), every other field of every particle as it was. */
+static void release_thermal(void)
+{
+    sph_particles *P = sph_particles_create(9, 3), *P0 = sph_particles_create(9, 3);
+    CHECK(P && P0, "create");
+    if (!P || !P0)
+        goto done;
+    P->n = P0->n = 9;
+    fill(P, 4);
+    fill(P0, 4);
+    double *before = P->tair;
+    CHECK(sph_particles_release_thermal_forcing(P) == 0, "release: 0");
+    static const char *thermal[] = {"tair", "qair", "swdn", "lwdn", "sst", "fw", "fsens", "flat",
+                                    "snowfall"};
+    int nz = 0, kept = 1, nthermal = 0;
+    for (int f = 0; f < SPH_PARTICLE_NFIELDS; f++) {
+        int th = 0;
+        for (size_t t = 0; t < sizeof thermal / sizeof thermal[0]; t++)
+            th |= !strcmp(sph_particle_fields[f].name, thermal[t]);
+        nthermal += th;
+        size_t bytes = P->cap * sph_particles_field_count(P, f) * sph_particle_fields[f].size;
+        const unsigned char *a = sph_particles_field(P, f), *b = sph_particles_field(P0, f);
+        if (th) {
+            for (size_t i = 0; i < bytes; i++)
+                nz += a[i] != 0;
+        } else {
+            kept &= !memcmp(a, b, bytes);
+        }
+    }
+    CHECK(nthermal == 9, "the nine thermal forcing fields are in the list (%d)", nthermal);
+    CHECK(nz == 0, "thermal forcing zero after the release (%d bytes not)", nz);
+    CHECK(kept, "every other field unchanged");
+    CHECK(P->tair != NULL && P->cap == 9, "fresh arrays of the same capacity");
+    (void)before; /* freed: only its replacement is read */
+    /* the set works as before: a removal and a copy move the zeros along */
+    sph_particles_remove(P, 0); /* particle 8 into slot 0 */
+    sph_particles_copy_one(P, 7, P, 0);
+    CHECK(P->n == 8 && P->x[0] == P0->x[8] && P->x[7] == P0->x[8] && P->tair[0] == 0.0 &&
+              P->flat[7] == 0.0 && P->u[1] == P0->u[1],
+          "removal and copy after the release");
+done:
+    sph_particles_free(P);
+    sph_particles_free(P0);
+}
+
 int main(void)
 {
     table();
     permute();
     copy_one();
+    release_thermal();
     return check_summary("test_particles");
 }

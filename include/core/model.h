@@ -62,6 +62,13 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
 void sph_model_free(sph_model *m);
 
 sph_particles *sph_model_particles(sph_model *m);
+/* Between steps the pair gradients hold nothing the model reads again:
+ * every step and sph_model_init rebuild the neighbour lists before a pass
+ * reads them. Until the next step (or init) the caller may use their
+ * memory as scratch: *len doubles at the returned address, the slots the
+ * last build wrote (resident pages, no new memory). NULL with *len 0 when
+ * there are none (parcels, no build yet). */
+double *sph_model_idle_scratch(sph_model *m, size_t *len);
 const sph_params *sph_model_params(const sph_model *m);
 size_t sph_model_capacity(const sph_model *m); /* live particles it can hold */
 /* Mirror ghosts of the last step, stored after the live particles. */

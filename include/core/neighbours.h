@@ -68,6 +68,7 @@ typedef struct sph_nbr {
     int *sorted;       /* [cap] particle indices in cell order */
     int *cell_of;      /* [cap] */
     long pairs;        /* total pairs of the last build */
+    size_t lead;       /* slots [0, lead) written by the last build (the first thread block's) */
     /* [cap_all * 4] a per-particle record the passes fill and gather
      * through the lists (operators.c: the stress divergence's S / M^2 and
      * mass), in particle order; 32-byte aligned, one cache line each */

@@ -175,6 +175,14 @@ sph_particles *sph_particles_create(size_t cap, int nlayers);
  * ghosts, whose fluxes nothing reads, and their pages stay untouched. */
 sph_particles *sph_particles_create_live(size_t cap, size_t live, int nlayers);
 void sph_particles_free(sph_particles *p); /* NULL does nothing */
+/* Gives back the memory of the thermal forcing (tair qair swdn lwdn sst fw
+ * fsens flat snowfall: 72 bytes per slot, resident once a fill wrote them)
+ * for a run that reads it no more (no thermodynamics, mixed layer or new
+ * ice; the cold start's profile has read tair): each array is replaced by
+ * a fresh zeroed one of the same size, whose pages are not resident until
+ * written. Their values are zero from then on. Not inside a step (it
+ * allocates). Returns 0, or -1 out of memory (the arrays left as they were). */
+int sph_particles_release_thermal_forcing(sph_particles *p);
 /* Removes particle k by moving the last one into its slot (O(1)). */
 void sph_particles_remove(sph_particles *p, size_t k);
 /* Reorders the live particles: new slot i takes old particle order[i].

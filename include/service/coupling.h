@@ -36,7 +36,10 @@ typedef struct fc_coupling {
     long coast_fallbacks;       /* particle-fills with no ocean/tide data (unresolved coast) */
     unsigned provided;          /* forcing quantities found at the last fill */
     /* per-particle work arrays [cap]: positions (degrees), grid angle,
-     * merged east/north forcing */
+     * merged east/north forcing. ue vn uwe vwn gxe gyn are not the coupling's own:
+     * each fill points them at its particles' ua va uw vw sshx sshy, where
+     * the sources are summed and then turned to plane x/y; ssh is NULL (the
+     * merged sea-surface height is read by nothing) */
     double *lon, *lat, *angle, *ue, *vn, *uwe, *vwn, *gxe, *gyn, *ssh;
     double *tair, *qair, *swdn, *lwdn, *sst, *fw;
     double *snowfall, *precip;  /* kg m-2 s-1 */

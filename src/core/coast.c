@@ -226,7 +226,7 @@ static int add_ghost(sph_model *m, size_t k, double gx, double gy, double n1x, d
     m->ghost_ny[m->ng] = n1y;
     m->ghost_n2x[m->ng] = n2x;
     m->ghost_n2y[m->ng] = n2y;
-    if (m->gh_cell > 0.0 && isfinite(gx) && isfinite(gy)) {
+    if (m->ghost_merge && m->gh_cell > 0.0 && isfinite(gx) && isfinite(gy)) {
         long ix, iy;
         size_t b = gh_bucket(m, gx, gy, &ix, &iy);
         m->gh_next[m->ng] = m->gh_head[b];
@@ -246,8 +246,11 @@ void sph_build_ghosts(sph_model *m)
         return;
     /* the hash's cells cover the largest thinning radius */
     m->gh_cell = GHOST_MIN_SEP * sph_max_sml(P, n);
-    for (size_t b = 0; b < m->gh_size; b++)
-        m->gh_head[b] = -1;
+    /* the hash is read only while merging (ghost_crowded): without it its
+     * heads (4 bytes per slot of the 4 x capacity) are never touched */
+    if (m->ghost_merge)
+        for (size_t b = 0; b < m->gh_size; b++)
+            m->gh_head[b] = -1;
     for (size_t k = 0; k < n; k++) {
         double radius = m->kern.radius * P->sml[k];
         double d1, n1x, n1y, d2, n2x, n2y;

@@ -368,6 +368,12 @@ static int parcels_mode(const sph_model *m)
     return m->prm.physics == SPH_PHYSICS_FREE_DRIFT && m->prm.free_drift_parcels;
 }
 
+double *sph_model_idle_scratch(sph_model *m, size_t *len)
+{
+    *len = m && m->nb && !parcels_mode(m) ? m->nb->lead : 0;
+    return *len ? m->nb->gx : NULL;
+}
+
 /* The per-particle state the SPH passes would leave for a particle with
  * no neighbour but itself: zero strain rates and stress, free drift, no
  * coast ghosts; mass per area kept by continuity at zero divergence, with

@@ -196,6 +196,8 @@ int sph_nbr_build(sph_nbr *nb, const sph_kernel *k, size_t nq, const double *x,
         }
         end_query(nb, q, cnt, over, &cursor, &pairs, &first_over);
     }
+    if (omp_get_thread_num() == 0)
+        nb->lead = cursor;
     }
     return end_build(nb, pairs, first_over, overflow);
 }
@@ -216,6 +218,8 @@ int sph_nbr_build_brute(sph_nbr *nb, const sph_kernel *k, size_t nq, size_t n,
             add_pair(nb, k, q, (int)j, x, y, h, cursor, &cnt, &over);
         end_query(nb, q, cnt, over, &cursor, &pairs, &first_over);
     }
+    if (omp_get_thread_num() == 0)
+        nb->lead = cursor;
     }
     return end_build(nb, pairs, first_over, overflow);
 }

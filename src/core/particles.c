@@ -59,6 +59,27 @@ void sph_particles_free(sph_particles *p)
     free(p);
 }
 
+int sph_particles_release_thermal_forcing(sph_particles *p)
+{
+    double **f[] = {&p->tair, &p->qair, &p->swdn, &p->lwdn, &p->sst,
+                    &p->fw,   &p->fsens, &p->flat, &p->snowfall};
+    enum { NF = sizeof f / sizeof f[0] };
+    double *fresh[NF];
+    for (size_t k = 0; k < NF; k++) {
+        fresh[k] = calloc(p->cap, sizeof(double));
+        if (!fresh[k]) {
+            while (k > 0)
+                free(fresh[--k]);
+            return -1;
+        }
+    }
+    for (size_t k = 0; k < NF; k++) {
+        free(*f[k]);
+        *f[k] = fresh[k];
+    }
+    return 0;
+}
+
 void sph_particles_copy_one(sph_particles *dst, size_t d, const sph_particles *src, size_t s)
 {
     /* layered fields: as many layers as both sets have */

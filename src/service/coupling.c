@@ -125,8 +125,10 @@ int coupling_alloc(fc_coupling *c, size_t cap, sph_error *err)
         c->chunk = COUPLING_CHUNK;
     size_t w = n < c->chunk ? n : c->chunk; /* one chunk's samples (coupling_fill) */
     c->wcap = w;
-    double **arrays[] = {&c->lon, &c->lat, &c->angle, &c->ue, &c->vn, &c->uwe, &c->vwn, &c->gxe,
-                         &c->gyn, &c->ssh, &c->tair, &c->qair, &c->swdn, &c->lwdn, &c->sst, &c->fw,
+    /* the merged dynamics forcing (ue vn uwe vwn gxe gyn) is summed in the
+     * filled particles' own arrays (coupling_fill); the merged sea-surface
+     * height is read by nothing */
+    double **arrays[] = {&c->lon, &c->lat, &c->angle, &c->tair, &c->qair, &c->swdn, &c->lwdn, &c->sst, &c->fw,
                          &c->snowfall, &c->precip, &c->mld, &c->bathy, &c->cs, &c->sn};
     int ok = 1;
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
@@ -157,8 +159,7 @@ void coupling_free(fc_coupling *c)
     for (size_t k = 0; k < c->nforc; k++)
         forcing_close(c->forc[k]);
     c->nforc = 0;
-    double *arrays[] = {c->lon, c->lat, c->angle, c->ue, c->vn, c->uwe, c->vwn, c->gxe, c->gyn,
-                        c->ssh, c->tair, c->qair, c->swdn, c->lwdn, c->sst, c->fw,
+    double *arrays[] = {c->lon, c->lat, c->angle, c->tair, c->qair, c->swdn, c->lwdn, c->sst, c->fw,
                         c->snowfall, c->precip, c->mld, c->bathy, c->cs, c->sn};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         free(arrays[k]);
@@ -286,8 +287,8 @@ static void merge_source(fc_coupling *c, size_t k0, size_t n, unsigned got, unsi
     double *dst[CPL_NQ] = {c->ue, c->vn, c->tair, c->qair, c->swdn, c->lwdn, c->uwe, c->vwn, c->ssh,
                            c->gxe, c->gyn, c->sst, c->fw, c->snowfall, c->precip, c->mld, c->bathy};
     for (size_t m = 0; m < sizeof map / sizeof map[0]; m++) {
-        if (!(got & map[m].flag) || (!map[m].sum && (before & map[m].flag)))
-            continue;
+        if (!(got & map[m].flag) || (!map[m].sum && (before & map[m].flag)) || !dst[map[m].q])
+            continue; /* dst NULL: the sea-surface height, read by nothing */
         const double *q = c->q[map[m].q]; /* the chunk k0 .. k0 + n - 1 */
         double *d = dst[map[m].q] + k0;
         const unsigned char *bad = c->bad;
@@ -312,6 +313,15 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
                       : geo_inverse(proj, n, P->x, P->y, c->lon, c->lat, err);
     if (rc)
         return rc;
+    /* the merged east/north dynamics forcing is summed in P's own arrays,
+     * turned to plane x/y in place below */
+    c->ue = P->ua;
+    c->vn = P->va;
+    c->uwe = P->uw;
+    c->vwn = P->vw;
+    c->gxe = P->sshx;
+    c->gyn = P->sshy;
+    c->ssh = NULL;
     const double tf = sph_freezing_point(th);
     const int dyn = c->dynamics_only;
 #pragma omp parallel for schedule(static) if (n >= COUPLING_OMP_MIN)
@@ -319,7 +329,6 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
         c->ue[k] = c->vn[k] = 0.0;
         c->uwe[k] = c->vwn[k] = 0.0;
         c->gxe[k] = c->gyn[k] = 0.0;
-        c->ssh[k] = 0.0;
         if (dyn)
             continue;
         c->tair[k] = tf;
@@ -371,13 +380,15 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
 #pragma omp parallel for schedule(static) if (n >= COUPLING_OMP_MIN)
     for (size_t k = 0; k < n; k++) {
         const double cs = c->cs[k], sn = c->sn[k];
-        /* east/north -> plane x/y (io/geo.h) */
-        P->ua[k] = c->ue[k] * cs + c->vn[k] * sn;
-        P->va[k] = -c->ue[k] * sn + c->vn[k] * cs;
-        P->uw[k] = c->uwe[k] * cs + c->vwn[k] * sn;
-        P->vw[k] = -c->uwe[k] * sn + c->vwn[k] * cs;
-        P->sshx[k] = c->gxe[k] * cs + c->gyn[k] * sn;
-        P->sshy[k] = -c->gxe[k] * sn + c->gyn[k] * cs;
+        /* east/north -> plane x/y (io/geo.h), in place */
+        const double ue = c->ue[k], vn = c->vn[k], uwe = c->uwe[k], vwn = c->vwn[k];
+        const double gxe = c->gxe[k], gyn = c->gyn[k];
+        P->ua[k] = ue * cs + vn * sn;
+        P->va[k] = -ue * sn + vn * cs;
+        P->uw[k] = uwe * cs + vwn * sn;
+        P->vw[k] = -uwe * sn + vwn * cs;
+        P->sshx[k] = gxe * cs + gyn * sn;
+        P->sshy[k] = -gxe * sn + gyn * cs;
         P->lat[k] = c->lat[k];
         if (dyn)
             continue;

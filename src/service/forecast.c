@@ -80,7 +80,7 @@ static void engine_free(engine *e)
     ice_raster_free(e->raster);
     sph_model_free(e->m);
     sph_particles_free(e->ocean_pts);
-    double *arrays[] = {e->olon, e->olat, e->pue, e->pvn, e->div, e->shear, e->gx, e->gy, e->g_conc,
+    double *arrays[] = {e->olon, e->olat, e->pue, e->pvn, e->gx, e->gy, e->g_conc,
                         e->g_hbar, e->g_thick, e->g_u, e->g_v, e->g_pres, e->g_div, e->g_shear,
                         e->g_dens, e->g_snow};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
@@ -332,8 +332,17 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     /* 6. time loop */
     /* without thermodynamics and mixed layer the steps' fills sample only
      * what the dynamics reads (service/coupling.h) */
-    if (!e->thermo_on && !e->ocean_pts && !sph_model_ocean(e->m))
+    if (!e->thermo_on && !e->ocean_pts && !sph_model_ocean(e->m)) {
         coupling_set_dynamics_only(&e->cpl);
+        /* and the particles' thermal forcing is read no more (the cold
+         * start's profile has read it): its memory goes back */
+        sph_model *ms[2] = {e->m, e->dd_m};
+        for (int k = 0; k < 2; k++)
+            if (ms[k] && sph_particles_release_thermal_forcing(sph_model_particles(ms[k])) != 0) {
+                rc = sph_err_set(er, SPH_ERR_NOMEM, "forecast: out of memory (%zu particles)", e->cap);
+                goto fail;
+            }
+    }
     const double dt = e->prm.dt;
     res->run.dt = dt;
     prog->dt = dt;

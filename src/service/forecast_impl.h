@@ -48,7 +48,8 @@ typedef struct engine {
     sph_params prm;          /* the model's parameters: config, dt resolved */
     int dt_auto;             /* model.dt = 0: auto time stepping */
     double dt_base;          /* the interval the auto step divides, s */
-    /* per-particle output arrays [cap]: position, east/north velocity, strain invariants */
+    /* per-particle output arrays [cap]: position, east/north velocity, strain
+     * invariants (div and shear: the coupling's cs and sn, alloc_work) */
     double *olon, *olat, *pue, *pvn, *div, *shear;
     /* output grid */
     prod_grid grid;

@@ -309,9 +309,15 @@ static int alloc_work(engine *e, sph_error *err)
         return rc;
     size_t c = e->cap ? e->cap : 1;
     int ok = 1;
-    double **arrays[] = {&e->olon, &e->olat, &e->pue, &e->pvn, &e->div, &e->shear};
+    double **arrays[] = {&e->olon, &e->olat, &e->pue, &e->pvn};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         *arrays[k] = xcalloc(c, sizeof(double), &ok);
+    /* the particles' divergence and shear live from fc_write_output's loop
+     * to its SPH interpolation: in the coupling's grid-angle cosines and
+     * sines, which that loop has read (the same k) and the next fill
+     * writes anew (not freed with the engine's own arrays) */
+    e->div = e->cpl.cs;
+    e->shear = e->cpl.sn;
     return ok ? SPH_OK : sph_err_set(err, SPH_ERR_NOMEM, "forecast: out of memory (%zu particles)", c);
 }
 

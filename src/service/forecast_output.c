@@ -264,8 +264,34 @@ int fc_snow_possible(const struct sph_config *cfg)
 }
 static int ofx_record(engine *e, double t, sph_error *err);
 
-/* One output time: particles -> grid through the SPH interpolation. */
+static int write_output(engine *e, double t, sph_error *err);
+
+/* One output time: particles -> grid through the SPH interpolation. Without
+ * the writer thread the per-particle positions and east/north velocities
+ * (olon olat pue pvn, read by nothing after this call) live in the model's
+ * idle pair gradients when they are large enough (sph_model_idle_scratch:
+ * memory the last step made resident), and the engine's own arrays stay
+ * untouched; with it the job reads them while the next steps run. */
 int fc_write_output(engine *e, double t, sph_error *err)
+{
+    double *own[4] = {e->olon, e->olat, e->pue, e->pvn};
+    size_t len = 0, n = sph_model_particles(e->m)->n;
+    double *idle = e->bgw ? NULL : sph_model_idle_scratch(e->m, &len);
+    if (idle && n > 0 && len / 4 >= n) {
+        e->olon = idle;
+        e->olat = idle + n;
+        e->pue = idle + 2 * n;
+        e->pvn = idle + 3 * n;
+    }
+    int rc = write_output(e, t, err);
+    e->olon = own[0];
+    e->olat = own[1];
+    e->pue = own[2];
+    e->pvn = own[3];
+    return rc;
+}
+
+static int write_output(engine *e, double t, sph_error *err)
 {
     if (e->dd == 2 && e->dd_rank > 0) { /* parallel.decomposition "domain": rank 0 writes */
         /* rank 0 records the ocean fluxes of the particles just gathered

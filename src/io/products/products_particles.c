@@ -210,6 +210,9 @@ static long traj_index(prod_writer *p, long id, int *is_new)
     return p->ids[h].index;
 }
 
+/* values per write of the time and the float fields (prod_particles_add) */
+#define PT_CHUNK ((size_t)65536)
+
 int prod_particles_add(prod_writer *p, double t, const prod_particles_view *pv, sph_error *err)
 {
     if (!p->opts.write_particles || pv->n == 0)
@@ -217,9 +220,13 @@ int prod_particles_add(prod_writer *p, double t, const prod_particles_view *pv, 
     if (!pv->lon || !pv->lat || !pv->id)
         return sph_err_set(err, SPH_ERR_PARAM, "products: particles need lon, lat and id");
     size_t n = pv->n;
-    int *tix = malloc(n * sizeof *tix);
-    double *d = malloc(n * sizeof *d);
-    float *f = malloc(n * sizeof *f);
+    /* the trajectory indices, the time and the float fields go out in
+     * chunks of PT_CHUNK values (their work arrays: 16 bytes per particle
+     * less at 1e6) */
+    const size_t chunk = n < PT_CHUNK ? n : PT_CHUNK;
+    int *tix = malloc(chunk * sizeof *tix);
+    double *d = malloc(chunk * sizeof *d);
+    float *f = malloc(chunk * sizeof *f);
     int rc = SPH_OK;
     if (!tix || !d || !f) {
         rc = sph_err_set(err, SPH_ERR_NOMEM, "products: out of memory (%zu particles)", n);
@@ -236,7 +243,6 @@ int prod_particles_add(prod_writer *p, double t, const prod_particles_view *pv, 
             rc = sph_err_set(err, SPH_ERR_NOMEM, "products: out of memory (particle ids)");
             break;
         }
-        tix[k] = (int)ti;
         if (is_new) {
             if (!newid && !(newid = malloc((n - k) * sizeof *newid))) {
                 rc = sph_err_set(err, SPH_ERR_NOMEM, "products: out of memory (%zu particles)", n);
@@ -254,11 +260,27 @@ int prod_particles_add(prod_writer *p, double t, const prod_particles_view *pv, 
     if (rc != SPH_OK)
         goto done;
     size_t start = p->pt_nobs, count = n;
-    int st = nc_put_vara_int(p->pt_nc, p->pt_v_tindex, &start, &count, tix);
-    for (size_t k = 0; k < n; k++)
+    int st = NC_NOERR;
+    /* every id is known now: traj_index finds the index given above */
+    for (size_t k0 = 0; k0 < n && st == NC_NOERR; k0 += chunk) {
+        size_t s0 = start + k0, c0 = n - k0 < chunk ? n - k0 : chunk;
+        for (size_t k = 0; k < c0; k++) {
+            int is_new;
+            long ti = traj_index(p, pv->id[k0 + k], &is_new);
+            if (ti < 0) {
+                rc = sph_err_set(err, SPH_ERR_NOMEM, "products: out of memory (particle ids)");
+                goto done;
+            }
+            tix[k] = (int)ti;
+        }
+        st = nc_put_vara_int(p->pt_nc, p->pt_v_tindex, &s0, &c0, tix);
+    }
+    for (size_t k = 0; k < chunk; k++)
         d[k] = t;
-    if (st == NC_NOERR)
-        st = nc_put_vara_double(p->pt_nc, p->pt_v[PT_TIME], &start, &count, d);
+    for (size_t k0 = 0; k0 < n && st == NC_NOERR; k0 += chunk) {
+        size_t s0 = start + k0, c0 = n - k0 < chunk ? n - k0 : chunk;
+        st = nc_put_vara_double(p->pt_nc, p->pt_v[PT_TIME], &s0, &c0, d);
+    }
     if (st == NC_NOERR)
         st = nc_put_vara_double(p->pt_nc, p->pt_v[PT_LON], &start, &count, pv->lon);
     if (st == NC_NOERR)
@@ -269,9 +291,12 @@ int prod_particles_add(prod_writer *p, double t, const prod_particles_view *pv, 
     for (int v = PT_NCOORDS; v < PT_NVARS && st == NC_NOERR; v++) {
         if (v == PT_SNOW && !p->opts.write_snow)
             continue;
-        for (size_t k = 0; k < n; k++)
-            f[k] = src[v] && isfinite(src[v][k]) ? (float)src[v][k] : NC_FILL_FLOAT;
-        st = nc_put_vara_float(p->pt_nc, p->pt_v[v], &start, &count, f);
+        for (size_t k0 = 0; k0 < n && st == NC_NOERR; k0 += chunk) {
+            size_t s0 = start + k0, c0 = n - k0 < chunk ? n - k0 : chunk;
+            for (size_t k = 0; k < c0; k++)
+                f[k] = src[v] && isfinite(src[v][k0 + k]) ? (float)src[v][k0 + k] : NC_FILL_FLOAT;
+            st = nc_put_vara_float(p->pt_nc, p->pt_v[v], &s0, &c0, f);
+        }
     }
     if (st != NC_NOERR)
         rc = prod_nc_check(st, "write particles to", p->pt.tmp, err);

@@ -1,0 +1,71 @@
+#!/bin/sh
+# Peak RSS and CPU at 1e6 particles (issue 22; docs/bench.md "Session 8:
+# memory at 1e6"): this build against a baseline binary in the same run.
+# Cases, both from bench_freedrift.sh's 1e6_parcels_t1.json (FD_CONFIG_ONLY):
+#   mevp   model.physics auto, no free_drift_parcels, model.dt 10, 3 steps
+#          (--hours 0.00833): packed ice through mEVP (docs/bench.md
+#          "Memory at 1e6 particles")
+#   fd     the configuration as it stands (parcels, plane tables), 2 hours
+# each run by BASE (default /tmp/mem1g-base/build/sphice) and BUILD/sphice,
+# alternating, ROUNDS (1) times, with OMP_NUM_THREADS=1, and this build's
+# mevp once more with 2 threads (its products against the 1-thread run's:
+# tools/same-products.sh; and this build's against BASE's).
+# Output (stdout): case,binary,threads,round,cpu_s,wall_s,peak_rss_mb
+# (peak_rss_mb: GNU time's maximum RSS in kB / 1024), then the identity lines.
+# Environment: BUILD (build), BASE, BENCH_OUT (bench/out), ROUNDS, CASES ("mevp fd").
+set -eu
+BUILD=${BUILD:-build}
+BASE=${BASE:-/tmp/mem1g-base/build/sphice}
+OUT=${BENCH_OUT:-bench/out}/mem1e6
+ROUNDS=${ROUNDS:-1}
+CASES=${CASES:-"mevp fd"}
+CYCLE="1999-02-07T22:00Z"
+die() { echo "bench_mem1e6: $*" >&2; exit 1; }
+[ -x "$BUILD/sphice" ] && [ -x "$BASE" ] || die "build first; BASE=$BASE must be executable"
+[ -x /usr/bin/time ] || die "/usr/bin/time (GNU time) is needed"
+export OMP_WAIT_POLICY=passive
+mkdir -p "$OUT"
+src=$(FD_CONFIG_ONLY=1 BUILD=$BUILD BENCH_OUT=$OUT FD_SIZES=1e6 FD_METHODS=parcels sh bench/bench_freedrift.sh)
+[ -f "$src" ] || die "bench_freedrift.sh wrote no configuration"
+# case binary-tag -> configuration with its own output, state and cache folders
+config() {
+    f="$OUT/$1_$2.json"
+    if [ "$1" = mevp ]; then
+        sed -e 's/"physics": "free_drift"/"physics": "auto"/' -e 's/ "free_drift_parcels": true,//' \
+            -e 's/"dt": 300,/"dt": 10,/' -e "s#_1e6_parcels_t1#_$1_$2#g" "$src" > "$f"
+        grep -q '"physics": "auto"' "$f" && grep -q '"dt": 10,' "$f" && ! grep -q free_drift_parcels "$f" ||
+            die "could not write the mEVP case into $f"
+    else
+        sed -e "s#_1e6_parcels_t1#_$1_$2#g" "$src" > "$f"
+    fi
+    echo "$f"
+}
+hours() { [ "$1" = mevp ] && echo 0.00833 || echo 2; }
+run() { # case tag binary threads round
+    cfg=$(config "$1" "$2")
+    log="$OUT/$1_$2_t$4_r$5.log"
+    if ! OMP_NUM_THREADS=$4 /usr/bin/time -o "$log.time" -f "%U %S %e %M" "$3" run "$cfg" --cycle "$CYCLE" \
+        --hours "$(hours "$1")" --out "$OUT/out_$1_$2_t$4" --force > "$log" 2>&1; then
+        echo "$1,$2,$4,$5,failed: $(tail -n 1 "$log" | tr ',' ';'),,"
+        return
+    fi
+    read -r us sy wall rss < "$log.time"
+    echo "$1 $2 $4 $5 $us $sy $wall $rss" | awk '{printf "%s,%s,%s,%s,%.2f,%.2f,%.0f\n", $1, $2, $3, $4, $5 + $6, $7, $8 / 1024}'
+}
+echo "case,binary,threads,round,cpu_s,wall_s,peak_rss_mb"
+r=1
+while [ "$r" -le "$ROUNDS" ]; do
+    for c in $CASES; do
+        run "$c" base "$BASE" 1 "$r"
+        run "$c" this "$BUILD/sphice" 1 "$r"
+    done
+    r=$((r + 1))
+done
+for c in $CASES; do
+    d="19990207T22Z"
+    echo "identity $c base/this (1 thread): $(sh tools/same-products.sh "$OUT/out_${c}_base_t1/$d" "$OUT/out_${c}_this_t1/$d" | tail -n 1)"
+done
+case " $CASES " in *" mevp "*)
+    run mevp this "$BUILD/sphice" 2 1
+    echo "identity mevp this 1/2 threads: $(sh tools/same-products.sh "$OUT/out_mevp_this_t1/19990207T22Z" "$OUT/out_mevp_this_t2/19990207T22Z" | tail -n 1)" ;;
+esac
