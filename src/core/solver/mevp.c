@@ -379,25 +379,17 @@ static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pendi
     /* the stress sums only for model.evp.change_tol, their only reader
      * (each sum is its own chain: leaving two out changes no other) */
     mevp_sums s = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-    if (p->evp_change_tol > 0.0) {
-        for (size_t i = 0; i < na; i++) {
-            size_t k = (size_t)act[i];
-            double d = m->dvel[k];
-            s.dmax = sph_fmax(s.dmax, d);
-            s.s2 += d * d;
-            s.q2 += w->res2[k];
-            s.u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
+    const int change = p->evp_change_tol > 0.0;
+    for (size_t i = 0; i < na; i++) {
+        size_t k = (size_t)act[i];
+        double d = m->dvel[k];
+        s.dmax = sph_fmax(s.dmax, d);
+        s.s2 += d * d;
+        s.q2 += w->res2[k];
+        s.u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
+        if (change) {
             s.ds2 += w->ds2[k];
             s.p2 += P->pres[k] * P->pres[k];
-        }
-    } else {
-        for (size_t i = 0; i < na; i++) {
-            size_t k = (size_t)act[i];
-            double d = m->dvel[k];
-            s.dmax = sph_fmax(s.dmax, d);
-            s.s2 += d * d;
-            s.q2 += w->res2[k];
-            s.u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
         }
     }
     return s;
