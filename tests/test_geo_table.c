@@ -89,6 +89,16 @@ static void test_pole_refused(void)
     CHECK(t == NULL && err.code != SPH_OK && strstr(err.msg, "pole") && strstr(err.msg, "domain.plane_tables"),
           "a table over the pole must be refused naming the key: %s", err.msg);
     geo_plane_table_free(t);
+    /* "auto" (the default): the same domain takes PROJ, with no error and the reason */
+    char why[1024];
+    sph_error_clear(&err);
+    t = geo_plane_table_auto(p, -300e3, 300e3, -300e3, 300e3, 1e3, why, sizeof why, &err);
+    CHECK(t == NULL && err.code == SPH_OK && strstr(why, "pole"),
+          "auto over the pole: no table, no error, the reason kept (code %d, why \"%s\")", err.code, why);
+    /* and a domain the tables take gets one */
+    t = geo_plane_table_auto(p, -300e3, 300e3, -2300e3, -1700e3, 1e3, why, sizeof why, &err);
+    CHECK(t != NULL && err.code == SPH_OK && why[0] == '\0', "auto 2000 km from the pole: a table (%s)", err.msg);
+    geo_plane_table_free(t);
     geo_proj_free(p);
 }
 

@@ -80,6 +80,12 @@ typedef struct geo_plane_table geo_plane_table;
 geo_plane_table *geo_plane_table_create(const geo_proj *p, double x0, double x1, double y0, double y1,
                                         double step, sph_error *err);
 void geo_plane_table_free(geo_plane_table *t); /* NULL does nothing */
+/* domain.plane_tables "auto": the table as geo_plane_table_create, except
+ * that a domain the tables refuse (within 2 degrees of a pole, too many
+ * nodes) gives NULL with *err clear and the reason in why (for the run's
+ * log line): PROJ per particle then. Out of memory still fails (*err). */
+geo_plane_table *geo_plane_table_auto(const geo_proj *p, double x0, double x1, double y0, double y1,
+                                      double step, char *why, size_t whylen, sph_error *err);
 /* lon/lat (degrees, -180..180) and cos/sin of the grid angle at n plane
  * points; a point that does not unproject gets NaN and the call returns
  * SPH_ERR_PARAM (cos 1, sin 0 there). */

@@ -265,16 +265,18 @@ int forecast_run(const struct sph_config *cfg, const forecast_request *req, fore
     if ((rc = fc_plane_box(e, &xmin, &xmax, &ymin, &ymax, er)))
         goto fail;
     if (cfg->domain.plane_tables != CFG_TABLES_FALSE) { /* 1 km nodes over the box and a margin of 2 km */
-        e->cpl.plane = geo_plane_table_create(e->proj, xmin - 2e3, xmax + 2e3, ymin - 2e3, ymax + 2e3, 1e3, er);
-        if (!e->cpl.plane && cfg->domain.plane_tables == CFG_TABLES_AUTO &&
-            (er->code == SPH_ERR_CONFIG || er->code == SPH_ERR_PARAM)) {
-            /* auto: a polar or huge domain takes PROJ per particle, and says so */
-            log_info("forecast %s: domain.plane_tables auto: PROJ per particle (%s)", e->cname, er->msg);
-            sph_error_clear(er);
-        } else if (!e->cpl.plane) {
-            rc = er->code ? er->code : SPH_ERR_CONFIG;
+        char why[sizeof er->msg];
+        if (cfg->domain.plane_tables == CFG_TABLES_AUTO) /* a polar or huge domain: PROJ, and say so */
+            e->cpl.plane = geo_plane_table_auto(e->proj, xmin - 2e3, xmax + 2e3, ymin - 2e3, ymax + 2e3, 1e3,
+                                                why, sizeof why, er);
+        else
+            e->cpl.plane = geo_plane_table_create(e->proj, xmin - 2e3, xmax + 2e3, ymin - 2e3, ymax + 2e3, 1e3, er);
+        if (!e->cpl.plane && er->code) {
+            rc = er->code;
             goto fail;
         }
+        if (!e->cpl.plane)
+            log_info("forecast %s: domain.plane_tables auto: PROJ per particle (%s)", e->cname, why);
     }
 
     /* 3. forcing (before anything heavier: a missing file fails fast) */

@@ -348,6 +348,19 @@ geo_plane_table *geo_plane_table_create(const geo_proj *p, double x0, double x1,
     return t;
 }
 
+geo_plane_table *geo_plane_table_auto(const geo_proj *p, double x0, double x1, double y0, double y1,
+                                      double step, char *why, size_t whylen, sph_error *err)
+{
+    if (whylen)
+        why[0] = '\0';
+    geo_plane_table *t = geo_plane_table_create(p, x0, x1, y0, y1, step, err);
+    if (!t && (err->code == SPH_ERR_CONFIG || err->code == SPH_ERR_PARAM)) {
+        snprintf(why, whylen, "%s", err->msg);
+        sph_error_clear(err);
+    }
+    return t;
+}
+
 void geo_plane_table_free(geo_plane_table *t)
 {
     if (!t)
