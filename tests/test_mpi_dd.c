@@ -36,6 +36,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "mpi_launch.h"
 #include "core/dd.h"
 #include "core/model.h"
 #include "lattice.h"
@@ -213,12 +214,6 @@ static void ref_path(char *out, size_t n, const char *dir, size_t c)
 }
 #ifndef SPHICE_MPI
 
-static int run(const char *cmd)
-{
-    int rc = system(cmd);
-    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
-
 /* The serial reference of each case (canonical mode, this plain build)
  * into dir, and how far the canonical order moves the default path. */
 static void write_refs(const char *dir)
@@ -282,32 +277,10 @@ int main(void)
     char dir[] = "/tmp/sphice-mpidd-XXXXXX";
     CHECK(mkdtemp(dir) != NULL, "mkdtemp");
     write_refs(dir);
-    const char *build = getenv("BUILD") ? getenv("BUILD") : "build";
-    char bin[600], cmd[1400];
-    snprintf(bin, sizeof bin, "%s/../build-mpi/tests/test_mpi_dd", build);
-    if (getenv("SPHICE_MPIDD_BIN")) /* another MPI build's copy (e.g. a sanitizer build) */
-        snprintf(bin, sizeof bin, "%s", getenv("SPHICE_MPIDD_BIN"));
-    if (run("command -v mpirun >/dev/null 2>&1") != 0 || access(bin, X_OK) != 0) {
-        printf("test_mpi_dd: skipped the MPI runs: needs mpirun and build-mpi/tests/test_mpi_dd "
-               "(sh tools/install-deps.sh --mpi; make mpi-build)\n");
-    } else {
-        /* -np 1 (the driver on one rank) and 2 threads per rank only with
-         * SPHICE_LONG: make check's budget */
-        const int np[] = {2, 4, 1, 2}, nt[] = {1, 1, 1, 2};
-        for (int i = 0; i < (check_long() ? 4 : 2); i++) {
-            struct timespec t0, t1;
-            clock_gettime(CLOCK_MONOTONIC, &t0);
-            snprintf(cmd, sizeof cmd,
-                     "OMP_NUM_THREADS=%d OMP_WAIT_POLICY=passive mpirun %s --oversubscribe -np %d %s %s", nt[i],
-                     geteuid() == 0 ? "--allow-run-as-root" : "", np[i], bin, dir);
-            int rc = run(cmd);
-            clock_gettime(CLOCK_MONOTONIC, &t1);
-            double wall = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-            CHECK(rc == 0, "mpirun -np %d, %d threads: the decomposed runs equal the serial one (exit %d)", np[i],
-                  nt[i], rc);
-            printf("  -np %d, %d threads: %.2f s wall\n", np[i], nt[i], wall);
-        }
-    }
+    /* -np 1 (the driver on one rank) and 2 threads per rank only with
+     * SPHICE_LONG: make check's budget */
+    const int np[] = {2, 4, 1, 2}, nt[] = {1, 1, 1, 2};
+    mpi_launch("test_mpi_dd", "SPHICE_MPIDD_BIN", dir, np, nt, check_long() ? 4 : 2);
     for (size_t ci = 0; ci < NCASES; ci++) {
         char path[700];
         ref_path(path, sizeof path, dir, ci);

@@ -44,6 +44,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "mpi_launch.h"
 #include "core/dd.h"
 #include "core/model.h"
 #include "core/ocean.h"
@@ -151,12 +152,6 @@ static inline void ocean_budget(const sph_budget *b, double v[14])
 static void ref_path(char *out, size_t n, const char *dir) { snprintf(out, n, "%s/season.ref", dir); }
 
 #ifndef SPHICE_MPI
-
-static int run(const char *cmd)
-{
-    int rc = system(cmd);
-    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
 
 /* The serial run, canonical or not; NULL on failure. */
 static sph_model *serial(int canonical, size_t *nmax_cold, size_t *nmin_warm, double worst[3])
@@ -325,28 +320,8 @@ int main(void)
     char dir[] = "/tmp/sphice-mpiseason-XXXXXX";
     CHECK(mkdtemp(dir) != NULL, "mkdtemp");
     write_ref(dir);
-    const char *build = getenv("BUILD") ? getenv("BUILD") : "build";
-    char bin[600], cmd[1400];
-    snprintf(bin, sizeof bin, "%s/../build-mpi/tests/test_mpi_season", build);
-    if (getenv("SPHICE_MPISEASON_BIN")) /* another MPI build's copy (e.g. a sanitizer build) */
-        snprintf(bin, sizeof bin, "%s", getenv("SPHICE_MPISEASON_BIN"));
-    if (run("command -v mpirun >/dev/null 2>&1") != 0 || access(bin, X_OK) != 0) {
-        printf("test_mpi_season: skipped the MPI runs: needs mpirun and build-mpi/tests/test_mpi_season "
-               "(sh tools/install-deps.sh --mpi; make mpi-build)\n");
-    } else {
-        const int np[] = {2, 4, 1};
-        for (int i = 0; i < (check_long() ? 3 : 2); i++) {
-            struct timespec t0, t1;
-            clock_gettime(CLOCK_MONOTONIC, &t0);
-            snprintf(cmd, sizeof cmd, "OMP_NUM_THREADS=1 OMP_WAIT_POLICY=passive mpirun %s --oversubscribe -np %d %s %s",
-                     geteuid() == 0 ? "--allow-run-as-root" : "", np[i], bin, dir);
-            int rc = run(cmd);
-            clock_gettime(CLOCK_MONOTONIC, &t1);
-            double wall = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-            CHECK(rc == 0, "mpirun -np %d: the decomposed freeze-up equals the serial one (exit %d)", np[i], rc);
-            printf("  -np %d: %.2f s wall\n", np[i], wall);
-        }
-    }
+    const int np[] = {2, 4, 1}, nt[] = {1, 1, 1};
+    mpi_launch("test_mpi_season", "SPHICE_MPISEASON_BIN", dir, np, nt, check_long() ? 3 : 2);
     char path[700];
     ref_path(path, sizeof path, dir);
     unlink(path);
