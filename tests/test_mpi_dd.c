@@ -24,7 +24,11 @@
  *  - packed ice against a coast: A = 1, full physics with mEVP, wind onto
  *    a straight coast, so mirror ghosts of halo particles take part;
  *  - migration with packed and loose ice: auto physics, a rotating drift
- *    across the boundaries.
+ *    across the boundaries;
+ *  - packed ice on both sides of a land strip 500 m wide, narrower than
+ *    the kernel support: particles read the mirror ghosts of the other
+ *    side's particles, whose sources lie beyond the ghosts (the halo's
+ *    coast zone, docs/domain.md "Halo depth"; without it -np 4 differs).
  * The dynamics never changes mass: the mass budget must stay the initial
  * one exactly. */
 #include <math.h>
@@ -91,7 +95,7 @@ typedef struct dd_case {
     int physics;   /* SPH_PHYSICS_* */
     int nx, ny;    /* lattice */
     double A;      /* concentration (case 3: loose half) */
-    int coast;     /* land beyond x = coast_x */
+    int coast;     /* 1: land beyond x = nx + 0.3 (km); 2: a land strip 500 m wide at x = 7-7.5 km */
     double dt;
     int wind;      /* 0: uniform + shear, 1: onto the coast, 2: rotating */
     int long_only; /* SPHICE_LONG only: above SPH_OMP_WORTH's 4096, so threads engage */
@@ -135,8 +139,11 @@ static sph_model *make_model(const dd_case *c, size_t cap, sph_landmask *maskp)
         sph_landmask mk = {mx, my, -10 * D, -10 * D, D / 2, D / 2, land, 0};
         /* cell (0,0)'s corner at -10 km: shift the test's x by it */
         for (int j = 0; j < my; j++)
-            for (int i = 0; i < mx; i++)
-                land[j * mx + i] = (unsigned char)(-10 * D + (i + 0.5) * (D / 2) > (c->nx + 0.3) * D);
+            for (int i = 0; i < mx; i++) {
+                double x = -10 * D + (i + 0.5) * (D / 2);
+                land[j * mx + i] = (unsigned char)(c->coast == 2 ? x > 7.0 * D && x < 7.5 * D
+                                                                 : x > (c->nx + 0.3) * D);
+            }
         *maskp = mk;
         mask = maskp;
     }
@@ -153,8 +160,11 @@ static void fill(const dd_case *c, sph_model *m)
     for (int j = 0; j < c->ny; j++)
         for (int i = 0; i < c->nx; i++) {
             double A = c->wind == 2 && i < c->nx / 2 ? 0.5 : c->A;
+            /* the strip: the lattice 250 m off its faces (the mirror
+             * ghosts fall between the other side's particles) */
+            double x = (i + (c->coast == 2 ? 0.75 : 0.5)) * D;
             size_t k = P->n;
-            lattice_fill(P, p, 1, 1, (i + 0.5) * D, (j + 0.5) * D, D, 1.0 + 0.01 * (i % 7), A, 75.0);
+            lattice_fill(P, p, 1, 1, x, (j + 0.5) * D, D, 1.0 + 0.01 * (i % 7), A, 75.0);
             P->id[k] = 1000 + 7L * (long)k; /* ids that are not slots */
             forcing(c, P, k);
         }
@@ -191,6 +201,7 @@ static const dd_case cases[] = {
     {"packed ice on a coast", SPH_PHYSICS_FULL, 14, 10, 1.0, 1, 60.0, 1, 0},
     {"migration, packed and loose", SPH_PHYSICS_AUTO, 14, 14, 1.0, 0, 60.0, 2, 0},
     {"packed ice on a coast, 4320 particles", SPH_PHYSICS_FULL, 72, 60, 1.0, 1, 60.0, 1, 1},
+    {"packed ice on both sides of a land strip", SPH_PHYSICS_FULL, 15, 10, 1.0, 2, 60.0, 1, 0},
 };
 enum { NCASES = sizeof cases / sizeof cases[0] };
 

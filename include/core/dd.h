@@ -135,5 +135,17 @@ double sph_model_kernel_radius(const sph_model *m);
  * ghosts with the global largest sml0 (resume takes the largest of the
  * particles it holds, which differs between ranks). */
 void sph_model_dd_coast(sph_model *m, double sml0_max);
+/* The halo near coasts (docs/domain.md "Halo depth"): a particle reads a
+ * mirror ghost within its support, whose source may lie up to
+ * sph_model_dd_ghost_reach() supports beyond the ghost (on the far side of
+ * a wall: a headland, an island narrower than the support, a particle
+ * outside the mask). sph_model_dd_zone fills zone (sph_model_dd_zone_cells
+ * bytes, 0 without a land mask) with 1 for the mask cells within radius of
+ * land; sph_model_dd_in_zone says whether (x, y) lies in such a cell (or
+ * outside the mask). */
+double sph_model_dd_ghost_reach(void);
+size_t sph_model_dd_zone_cells(const sph_model *m);
+void sph_model_dd_zone(const sph_model *m, double radius, unsigned char *zone);
+int sph_model_dd_in_zone(const sph_model *m, const unsigned char *zone, double x, double y);
 
 #endif

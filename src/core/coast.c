@@ -59,12 +59,16 @@ static int land_at(const sph_model *m, int i, int j)
  * particles), the same cells (tests/test_near_land.c). */
 void sph_mark_near_land(sph_model *m, double radius)
 {
+    m->near_radius = radius;
+    sph_mark_land_within(m, radius, m->near_land);
+}
+
+void sph_mark_land_within(const sph_model *m, double radius, unsigned char *nl)
+{
     const sph_landmask *k = &m->mask;
     const long nx = k->nx, ny = k->ny;
     const long ri = (long)ceil(radius / k->dx) + 1, rj = (long)ceil(radius / k->dy) + 1;
     const int out = k->closed_outside != 0;
-    unsigned char *nl = m->near_land;
-    m->near_radius = radius;
     for (long j = 0; j < ny; j++) {
         const unsigned char *row = k->land + (size_t)j * (size_t)nx;
         unsigned char *dst = nl + (size_t)j * (size_t)nx;

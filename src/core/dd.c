@@ -121,6 +121,35 @@ void sph_model_dd_coast(sph_model *m, double sml0_max)
         sph_mark_near_land(m, m->kern.radius * m->prm.sml_max_factor * sml0_max);
 }
 
+/* The halo's coast zone (docs/domain.md "Halo depth"). A mirror ghost lies
+ * 2 d1 from its source across the first wall, 2 d2 across the second, and
+ * |2 d1 n1 + 2 d2 n2| across both (a corner: |n1 . n2| < 0.5, so at most
+ * 2 sqrt(d1^2 + d2^2 + d1 d2) <= 2 sqrt(3) S), d1, d2 within the source's
+ * support (coast.c sph_build_ghosts), S the largest support. */
+double sph_model_dd_ghost_reach(void) { return 2.0 * sqrt(3.0); }
+
+size_t sph_model_dd_zone_cells(const sph_model *m)
+{
+    return m->has_mask ? (size_t)m->mask.nx * (size_t)m->mask.ny : 0;
+}
+
+void sph_model_dd_zone(const sph_model *m, double radius, unsigned char *zone)
+{
+    if (m->has_mask)
+        sph_mark_land_within(m, radius, zone);
+}
+
+int sph_model_dd_in_zone(const sph_model *m, const unsigned char *zone, double x, double y)
+{
+    if (!m->has_mask)
+        return 0;
+    const sph_landmask *k = &m->mask;
+    double fi = floor((x - k->x0) / k->dx), fj = floor((y - k->y0) / k->dy);
+    if (!(fi >= 0 && fj >= 0 && fi < k->nx && fj < k->ny))
+        return 1; /* outside the mask (a new particle at an open edge): in */
+    return zone[(size_t)fj * (size_t)k->nx + (size_t)fi] != 0;
+}
+
 /* Keys: live particle id * 4; a mirror ghost id * 4 + 1 + its number among
  * its source's ghosts (coast.c adds a source's ghosts one after another:
  * first wall, second wall, corner). */

@@ -220,6 +220,10 @@ double sph_explicit_limit(sph_model *m);
 int sph_is_land(const sph_model *m, double x, double y);
 /* Marks sea cells within `radius` of a land cell (done once, at init). */
 void sph_mark_near_land(sph_model *m, double radius);
+/* The same marking into nl (nx * ny bytes of the mask): 1 where a land
+ * cell (outside a closed domain counts as land) lies within the window of
+ * `radius` around the cell (core/dd.c: the halo's coast zone). */
+void sph_mark_land_within(const sph_model *m, double radius, unsigned char *nl);
 void sph_build_ghosts(sph_model *m);
 void sph_ghost_velocity(sph_model *m, double *u, double *v, int mirror);
 void sph_ghost_stress(sph_model *m);

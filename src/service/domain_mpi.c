@@ -37,6 +37,10 @@ struct dd_ctx {
     sph_dd_hooks hooks;
     MPI_Op op;       /* red_op */
     double hmax;     /* largest smoothing length over the ranks, after the last step */
+    /* the mask cells within zone_r of land (core/dd.h), where the halo
+     * reaches through mirror ghosts; NULL without a land mask */
+    unsigned char *zone;
+    double zone_r;
     double gmass, gcount; /* global exact mass and particle count after the last step */
     /* the budget's sources (core/dd.h), exact over every rank's owned
      * particles, since the scatter; on top of base, the scattered clock's
@@ -271,13 +275,15 @@ static int migrate(dd_ctx *d)
     return 0;
 }
 
-/* Copies of owned particles within the halo width of another rank's cells. */
-static int build_halo(dd_ctx *d, double H)
+/* Copies of owned particles within the halo width of another rank's cells:
+ * H0, or Hc in the coast zone. */
+static int build_halo(dd_ctx *d, double H0, double Hc)
 {
     sph_particles *P = sph_model_particles(d->m);
     size_t n = P->n, np = 0;
     for (size_t k = 0; k < n; k++) {
         double x = P->x[k], y = P->y[k];
+        double H = d->zone && sph_model_dd_in_zone(d->m, d->zone, x, y) ? Hc : H0;
         long i0 = cell_ix(d, x - H, d->ncx, d->o.x0), i1 = cell_ix(d, x + H, d->ncx, d->o.x0);
         long j0 = cell_ix(d, y - H, d->ncy, d->o.y0), j1 = cell_ix(d, y + H, d->ncy, d->o.y0);
         for (long j = j0; j <= j1; j++)
@@ -593,7 +599,9 @@ dd_ctx *dd_create(MPI_Comm comm, sph_model *m, const dd_options *o)
     d->rdisp = calloc((size_t)S, sizeof(int));
     d->mark = calloc((size_t)S + 1, sizeof(int));
     d->req = malloc((2 * (size_t)S + 1) * sizeof(MPI_Request));
-    if (!d->by_curve || !d->owner || !d->cost || !d->hs_count || !d->hr_count || !d->hs_off ||
+    size_t zc = sph_model_dd_zone_cells(m);
+    d->zone = zc ? calloc(zc, 1) : NULL;
+    if ((zc && !d->zone) || !d->by_curve || !d->owner || !d->cost || !d->hs_count || !d->hr_count || !d->hs_off ||
         !d->hr_off || !d->scount || !d->rcount || !d->sdisp || !d->rdisp || !d->mark || !d->req) {
         dd_free(d);
         return NULL;
@@ -625,7 +633,7 @@ void dd_free(dd_ctx *d)
         MPI_Op_free(&d->op);
     void *bufs[] = {d->by_curve, d->owner, d->cost, d->hs_count, d->hr_count, d->hs_off, d->hr_off,
                     d->hs_ids, d->hr_ids, d->hr_sorted, d->hs_slot, d->hr_slot, d->sbuf, d->rbuf,
-                    d->req, d->mark, d->pk, d->upk, d->scount, d->rcount, d->sdisp, d->rdisp};
+                    d->req, d->mark, d->zone, d->pk, d->upk, d->scount, d->rcount, d->sdisp, d->rdisp};
     for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
         free(bufs[i]);
     free(d->pairs);
@@ -725,13 +733,24 @@ int dd_step(dd_ctx *d, sph_status *st)
      * which read their own neighbours (depth 2); with the gradient
      * correction also their neighbours' correction matrices, which read
      * the densities one support further (depth 3). Measured: 2 supports
-     * bit-identical in test_mpi_dd and test_mpi_run, 1.5 not. */
-    double H = (sph_model_params(m)->gradient_correction ? 3.0 : 2.0) * sph_model_kernel_radius(m) * d->hmax;
+     * bit-identical in test_mpi_dd and test_mpi_run, 1.5 not. A neighbour
+     * may be a mirror ghost, whose source (the particle read) lies up to
+     * sph_model_dd_ghost_reach() supports beyond it when the reader is on
+     * the far side of the wall: within `depth` supports of land (a ghost
+     * source is within one support of it, and `depth` - 1 plain hops
+     * follow) the halo reaches depth x (1 + reach) supports. */
+    const double depth = sph_model_params(m)->gradient_correction ? 3.0 : 2.0;
+    const double S = sph_model_kernel_radius(m) * d->hmax;
+    double H = depth * S, Hc = depth * (1.0 + sph_model_dd_ghost_reach()) * S;
+    if (d->zone && !(d->zone_r >= depth * S)) {
+        d->zone_r = 1.25 * depth * S; /* hmax grows slowly: marked again rarely */
+        sph_model_dd_zone(m, d->zone_r, d->zone);
+    }
     if (d->o.rebalance_every > 0 && d->steps > 0 && d->steps % d->o.rebalance_every == 0) {
         measure_cost(d, P, P->n);
         partition(d);
     }
-    if (migrate(d) || build_halo(d, H)) {
+    if (migrate(d) || build_halo(d, H, Hc)) {
         fprintf(stderr, "sphice: domain decomposition: out of memory or capacity on rank %d "
                         "(%zu particles, capacity %zu)\n", d->rank, P->n, P->cap);
         MPI_Abort(d->comm, 3);
