@@ -26,7 +26,10 @@
  * product and the next restart identical; from the ocean-fluxes case below
  * (with SPHICE_LONG=1 also from the first case and the cold-air case). The ocean-fluxes file (no mixed layer): the melt case
  * for 2 h with two hourly records, the same comparisons, and the next
- * cycle warm-started from its restart. The refusals: each
+ * cycle warm-started from its restart. The mixed layer with new ice in
+ * open water and the ocean-fluxes file (the season case): 2 h, the same
+ * comparisons on -np 2 (and -np 4 with SPHICE_LONG=1), the fluxes file
+ * among the products, and its warm start on -np 2. The refusals: each
  * unsupported combination fails in one line naming its key. A failure
  * inside the decomposed run (forcing too short, met by every rank after
  * rank 0 sent the jobs) fails every rank with one line, publishes
@@ -293,9 +296,6 @@ int main(int argc, char **argv)
     const char *dom = "\"parallel\": {\"decomposition\": \"domain\"},";
 
     /* the refusals (the plain build: fast, before any input is read) */
-    refused2(ser_bin, "the mixed layer with the ocean-fluxes file", "\"physics\": \"full\"",
-             "\"physics\": \"full\", \"ocean\": {\"mixed_layer\": true}", "\"interval_hours\": 1",
-             "\"interval_hours\": 1, \"ocean_fluxes\": true", dom, "output.ocean_fluxes");
     refused(ser_bin, "the implicit solver", "\"physics\": \"full\"", "\"physics\": \"full\", \"solver\": \"implicit\"",
             dom, "model.solver");
     refused(ser_bin, "an ensemble", NULL, NULL, "\"parallel\": {\"decomposition\": \"domain\"}, \"ensemble\": {\"members\": 2},",
@@ -404,15 +404,32 @@ int main(int argc, char **argv)
     /* the mixed layer with new ice in open water (issue 20): the thin
      * strip and open water elsewhere under the cold air (-10 C), a 2 m
      * slab at its freezing point, new particles from 2 mm of frazil,
-     * merging on; 2 h with two hourly outputs and the restart (its mixed
-     * layer among its variables) */
+     * merging on; 2 h with two hourly outputs, the ocean-fluxes file (the
+     * particles', the cells' and the leaving particles' fluxes) and the
+     * restart (its mixed layer among its variables). On -np 4 (SPHICE_LONG)
+     * the new particles just outside the mask east of the land read mirror
+     * ghosts whose sources lie beyond the 2-support halo (the coast zone,
+     * docs/domain.md "Halo depth"): without it their stress in the fluxes
+     * file differed. */
     write_config("season.json", "\"thermo\": {\"dt\": 0}",
                  "\"thermo\": {\"dt\": 600}, \"summation_density\": true, \"ocean\": {\"mixed_layer\": true, "
                  "\"depth\": 2}, \"new_ice\": {\"create\": true, \"thickness\": 0.002, \"merge\": true, "
                  "\"merge_distance\": 1.05}", dom);
     edit_config("season.json", "ice1.nc", "ice_thin.nc");
     edit_config("season.json", "[\"wind\"]", "[\"wind\", \"tair\"]");
+    edit_config("season.json", "\"interval_hours\": 1", "\"interval_hours\": 1, \"ocean_fluxes\": true");
     compare_runs(ser_bin, mpi_bin, "season", "season.json", 2);
+    {
+        char of[1300];
+        snprintf(of, sizeof of, "%s/season-serial/19990208T06Z/sphice_ocean_fluxes.nc", dir);
+        int nc = -1, dim;
+        size_t nt = 0;
+        int ok = nc_open(of, NC_NOWRITE, &nc) == NC_NOERR && nc_inq_unlimdim(nc, &dim) == NC_NOERR && dim >= 0 &&
+                 nc_inq_dimlen(nc, dim, &nt) == NC_NOERR;
+        if (nc >= 0)
+            nc_close(nc);
+        CHECK(ok && nt == 2, "season: the ocean-fluxes file has 2 hourly records (%zu), compared above", nt);
+    }
     {
         double s0 = cycle_number("season", "particles_start"), s1 = cycle_number("season", "particles_end");
         double er = cycle_number("season", "energy_budget_residual");

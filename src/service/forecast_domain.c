@@ -44,12 +44,6 @@ static int refuse(const engine *e, sph_error *err)
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config: %s runs one member over the ranks, but ensemble.members is %d (set "
                            "ensemble.members 1 or parallel.decomposition \"members\")", KEY, c->ensemble.members);
-    if (p->ocean.mixed_layer && c->output.ocean_fluxes)
-        return sph_err_set(err, SPH_ERR_CONFIG,
-                           "config: %s does not support the ocean-fluxes file with the mixed layer (on 4 "
-                           "ranks the stress of particles leaving at an open boundary, which their cells "
-                           "record, differs from the serial run's; docs/domain.md): set output.ocean_fluxes "
-                           "false, model.ocean.mixed_layer false or parallel.decomposition \"members\"", KEY);
     if (p->physics != SPH_PHYSICS_FREE_DRIFT && p->solver != SPH_SOLVER_MEVP)
         return sph_err_set(err, SPH_ERR_CONFIG,
                            "config: %s supports only the mEVP stress solver (the explicit and implicit solvers "
