@@ -6,13 +6,17 @@
 #          (--hours 0.00833): packed ice through mEVP (docs/bench.md
 #          "Memory at 1e6 particles")
 #   fd     the configuration as it stands (parcels, plane tables), 2 hours
+#   mevpc  mevp with "model.compact_gradients": true (docs/bench.md "Session 9:
+#          memory at 1e6"), run by this build only (a base without the key
+#          refuses it), 1 and 2 threads; its products against BASE's mevp
 # each run by BASE (default /tmp/mem1g-base/build/sphice) and BUILD/sphice,
 # alternating, ROUNDS (1) times, with OMP_NUM_THREADS=1, and this build's
 # mevp once more with 2 threads (its products against the 1-thread run's:
 # tools/same-products.sh; and this build's against BASE's).
 # Output (stdout): case,binary,threads,round,cpu_s,wall_s,peak_rss_mb
 # (peak_rss_mb: GNU time's maximum RSS in kB / 1024), then the identity lines.
-# Environment: BUILD (build), BASE, BENCH_OUT (bench/out), ROUNDS, CASES ("mevp fd").
+# Environment: BUILD (build), BASE, BENCH_OUT (bench/out), ROUNDS, CASES ("mevp fd";
+# mevpc needs mevp in CASES before it).
 set -eu
 BUILD=${BUILD:-build}
 BASE=${BASE:-/tmp/mem1g-base/build/sphice}
@@ -30,9 +34,11 @@ src=$(FD_CONFIG_ONLY=1 BUILD=$BUILD BENCH_OUT=$OUT FD_SIZES=1e6 FD_METHODS=parce
 # case binary-tag -> configuration with its own output, state and cache folders
 config() {
     f="$OUT/$1_$2.json"
-    if [ "$1" = mevp ]; then
+    if [ "$1" = mevp ] || [ "$1" = mevpc ]; then
+        compact='s/"model": {/"model": {/'
+        [ "$1" = mevpc ] && compact='s/"model": {/"model": { "compact_gradients": true,/'
         sed -e 's/"physics": "free_drift"/"physics": "auto"/' -e 's/ "free_drift_parcels": true,//' \
-            -e 's/"dt": 300,/"dt": 10,/' -e "s#_1e6_parcels_t1#_$1_$2#g" "$src" > "$f"
+            -e 's/"dt": 300,/"dt": 10,/' -e "$compact" -e "s#_1e6_parcels_t1#_$1_$2#g" "$src" > "$f"
         grep -q '"physics": "auto"' "$f" && grep -q '"dt": 10,' "$f" && ! grep -q free_drift_parcels "$f" ||
             die "could not write the mEVP case into $f"
     else
@@ -40,7 +46,7 @@ config() {
     fi
     echo "$f"
 }
-hours() { [ "$1" = mevp ] && echo 0.00833 || echo 2; }
+hours() { [ "$1" = fd ] && echo 2 || echo 0.00833; }
 run() { # case tag binary threads round
     cfg=$(config "$1" "$2")
     log="$OUT/$1_$2_t$4_r$5.log"
@@ -56,16 +62,21 @@ echo "case,binary,threads,round,cpu_s,wall_s,peak_rss_mb"
 r=1
 while [ "$r" -le "$ROUNDS" ]; do
     for c in $CASES; do
-        run "$c" base "$BASE" 1 "$r"
+        [ "$c" = mevpc ] || run "$c" base "$BASE" 1 "$r"
         run "$c" this "$BUILD/sphice" 1 "$r"
     done
     r=$((r + 1))
 done
 for c in $CASES; do
     d="19990207T22Z"
-    echo "identity $c base/this (1 thread): $(sh tools/same-products.sh "$OUT/out_${c}_base_t1/$d" "$OUT/out_${c}_this_t1/$d" | tail -n 1)"
+    b=$c; [ "$c" = mevpc ] && b=mevp
+    echo "identity $c this against $b base (1 thread): $(sh tools/same-products.sh "$OUT/out_${b}_base_t1/$d" "$OUT/out_${c}_this_t1/$d" | tail -n 1)"
 done
 case " $CASES " in *" mevp "*)
     run mevp this "$BUILD/sphice" 2 1
     echo "identity mevp this 1/2 threads: $(sh tools/same-products.sh "$OUT/out_mevp_this_t1/19990207T22Z" "$OUT/out_mevp_this_t2/19990207T22Z" | tail -n 1)" ;;
+esac
+case " $CASES " in *" mevpc "*)
+    run mevpc this "$BUILD/sphice" 2 1
+    echo "identity mevpc this 1/2 threads: $(sh tools/same-products.sh "$OUT/out_mevpc_this_t1/19990207T22Z" "$OUT/out_mevpc_this_t2/19990207T22Z" | tail -n 1)" ;;
 esac

@@ -5,7 +5,11 @@
  * as is, once with the scratch overwritten by NaN before every step after
  * init. Every particle field of the two runs is bit-identical; the scratch
  * is the first thread block's written slots (at least one pair per
- * particle: the self pairs); a parcels run has none (NULL, 0). */
+ * particle: the self pairs); a parcels run has none (NULL, 0).
+ * model.compact_gradients (the pair gradients as their factor and the
+ * build's positions, core/neighbours.h), with the same NaN scratch: the
+ * same bits as the stored components, the final strain rates after the
+ * move included. */
 #include <math.h>
 #include <omp.h>
 #include <string.h>
@@ -23,12 +27,13 @@ static double urand(void)
     return (double)(rng >> 8 & 0xffff) / 65535.0 - 0.5;
 }
 
-static sph_model *scene(int parcels)
+static sph_model *scene(int parcels, int compact)
 {
     sph_params p;
     sph_params_default(&p);
     p.physics = parcels ? SPH_PHYSICS_FREE_DRIFT : SPH_PHYSICS_AUTO;
     p.free_drift_parcels = parcels;
+    p.compact_gradients = compact;
     p.thermo_dt = 0;
     p.dt = 60.0;
     const double dx = 1000.0;
@@ -77,9 +82,9 @@ static int same_fields(const sph_particles *A, const sph_particles *B, const cha
 int main(void)
 {
     omp_set_num_threads(1);
-    sph_model *a = scene(0), *b = scene(0);
-    CHECK(a && b, "scenes");
-    if (!a || !b)
+    sph_model *a = scene(0, 0), *b = scene(0, 0), *d = scene(0, 1);
+    CHECK(a && b && d, "scenes");
+    if (!a || !b || !d)
         return check_summary("test_idle_scratch");
     size_t len = 0;
     double *s = sph_model_idle_scratch(b, &len);
@@ -87,11 +92,15 @@ int main(void)
     CHECK(s != NULL && len >= n, "after init: the written slots, at least the self pairs (%zu for %zu)", len, n);
     int stepped = 1, iters = 0;
     for (int k = 0; k < NSTEP && stepped; k++) {
-        s = sph_model_idle_scratch(b, &len);
-        for (size_t i = 0; s && i < len; i++)
-            s[i] = NAN;
+        sph_model *nan_ones[2] = {b, d};
+        for (int q = 0; q < 2; q++) {
+            s = sph_model_idle_scratch(nan_ones[q], &len);
+            for (size_t i = 0; s && i < len; i++)
+                s[i] = NAN;
+        }
         sph_status st;
-        stepped = sph_model_step(a, &st) == SPH_STEP_OK && sph_model_step(b, &st) == SPH_STEP_OK;
+        stepped = sph_model_step(a, &st) == SPH_STEP_OK && sph_model_step(b, &st) == SPH_STEP_OK &&
+                  sph_model_step(d, &st) == SPH_STEP_OK;
         iters += sph_model_stats(a)->iterations;
     }
     CHECK(stepped, "4 steps each");
@@ -99,9 +108,14 @@ int main(void)
     const char *which = "-";
     CHECK(same_fields(sph_model_particles(a), sph_model_particles(b), &which),
           "NaN in the idle scratch before each step: the same bits (%s differs)", which);
+    which = "-";
+    CHECK(same_fields(sph_model_particles(a), sph_model_particles(d), &which),
+          "compact_gradients (and NaN in its idle scratch): the same bits as the stored "
+          "components (%s differs)", which);
     sph_model_free(a);
     sph_model_free(b);
-    sph_model *c = scene(1);
+    sph_model_free(d);
+    sph_model *c = scene(1, 0);
     CHECK(c != NULL, "parcels scene");
     if (c) {
         len = 1;

@@ -36,6 +36,9 @@ static double urand(void)
     return (double)(rng >> 8 & 0xffff) / 65535.0 - 0.5;
 }
 
+/* model.compact_gradients of the scenes (core/neighbours.h's factor form) */
+static int compact;
+
 static sph_params lanes_params(sph_kernel_kind kind, int gc)
 {
     sph_params p;
@@ -45,6 +48,7 @@ static sph_params lanes_params(sph_kernel_kind kind, int gc)
     p.sml_factor = kind == SPH_KERNEL_GAUSSIAN ? 1.0 : 1.3;
     p.physics = SPH_PHYSICS_FULL;
     p.gradient_correction = gc;
+    p.compact_gradients = compact;
     p.thermo_dt = 0;
     return p;
 }
@@ -76,6 +80,19 @@ static sph_model *jittered_n(sph_kernel_kind kind, int gc, double dx, int nx, in
     return m;
 }
 
+/* grad_k W_kj from the kernel at the particles' positions (unchanged since
+ * the model's build): F (x_k - x_j), with F of r^2 and the pair's
+ * smoothing length (h_k + h_j) / 2 (core/neighbours.h), not the lists'
+ * stored form. */
+static void ref_grad(const sph_model *m, size_t k, size_t j, double *gx, double *gy)
+{
+    const sph_particles *P = m->P;
+    double dx = P->x[k] - P->x[j], dy = P->y[k] - P->y[j], W, F;
+    sph_kernel_eval(&m->kern, dx * dx + dy * dy, 0.5 * (P->sml[k] + P->sml[j]), &W, &F);
+    *gx = F * dx;
+    *gy = F * dy;
+}
+
 /* The strain rates of particle k as documented, in list order. */
 static void ref_strain(const sph_model *m, size_t k, double *e11, double *e22, double *e12)
 {
@@ -85,14 +102,15 @@ static void ref_strain(const sph_model *m, size_t k, double *e11, double *e22, d
     double a11 = 0, a22 = 0, a12 = 0, a21 = 0;
     for (int q = 0; q < nb->count[k]; q++) {
         size_t s = nb->off[k] + (size_t)q, j = (size_t)nb->idx[s];
-        double du = P->u[j] - P->u[k], dv = P->v[j] - P->v[k];
-        a11 += P->mass[j] * du * nb->gx[s];
-        a22 += P->mass[j] * dv * nb->gy[s];
+        double du = P->u[j] - P->u[k], dv = P->v[j] - P->v[k], gx, gy;
+        ref_grad(m, k, j, &gx, &gy);
+        a11 += P->mass[j] * du * gx;
+        a22 += P->mass[j] * dv * gy;
         if (gc) {
-            a12 += P->mass[j] * dv * nb->gx[s];
-            a21 += P->mass[j] * du * nb->gy[s];
+            a12 += P->mass[j] * dv * gx;
+            a21 += P->mass[j] * du * gy;
         } else {
-            a12 += P->mass[j] * (dv * nb->gx[s] + du * nb->gy[s]);
+            a12 += P->mass[j] * (dv * gx + du * gy);
         }
     }
     if (gc) { /* the velocity gradient G = [[a11, a21], [a12, a22]] times B^-1 */
@@ -126,7 +144,8 @@ static void ref_divergence(const sph_model *m, size_t k, double *ax, double *ay)
         double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
         double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
                t12 = P->s12[j] * iMj2 + tk12;
-        double gx = nb->gx[s], gy = nb->gy[s];
+        double gx, gy;
+        ref_grad(m, k, j, &gx, &gy);
         if (gc) {
             const double *bj = m->binv + 6 * j + 3;
             double cx = 0.5 * ((bk[0] + bj[0]) * gx + (bk[1] + bj[1]) * gy);
@@ -281,5 +300,11 @@ int main(void)
     test_linear(SPH_KERNEL_WENDLAND_C2, "wendland");
     test_threads(0);
     test_threads(1);
+    /* the gradients as factor and positions: the same sums, bit for bit */
+    compact = 1;
+    test_passes(SPH_KERNEL_GAUSSIAN, 0, "gaussian compact");
+    test_passes(SPH_KERNEL_WENDLAND_C2, 1, "wendland compact");
+    test_threads(0);
+    compact = 0;
     return check_summary("test_operators_lanes");
 }

@@ -29,7 +29,14 @@
  *      its own list's order).
  * Per pair the kernel value
  * W_kj and gradient grad_k W_kj are cached (positions do not move within
- * a dynamic step, so the solver iterations reuse them).
+ * a dynamic step, so the solver iterations reuse them). The gradient is
+ * stored as its two components (16 bytes per pair), or with `factor`
+ * (model.compact_gradients) as its scalar factor F_kj alone (grad_k W_kj
+ * = F_kj (x_k - x_j)) beside the build's positions (xy): sph_nbr_grad
+ * then forms F * dx and F * dy, the build's own operations on the same
+ * operands, so the same bits as the stored components, in 8 bytes per
+ * pair plus 16 per particle (memory at 1e6 particles; the passes do two
+ * more products and a gathered position per pair).
  *
  * Storage: particle k's pairs are the slots off[k] .. off[k] + count[k] - 1.
  * Lists are packed one after another within each thread's block of query
@@ -58,7 +65,19 @@ typedef struct sph_nbr {
      * W: without summation density and the collision rheology's v';
      * 8 bytes per pair, 112 MB at 1.25e6 particles) */
     int keep_w;
-    double *gx, *gy; /* [cap * max_nb] grad_k W_kj */
+    /* [cap * max_nb] grad_k W_kj: gx, gy its components; with factor, gx
+     * holds F_kj (sph_kernel_eval's F at the pair's r^2 and smoothing
+     * length) and gy is not used (its pages never touched). Read them
+     * through sph_nbr_grad. */
+    double *gx, *gy;
+    /* set by the caller before a build (the model: model.compact_gradients),
+     * read by the passes: the form of the last build's gradients */
+    int factor;
+    /* [2 * cap_all] with factor: the last build's positions (x_j, y_j) of
+     * every gridded particle, interleaved, 16-byte aligned: the dx, dy of
+     * the gradients (the passes after a move still use the build's) */
+    double *xy;
+    size_t nxy;      /* particles gridded by the last sph_nbr_grid */
     /* cell grid of the last build */
     size_t max_cells;
     size_t ncells;
@@ -74,6 +93,23 @@ typedef struct sph_nbr {
      * mass), in particle order; 32-byte aligned, one cache line each */
     double *pk;
 } sph_nbr;
+
+/* grad_k W_kj of slot s (k's list, s = off[k] + q, j = idx[s]): the
+ * build's F * (x_k - x_j) and F * (y_k - y_j), the same operations on the
+ * same operands as the build (add_pair), so the same bits; without
+ * factor the stored components. */
+static inline void sph_nbr_grad(const sph_nbr *nb, size_t k, size_t j, size_t s, double *gx,
+                                double *gy)
+{
+    if (nb->factor) {
+        const double F = nb->gx[s];
+        *gx = F * (nb->xy[2 * k] - nb->xy[2 * j]);
+        *gy = F * (nb->xy[2 * k + 1] - nb->xy[2 * j + 1]);
+    } else {
+        *gx = nb->gx[s];
+        *gy = nb->gy[s];
+    }
+}
 
 /* Lists for up to cap_query particles among up to cap_all gridded ones. */
 sph_nbr *sph_nbr_create(size_t cap_query, size_t cap_all, int max_nb);

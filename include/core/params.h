@@ -64,6 +64,7 @@ typedef struct sph_params {
     int replacement_pressure;   /* Hibler/Kreyscher replacement pressure */
     double auto_tolerance;      /* auto: free drift where exp(-C(1-A)) < tol */
     int free_drift_parcels;     /* free_drift: independent parcels, no SPH (model.c) */
+    int compact_gradients;      /* pair gradients as F and positions (core/neighbours.h) */
     /* collision rheology (Shen, Hibler & Lepparanta 1987) */
     double coll_restitution;    /* e_r */
     double coll_floe_diameter;  /* d = D, m */

@@ -170,26 +170,31 @@ void sph_dd_sort_lists(sph_model *m)
         size_t b = nb->off[k];
         int c = nb->count[k];
         int *idx = nb->idx + b;
-        /* W moves along only where the build stored it (nb->keep_w) */
-        double *w = nb->keep_w ? nb->w + b : NULL, *gx = nb->gx + b, *gy = nb->gy + b;
+        /* W moves along only where the build stored it (nb->keep_w), gy
+         * only in the stored-components form (nb->factor: gx holds the
+         * gradient's factor F, its dx, dy come from the positions) */
+        double *w = nb->keep_w ? nb->w + b : NULL, *gx = nb->gx + b;
+        double *gy = nb->factor ? NULL : nb->gy + b;
         for (int a = 1; a < c; a++) { /* insertion sort: lists are short */
             int ti = idx[a];
             long tk = key[ti];
-            double tw = w ? w[a] : 0.0, tx = gx[a], ty = gy[a];
+            double tw = w ? w[a] : 0.0, tx = gx[a], ty = gy ? gy[a] : 0.0;
             int q = a;
             while (q > 0 && key[idx[q - 1]] > tk) {
                 idx[q] = idx[q - 1];
                 if (w)
                     w[q] = w[q - 1];
                 gx[q] = gx[q - 1];
-                gy[q] = gy[q - 1];
+                if (gy)
+                    gy[q] = gy[q - 1];
                 q--;
             }
             idx[q] = ti;
             if (w)
                 w[q] = tw;
             gx[q] = tx;
-            gy[q] = ty;
+            if (gy)
+                gy[q] = ty;
         }
     }
 }

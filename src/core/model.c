@@ -306,6 +306,9 @@ static int prepare_lists(sph_model *m, sph_status *st)
     /* W_kj is read by the summation density and the collision rheology's
      * v' only: otherwise the lists leave it out (8 bytes per pair) */
     m->nb->keep_w = m->prm.summation_density || (m->rheo->fields & SPH_RHEO_FIELD_VFLUCT) != 0;
+    /* model.compact_gradients: the pair gradients as their factor F and
+     * the build's positions (core/neighbours.h; the same bits) */
+    m->nb->factor = m->prm.compact_gradients != 0;
     double cell = m->kern.radius * sph_max_sml(P, nall);
     sph_nbr_grid(m->nb, nall, P->x, P->y, cell);
     long over = -1;

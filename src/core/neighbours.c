@@ -24,12 +24,13 @@ sph_nbr *sph_nbr_create(size_t cap, size_t cap_all, int max_nb)
     nb->w = malloc(pairs * sizeof(double));
     nb->gx = malloc(pairs * sizeof(double));
     nb->gy = malloc(pairs * sizeof(double));
+    nb->xy = aligned_alloc(16, (cap_all ? cap_all : 1) * 2 * sizeof(double));
     nb->cell_start = calloc(nb->max_cells + 1, sizeof(int));
     nb->sorted = calloc(cap_all, sizeof(int));
     nb->cell_of = calloc(cap_all, sizeof(int));
     /* pages touched only as slots come into use (memory at 1e6 particles) */
     nb->pk = aligned_alloc(32, (cap_all ? cap_all : 1) * 4 * sizeof(double));
-    if (!nb->count || !nb->off || !nb->idx || !nb->w || !nb->gx || !nb->gy || !nb->cell_start ||
+    if (!nb->count || !nb->off || !nb->idx || !nb->w || !nb->gx || !nb->gy || !nb->xy || !nb->cell_start ||
         !nb->sorted || !nb->cell_of || !nb->pk) {
         sph_nbr_free(nb);
         return NULL;
@@ -47,6 +48,7 @@ void sph_nbr_free(sph_nbr *nb)
     free(nb->w);
     free(nb->gx);
     free(nb->gy);
+    free(nb->xy);
     free(nb->cell_start);
     free(nb->sorted);
     free(nb->cell_of);
@@ -81,6 +83,7 @@ void sph_nbr_grid(sph_nbr *nb, size_t n, const double *x, const double *y, doubl
     }
     nb->x0 = xmin;
     nb->y0 = ymin;
+    nb->nxy = n;
     nb->cell = cell;
     nb->ncells = (size_t)nb->ncx * (size_t)nb->ncy;
     int *start = nb->cell_start;
@@ -121,6 +124,21 @@ static void block_range(const sph_nbr *nb, size_t nq, size_t *q0, size_t *q1, si
     *slot = *q0 * (size_t)nb->max_nb;
 }
 
+/* With factor, the build's positions of the n gridded particles into
+ * nb->xy (inside the build's parallel region: a worksharing loop, its
+ * barrier before the lists). */
+static void keep_positions(sph_nbr *nb, size_t n, const double *x, const double *y)
+{
+    if (!nb->factor)
+        return;
+    double *restrict xy = nb->xy;
+#pragma omp for schedule(static)
+    for (size_t i = 0; i < n; i++) {
+        xy[2 * i] = x[i];
+        xy[2 * i + 1] = y[i];
+    }
+}
+
 static inline void add_pair(sph_nbr *nb, const sph_kernel *k, size_t q, int j, const double *x,
                             const double *y, const double *h, size_t base, int *cnt, int *over)
 {
@@ -140,8 +158,12 @@ static inline void add_pair(sph_nbr *nb, const sph_kernel *k, size_t q, int j, c
     nb->idx[s] = j;
     if (nb->keep_w)
         nb->w[s] = W;
-    nb->gx[s] = F * dx;
-    nb->gy[s] = F * dy;
+    if (nb->factor) {
+        nb->gx[s] = F; /* grad = (F * dx, F * dy): sph_nbr_grad */
+    } else {
+        nb->gx[s] = F * dx;
+        nb->gy[s] = F * dy;
+    }
     (*cnt)++;
 }
 
@@ -173,8 +195,10 @@ int sph_nbr_build(sph_nbr *nb, const sph_kernel *k, size_t nq, const double *x,
 {
     long first_over = -1;
     long pairs = 0;
+    const size_t nxy = nb->nxy;
 #pragma omp parallel reduction(+ : pairs) if (nq >= 4096)
     {
+    keep_positions(nb, nxy, x, y);
     size_t q0, q1, cursor;
     block_range(nb, nq, &q0, &q1, &cursor);
     for (size_t q = q0; q < q1; q++) {
@@ -207,8 +231,10 @@ int sph_nbr_build_brute(sph_nbr *nb, const sph_kernel *k, size_t nq, size_t n,
 {
     long first_over = -1;
     long pairs = 0;
+    nb->nxy = n;
 #pragma omp parallel reduction(+ : pairs)
     {
+    keep_positions(nb, n, x, y);
     size_t q0, q1, cursor;
     block_range(nb, nq, &q0, &q1, &cursor);
     for (size_t q = q0; q < q1; q++) {

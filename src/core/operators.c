@@ -127,22 +127,30 @@ void sph_select_active(sph_model *m)
  * and their order are those of a single loop testing the flags per pair.
  * acc: a11, a22, a12, a21, fl, wsum; strain_sum adds pairs [q0, count). */
 static inline __attribute__((always_inline)) void strain_sum(const sph_model *m, size_t k, int gc,
-                                                            int fluct, int q0, double *acc)
+                                                            int fluct, int ff, int q0, double *acc)
 {
     const sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
     const double *restrict u = P->u, *restrict v = P->v, *restrict mass = P->mass;
-    const double *restrict gxs = nb->gx, *restrict gys = nb->gy;
+    const double *restrict gxs = nb->gx, *restrict gys = nb->gy, *restrict xy = nb->xy;
     const int *restrict idx = nb->idx;
     const size_t base = nb->off[k];
     const int cnt = nb->count[k];
     const double uk = u[k], vk = v[k];
+    const double xk = ff ? xy[2 * k] : 0.0, yk = ff ? xy[2 * k + 1] : 0.0;
     double a11 = acc[0], a22 = acc[1], a12 = acc[2], a21 = acc[3], fl = acc[4], wsum = acc[5];
     for (int q = q0; q < cnt; q++) {
         size_t s = base + (size_t)q;
         int j = idx[s];
         double du = u[j] - uk, dv = v[j] - vk;
-        double gx = gxs[s], gy = gys[s];
+        double gx, gy;
+        if (ff) { /* sph_nbr_grad's factor form */
+            gx = gxs[s] * (xk - xy[2 * (size_t)j]);
+            gy = gxs[s] * (yk - xy[2 * (size_t)j + 1]);
+        } else {
+            gx = gxs[s];
+            gy = gys[s];
+        }
         double mj = mass[j];
         a11 += mj * du * gx;
         a22 += mj * dv * gy;
@@ -192,27 +200,52 @@ static inline __attribute__((always_inline)) void strain_finish(sph_model *m, si
 }
 
 static inline __attribute__((always_inline)) void strain_one(sph_model *m, size_t k, int gc,
-                                                            int fluct)
+                                                            int fluct, int ff)
 {
     double acc[6] = {0, 0, 0, 0, 0, 0};
-    strain_sum(m, k, gc, fluct, 0, acc);
+    strain_sum(m, k, gc, fluct, ff, 0, acc);
     strain_finish(m, k, gc, fluct, acc);
+}
+
+/* The gradients of slots s0 and s1 (neighbours j0, j1 of the lanes'
+ * particles at xk, yk) in two lanes, as sph_nbr_grad: the stored
+ * components, or with ff (the factor form, a constant in each
+ * instantiation) F * dx and F * dy, the build's operations, each
+ * neighbour's position one 16-byte load from the interleaved nb->xy. */
+static inline __attribute__((always_inline)) void pair_grad2(const sph_nbr *nb, int ff, size_t s0,
+                                                            size_t s1, size_t j0, size_t j1,
+                                                            sph_v2d xk, sph_v2d yk, sph_v2d *gx,
+                                                            sph_v2d *gy)
+{
+    const double *restrict gxs = nb->gx;
+    if (ff) {
+        const double *restrict xy = nb->xy;
+        const sph_v2d p0 = *(const sph_v2d *)(const void *)(xy + 2 * j0),
+                      p1 = *(const sph_v2d *)(const void *)(xy + 2 * j1);
+        const sph_v2d F = ld2(gxs, s0, s1);
+        *gx = F * (xk - (sph_v2d){p0[0], p1[0]});
+        *gy = F * (yk - (sph_v2d){p0[1], p1[1]});
+    } else {
+        *gx = ld2(gxs, s0, s1);
+        *gy = ld2(nb->gy, s0, s1);
+    }
 }
 
 /* The strain rates of k0 and k1 in two lanes (no v'; gc: the gradient
  * correction, a constant in each instantiation). */
 static inline __attribute__((always_inline)) void strain_two(sph_model *m, size_t k0, size_t k1,
-                                                            int gc, int packed)
+                                                            int gc, int packed, int ff)
 {
     const sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
     const double *restrict u = P->u, *restrict v = P->v, *restrict mass = P->mass;
     const double *restrict pk = nb->pk;
-    const double *restrict gxs = nb->gx, *restrict gys = nb->gy;
     const int *restrict idx = nb->idx;
     const size_t b0 = nb->off[k0], b1 = nb->off[k1];
     const int c0 = nb->count[k0], c1 = nb->count[k1], cm = c0 < c1 ? c0 : c1;
     const sph_v2d uk = ld2(u, k0, k1), vk = ld2(v, k0, k1);
+    const sph_v2d xk = ff ? ld2(nb->xy, 2 * k0, 2 * k1) : splat2(0.0),
+                  yk = ff ? ld2(nb->xy, 2 * k0 + 1, 2 * k1 + 1) : splat2(0.0);
     sph_v2d a11 = {0, 0}, a22 = {0, 0}, a12 = {0, 0}, a21 = {0, 0};
     for (int q = 0; q < cm; q++) {
         size_t s0 = b0 + (size_t)q, s1 = b1 + (size_t)q;
@@ -230,7 +263,8 @@ static inline __attribute__((always_inline)) void strain_two(sph_model *m, size_
             dv = ld2(v, j0, j1) - vk;
             mj = ld2(mass, j0, j1);
         }
-        sph_v2d gx = ld2(gxs, s0, s1), gy = ld2(gys, s0, s1);
+        sph_v2d gx, gy;
+        pair_grad2(nb, ff, s0, s1, j0, j1, xk, yk, &gx, &gy);
         a11 += mj * du * gx;
         a22 += mj * dv * gy;
         if (gc) {
@@ -242,8 +276,8 @@ static inline __attribute__((always_inline)) void strain_two(sph_model *m, size_
     }
     double acc0[6] = {a11[0], a22[0], a12[0], a21[0], 0, 0};
     double acc1[6] = {a11[1], a22[1], a12[1], a21[1], 0, 0};
-    strain_sum(m, k0, gc, 0, cm, acc0);
-    strain_sum(m, k1, gc, 0, cm, acc1);
+    strain_sum(m, k0, gc, 0, ff, cm, acc0);
+    strain_sum(m, k1, gc, 0, ff, cm, acc1);
     strain_finish(m, k0, gc, 0, acc0);
     strain_finish(m, k1, gc, 0, acc1);
 }
@@ -259,15 +293,17 @@ static inline void pack_velocity_slot(const sph_particles *P, double *pk, size_t
 }
 
 #define SPH_LIST_K(i) (list ? (size_t)list[(i)] : (size_t)(i))
+/* the factor form (sph_nbr_grad) as a constant of each instantiation */
+#define SPH_FF(CALL, ...) (ff ? CALL(__VA_ARGS__, 1) : CALL(__VA_ARGS__, 0))
 #define SPH_STRAIN_LOOP(GC, FL)                                                                \
     _Pragma("omp parallel for schedule(static) if (SPH_OMP_WORTH(count))")                  \
     for (size_t i = 0; i < count; i++)                                                         \
-        strain_one(m, SPH_LIST_K(i), GC, FL)
+        SPH_FF(strain_one, m, SPH_LIST_K(i), GC, FL)
 
 void sph_strain_pass(sph_model *m, const int *list, size_t count)
 {
     int want_fluct = (m->rheo->fields & SPH_RHEO_FIELD_VFLUCT) != 0;
-    const int gc = m->prm.gradient_correction != 0;
+    const int gc = m->prm.gradient_correction != 0, ff = m->nb->factor;
     if (!want_fluct) {
         /* list entries 2i and 2i + 1 in two lanes; where the lists visit
          * more pairs than there are slots, through per-slot records */
@@ -287,23 +323,23 @@ void sph_strain_pass(sph_model *m, const int *list, size_t count)
             if (gc && packed) {
 #pragma omp for schedule(static)
                 for (size_t i = 0; i < half; i++)
-                    strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 1, 1);
+                    SPH_FF(strain_two, m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 1, 1);
             } else if (gc) {
 #pragma omp for schedule(static)
                 for (size_t i = 0; i < half; i++)
-                    strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 1, 0);
+                    SPH_FF(strain_two, m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 1, 0);
             } else if (packed) {
 #pragma omp for schedule(static)
                 for (size_t i = 0; i < half; i++)
-                    strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0, 1);
+                    SPH_FF(strain_two, m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0, 1);
             } else {
 #pragma omp for schedule(static)
                 for (size_t i = 0; i < half; i++)
-                    strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0, 0);
+                    SPH_FF(strain_two, m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0, 0);
             }
         }
         if (count % 2)
-            strain_one(m, SPH_LIST_K(count - 1), gc, 0);
+            SPH_FF(strain_one, m, SPH_LIST_K(count - 1), gc, 0);
     } else if (gc) {
         SPH_STRAIN_LOOP(1, 1);
     } else {
@@ -329,7 +365,9 @@ static double coast_divergence(const sph_model *m, size_t k)
         size_t j = (size_t)nb->idx[s];
         if (j < n)
             continue;
-        double gx = bi[0] * nb->gx[s] + bi[1] * nb->gy[s], gy = bi[1] * nb->gx[s] + bi[2] * nb->gy[s];
+        double g0x, g0y;
+        sph_nbr_grad(nb, k, j, s, &g0x, &g0y);
+        double gx = bi[0] * g0x + bi[1] * g0y, gy = bi[1] * g0x + bi[2] * g0y;
         a += P->mass[j] * ((P->u[j] - P->u[k]) * gx + (P->v[j] - P->v[k]) * gy);
     }
     return a / P->dens[k];
@@ -357,22 +395,31 @@ static inline void pack_stress_slot(const sph_particles *P, double *pk, size_t j
  * added to acc (ax, ay); gc: the kernel gradient correction (a constant
  * in each instantiation, so the plain pair loop carries no branch). */
 static inline __attribute__((always_inline)) void divergence_sum(const sph_model *m, size_t k,
-                                                                int gc, int q0, double *acc)
+                                                                int gc, int q0, double *acc, int ff)
 {
     const sph_nbr *nb = m->nb;
     const double *restrict pk = nb->pk;
-    const double *restrict gxs = nb->gx, *restrict gys = nb->gy;
+    const double *restrict gxs = nb->gx, *restrict gys = nb->gy, *restrict xy = nb->xy;
     const int *restrict idx = nb->idx;
     const size_t base = nb->off[k];
     const int cnt = nb->count[k];
     const double tk11 = pk[4 * k], tk22 = pk[4 * k + 1], tk12 = pk[4 * k + 2];
+    const double xk = ff ? xy[2 * k] : 0.0, yk = ff ? xy[2 * k + 1] : 0.0;
     const double *bk = m->binv + 6 * k + 3;
     double ax = acc[0], ay = acc[1];
     for (int q = q0; q < cnt; q++) {
         size_t s = base + (size_t)q;
         const double *r = pk + 4 * (size_t)idx[s];
         double t11 = r[0] + tk11, t22 = r[1] + tk22, t12 = r[2] + tk12;
-        double gx = gxs[s], gy = gys[s];
+        double gx, gy;
+        if (ff) { /* sph_nbr_grad's factor form */
+            const size_t j = (size_t)idx[s];
+            gx = gxs[s] * (xk - xy[2 * j]);
+            gy = gxs[s] * (yk - xy[2 * j + 1]);
+        } else {
+            gx = gxs[s];
+            gy = gys[s];
+        }
         if (gc) { /* (B_k^-1 + B_j^-1)/2 grad W: still antisymmetric in k, j */
             const double *bj = m->binv + 6 * (size_t)idx[s] + 3;
             double cx = 0.5 * ((bk[0] + bj[0]) * gx + (bk[1] + bj[1]) * gy);
@@ -387,10 +434,10 @@ static inline __attribute__((always_inline)) void divergence_sum(const sph_model
 }
 
 static inline __attribute__((always_inline)) void divergence_packed(const sph_model *m, size_t k,
-                                                                   int gc)
+                                                                   int gc, int ff)
 {
     double acc[2] = {0, 0};
-    divergence_sum(m, k, gc, 0, acc);
+    divergence_sum(m, k, gc, 0, acc, ff);
     m->P->ax[k] = acc[0];
     m->P->ay[k] = acc[1];
 }
@@ -398,17 +445,18 @@ static inline __attribute__((always_inline)) void divergence_packed(const sph_mo
 /* The divergence of k0 and k1 in two lanes (see ld2: each lane is its
  * particle's scalar sum, in its list's order); gc as in divergence_sum. */
 static inline __attribute__((always_inline)) void divergence_two(const sph_model *m, size_t k0,
-                                                                size_t k1, int gc)
+                                                                size_t k1, int gc, int ff)
 {
     const sph_nbr *nb = m->nb;
     const double *restrict pk = nb->pk;
-    const double *restrict gxs = nb->gx, *restrict gys = nb->gy;
     const double *restrict bi = m->binv;
     const int *restrict idx = nb->idx;
     const size_t b0 = nb->off[k0], b1 = nb->off[k1];
     const int c0 = nb->count[k0], c1 = nb->count[k1], cm = c0 < c1 ? c0 : c1;
     const sph_v2d tk11 = ld2(pk, 4 * k0, 4 * k1), tk22 = ld2(pk, 4 * k0 + 1, 4 * k1 + 1),
                   tk12 = ld2(pk, 4 * k0 + 2, 4 * k1 + 2);
+    const sph_v2d xk = ff ? ld2(nb->xy, 2 * k0, 2 * k1) : splat2(0.0),
+                  yk = ff ? ld2(nb->xy, 2 * k0 + 1, 2 * k1 + 1) : splat2(0.0);
     const size_t o0 = 6 * k0 + 3, o1 = 6 * k1 + 3;
     const sph_v2d bk0 = ld2(bi, o0, o1), bk1 = ld2(bi, o0 + 1, o1 + 1), bk2 = ld2(bi, o0 + 2, o1 + 2);
     sph_v2d ax = {0, 0}, ay = {0, 0};
@@ -422,7 +470,8 @@ static inline __attribute__((always_inline)) void divergence_two(const sph_model
         const sph_v2d a0 = r0[0], a1 = r1[0], e0 = r0[1], e1 = r1[1];
         sph_v2d t11 = (sph_v2d){a0[0], a1[0]} + tk11, t22 = (sph_v2d){a0[1], a1[1]} + tk22,
                 t12 = (sph_v2d){e0[0], e1[0]} + tk12;
-        sph_v2d gx = ld2(gxs, s0, s1), gy = ld2(gys, s0, s1);
+        sph_v2d gx, gy;
+        pair_grad2(nb, ff, s0, s1, j0, j1, xk, yk, &gx, &gy);
         if (gc) {
             const size_t p0 = 6 * j0 + 3, p1 = 6 * j1 + 3;
             sph_v2d c0v = bk0 + ld2(bi, p0, p1), c1v = bk1 + ld2(bi, p0 + 1, p1 + 1),
@@ -436,8 +485,8 @@ static inline __attribute__((always_inline)) void divergence_two(const sph_model
         ay += mj * (t12 * gx + t22 * gy);
     }
     double acc0[2] = {ax[0], ay[0]}, acc1[2] = {ax[1], ay[1]};
-    divergence_sum(m, k0, gc, cm, acc0);
-    divergence_sum(m, k1, gc, cm, acc1);
+    divergence_sum(m, k0, gc, cm, acc0, ff);
+    divergence_sum(m, k1, gc, cm, acc1, ff);
     m->P->ax[k0] = acc0[0];
     m->P->ay[k0] = acc0[1];
     m->P->ax[k1] = acc1[0];
@@ -462,7 +511,8 @@ static void divergence_direct(const sph_model *m, size_t k)
         double iMj2 = 1.0 / (P->dens[j] * P->dens[j]);
         double t11 = P->s11[j] * iMj2 + tk11, t22 = P->s22[j] * iMj2 + tk22,
                t12 = P->s12[j] * iMj2 + tk12;
-        double gx = nb->gx[s], gy = nb->gy[s];
+        double gx, gy;
+        sph_nbr_grad(nb, k, (size_t)j, s, &gx, &gy);
         if (gc) {
             const double *bj = m->binv + 6 * (size_t)j + 3;
             double cx = 0.5 * ((bk[0] + bj[0]) * gx + (bk[1] + bj[1]) * gy);
@@ -480,7 +530,7 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count)
 {
     sph_particles *P = m->P;
     const sph_nbr *nb = m->nb;
-    const int gc = m->prm.gradient_correction;
+    const int gc = m->prm.gradient_correction, ff = nb->factor;
     const size_t nall = P->n + m->ng;
     size_t pairs = 0;
     for (size_t i = 0; i < count; i++)
@@ -519,15 +569,15 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count)
         if (gc) {
 #pragma omp for schedule(static)
             for (size_t i = 0; i < half; i++)
-                divergence_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 1);
+                SPH_FF(divergence_two, m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 1);
         } else {
 #pragma omp for schedule(static)
             for (size_t i = 0; i < half; i++)
-                divergence_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0);
+                SPH_FF(divergence_two, m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0);
         }
 #pragma omp single
         if (count % 2)
-            divergence_packed(m, SPH_LIST_K(count - 1), gc);
+            SPH_FF(divergence_packed, m, SPH_LIST_K(count - 1), gc);
     }
     if (imd2)
         m->div_imd2_ready = 1;
@@ -796,7 +846,9 @@ void sph_gradient_correction_pass(sph_model *m)
             size_t s = base + (size_t)q;
             int j = nb->idx[s];
             double dx = P->x[k] - P->x[j], dy = P->y[k] - P->y[j];
-            double t11 = -nb->gx[s] * dx, t12 = -nb->gx[s] * dy, t22 = -nb->gy[s] * dy;
+            double gx, gy;
+            sph_nbr_grad(nb, k, (size_t)j, s, &gx, &gy);
+            double t11 = -gx * dx, t12 = -gx * dy, t22 = -gy * dy;
             b11 += P->mass[j] * t11;
             b12 += P->mass[j] * t12;
             b22 += P->mass[j] * t22;

@@ -362,9 +362,11 @@ static int write_output(engine *e, double t, sph_error *err)
                      .v_north = e->g_v, .pressure = e->g_pres, .divergence = e->g_div,
                      .shear = e->g_shear, .snow = snow ? e->g_snow : NULL,
                      .land = e->lm ? e->g_land : NULL};
+    /* snow only where the products write it (opts.write_snow is the same
+     * fc_snow_possible): the writer thread copies what the view carries */
     prod_particles_view pv = {.n = n, .lon = e->olon, .lat = e->olat, .u_east = e->pue, .v_north = e->pvn,
-                              .mass = P->mass, .thick = P->thick, .conc = P->conc, .snow = P->snow,
-                              .id = P->id};
+                              .mass = P->mass, .thick = P->thick, .conc = P->conc,
+                              .snow = snow ? P->snow : NULL, .id = P->id};
     const prod_particles_view *pvp = e->cfg->output.products.particles ? &pv : NULL;
     if (e->bgw) /* output.writer_thread: written while the next steps run (forecast_writer.c) */
         return fc_bgw_submit(e, t, &f, pvp, err);

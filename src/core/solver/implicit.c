@@ -200,7 +200,8 @@ static int implicit_solve(sph_model *m, void *ws, sph_status *st)
                 size_t j = (size_t)nb->idx[sl];
                 /* strain: B_k^-1 grad W; divergence: (B_k^-1 + B_j^-1)/2 grad W */
                 const double *bs = m->binv + 6 * k, *bk = bs + 3, *bj = m->binv + 6 * j + 3;
-                double gx0 = nb->gx[sl], gy0 = nb->gy[sl];
+                double gx0, gy0;
+                sph_nbr_grad(nb, k, j, sl, &gx0, &gy0);
                 double gx = bs[0] * gx0 + bs[1] * gy0, gy = bs[1] * gx0 + bs[2] * gy0;
                 double hx = 0.5 * ((bk[0] + bj[0]) * gx0 + (bk[1] + bj[1]) * gy0);
                 double hy = 0.5 * ((bk[1] + bj[1]) * gx0 + (bk[2] + bj[2]) * gy0);
