@@ -13,8 +13,10 @@
  * (the lone last particle), loose particles among packed ones (auto
  * physics: the scalar pairs), aEVP and fixed alpha, 1 and 2 threads above
  * the threading threshold. The solver's sweeps after the first read
- * the divergence's 1 / M^2 per slot from the solve's first (M is
- * constant within a solve); the reference computes it in every sweep. */
+ * the divergence's 1 / M^2 per slot from the solve's first, and the
+ * strain pass reads 1 / M per particle computed before the first sweep
+ * (M is constant within a solve); the reference computes both in every
+ * sweep. */
 #include <omp.h>
 #include <string.h>
 
@@ -159,6 +161,7 @@ static void check_case(int nx, int ny, int adaptive, int threads)
     /* the solve's 1 / M^2 per slot (sweeps 2 on read it) is its own:
      * a divergence pass after it computes afresh */
     CHECK(b->div_imd2 == NULL && b->div_imd2_ready == 0, "the solve's 1 / M^2 cache released");
+    CHECK(b->strain_im == NULL, "the solve's 1 / M cache released");
     omp_set_num_threads(1);
     const sph_particles *A = a->P, *B = b->P;
     const int *act = a->active;

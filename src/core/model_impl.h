@@ -102,6 +102,10 @@ struct sph_model {
      * filled by this solve's first divergence pass (operators.c) */
     double *div_imd2;
     int div_imd2_ready;
+    /* 1 / M_k per particle for the strain pass (strain_finish): filled for
+     * the active set by a solver before its iterations, the same division
+     * the pass makes (NULL otherwise: the pass divides) */
+    double *strain_im;
     sph_budget budget;
     sph_step_stats stats;
     double time, thermo_accum;

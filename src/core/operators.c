@@ -171,7 +171,8 @@ static inline __attribute__((always_inline)) void strain_finish(sph_model *m, si
 {
     sph_particles *P = m->P;
     double a11 = acc[0], a22 = acc[1], a12 = acc[2], a21 = acc[3];
-    double iM = 1.0 / P->dens[k];
+    /* within a stress solve 1 / M_k once per solve (m->strain_im) */
+    double iM = m->strain_im ? m->strain_im[k] : 1.0 / P->dens[k];
     if (gc) {
         /* velocity gradient G_ab = sum_j m_j dv_a g_b / M_k, i.e.
          * [[a11, a21], [a12, a22]]; corrected: G B_k^-1 */

@@ -41,6 +41,7 @@ typedef struct mevp_work {
     double *qax, *qay;
     double *gair; /* [2 x slots] the air stress on each coast ghost's source, once per step */
     double *imd2; /* per slot: 1 / M^2 for the divergence's records (sph_model.div_imd2) */
+    double *im;   /* per particle: 1 / M for the strain rates (sph_model.strain_im) */
     /* model.evp.anderson (depth > 0 at create): the iterate before the
      * sweep, the last sweep's residual f = g(x) - x and image g, and the
      * ring of their differences; 5 components (u, v, s11, s22, s12) of
@@ -66,6 +67,7 @@ static void mevp_free(void *ws)
     free(w->qay);
     free(w->gair);
     free(w->imd2);
+    free(w->im);
     free(w->inner);
     free(w->outer);
     free(w->x0);
@@ -92,9 +94,10 @@ static int mevp_create(const sph_model *m, void **ws)
     w->qay = calloc(n, sizeof(double));
     w->gair = calloc(2 * n, sizeof(double));
     w->imd2 = calloc(n, sizeof(double));
+    w->im = calloc(n, sizeof(double));
     w->inner = malloc((n + 1) * sizeof(int));
     w->outer = malloc((n + 1) * sizeof(int));
-    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2 && w->qax && w->qay && w->gair && w->imd2 && w->inner &&
+    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2 && w->qax && w->qay && w->gair && w->imd2 && w->im && w->inner &&
              w->outer;
     w->depth = m->prm.evp_anderson;
     w->nslot = n;
@@ -543,15 +546,27 @@ static int mevp_solve_iterations(sph_model *m, mevp_work *w, sph_status *st);
 
 /* The iterations with the divergence's 1 / M^2 per slot computed once
  * (sph_model.div_imd2: M is constant within the solve; its first
- * divergence pass fills it, after the first ghost stresses). */
+ * divergence pass fills it, after the first ghost stresses) and the
+ * strain pass's 1 / M_k once (sph_model.strain_im). */
 static int mevp_solve(sph_model *m, void *ws, sph_status *st)
 {
     mevp_work *w = ws;
+    const sph_particles *P = m->P;
+    const size_t na = m->nactive;
     m->div_imd2 = w->imd2;
     m->div_imd2_ready = 0;
+    /* the strain pass's 1 / M_k for the active set (every list it is
+     * given in the solve is part of it), the pass's own division */
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
+    for (size_t i = 0; i < na; i++) {
+        size_t k = (size_t)m->active[i];
+        w->im[k] = 1.0 / P->dens[k];
+    }
+    m->strain_im = w->im;
     int rc = mevp_solve_iterations(m, w, st);
     m->div_imd2 = NULL;
     m->div_imd2_ready = 0;
+    m->strain_im = NULL;
     return rc;
 }
 
