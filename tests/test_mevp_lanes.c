@@ -12,7 +12,11 @@
  * u, v, s11, s22, s12 and zeta over the active set: an odd particle count
  * (the lone last particle), loose particles among packed ones (auto
  * physics: the scalar pairs), aEVP and fixed alpha, 1 and 2 threads above
- * the threading threshold. The solver's sweeps after the first read
+ * the threading threshold; all of it with two lanes and, where the CPU
+ * has AVX2, again with the four-lane velocity update, VP law and
+ * relaxation (sph_model.lanes4: quads of contiguous and of gathered
+ * particles, quads holding a loose particle, the pairs and the lone
+ * particle after the last quad). The solver's sweeps after the first read
  * the divergence's 1 / M^2 per slot from the solve's first, and the
  * strain pass reads 1 / M per particle computed before the first sweep
  * (M is constant within a solve); the reference computes both in every
@@ -22,6 +26,7 @@
 
 #include "check.h"
 #include "lattice.h"
+#include "../src/core/lanes.h"
 #include "../src/core/model_impl.h"
 #include "core/rheology.h"
 
@@ -136,7 +141,7 @@ static int same_bits(const double *a, const double *b, const int *act, size_t na
     return 1;
 }
 
-static void check_case(int nx, int ny, int adaptive, int threads)
+static void check_case(int nx, int ny, int adaptive, int threads, int lanes4)
 {
     sph_model *a = scene(nx, ny, adaptive, 77u), *b = scene(nx, ny, adaptive, 77u);
     CHECK(a && b, "scenes");
@@ -144,6 +149,13 @@ static void check_case(int nx, int ny, int adaptive, int threads)
         sph_model_free(a);
         sph_model_free(b);
         return;
+    }
+    b->lanes4 = lanes4;
+    if (lanes4) { /* both kinds of quad in the active set: contiguous and gathered */
+        size_t contig = 0, nq = a->nactive / 4;
+        for (size_t i = 0; i < nq; i++)
+            contig += a->active[4 * i + 3] == a->active[4 * i] + 3;
+        CHECK(contig > 0 && contig < nq, "%dx%d: %zu contiguous quads of %zu", nx, ny, contig, nq);
     }
     size_t loose = 0;
     for (size_t i = 0; i < a->nactive; i++)
@@ -168,12 +180,12 @@ static void check_case(int nx, int ny, int adaptive, int threads)
     size_t na = a->nactive;
     CHECK(na == b->nactive && memcmp(act, b->active, na * sizeof(int)) == 0, "same active set");
     int ok = same_bits(A->u, B->u, act, na) && same_bits(A->v, B->v, act, na);
-    CHECK(ok, "%dx%d, %s, %d thread(s): velocities bit for bit the documented sweep's", nx, ny,
-          adaptive ? "aEVP" : "fixed alpha", threads);
+    CHECK(ok, "%dx%d, %s, %d thread(s), %d lanes: velocities bit for bit the documented sweep's",
+          nx, ny, adaptive ? "aEVP" : "fixed alpha", threads, lanes4 ? 4 : 2);
     ok = same_bits(A->s11, B->s11, act, na) && same_bits(A->s22, B->s22, act, na) &&
          same_bits(A->s12, B->s12, act, na) && same_bits(a->zeta, b->zeta, act, na);
-    CHECK(ok, "%dx%d, %s, %d thread(s): stresses and zeta bit for bit", nx, ny,
-          adaptive ? "aEVP" : "fixed alpha", threads);
+    CHECK(ok, "%dx%d, %s, %d thread(s), %d lanes: stresses and zeta bit for bit", nx, ny,
+          adaptive ? "aEVP" : "fixed alpha", threads, lanes4 ? 4 : 2);
     double umax = 0.0;
     for (size_t i = 0; i < na; i++)
         umax = fmax(umax, fabs(B->u[act[i]] - b->un[act[i]]));
@@ -184,9 +196,15 @@ static void check_case(int nx, int ny, int adaptive, int threads)
 
 int main(void)
 {
-    check_case(23, 19, 1, 1); /* 437 particles: odd */
-    check_case(23, 19, 0, 1);
-    check_case(71, 67, 1, 1); /* 4757: above SPH_OMP_WORTH */
-    check_case(71, 67, 1, 2);
+    /* two lanes, then four where the CPU has them (AVX2: sph_model.lanes4) */
+    const int nl = sph_lanes4_supported() ? 2 : 1;
+    if (nl == 1)
+        printf("test_mevp_lanes: no AVX2 on this CPU: the four-lane path is not run\n");
+    for (int l4 = 0; l4 < nl; l4++) {
+        check_case(23, 19, 1, 1, l4); /* 437 particles: odd */
+        check_case(23, 19, 0, 1, l4);
+        check_case(71, 67, 1, 1, l4); /* 4757: above SPH_OMP_WORTH */
+        check_case(71, 67, 1, 2, l4);
+    }
     return check_summary("test_mevp_lanes");
 }

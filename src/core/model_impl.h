@@ -106,6 +106,9 @@ struct sph_model {
      * the active set by a solver before its iterations, the same division
      * the pass makes (NULL otherwise: the pass divides) */
     double *strain_im;
+    /* 1: mEVP's per-particle passes in four lanes (lanes.h; the CPU has
+     * AVX2, checked at create); 0: two. The same bits either way. */
+    int lanes4;
     sph_budget budget;
     sph_step_stats stats;
     double time, thermo_accum;
