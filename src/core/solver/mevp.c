@@ -239,42 +239,43 @@ SPH_LANES4_INLINE int quad_contig(const size_t *k)
 
 /* mevp_relax's VP branch for the quads [i0, i1) of list in four lanes
  * (the law for the block into a buffer, then its relaxation, as the
- * two-lane branch's blocks); a function of its own with the target (the
+ * two-lane branch's blocks); a loose particle's lane takes zero stress
+ * and zeta (sph_stress_loose) in place of the law's, and its relaxation
+ * is then vp_relax_one's; a function of its own with the target (the
  * threads' loop around it is compiled for the baseline CPU) */
 SPH_LANES4_TARGET static void relax_vp4_block(sph_model *m, mevp_work *w, const int *act, size_t i0,
                                               size_t i1, double dt, double visc, double inv_e2)
 {
     const sph_params *p = &m->prm;
     const sph_particles *P = m->P;
+    const sph_v4d zero = splat4(0.0);
     sph_v4d t11[MEVP_VP_BLOCK4], t22[MEVP_VP_BLOCK4], t12[MEVP_VP_BLOCK4];
-    unsigned char lz[MEVP_VP_BLOCK4], ct[MEVP_VP_BLOCK4];
+    unsigned char ct[MEVP_VP_BLOCK4];
     for (size_t i = i0; i < i1; i++) {
         size_t k[4];
         quad_of(act, i, k);
         ct[i - i0] = (unsigned char)quad_contig(k);
-        lz[i - i0] = m->loose[k[0]] || m->loose[k[1]] || m->loose[k[2]] || m->loose[k[3]];
-        if (lz[i - i0])
-            continue;
-        sph_v4d z;
+        sph_v4d z, a11, a22, a12;
         if (ct[i - i0])
             z = sph_vp_stress_four(p, inv_e2, ld4(P->pres, k, 1), ld4(P->e11, k, 1), ld4(P->e22, k, 1),
-                                   ld4(P->e12, k, 1), &t11[i - i0], &t22[i - i0], &t12[i - i0]);
+                                   ld4(P->e12, k, 1), &a11, &a22, &a12);
         else
             z = sph_vp_stress_four(p, inv_e2, ld4(P->pres, k, 0), ld4(P->e11, k, 0), ld4(P->e22, k, 0),
-                                   ld4(P->e12, k, 0), &t11[i - i0], &t22[i - i0], &t12[i - i0]);
-        st4(m->zeta, k, ct[i - i0], z);
+                                   ld4(P->e12, k, 0), &a11, &a22, &a12);
+        const sph_v4l lz = {-(long long)(m->loose[k[0]] != 0), -(long long)(m->loose[k[1]] != 0),
+                            -(long long)(m->loose[k[2]] != 0), -(long long)(m->loose[k[3]] != 0)};
+        t11[i - i0] = sel4(lz, zero, a11);
+        t22[i - i0] = sel4(lz, zero, a22);
+        t12[i - i0] = sel4(lz, zero, a12);
+        st4(m->zeta, k, ct[i - i0], sel4(lz, zero, z));
     }
     for (size_t i = i0; i < i1; i++) {
         size_t k[4];
         quad_of(act, i, k);
-        if (lz[i - i0]) {
-            for (int l = 0; l < 4; l++)
-                vp_relax_one(m, w, k[l], dt, visc);
-        } else if (ct[i - i0]) {
+        if (ct[i - i0])
             relax_four(m, w, k, 1, t11[i - i0], t22[i - i0], t12[i - i0], dt, visc);
-        } else {
+        else
             relax_four(m, w, k, 0, t11[i - i0], t22[i - i0], t12[i - i0], dt, visc);
-        }
     }
 }
 
