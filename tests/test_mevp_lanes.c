@@ -173,7 +173,8 @@ static void check_case(int nx, int ny, int adaptive, int threads, int lanes4)
     /* the solve's 1 / M^2 per slot (sweeps 2 on read it) is its own:
      * a divergence pass after it computes afresh */
     CHECK(b->div_imd2 == NULL && b->div_imd2_ready == 0, "the solve's 1 / M^2 cache released");
-    CHECK(b->strain_im == NULL, "the solve's 1 / M cache released");
+    CHECK(b->strain_im == NULL && b->pass_pairs_on == 0,
+          "the solve's 1 / M and pair-count caches released");
     omp_set_num_threads(1);
     const sph_particles *A = a->P, *B = b->P;
     const int *act = a->active;

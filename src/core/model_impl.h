@@ -106,6 +106,12 @@ struct sph_model {
      * the active set by a solver before its iterations, the same division
      * the pass makes (NULL otherwise: the pass divides) */
     double *strain_im;
+    /* the pairs a list of the strain and divergence passes visits (the sum
+     * of its particles' neighbour counts), kept for up to three lists while
+     * pass_pairs_on (a solve: lists and neighbour counts fixed); operators.c */
+    int pass_pairs_on, pass_pairs_n;
+    const int *pass_pairs_list[3];
+    size_t pass_pairs_count[3], pass_pairs_sum[3];
     /* 1: mEVP's per-particle passes in four lanes (lanes.h; the CPU has
      * AVX2, checked at create); 0: two. The same bits either way. */
     int lanes4;

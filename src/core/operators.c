@@ -260,6 +260,26 @@ static inline void pack_velocity_slot(const sph_particles *P, double *pk, size_t
 }
 
 #define SPH_LIST_K(i) (list ? (size_t)list[(i)] : (size_t)(i))
+
+/* The pairs the passes visit for list (the sum of the neighbour counts),
+ * within a solve (m->pass_pairs_on) summed once per list. */
+static size_t list_pairs(sph_model *m, const int *list, size_t count)
+{
+    const sph_nbr *nb = m->nb;
+    if (m->pass_pairs_on)
+        for (int e = 0; e < m->pass_pairs_n; e++)
+            if (m->pass_pairs_list[e] == list && m->pass_pairs_count[e] == count)
+                return m->pass_pairs_sum[e];
+    size_t pairs = 0;
+    for (size_t i = 0; i < count; i++)
+        pairs += (size_t)nb->count[SPH_LIST_K(i)];
+    if (m->pass_pairs_on && m->pass_pairs_n < 3) {
+        m->pass_pairs_list[m->pass_pairs_n] = list;
+        m->pass_pairs_count[m->pass_pairs_n] = count;
+        m->pass_pairs_sum[m->pass_pairs_n++] = pairs;
+    }
+    return pairs;
+}
 #define SPH_STRAIN_LOOP(GC, FL)                                                                \
     _Pragma("omp parallel for schedule(static) if (SPH_OMP_WORTH(count))")                  \
     for (size_t i = 0; i < count; i++)                                                         \
@@ -274,9 +294,7 @@ void sph_strain_pass(sph_model *m, const int *list, size_t count)
          * more pairs than there are slots, through per-slot records */
         const sph_nbr *nb = m->nb;
         const size_t nall = m->P->n + m->ng, half = count / 2;
-        size_t pairs = 0;
-        for (size_t i = 0; i < count; i++)
-            pairs += (size_t)nb->count[SPH_LIST_K(i)];
+        const size_t pairs = list_pairs(m, list, count);
         const int packed = pairs > nall && nb->pk;
 #pragma omp parallel if (SPH_OMP_WORTH(count))
         {
@@ -483,9 +501,7 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count)
     const sph_nbr *nb = m->nb;
     const int gc = m->prm.gradient_correction;
     const size_t nall = P->n + m->ng;
-    size_t pairs = 0;
-    for (size_t i = 0; i < count; i++)
-        pairs += (size_t)nb->count[list ? (size_t)list[i] : i];
+    const size_t pairs = list_pairs(m, list, count);
     if (pairs <= nall || !nb->pk) {
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
         for (size_t i = 0; i < count; i++)
