@@ -112,6 +112,9 @@ struct sph_model {
     int pass_pairs_on, pass_pairs_n;
     const int *pass_pairs_list[3];
     size_t pass_pairs_count[3], pass_pairs_sum[3];
+    /* within a solve (pass_pairs_on): m_j already in nb->pk's records
+     * (operators.c: set by the solve's first packing, cleared with it) */
+    int pk_mass_ready;
     /* 1: mEVP's per-particle passes in four lanes (lanes.h; the CPU has
      * AVX2, checked at create); 0: two. The same bits either way. */
     int lanes4;

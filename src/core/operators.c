@@ -225,7 +225,7 @@ static inline __attribute__((always_inline)) void strain_two(sph_model *m, size_
             const sph_v2d a0 = r0[0], a1 = r1[0];
             du = (sph_v2d){a0[0], a1[0]} - uk;
             dv = (sph_v2d){a0[1], a1[1]} - vk;
-            mj = (sph_v2d){pk[4 * j0 + 2], pk[4 * j1 + 2]};
+            mj = (sph_v2d){pk[4 * j0 + 3], pk[4 * j1 + 3]};
         } else {
             du = ld2(u, j0, j1) - uk;
             dv = ld2(v, j0, j1) - vk;
@@ -249,14 +249,17 @@ static inline __attribute__((always_inline)) void strain_two(sph_model *m, size_
     strain_finish(m, k1, gc, 0, acc1);
 }
 
-/* The strain pass's per-slot record in nb->pk (u, v, m_j; the divergence
- * fills its own afterwards): the pair loop gathers one record per
- * neighbour instead of three arrays (the same values, bit for bit). */
-static inline void pack_velocity_slot(const sph_particles *P, double *pk, size_t j)
+/* The strain pass's per-slot record in nb->pk (u, v, -, m_j; the
+ * divergence fills its own afterwards, m_j in the same place): the pair
+ * loop gathers one record per neighbour instead of three arrays (the same
+ * values, bit for bit). wmass 0: m_j is already there (within a solve,
+ * after its first packing: sph_model.pk_mass_ready). */
+static inline void pack_velocity_slot(const sph_particles *P, double *pk, size_t j, int wmass)
 {
     pk[0] = P->u[j];
     pk[1] = P->v[j];
-    pk[2] = P->mass[j];
+    if (wmass)
+        pk[3] = P->mass[j];
 }
 
 #define SPH_LIST_K(i) (list ? (size_t)list[(i)] : (size_t)(i))
@@ -296,12 +299,13 @@ void sph_strain_pass(sph_model *m, const int *list, size_t count)
         const size_t nall = m->P->n + m->ng, half = count / 2;
         const size_t pairs = list_pairs(m, list, count);
         const int packed = pairs > nall && nb->pk;
+        const int wmass = !m->pk_mass_ready;
 #pragma omp parallel if (SPH_OMP_WORTH(count))
         {
             if (packed) {
 #pragma omp for schedule(static)
                 for (size_t j = 0; j < nall; j++)
-                    pack_velocity_slot(m->P, nb->pk + 4 * j, j);
+                    pack_velocity_slot(m->P, nb->pk + 4 * j, j, wmass);
             }
             if (gc && packed) {
 #pragma omp for schedule(static)
@@ -321,6 +325,8 @@ void sph_strain_pass(sph_model *m, const int *list, size_t count)
                     strain_two(m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0, 0);
             }
         }
+        if (packed && m->pass_pairs_on)
+            m->pk_mass_ready = 1; /* m_j stays in the records for the solve */
         if (count % 2)
             strain_one(m, SPH_LIST_K(count - 1), gc, 0);
     } else if (gc) {
@@ -364,12 +370,14 @@ static double coast_divergence(const sph_model *m, size_t k)
  * reads it, instead of a division and four products per pair. The values
  * are the same operations on the same operands (bit for bit), and each
  * particle's sum runs over its list in the list's order either way. */
-static inline void pack_stress_slot(const sph_particles *P, double *pk, size_t j, double iMj2)
+static inline void pack_stress_slot(const sph_particles *P, double *pk, size_t j, double iMj2,
+                                    int wmass)
 {
     pk[0] = P->s11[j] * iMj2;
     pk[1] = P->s22[j] * iMj2;
     pk[2] = P->s12[j] * iMj2;
-    pk[3] = P->mass[j];
+    if (wmass) /* else already there (pack_velocity_slot) */
+        pk[3] = P->mass[j];
 }
 
 /* One particle's divergence from the packed records, pairs [q0, count)
@@ -511,6 +519,7 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count)
     double *pk = nb->pk;
     double *imd2 = m->div_imd2;
     const int ready = m->div_imd2_ready;
+    const int wmass = !m->pk_mass_ready;
 #pragma omp parallel if (SPH_OMP_WORTH(count))
     {
         /* 1 / M_j^2: within a stress solve (m->div_imd2) computed by its
@@ -519,17 +528,17 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count)
         if (imd2 && ready) {
 #pragma omp for schedule(static)
             for (size_t j = 0; j < nall; j++)
-                pack_stress_slot(P, pk + 4 * j, j, imd2[j]);
+                pack_stress_slot(P, pk + 4 * j, j, imd2[j], wmass);
         } else if (imd2) {
 #pragma omp for schedule(static)
             for (size_t j = 0; j < nall; j++) {
                 imd2[j] = 1.0 / (P->dens[j] * P->dens[j]);
-                pack_stress_slot(P, pk + 4 * j, j, imd2[j]);
+                pack_stress_slot(P, pk + 4 * j, j, imd2[j], wmass);
             }
         } else {
 #pragma omp for schedule(static)
             for (size_t j = 0; j < nall; j++)
-                pack_stress_slot(P, pk + 4 * j, j, 1.0 / (P->dens[j] * P->dens[j]));
+                pack_stress_slot(P, pk + 4 * j, j, 1.0 / (P->dens[j] * P->dens[j]), wmass);
         }
         /* list entries 2i and 2i + 1 in two lanes */
         const size_t half = count / 2;
@@ -548,6 +557,8 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count)
     }
     if (imd2)
         m->div_imd2_ready = 1;
+    if (m->pass_pairs_on)
+        m->pk_mass_ready = 1;
 }
 
 /* Free drift (no internal force) for the particles not in the active set. */

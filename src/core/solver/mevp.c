@@ -747,12 +747,14 @@ static int mevp_solve(sph_model *m, void *ws, sph_status *st)
     m->strain_im = w->im;
     m->pass_pairs_on = 1; /* the lists' pair counts once per solve */
     m->pass_pairs_n = 0;
+    m->pk_mass_ready = 0;
     int rc = mevp_solve_iterations(m, w, st);
     m->div_imd2 = NULL;
     m->div_imd2_ready = 0;
     m->strain_im = NULL;
     m->pass_pairs_on = 0;
     m->pass_pairs_n = 0;
+    m->pk_mass_ready = 0;
     return rc;
 }
 
