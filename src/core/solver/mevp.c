@@ -514,7 +514,7 @@ static void momentum_pass4(sph_model *m, mevp_work *w, const int *act, size_t na
 /* pending: a halo refresh is in flight (posted after the last iteration);
  * the interior particles' strain and stress are computed before it is
  * completed, then the boundary ones'. */
-static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pending)
+static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pending, int full)
 {
     sph_particles *P = m->P;
     const sph_params *p = &m->prm;
@@ -561,10 +561,20 @@ static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pendi
         P->u[k] = u;
         P->v[k] = v;
     }
-    /* the stress sums only for model.evp.change_tol, their only reader
-     * (each sum is its own chain: leaving two out changes no other) */
+    /* the stress sums only for model.evp.change_tol, their only reader,
+     * the residual's and the speeds' only with full (else mevp_rel_sums
+     * where the solve needs them; each sum is its own chain: leaving some
+     * out changes no other) */
     mevp_sums s = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     const int change = p->evp_change_tol > 0.0;
+    if (!full) {
+        for (size_t i = 0; i < na; i++) {
+            double d = m->dvel[(size_t)act[i]];
+            s.dmax = sph_fmax(s.dmax, d);
+            s.s2 += d * d;
+        }
+        return s;
+    }
     for (size_t i = 0; i < na; i++) {
         size_t k = (size_t)act[i];
         double d = m->dvel[k];
@@ -578,6 +588,20 @@ static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pendi
         }
     }
     return s;
+}
+
+/* mevp_iteration's sums of squared residuals and speeds for the state it
+ * left (the same sums in the same order) */
+static void mevp_rel_sums(const sph_model *m, const mevp_work *w, mevp_sums *s)
+{
+    const sph_particles *P = m->P;
+    const int *act = m->active;
+    s->q2 = s->u2 = 0.0;
+    for (size_t i = 0; i < m->nactive; i++) {
+        size_t k = (size_t)act[i];
+        s->q2 += w->res2[k];
+        s->u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
+    }
 }
 
 /* ---- Anderson acceleration (model.evp.anderson; Walker & Ni 2011, type
@@ -791,7 +815,11 @@ static int mevp_solve_iterations(sph_model *m, mevp_work *w, sph_status *st)
     for (it = 0; it < p->evp_iterations; it++) {
         if (aa)
             aa_save(m, w);
-        mevp_sums s = mevp_iteration(m, w, dt, pending);
+        /* the residual's sums where a rule reads them, or for the
+         * statistics of the last iteration (mevp_rel_sums at a break) */
+        const int full = p->evp_rel_tol > 0.0 || p->evp_change_tol > 0.0 || m->dd ||
+                         it + 1 == p->evp_iterations;
+        mevp_sums s = mevp_iteration(m, w, dt, pending, full);
         pending = 0;
         double nna = (double)na;
         if (m->dd)
@@ -804,6 +832,12 @@ static int mevp_solve_iterations(sph_model *m, mevp_work *w, sph_status *st)
             m->dd->exchange(m->dd->ctx, m, SPH_DD_ITER_WAIT);
         double r = s.dmax;
         resid = r;
+        /* without them, the sums where the iteration stops below (the
+         * tolerance or the stall rule), the state unchanged since (no
+         * decomposition, no exchange: full otherwise) */
+        if (!full && (r < p->evp_tol ||
+                      (win > 0 && !(it == 0 || sqrt(s.s2 / nna) < rms_ref) && it - it_ref >= win)))
+            mevp_rel_sums(m, w, &s);
         /* relative to the RMS speed, floored at SPH_MEVP_SPEED_FLOOR (ice
          * at rest has no scale of its own) */
         double urms = sqrt(s.u2 / nna);
