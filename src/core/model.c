@@ -23,6 +23,7 @@
 
 #include "core/kernel.h"
 #include "core/neighbours.h"
+#include "lanes.h"
 #include "model_impl.h"
 
 
@@ -67,6 +68,7 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     if (!m)
         return NULL;
     m->prm = *p;
+    m->lanes4 = sph_lanes4_supported();
     m->prm.thermo.rho_w = m->prm.rho_w; /* one sea-water density: drag and freeboard */
     m->cap = cap;
     sph_kernel_init(&m->kern, p->kernel, p->kernel_radius);

@@ -102,6 +102,22 @@ struct sph_model {
      * filled by this solve's first divergence pass (operators.c) */
     double *div_imd2;
     int div_imd2_ready;
+    /* 1 / M_k per particle for the strain pass (strain_finish): filled for
+     * the active set by a solver before its iterations, the same division
+     * the pass makes (NULL otherwise: the pass divides) */
+    double *strain_im;
+    /* the pairs a list of the strain and divergence passes visits (the sum
+     * of its particles' neighbour counts), kept for up to three lists while
+     * pass_pairs_on (a solve: lists and neighbour counts fixed); operators.c */
+    int pass_pairs_on, pass_pairs_n;
+    const int *pass_pairs_list[3];
+    size_t pass_pairs_count[3], pass_pairs_sum[3];
+    /* within a solve (pass_pairs_on): m_j already in nb->pk's records
+     * (operators.c: set by the solve's first packing, cleared with it) */
+    int pk_mass_ready;
+    /* 1: mEVP's per-particle passes in four lanes (lanes.h; the CPU has
+     * AVX2, checked at create); 0: two. The same bits either way. */
+    int lanes4;
     sph_budget budget;
     sph_step_stats stats;
     double time, thermo_accum;

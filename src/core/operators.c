@@ -179,7 +179,8 @@ static inline __attribute__((always_inline)) void strain_finish(sph_model *m, si
 {
     sph_particles *P = m->P;
     double a11 = acc[0], a22 = acc[1], a12 = acc[2], a21 = acc[3];
-    double iM = 1.0 / P->dens[k];
+    /* within a stress solve 1 / M_k once per solve (m->strain_im) */
+    double iM = m->strain_im ? m->strain_im[k] : 1.0 / P->dens[k];
     if (gc) {
         /* velocity gradient G_ab = sum_j m_j dv_a g_b / M_k, i.e.
          * [[a11, a21], [a12, a22]]; corrected: G B_k^-1 */
@@ -257,7 +258,7 @@ static inline __attribute__((always_inline)) void strain_two(sph_model *m, size_
             const sph_v2d a0 = r0[0], a1 = r1[0];
             du = (sph_v2d){a0[0], a1[0]} - uk;
             dv = (sph_v2d){a0[1], a1[1]} - vk;
-            mj = (sph_v2d){pk[4 * j0 + 2], pk[4 * j1 + 2]};
+            mj = (sph_v2d){pk[4 * j0 + 3], pk[4 * j1 + 3]};
         } else {
             du = ld2(u, j0, j1) - uk;
             dv = ld2(v, j0, j1) - vk;
@@ -282,19 +283,42 @@ static inline __attribute__((always_inline)) void strain_two(sph_model *m, size_
     strain_finish(m, k1, gc, 0, acc1);
 }
 
-/* The strain pass's per-slot record in nb->pk (u, v, m_j; the divergence
- * fills its own afterwards): the pair loop gathers one record per
- * neighbour instead of three arrays (the same values, bit for bit). */
-static inline void pack_velocity_slot(const sph_particles *P, double *pk, size_t j)
+/* The strain pass's per-slot record in nb->pk (u, v, -, m_j; the
+ * divergence fills its own afterwards, m_j in the same place): the pair
+ * loop gathers one record per neighbour instead of three arrays (the same
+ * values, bit for bit). wmass 0: m_j is already there (within a solve,
+ * after its first packing: sph_model.pk_mass_ready). */
+static inline void pack_velocity_slot(const sph_particles *P, double *pk, size_t j, int wmass)
 {
     pk[0] = P->u[j];
     pk[1] = P->v[j];
-    pk[2] = P->mass[j];
+    if (wmass)
+        pk[3] = P->mass[j];
 }
 
 #define SPH_LIST_K(i) (list ? (size_t)list[(i)] : (size_t)(i))
 /* the factor form (sph_nbr_grad) as a constant of each instantiation */
 #define SPH_FF(CALL, ...) (ff ? CALL(__VA_ARGS__, 1) : CALL(__VA_ARGS__, 0))
+
+/* The pairs the passes visit for list (the sum of the neighbour counts),
+ * within a solve (m->pass_pairs_on) summed once per list. */
+static size_t list_pairs(sph_model *m, const int *list, size_t count)
+{
+    const sph_nbr *nb = m->nb;
+    if (m->pass_pairs_on)
+        for (int e = 0; e < m->pass_pairs_n; e++)
+            if (m->pass_pairs_list[e] == list && m->pass_pairs_count[e] == count)
+                return m->pass_pairs_sum[e];
+    size_t pairs = 0;
+    for (size_t i = 0; i < count; i++)
+        pairs += (size_t)nb->count[SPH_LIST_K(i)];
+    if (m->pass_pairs_on && m->pass_pairs_n < 3) {
+        m->pass_pairs_list[m->pass_pairs_n] = list;
+        m->pass_pairs_count[m->pass_pairs_n] = count;
+        m->pass_pairs_sum[m->pass_pairs_n++] = pairs;
+    }
+    return pairs;
+}
 #define SPH_STRAIN_LOOP(GC, FL)                                                                \
     _Pragma("omp parallel for schedule(static) if (SPH_OMP_WORTH(count))")                  \
     for (size_t i = 0; i < count; i++)                                                         \
@@ -309,16 +333,15 @@ void sph_strain_pass(sph_model *m, const int *list, size_t count)
          * more pairs than there are slots, through per-slot records */
         const sph_nbr *nb = m->nb;
         const size_t nall = m->P->n + m->ng, half = count / 2;
-        size_t pairs = 0;
-        for (size_t i = 0; i < count; i++)
-            pairs += (size_t)nb->count[SPH_LIST_K(i)];
+        const size_t pairs = list_pairs(m, list, count);
         const int packed = pairs > nall && nb->pk;
+        const int wmass = !m->pk_mass_ready;
 #pragma omp parallel if (SPH_OMP_WORTH(count))
         {
             if (packed) {
 #pragma omp for schedule(static)
                 for (size_t j = 0; j < nall; j++)
-                    pack_velocity_slot(m->P, nb->pk + 4 * j, j);
+                    pack_velocity_slot(m->P, nb->pk + 4 * j, j, wmass);
             }
             if (gc && packed) {
 #pragma omp for schedule(static)
@@ -338,6 +361,8 @@ void sph_strain_pass(sph_model *m, const int *list, size_t count)
                     SPH_FF(strain_two, m, SPH_LIST_K(2 * i), SPH_LIST_K(2 * i + 1), 0, 0);
             }
         }
+        if (packed && m->pass_pairs_on)
+            m->pk_mass_ready = 1; /* m_j stays in the records for the solve */
         if (count % 2)
             SPH_FF(strain_one, m, SPH_LIST_K(count - 1), gc, 0);
     } else if (gc) {
@@ -383,12 +408,14 @@ static double coast_divergence(const sph_model *m, size_t k)
  * reads it, instead of a division and four products per pair. The values
  * are the same operations on the same operands (bit for bit), and each
  * particle's sum runs over its list in the list's order either way. */
-static inline void pack_stress_slot(const sph_particles *P, double *pk, size_t j, double iMj2)
+static inline void pack_stress_slot(const sph_particles *P, double *pk, size_t j, double iMj2,
+                                    int wmass)
 {
     pk[0] = P->s11[j] * iMj2;
     pk[1] = P->s22[j] * iMj2;
     pk[2] = P->s12[j] * iMj2;
-    pk[3] = P->mass[j];
+    if (wmass) /* else already there (pack_velocity_slot) */
+        pk[3] = P->mass[j];
 }
 
 /* One particle's divergence from the packed records, pairs [q0, count)
@@ -532,9 +559,7 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count)
     const sph_nbr *nb = m->nb;
     const int gc = m->prm.gradient_correction, ff = nb->factor;
     const size_t nall = P->n + m->ng;
-    size_t pairs = 0;
-    for (size_t i = 0; i < count; i++)
-        pairs += (size_t)nb->count[list ? (size_t)list[i] : i];
+    const size_t pairs = list_pairs(m, list, count);
     if (pairs <= nall || !nb->pk) {
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(count))
         for (size_t i = 0; i < count; i++)
@@ -544,6 +569,7 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count)
     double *pk = nb->pk;
     double *imd2 = m->div_imd2;
     const int ready = m->div_imd2_ready;
+    const int wmass = !m->pk_mass_ready;
 #pragma omp parallel if (SPH_OMP_WORTH(count))
     {
         /* 1 / M_j^2: within a stress solve (m->div_imd2) computed by its
@@ -552,17 +578,17 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count)
         if (imd2 && ready) {
 #pragma omp for schedule(static)
             for (size_t j = 0; j < nall; j++)
-                pack_stress_slot(P, pk + 4 * j, j, imd2[j]);
+                pack_stress_slot(P, pk + 4 * j, j, imd2[j], wmass);
         } else if (imd2) {
 #pragma omp for schedule(static)
             for (size_t j = 0; j < nall; j++) {
                 imd2[j] = 1.0 / (P->dens[j] * P->dens[j]);
-                pack_stress_slot(P, pk + 4 * j, j, imd2[j]);
+                pack_stress_slot(P, pk + 4 * j, j, imd2[j], wmass);
             }
         } else {
 #pragma omp for schedule(static)
             for (size_t j = 0; j < nall; j++)
-                pack_stress_slot(P, pk + 4 * j, j, 1.0 / (P->dens[j] * P->dens[j]));
+                pack_stress_slot(P, pk + 4 * j, j, 1.0 / (P->dens[j] * P->dens[j]), wmass);
         }
         /* list entries 2i and 2i + 1 in two lanes */
         const size_t half = count / 2;
@@ -581,6 +607,8 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count)
     }
     if (imd2)
         m->div_imd2_ready = 1;
+    if (m->pass_pairs_on)
+        m->pk_mass_ready = 1;
 }
 
 /* Free drift (no internal force) for the particles not in the active set. */

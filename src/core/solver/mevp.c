@@ -41,6 +41,7 @@ typedef struct mevp_work {
     double *qax, *qay;
     double *gair; /* [2 x slots] the air stress on each coast ghost's source, once per step */
     double *imd2; /* per slot: 1 / M^2 for the divergence's records (sph_model.div_imd2) */
+    double *im;   /* per particle: 1 / M for the strain rates (sph_model.strain_im) */
     /* model.evp.anderson (depth > 0 at create): the iterate before the
      * sweep, the last sweep's residual f = g(x) - x and image g, and the
      * ring of their differences; 5 components (u, v, s11, s22, s12) of
@@ -66,6 +67,7 @@ static void mevp_free(void *ws)
     free(w->qay);
     free(w->gair);
     free(w->imd2);
+    free(w->im);
     free(w->inner);
     free(w->outer);
     free(w->x0);
@@ -92,9 +94,10 @@ static int mevp_create(const sph_model *m, void **ws)
     w->qay = calloc(n, sizeof(double));
     w->gair = calloc(2 * n, sizeof(double));
     w->imd2 = calloc(n, sizeof(double));
+    w->im = calloc(n, sizeof(double));
     w->inner = malloc((n + 1) * sizeof(int));
     w->outer = malloc((n + 1) * sizeof(int));
-    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2 && w->qax && w->qay && w->gair && w->imd2 && w->inner &&
+    int ok = w->t11 && w->t22 && w->t12 && w->res2 && w->ds2 && w->qax && w->qay && w->gair && w->imd2 && w->im && w->inner &&
              w->outer;
     w->depth = m->prm.evp_anderson;
     w->nslot = n;
@@ -176,6 +179,32 @@ static inline void relax_two(sph_model *m, mevp_work *w, size_t k0, size_t k1, s
     st2(P->s12, k0, k1, s12 + d12);
 }
 
+#if defined(SPH_HAVE_LANES4)
+/* relax_two for the four particles k[0..3] in four lanes (lanes.h);
+ * contig: k[l] = k[0] + l. */
+SPH_LANES4_INLINE void relax_four(sph_model *m, mevp_work *w, const size_t *k, int contig,
+                                  sph_v4d t11, sph_v4d t22, sph_v4d t12, double dt, double visc)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    sph_v4d alpha = splat4(p->evp_alpha);
+    if (p->evp_adaptive) {
+        sph_v4d z = ld4(m->zeta, k, contig), h = ld4(P->sml, k, contig);
+        sph_v4d gam = splat4(SPH_VISCOUS_EIG) * z * splat4(visc) * splat4(dt) /
+                      (ld4(P->dens, k, contig) * h * h);
+        alpha = fmax4(splat4(2.0) * sqrt4(gam), splat4(10.0));
+    }
+    st4(m->scratch, k, contig, alpha);
+    sph_v4d ia = splat4(1.0) / alpha;
+    sph_v4d s11 = ld4(P->s11, k, contig), s22 = ld4(P->s22, k, contig), s12 = ld4(P->s12, k, contig);
+    sph_v4d d11 = (t11 - s11) * ia, d22 = (t22 - s22) * ia, d12 = (t12 - s12) * ia;
+    st4(w->ds2, k, contig, d11 * d11 + d22 * d22 + splat4(2.0) * d12 * d12);
+    st4(P->s11, k, contig, s11 + d11);
+    st4(P->s22, k, contig, s22 + d22);
+    st4(P->s12, k, contig, s12 + d12);
+}
+#endif
+
 /* The VP law (rheology/vp.c's stress pass, per particle) and the
  * relaxation of k in one go: no target-stress arrays in between. */
 static inline void vp_relax_one(sph_model *m, mevp_work *w, size_t k, double dt, double visc)
@@ -192,6 +221,79 @@ static inline void vp_relax_one(sph_model *m, mevp_work *w, size_t k, double dt,
 
 #define MEVP_VP_BLOCK 32
 
+#if defined(SPH_HAVE_LANES4)
+#define MEVP_VP_BLOCK4 16
+
+/* list entries 4i .. 4i + 3 (i < count / 4), four lanes where none is
+ * loose (else particle by particle), k[l] contiguous or gathered */
+SPH_LANES4_INLINE void quad_of(const int *list, size_t i, size_t *k)
+{
+    for (int l = 0; l < 4; l++)
+        k[l] = (size_t)list[4 * i + (size_t)l];
+}
+
+SPH_LANES4_INLINE int quad_contig(const size_t *k)
+{
+    return k[1] == k[0] + 1 && k[2] == k[0] + 2 && k[3] == k[0] + 3;
+}
+
+/* mevp_relax's VP branch for the quads [i0, i1) of list in four lanes
+ * (the law for the block into a buffer, then its relaxation, as the
+ * two-lane branch's blocks); a loose particle's lane takes zero stress
+ * and zeta (sph_stress_loose) in place of the law's, and its relaxation
+ * is then vp_relax_one's; a function of its own with the target (the
+ * threads' loop around it is compiled for the baseline CPU) */
+SPH_LANES4_TARGET static void relax_vp4_block(sph_model *m, mevp_work *w, const int *act, size_t i0,
+                                              size_t i1, double dt, double visc, double inv_e2)
+{
+    const sph_params *p = &m->prm;
+    const sph_particles *P = m->P;
+    const sph_v4d zero = splat4(0.0);
+    sph_v4d t11[MEVP_VP_BLOCK4], t22[MEVP_VP_BLOCK4], t12[MEVP_VP_BLOCK4];
+    unsigned char ct[MEVP_VP_BLOCK4];
+    for (size_t i = i0; i < i1; i++) {
+        size_t k[4];
+        quad_of(act, i, k);
+        ct[i - i0] = (unsigned char)quad_contig(k);
+        sph_v4d z, a11, a22, a12;
+        if (ct[i - i0])
+            z = sph_vp_stress_four(p, inv_e2, ld4(P->pres, k, 1), ld4(P->e11, k, 1), ld4(P->e22, k, 1),
+                                   ld4(P->e12, k, 1), &a11, &a22, &a12);
+        else
+            z = sph_vp_stress_four(p, inv_e2, ld4(P->pres, k, 0), ld4(P->e11, k, 0), ld4(P->e22, k, 0),
+                                   ld4(P->e12, k, 0), &a11, &a22, &a12);
+        const sph_v4l lz = {-(long long)(m->loose[k[0]] != 0), -(long long)(m->loose[k[1]] != 0),
+                            -(long long)(m->loose[k[2]] != 0), -(long long)(m->loose[k[3]] != 0)};
+        t11[i - i0] = sel4(lz, zero, a11);
+        t22[i - i0] = sel4(lz, zero, a22);
+        t12[i - i0] = sel4(lz, zero, a12);
+        st4(m->zeta, k, ct[i - i0], sel4(lz, zero, z));
+    }
+    for (size_t i = i0; i < i1; i++) {
+        size_t k[4];
+        quad_of(act, i, k);
+        if (ct[i - i0])
+            relax_four(m, w, k, 1, t11[i - i0], t22[i - i0], t12[i - i0], dt, visc);
+        else
+            relax_four(m, w, k, 0, t11[i - i0], t22[i - i0], t12[i - i0], dt, visc);
+    }
+}
+
+/* mevp_relax's VP branch for list entries [0, 4 (count / 4)) */
+static void mevp_relax_vp4(sph_model *m, mevp_work *w, const int *act, size_t na, double dt,
+                           double visc, double inv_e2)
+{
+    const size_t nq = na / 4;
+    const size_t nblk = (nq + MEVP_VP_BLOCK4 - 1) / MEVP_VP_BLOCK4;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
+    for (size_t b = 0; b < nblk; b++) {
+        const size_t i0 = b * MEVP_VP_BLOCK4;
+        relax_vp4_block(m, w, act, i0, i0 + MEVP_VP_BLOCK4 < nq ? i0 + MEVP_VP_BLOCK4 : nq, dt, visc,
+                        inv_e2);
+    }
+}
+#endif
+
 /* The rheology's stress and its relaxation for the particles of list
  * (per particle: the order of the list does not matter); entries 2i and
  * 2i + 1 in two lanes. The VP law (rheology vp_law) is evaluated here,
@@ -206,16 +308,27 @@ static void mevp_relax(sph_model *m, mevp_work *w, const int *act, size_t na, do
         /* blocks of MEVP_VP_BLOCK pairs: the law for the block into a
          * buffer on the stack, then the block's relaxation (two short
          * chains of divisions and roots, as the two passes had, instead of
-         * one long one per pair) */
+         * one long one per pair); with four lanes the list's quads first,
+         * then the rest in pairs */
         const sph_particles *P = m->P;
         const double inv_e2 = 1.0 / (p->ecc * p->ecc);
-        const size_t nblk = (half + MEVP_VP_BLOCK - 1) / MEVP_VP_BLOCK;
+        size_t done = 0;
+#if defined(SPH_HAVE_LANES4)
+        if (m->lanes4) {
+            mevp_relax_vp4(m, w, act, na, dt, visc, inv_e2);
+            done = na / 4 * 4;
+        }
+#endif
+        act += done;
+        na -= done;
+        const size_t half2 = na / 2;
+        const size_t nblk = (half2 + MEVP_VP_BLOCK - 1) / MEVP_VP_BLOCK;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
         for (size_t b = 0; b < nblk; b++) {
             sph_v2d t11[MEVP_VP_BLOCK], t22[MEVP_VP_BLOCK], t12[MEVP_VP_BLOCK];
             unsigned char lz[MEVP_VP_BLOCK];
             const size_t i0 = b * MEVP_VP_BLOCK;
-            const size_t i1 = i0 + MEVP_VP_BLOCK < half ? i0 + MEVP_VP_BLOCK : half;
+            const size_t i1 = i0 + MEVP_VP_BLOCK < half2 ? i0 + MEVP_VP_BLOCK : half2;
             for (size_t i = i0; i < i1; i++) {
                 size_t k0 = (size_t)act[2 * i], k1 = (size_t)act[2 * i + 1];
                 lz[i - i0] = m->loose[k0] || m->loose[k1];
@@ -334,10 +447,74 @@ static inline void momentum_two(sph_model *m, mevp_work *w, size_t k0, size_t k1
     st2(P->v, k0, k1, v);
 }
 
+#if defined(SPH_HAVE_LANES4)
+/* momentum_two for the four particles k[0..3] in four lanes (lanes.h);
+ * contig: k[l] = k[0] + l. */
+SPH_LANES4_INLINE void momentum_four(sph_model *m, mevp_work *w, const size_t *k, int contig,
+                                     double dt)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    const sph_v4d beta = p->evp_adaptive ? ld4(m->scratch, k, contig) : splat4(p->evp_beta);
+    const sph_v4d up = ld4(P->u, k, contig), vp = ld4(P->v, k, contig);
+    const sph_v4d un = ld4(m->un, k, contig), vn = ld4(m->vn, k, contig);
+    const sph_v4d rho_h = ld4(P->dens, k, contig);
+    const sph_v4d dA = p->drag_scaling == SPH_DRAG_CONCENTRATION ? ld4(P->conc, k, contig) : splat4(1.0);
+    const sph_v4d uw = ld4(P->uw, k, contig), vw = ld4(P->vw, k, contig);
+    const sph_v4d dux = uw - up, duy = vw - vp;
+    const sph_v4d c = dA * splat4(p->rho_w) * splat4(p->Cw) * sqrt4(dux * dux + duy * duy) / rho_h;
+    const sph_v4d cw = splat4(m->cos_water), sw = splat4(m->sin_water), vdt = splat4(dt);
+    const sph_v4d f = ld4(m->fcor, k, contig), half = splat4(0.5), g = splat4(p->gravity);
+    const sph_v4d rx = beta * up + un +
+                       vdt * (ld4(P->ax, k, contig) + ld4(w->qax, k, contig) + c * (cw * uw - sw * vw) -
+                              g * ld4(P->sshx, k, contig) + half * f * vn);
+    const sph_v4d ry = beta * vp + vn +
+                       vdt * (ld4(P->ay, k, contig) + ld4(w->qay, k, contig) + c * (sw * uw + cw * vw) -
+                              g * ld4(P->sshy, k, contig) - half * f * un);
+    const sph_v4d d11 = splat4(1.0) + beta + vdt * c * cw, d22 = d11;
+    const sph_v4d d12 = -vdt * (c * sw + half * f), d21 = -d12;
+    const sph_v4d det = d11 * d22 - d12 * d21;
+    const sph_v4d u = (d22 * rx - d12 * ry) / det;
+    const sph_v4d v = (d11 * ry - d21 * rx) / det;
+    st4(m->dvel, k, contig, fmax4(fabs4(u - up), fabs4(v - vp)));
+    const sph_v4d bu = beta * (u - up), bv = beta * (v - vp);
+    st4(w->res2, k, contig, bu * bu + bv * bv);
+    st4(P->u, k, contig, u);
+    st4(P->v, k, contig, v);
+}
+
+/* The velocity update of the quads [i0, i1) of list in four lanes (its
+ * own function with the target, as relax_vp4_block) */
+SPH_LANES4_TARGET static void momentum_block4(sph_model *m, mevp_work *w, const int *act, size_t i0,
+                                              size_t i1, double dt)
+{
+    for (size_t i = i0; i < i1; i++) {
+        size_t k[4];
+        quad_of(act, i, k);
+        if (quad_contig(k))
+            momentum_four(m, w, k, 1, dt);
+        else
+            momentum_four(m, w, k, 0, dt);
+    }
+}
+
+/* ... of list entries [0, 4 (count / 4)), blocks of MEVP_VP_BLOCK4 quads */
+static void momentum_pass4(sph_model *m, mevp_work *w, const int *act, size_t na, double dt)
+{
+    const size_t nq = na / 4;
+    const size_t nblk = (nq + MEVP_VP_BLOCK4 - 1) / MEVP_VP_BLOCK4;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
+    for (size_t b = 0; b < nblk; b++) {
+        const size_t i0 = b * MEVP_VP_BLOCK4;
+        momentum_block4(m, w, act, i0, i0 + MEVP_VP_BLOCK4 < nq ? i0 + MEVP_VP_BLOCK4 : nq, dt);
+    }
+}
+#endif
+
 /* pending: a halo refresh is in flight (posted after the last iteration);
  * the interior particles' strain and stress are computed before it is
  * completed, then the boundary ones'. */
-static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pending)
+static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pending, int full)
 {
     sph_particles *P = m->P;
     const sph_params *p = &m->prm;
@@ -358,11 +535,19 @@ static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pendi
     sph_ghost_stress_air(m, w->gair);
     sph_divergence_pass(m, act, na);
     /* velocity update, entries 2i and 2i + 1 of the active set in two
-     * lanes; the max change is reduced serially afterwards */
-    const size_t half = na / 2;
-#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
+     * lanes (with four lanes: its quads first, the rest in pairs); the
+     * max change is reduced serially afterwards */
+    size_t done = 0;
+#if defined(SPH_HAVE_LANES4)
+    if (m->lanes4) {
+        momentum_pass4(m, w, act, na, dt);
+        done = na / 4 * 4;
+    }
+#endif
+    const size_t half = (na - done) / 2; /* (na - done) % 2 == na % 2 */
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na - done))
     for (size_t i = 0; i < half; i++)
-        momentum_two(m, w, (size_t)act[2 * i], (size_t)act[2 * i + 1], dt);
+        momentum_two(m, w, (size_t)act[done + 2 * i], (size_t)act[done + 2 * i + 1], dt);
     if (na % 2) {
         size_t k = (size_t)act[na - 1];
         double beta = p->evp_adaptive ? m->scratch[k] : p->evp_beta;
@@ -376,10 +561,20 @@ static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pendi
         P->u[k] = u;
         P->v[k] = v;
     }
-    /* the stress sums only for model.evp.change_tol, their only reader
-     * (each sum is its own chain: leaving two out changes no other) */
+    /* the stress sums only for model.evp.change_tol, their only reader,
+     * the residual's and the speeds' only with full (else mevp_rel_sums
+     * where the solve needs them; each sum is its own chain: leaving some
+     * out changes no other) */
     mevp_sums s = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     const int change = p->evp_change_tol > 0.0;
+    if (!full) {
+        for (size_t i = 0; i < na; i++) {
+            double d = m->dvel[(size_t)act[i]];
+            s.dmax = sph_fmax(s.dmax, d);
+            s.s2 += d * d;
+        }
+        return s;
+    }
     for (size_t i = 0; i < na; i++) {
         size_t k = (size_t)act[i];
         double d = m->dvel[k];
@@ -393,6 +588,20 @@ static mevp_sums mevp_iteration(sph_model *m, mevp_work *w, double dt, int pendi
         }
     }
     return s;
+}
+
+/* mevp_iteration's sums of squared residuals and speeds for the state it
+ * left (the same sums in the same order) */
+static void mevp_rel_sums(const sph_model *m, const mevp_work *w, mevp_sums *s)
+{
+    const sph_particles *P = m->P;
+    const int *act = m->active;
+    s->q2 = s->u2 = 0.0;
+    for (size_t i = 0; i < m->nactive; i++) {
+        size_t k = (size_t)act[i];
+        s->q2 += w->res2[k];
+        s->u2 += P->u[k] * P->u[k] + P->v[k] * P->v[k];
+    }
 }
 
 /* ---- Anderson acceleration (model.evp.anderson; Walker & Ni 2011, type
@@ -543,15 +752,33 @@ static int mevp_solve_iterations(sph_model *m, mevp_work *w, sph_status *st);
 
 /* The iterations with the divergence's 1 / M^2 per slot computed once
  * (sph_model.div_imd2: M is constant within the solve; its first
- * divergence pass fills it, after the first ghost stresses). */
+ * divergence pass fills it, after the first ghost stresses) and the
+ * strain pass's 1 / M_k once (sph_model.strain_im). */
 static int mevp_solve(sph_model *m, void *ws, sph_status *st)
 {
     mevp_work *w = ws;
+    const sph_particles *P = m->P;
+    const size_t na = m->nactive;
     m->div_imd2 = w->imd2;
     m->div_imd2_ready = 0;
+    /* the strain pass's 1 / M_k for the active set (every list it is
+     * given in the solve is part of it), the pass's own division */
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(na))
+    for (size_t i = 0; i < na; i++) {
+        size_t k = (size_t)m->active[i];
+        w->im[k] = 1.0 / P->dens[k];
+    }
+    m->strain_im = w->im;
+    m->pass_pairs_on = 1; /* the lists' pair counts once per solve */
+    m->pass_pairs_n = 0;
+    m->pk_mass_ready = 0;
     int rc = mevp_solve_iterations(m, w, st);
     m->div_imd2 = NULL;
     m->div_imd2_ready = 0;
+    m->strain_im = NULL;
+    m->pass_pairs_on = 0;
+    m->pass_pairs_n = 0;
+    m->pk_mass_ready = 0;
     return rc;
 }
 
@@ -588,7 +815,11 @@ static int mevp_solve_iterations(sph_model *m, mevp_work *w, sph_status *st)
     for (it = 0; it < p->evp_iterations; it++) {
         if (aa)
             aa_save(m, w);
-        mevp_sums s = mevp_iteration(m, w, dt, pending);
+        /* the residual's sums where a rule reads them, or for the
+         * statistics of the last iteration (mevp_rel_sums at a break) */
+        const int full = p->evp_rel_tol > 0.0 || p->evp_change_tol > 0.0 || m->dd ||
+                         it + 1 == p->evp_iterations;
+        mevp_sums s = mevp_iteration(m, w, dt, pending, full);
         pending = 0;
         double nna = (double)na;
         if (m->dd)
@@ -601,6 +832,12 @@ static int mevp_solve_iterations(sph_model *m, mevp_work *w, sph_status *st)
             m->dd->exchange(m->dd->ctx, m, SPH_DD_ITER_WAIT);
         double r = s.dmax;
         resid = r;
+        /* without them, the sums where the iteration stops below (the
+         * tolerance or the stall rule), the state unchanged since (no
+         * decomposition, no exchange: full otherwise) */
+        if (!full && (r < p->evp_tol ||
+                      (win > 0 && !(it == 0 || sqrt(s.s2 / nna) < rms_ref) && it - it_ref >= win)))
+            mevp_rel_sums(m, w, &s);
         /* relative to the RMS speed, floored at SPH_MEVP_SPEED_FLOOR (ice
          * at rest has no scale of its own) */
         double urms = sqrt(s.u2 / nna);
