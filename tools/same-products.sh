@@ -16,7 +16,10 @@ for fa in "$a"/*; do
     case "$f" in
     *.nc)   ncdump -p 17,17 "$fa" | sed 1d | strip >/tmp/same.$$.a
             ncdump -p 17,17 "$fb" | sed 1d | strip >/tmp/same.$$.b ;;
-    *.png)  cmp -s "$fa" "$fb" || { echo "differs: $f"; rc=1; }; continue ;;
+    # binary products (images, GeoTIFF, GeoPackage) byte for byte: grep
+    # would print only "binary file matches" for both and hide a change
+    *.png|*.tif|*.tiff|*.gpkg)
+            cmp -s "$fa" "$fb" || { echo "differs: $f"; rc=1; }; continue ;;
     manifest.json) # file checksums cover the volatile attributes above
             grep -vE '"(sha256|size|bytes)"' "$fa" | strip >/tmp/same.$$.a
             grep -vE '"(sha256|size|bytes)"' "$fb" | strip >/tmp/same.$$.b ;;
