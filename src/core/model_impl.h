@@ -230,6 +230,9 @@ void sph_ghost_air_setup(sph_model *m, double *air);
 void sph_ghost_stress_air(sph_model *m, const double *air);
 void sph_move_and_constrain(sph_model *m);
 void sph_remove_outflow(sph_model *m);
+/* sph_move_and_constrain for particle k alone; returns 1 when its new
+ * position is one sph_remove_outflow removes (the same test) */
+int sph_move_one(sph_model *m, size_t k);
 
 /* S' = R S R with R = I - 2 n n^T; S = [[a, b], [b, c]] (a mirror). */
 static inline void sph_reflect_tensor(double nx, double ny, double *a, double *b, double *c)
@@ -355,6 +358,9 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count);
 void sph_gradient_correction_pass(sph_model *m);
 void sph_free_drift_pass(sph_model *m);
 void sph_parcels_drift_pass(sph_model *m);
+/* sph_parcels_drift_pass's solve for particles [k0, k1), on the calling
+ * thread (the same bits: each parcel's result is its own) */
+void sph_parcels_drift_range(sph_model *m, size_t k0, size_t k1);
 void sph_continuity_pass(sph_model *m);
 void sph_update_sml(sph_model *m);
 

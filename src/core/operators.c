@@ -750,6 +750,26 @@ void sph_parcels_drift_pass(sph_model *m)
     }
 }
 
+void sph_parcels_drift_range(sph_model *m, size_t k0, size_t k1)
+{
+    const double cw = m->cos_water, sw = m->sin_water;
+    size_t k = k0;
+    for (; k + PARCEL_LANES <= k1; k += PARCEL_LANES) {
+        parcel_sys q[PARCEL_LANES];
+        double s[PARCEL_LANES];
+        for (int l = 0; l < PARCEL_LANES; l++)
+            parcel_setup(m, k + (size_t)l, q + l);
+        parcel_newton_lanes(q, cw, sw, s);
+        for (int l = 0; l < PARCEL_LANES; l++)
+            parcel_finish(m, k + (size_t)l, q + l, s[l]);
+    }
+    for (; k < k1; k++) {
+        parcel_sys q;
+        parcel_setup(m, k, &q);
+        parcel_finish(m, k, &q, parcel_newton(&q, cw, sw));
+    }
+}
+
 /* Kernel gradient correction (model.gradient_correction; Bonet & Lok
  * 1999, Randles & Libersky 1996). The SPH gradient of a linear field is
  * B_k times the true one, B_k = sum_j V_j (-F_kj) d d^T (d = r_k - r_j);
