@@ -352,14 +352,6 @@ int sph_model_ghosts_merging(const sph_model *m) { return m && m->ghost_merge; }
 /* ------------------------------------------------------------------ */
 /* free drift as independent parcels (model.free_drift_parcels)       */
 
-/* *x = +0.0, written only where it is not already (pages of a field that
- * stays zero, such as the parcels' strain rates, are never made resident:
- * issue 22's memory at 1e6 particles). */
-static inline void sph_set_zero(double *x)
-{
-    if (*x != 0.0 || signbit(*x))
-        *x = 0.0;
-}
 
 /* 1 where a step runs without SPH machinery: whole-run free drift with
  * model.free_drift_parcels. */
@@ -457,13 +449,15 @@ static void parcels_step_pass(sph_model *m, size_t *top_out, size_t *first_out, 
                 P->thick[k] = hbar;
                 A = 1.0;
             }
-            P->conc[k] = A;
+            sph_set_bits(&P->conc[k], A);
             double factor = exp(-p->C * (1.0 - A));
-            P->pres[k] = p->P0 * hbar * factor;
-            m->loose[k] = 1; /* free drift */
+            sph_set_bits(&P->pres[k], p->P0 * hbar * factor);
+            if (m->loose[k] != 1) /* free drift */
+                m->loose[k] = 1;
             /* parcels_prepare */
-            P->regime[k] &= clear;
-            P->regime[k] |= SPH_REGIME_FREE_DRIFT;
+            unsigned char rg = (unsigned char)((P->regime[k] & clear) | SPH_REGIME_FREE_DRIFT);
+            if (P->regime[k] != rg)
+                P->regime[k] = rg;
             /* sph_model_step's start */
             m->un[k] = P->u[k];
             m->vn[k] = P->v[k];
@@ -490,7 +484,7 @@ static void parcels_step_pass(sph_model *m, size_t *top_out, size_t *first_out, 
                 double div = P->e11[k] + P->e22[k];
                 double h = P->sml0[k] * sqrt(P->dens0[k] / P->dens[k]) * (1.0 + 0.5 * p->dt * div);
                 double lo = p->sml_min_factor * P->sml0[k], hi = p->sml_max_factor * P->sml0[k];
-                P->sml[k] = fmin(fmax(h, lo), hi);
+                sph_set_bits(&P->sml[k], fmin(fmax(h, lo), hi));
             }
             /* the end of the step: check_health, regime_fractions */
             if (k < first && particle_unhealthy(P, p, k))

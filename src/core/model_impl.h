@@ -27,6 +27,8 @@
 
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
+#include <string.h>
 
 #include "core/dd.h"
 #include "core/kernel.h"
@@ -44,6 +46,26 @@
  * summed in index order, then the blocks' sums in block order, whatever
  * the thread count; with at most one block, the plain sum in index order. */
 #define SPH_SUM_BLOCK 16384
+
+/* *x = +0.0, written only where it is not already (pages of a field that
+ * stays zero, such as the parcels' strain rates, are never made resident:
+ * issue 22's memory at 1e6 particles). */
+static inline void sph_set_zero(double *x)
+{
+    if (*x != 0.0 || signbit(*x))
+        *x = 0.0;
+}
+
+/* *x = v, written only where its bits differ (a field that a free-drift
+ * step leaves as it was is read, not written back) */
+static inline void sph_set_bits(double *x, double v)
+{
+    uint64_t a, b;
+    memcpy(&a, x, sizeof a);
+    memcpy(&b, &v, sizeof b);
+    if (a != b)
+        *x = v;
+}
 #define SPH_SUM_NQ 5
 /* Smallest concentration a parcel is diluted to by divergence. */
 #define SPH_CONC_MIN 0.05

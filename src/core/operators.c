@@ -706,7 +706,9 @@ static inline void parcel_finish(sph_model *m, size_t k, const parcel_sys *q, do
     double wr = (q->gr * re + q->gi * im) * id, wi = (q->gi * re - q->gr * im) * id;
     P->u[k] = P->uw[k] - wr;
     P->v[k] = P->vw[k] - wi;
-    P->s11[k] = P->s22[k] = P->s12[k] = 0.0;
+    sph_set_zero(&P->s11[k]); /* zero from the first step on: read, not written */
+    sph_set_zero(&P->s22[k]);
+    sph_set_zero(&P->s12[k]);
 }
 
 /* Free drift of every live particle as an independent parcel
