@@ -1323,65 +1323,44 @@ fail:
 
 /* ------------------------------------------------------ model plane */
 
-/* points per projection call of landmask_to_plane (long calls run on the
- * OpenMP threads, io/geo.h; per-point results, the same in any batch) */
-#define LM_PLANE_BATCH 65536
-
 int landmask_to_plane(const landmask *m, const geo_proj *p, double x0, double y0, double dx,
                       double dy, int nx, int ny, unsigned char *out, sph_error *err)
 {
     if (!m || !p || nx <= 0 || ny <= 0 || !(dx > 0) || !(dy > 0))
         return sph_err_set(err, SPH_ERR_PARAM, "land mask to plane: bad grid %d x %d", nx, ny);
-    /* whole rows, at least one, about LM_PLANE_BATCH points per call */
-    const size_t rows = (size_t)nx >= LM_PLANE_BATCH ? 1 : LM_PLANE_BATCH / (size_t)nx;
-    const size_t cap = rows * (size_t)nx > LM_PLANE_BATCH ? rows * (size_t)nx : LM_PLANE_BATCH;
-    double *x = malloc(sizeof *x * cap * 4);
+    double *x = malloc(sizeof *x * (size_t)nx * 4);
     if (!x)
         return sph_err_set(err, SPH_ERR_NOMEM, "land mask to plane: out of memory");
-    double *y = x + cap, *lon = y + cap, *lat = lon + cap;
+    double *y = x + nx, *lon = y + nx, *lat = lon + nx;
     int rc = SPH_OK;
-    for (int j0 = 0; j0 < ny; j0 += (int)rows) {
-        int j1 = j0 + (int)rows < ny ? j0 + (int)rows : ny;
-        size_t q = 0;
-        for (int j = j0; j < j1; j++)
-            for (int i = 0; i < nx; i++, q++) {
-                x[q] = x0 + (i + 0.5) * dx;
-                y[q] = y0 + (j + 0.5) * dy;
-            }
+    for (int j = 0; j < ny && rc == SPH_OK; j++) {
+        for (int i = 0; i < nx; i++) {
+            x[i] = x0 + (i + 0.5) * dx;
+            y[i] = y0 + (j + 0.5) * dy;
+        }
         sph_error local;
         sph_error_clear(&local);
-        geo_inverse(p, q, x, y, lon, lat, &local); /* NaN where it fails: sea */
-        for (size_t k = 0; k < q; k++)
-            out[(size_t)j0 * nx + k] = landmask_is_land(m, lon[k], lat[k]) == 1;
-    }
-    /* a native land cell is never lost between plane centres: the plane
-     * cell that contains its centre is land as well (the centres projected
-     * in batches; a centre that does not project is NaN and skipped) */
-    for (; m; m = m->also) { /* every mask of a union (landmask_add) */
-        const size_t nc = m->native ? (size_t)m->nlon * (size_t)m->nlat : 0;
-        for (size_t k0 = 0; k0 < nc;) {
-            size_t q = 0;
-            for (; k0 < nc && q < cap; k0++) {
-                if (!m->land[k0] || isnan(m->xyz[3 * k0]))
-                    continue;
-                double vx = m->xyz[3 * k0], vy = m->xyz[3 * k0 + 1], vz = m->xyz[3 * k0 + 2];
-                lon[q] = atan2(vy, vx) * 180.0 / M_PI;
-                lat[q] = asin(fmax(-1, fmin(1, vz))) * 180.0 / M_PI;
-                q++;
-            }
-            sph_error local;
-            sph_error_clear(&local);
-            geo_forward(p, q, lon, lat, x, y, &local);
-            for (size_t k = 0; k < q; k++) {
-                double px = x[k], py = y[k];
-                if (!isfinite(px) || !isfinite(py))
-                    continue;
-                double fi = floor((px - x0) / dx), fj = floor((py - y0) / dy);
-                if (fi >= 0 && fj >= 0 && fi < nx && fj < ny)
-                    out[(size_t)fj * nx + (size_t)fi] = 1;
-            }
-        }
+        geo_inverse(p, (size_t)nx, x, y, lon, lat, &local); /* NaN where it fails: sea */
+        for (int i = 0; i < nx; i++)
+            out[(size_t)j * nx + i] = landmask_is_land(m, lon[i], lat[i]) == 1;
     }
     free(x);
+    /* a native land cell is never lost between plane centres: the plane
+     * cell that contains its centre is land as well */
+    for (; m; m = m->also) /* every mask of a union (landmask_add) */
+    for (size_t k = 0; m->native && k < (size_t)m->nlon * (size_t)m->nlat; k++) {
+        if (!m->land[k] || isnan(m->xyz[3 * k]))
+            continue;
+        double vx = m->xyz[3 * k], vy = m->xyz[3 * k + 1], vz = m->xyz[3 * k + 2];
+        double clon = atan2(vy, vx) * 180.0 / M_PI, clat = asin(fmax(-1, fmin(1, vz))) * 180.0 / M_PI;
+        double px, py;
+        sph_error local;
+        sph_error_clear(&local);
+        if (geo_forward(p, 1, &clon, &clat, &px, &py, &local) != SPH_OK || !isfinite(px) || !isfinite(py))
+            continue;
+        double fi = floor((px - x0) / dx), fj = floor((py - y0) / dy);
+        if (fi >= 0 && fj >= 0 && fi < nx && fj < ny)
+            out[(size_t)fj * nx + (size_t)fi] = 1;
+    }
     return rc;
 }
