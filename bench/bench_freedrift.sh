@@ -26,7 +26,9 @@
 # (build/bench/bench_floor: bilinear interpolation + one 2x2 solve, nothing
 # else) runs for the same particle count and steps.
 # Output (stdout): one CSV row per run,
-#   size,method,threads,particles,steps,cpu_s,wall_s,peak_rss_mb,us_per_particle_step,floor_us,ratio_to_floor
+#   size,method,threads,particles,steps,cpu_s,wall_s,peak_rss_mb,us_per_particle_step,floor_us,ratio_to_floor,load
+# (load: the 1-minute load average, /proc/loadavg, as the run starts; on a
+# shared machine a wall time means little above about 1 on 2 cores)
 # Environment: BUILD (build), BENCH_OUT (bench/out), FD_SIZES, FD_HOURS,
 # FD_BEFORE, FD_BEFORE_HOURS, FD_BASE, FD_METHODS ("before sph parcels"), FD_THREADS2,
 # FD_CONFIG_ONLY.
@@ -83,7 +85,7 @@ if [ -n "${FD_CONFIG_ONLY:-}" ]; then
     for size in $SIZES; do for method in $METHODS; do config "$size" "$method" 1; done; done
     exit 0
 fi
-echo "size,method,threads,particles,steps,cpu_s,wall_s,peak_rss_mb,us_per_particle_step,floor_us,ratio_to_floor"
+echo "size,method,threads,particles,steps,cpu_s,wall_s,peak_rss_mb,us_per_particle_step,floor_us,ratio_to_floor,load"
 for size in $SIZES; do
     for method in $METHODS; do
         bin="$BUILD/sphice"; hours=$HOURS
@@ -102,10 +104,11 @@ for size in $SIZES; do
         for th in $threads; do
             cfg=$(config "$size" "$method" "$th")
             log="$OUT/${size}_${method}_t$th.log"
+            load=$(cut -d ' ' -f 1 /proc/loadavg 2>/dev/null || echo '')
             if ! OMP_NUM_THREADS=$th /usr/bin/time -o "$log.time" -f "%U %S %e %M" \
                 "$bin" run "$cfg" --cycle "$CYCLE" --hours "$hours" --out "$OUT/out_${size}_${method}_t$th" --force \
                 > "$log" 2>&1; then
-                echo "$size,$method,$th,,,,,,failed: $(tail -n 1 "$log" | tr ',' ';'),,"
+                echo "$size,$method,$th,,,,,,failed: $(tail -n 1 "$log" | tr ',' ';'),,,$load"
                 continue
             fi
             read -r us sy wall rss < "$log.time"
@@ -113,9 +116,9 @@ for size in $SIZES; do
             steps=$(echo "$line" | awk '{print $1}')
             parts=$(echo "$line" | awk '{print ($6 + $8) / 2}')
             floor=$("$BUILD/bench/bench_floor" "${parts%.*}" "$steps" 300 | awk '/^floor_ns/ {print $2 / 1000}')
-            echo "$size $method $th $parts $steps $us $sy $wall $rss $floor" | awk '{
+            echo "$size $method $th $parts $steps $us $sy $wall $rss $floor $load" | awk '{
                 cpu = $6 + $7; per = 1e6 * cpu / ($4 * $5);
-                printf "%s,%s,%s,%.0f,%s,%.2f,%.2f,%.0f,%.4f,%.4f,%.1f\n", $1, $2, $3, $4, $5, cpu, $8, $9 / 1024, per, $10, per / $10 }'
+                printf "%s,%s,%s,%.0f,%s,%.2f,%.2f,%.0f,%.4f,%.4f,%.1f,%s\n", $1, $2, $3, $4, $5, cpu, $8, $9 / 1024, per, $10, per / $10, $11 }'
         done
     done
 done

@@ -430,6 +430,46 @@ void sph_move_and_constrain(sph_model *m)
     }
 }
 
+/* The same move for one particle, its cell looked up once: where the
+ * target cell is sea, that cell also says whether the particle left an
+ * open boundary (outside_open's test); a blocked move tests again. */
+int sph_move_one(sph_model *m, size_t k)
+{
+    sph_particles *P = m->P;
+    const double dt = m->prm.dt;
+    double x0 = P->x[k], y0 = P->y[k];
+    double x1 = x0 + 0.5 * dt * (m->un[k] + P->u[k]);
+    double y1 = y0 + 0.5 * dt * (m->vn[k] + P->v[k]);
+    if (!m->has_mask) {
+        P->x[k] = x1;
+        P->y[k] = y1;
+        return 0;
+    }
+    int i, j;
+    int in = mask_cell(m, x1, y1, &i, &j);
+    int land = in ? m->land[(size_t)j * m->mask.nx + i] != 0 : m->mask.closed_outside;
+    if (land) {
+        if (!sph_is_land(m, x1, y0)) {
+            y1 = y0;
+            P->v[k] = 0.0;
+        } else if (!sph_is_land(m, x0, y1)) {
+            x1 = x0;
+            P->u[k] = 0.0;
+        } else {
+            x1 = x0;
+            y1 = y0;
+            P->u[k] = P->v[k] = 0.0;
+        }
+        P->x[k] = x1;
+        P->y[k] = y1;
+        return outside_open(m, x1, y1);
+    }
+    P->x[k] = x1;
+    P->y[k] = y1;
+    /* not land: inside the mask's box, or outside an open one */
+    return !in && !m->mask.closed_outside && isfinite(x1) && isfinite(y1);
+}
+
 /* Removes particles that left an open boundary (after the strain pass:
  * removal reorders the arrays the neighbour lists point into). */
 void sph_remove_outflow(sph_model *m)

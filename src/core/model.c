@@ -357,14 +357,6 @@ int sph_model_ghosts_merging(const sph_model *m) { return m && m->ghost_merge; }
 /* ------------------------------------------------------------------ */
 /* free drift as independent parcels (model.free_drift_parcels)       */
 
-/* *x = +0.0, written only where it is not already (pages of a field that
- * stays zero, such as the parcels' strain rates, are never made resident:
- * issue 22's memory at 1e6 particles). */
-static inline void sph_set_zero(double *x)
-{
-    if (*x != 0.0 || signbit(*x))
-        *x = 0.0;
-}
 
 /* 1 where a step runs without SPH machinery: whole-run free drift with
  * model.free_drift_parcels. */
@@ -420,6 +412,100 @@ static void parcels_prepare(sph_model *m)
         P->regime[k] |= SPH_REGIME_FREE_DRIFT;
     }
     m->nactive = 0;
+}
+
+/* The whole step of parcels in one pass over the particles, in chunks of
+ * SPH_PARCELS_CHUNK (run by parcels_step when nothing else reads the state
+ * between the separate passes: no ocean fluxes, no fixed state, no
+ * decomposition). Each particle goes through the separate passes' own
+ * operations in their order: sph_diagnose_pass, parcels_prepare's regime
+ * flags, the step's start (un, vn, ax, ay, fcor), sph_parcels_drift_pass,
+ * sph_move_and_constrain, parcels_diagnose and sph_update_sml (after the
+ * move, before the outflow's removals: a removal moves a whole particle,
+ * whose smoothing length is its own either way). The passes read and
+ * write particle k's own values only, so each particle's bits are the
+ * separate passes'. Also, for the end of the step: *top = 1 + the highest
+ * index sph_remove_outflow removes (0: none), *first = the first particle
+ * check_health's per-particle tests fail (n: none), cnt = the regime
+ * counts regime_fractions makes (max, min and sums of integers: the same
+ * whatever the thread count). */
+#define SPH_PARCELS_CHUNK 256
+static inline int particle_unhealthy(const sph_particles *P, const sph_params *p, size_t k);
+static void parcels_step_pass(sph_model *m, size_t *top_out, size_t *first_out, size_t cnt[4])
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    const size_t n = P->n, nc = (n + SPH_PARCELS_CHUNK - 1) / SPH_PARCELS_CHUNK;
+    const double rho_i = p->rho_i;
+    const int continuity = !p->summation_density, vsml = p->variable_sml;
+    const unsigned char clear = (unsigned char)~(SPH_REGIME_FREE_DRIFT | SPH_REGIME_RHEOLOGY |
+                                                 SPH_REGIME_NEAR_COAST);
+    size_t top = 0, first = n, fd = 0, rh = 0, zl = 0, ml = 0;
+#pragma omp parallel for schedule(static) reduction(max : top) reduction(min : first) \
+    reduction(+ : fd, rh, zl, ml) if (SPH_OMP_WORTH(n))
+    for (size_t c = 0; c < nc; c++) {
+        const size_t k0 = c * SPH_PARCELS_CHUNK, k1 = k0 + SPH_PARCELS_CHUNK < n ? k0 + SPH_PARCELS_CHUNK : n;
+        for (size_t k = k0; k < k1; k++) {
+            /* sph_diagnose_pass */
+            double hbar = P->dens[k] / p->rho_i;
+            double A = hbar / P->thick[k];
+            if (A > 1.0) {
+                P->snow[k] *= P->thick[k] / hbar;
+                P->thick[k] = hbar;
+                A = 1.0;
+            }
+            sph_set_bits(&P->conc[k], A);
+            double factor = exp(-p->C * (1.0 - A));
+            sph_set_bits(&P->pres[k], p->P0 * hbar * factor);
+            if (m->loose[k] != 1) /* free drift */
+                m->loose[k] = 1;
+            /* parcels_prepare */
+            unsigned char rg = (unsigned char)((P->regime[k] & clear) | SPH_REGIME_FREE_DRIFT);
+            if (P->regime[k] != rg)
+                P->regime[k] = rg;
+            /* sph_model_step's start */
+            m->un[k] = P->u[k];
+            m->vn[k] = P->v[k];
+            sph_set_zero(&P->ax[k]);
+            sph_set_zero(&P->ay[k]);
+            m->fcor[k] = !p->coriolis ? 0.0
+                         : p->coriolis_f != 0.0 ? p->coriolis_f
+                                                : 2.0 * OMEGA_EARTH * sin(P->lat[k] * DEG2RAD);
+        }
+        sph_parcels_drift_range(m, k0, k1);
+        for (size_t k = k0; k < k1; k++) {
+            int out = sph_move_one(m, k);
+            if (out && k + 1 > top)
+                top = k + 1;
+            /* parcels_diagnose */
+            sph_set_zero(&P->e11[k]);
+            sph_set_zero(&P->e22[k]);
+            sph_set_zero(&P->e12[k]);
+            double floor_dens = SPH_CONC_MIN * rho_i * P->thick[k];
+            if (continuity && P->dens[k] < floor_dens)
+                P->dens[k] = floor_dens;
+            /* sph_update_sml */
+            if (vsml) {
+                double div = P->e11[k] + P->e22[k];
+                double h = P->sml0[k] * sqrt(P->dens0[k] / P->dens[k]) * (1.0 + 0.5 * p->dt * div);
+                double lo = p->sml_min_factor * P->sml0[k], hi = p->sml_max_factor * P->sml0[k];
+                sph_set_bits(&P->sml[k], fmin(fmax(h, lo), hi));
+            }
+            /* the end of the step: check_health, regime_fractions */
+            if (k < first && particle_unhealthy(P, p, k))
+                first = k;
+            fd += (P->regime[k] & SPH_REGIME_FREE_DRIFT) != 0;
+            rh += (P->regime[k] & SPH_REGIME_RHEOLOGY) != 0;
+            zl += (P->regime[k] & SPH_REGIME_ZERO_LAYER) != 0;
+            ml += (P->regime[k] & SPH_REGIME_MULTI_LAYER) != 0;
+        }
+    }
+    *top_out = top;
+    *first_out = first;
+    cnt[0] = fd;
+    cnt[1] = rh;
+    cnt[2] = zl;
+    cnt[3] = ml;
 }
 
 /* The budget's sums over particles [k0, k1) in index order: mass, area,
@@ -490,6 +576,9 @@ static inline int particle_unhealthy(const sph_particles *P, const sph_params *p
 
 static int check_ocean_budget(sph_model *m, sph_status *st);
 
+/* check_health from its first failing particle (n: none) */
+static int check_health_from(sph_model *m, sph_status *st, size_t first);
+
 static int check_health(sph_model *m, sph_status *st)
 {
     sph_particles *P = m->P;
@@ -502,6 +591,14 @@ static int check_health(sph_model *m, sph_status *st)
     for (size_t k = 0; k < n; k++)
         if (k < first && particle_unhealthy(P, p, k))
             first = k;
+    return check_health_from(m, st, first);
+}
+
+static int check_health_from(sph_model *m, sph_status *st, size_t first)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    const size_t n = P->n;
     for (size_t k = first; k < n; k++) {
         const double vals[] = {P->x[k], P->y[k], P->u[k], P->v[k], P->thick[k], P->mass[k]};
         static const char *const names[] = {"x position", "y position", "x velocity",
@@ -779,6 +876,18 @@ int sph_model_ocean_create(sph_model *m, const sph_ocean_grid *g)
 
 sph_ocean *sph_model_ocean(sph_model *m) { return m->ocean; }
 
+/* the step's statistics from the regime counts (free drift, rheology,
+ * zero-layer, multi-layer) */
+static void regime_fractions_from(sph_model *m, size_t fd, size_t rh, size_t zl, size_t ml)
+{
+    const sph_particles *P = m->P;
+    double n = P->n > 0 ? (double)P->n : 1.0;
+    m->stats.frac_free_drift = (double)fd / n;
+    m->stats.frac_rheology = (double)rh / n;
+    m->stats.frac_zero_layer = (double)zl / n;
+    m->stats.frac_multi_layer = (double)ml / n;
+}
+
 static void regime_fractions(sph_model *m)
 {
     sph_particles *P = m->P;
@@ -791,11 +900,7 @@ static void regime_fractions(sph_model *m)
         zl += (P->regime[k] & SPH_REGIME_ZERO_LAYER) != 0;
         ml += (P->regime[k] & SPH_REGIME_MULTI_LAYER) != 0;
     }
-    double n = P->n > 0 ? (double)P->n : 1.0;
-    m->stats.frac_free_drift = (double)fd / n;
-    m->stats.frac_rheology = (double)rh / n;
-    m->stats.frac_zero_layer = (double)zl / n;
-    m->stats.frac_multi_layer = (double)ml / n;
+    regime_fractions_from(m, fd, rh, zl, ml);
 }
 
 /* The stress of the ice on the ocean, added to ofx_taux/ofx_tauy as
@@ -838,19 +943,14 @@ static int fixed_state_end(sph_model *m, sph_status *st)
     return check_health(m, st);
 }
 
-int sph_model_step(sph_model *m, sph_status *st)
+/* sph_model_step's dynamics as separate passes: neighbours (or parcels'
+ * preparation), free drift, the solver, the move, the final strain rates
+ * and continuity, the outflow, the smoothing length. *ended = 1 when the
+ * step ended there (model.fixed_state: its rc is the step's). */
+static int step_passes(sph_model *m, sph_status *st, int parcels, int *ended)
 {
     sph_particles *P = m->P;
     const sph_params *p = &m->prm;
-    sph_status_clear(st);
-    st->step = m->steps;
-    m->stats.substeps = 1;
-    m->stats.iterations = 0;
-    m->stats.stalled = 0;
-    m->stats.residual = 0.0;
-    m->stats.rel_residual = 0.0;
-    m->stats.unconverged = 0;
-    const int parcels = parcels_mode(m);
     int rc = parcels ? (parcels_prepare(m), SPH_STEP_OK) : prepare(m, st);
     if (rc != SPH_STEP_OK)
         return rc;
@@ -877,8 +977,10 @@ int sph_model_step(sph_model *m, sph_status *st)
     }
     if (p->thermo.ocean_fluxes)
         accumulate_ocean_stress(m);
-    if (p->fixed_state)
+    if (p->fixed_state) {
+        *ended = 1;
         return fixed_state_end(m, st);
+    }
     /* positions first: a move blocked by land zeroes the blocked velocity,
      * and only the realised motion may compress a parcel (a particle held
      * at a coast otherwise kept "converging" into land and ridged without
@@ -896,11 +998,48 @@ int sph_model_step(sph_model *m, sph_status *st)
     }
     sph_remove_outflow(m);
     sph_update_sml(m);
+    return SPH_STEP_OK;
+}
+
+int sph_model_step(sph_model *m, sph_status *st)
+{
+    sph_particles *P = m->P;
+    const sph_params *p = &m->prm;
+    sph_status_clear(st);
+    st->step = m->steps;
+    m->stats.substeps = 1;
+    m->stats.iterations = 0;
+    m->stats.stalled = 0;
+    m->stats.residual = 0.0;
+    m->stats.rel_residual = 0.0;
+    m->stats.unconverged = 0;
+    const int parcels = parcels_mode(m);
+    /* parcels with nothing between the passes that reads the state: the
+     * whole step in one pass (parcels_step_pass; the same bits) */
+    const int fused = parcels && !m->dd && !m->canonical && !p->fixed_state && !p->thermo.ocean_fluxes;
+    size_t fused_top = 0, fused_first = 0, fused_cnt[4] = {0, 0, 0, 0};
+    int rc;
+    if (fused) {
+        if (m->steps % SPH_PARCELS_REORDER == 0)
+            sph_reorder(m);
+        m->ng = 0;
+        m->nactive = 0;
+        parcels_step_pass(m, &fused_top, &fused_first, fused_cnt);
+        if (fused_top)
+            sph_remove_outflow(m);
+    } else {
+        int ended = 0;
+        rc = step_passes(m, st, parcels, &ended);
+        if (ended || rc != SPH_STEP_OK)
+            return rc;
+    }
     m->time += p->dt;
     m->steps++;
+    int thermo_ran = 0;
     if (p->thermo_dt > 0.0 && p->thermo.model != SPH_THERMO_OFF) {
         m->thermo_accum += p->dt;
         if (m->thermo_accum >= p->thermo_dt - 1e-9 * p->thermo_dt) {
+            thermo_ran = 1;
             for (size_t k = 0; k < P->n; k++)
                 m->dvel[k] = P->mass[k];
             double tdt = m->thermo_accum;
@@ -952,6 +1091,12 @@ int sph_model_step(sph_model *m, sph_status *st)
                 if (!(P->mass[k] > 0.0))
                     sph_dd_remove(m, k);
         }
+    }
+    if (fused && !fused_top && !thermo_ran) { /* the pass's counts are the final state's */
+        regime_fractions_from(m, fused_cnt[0], fused_cnt[1], fused_cnt[2], fused_cnt[3]);
+        update_budget(m);
+        sph_dd_update_sources(m);
+        return check_health_from(m, st, fused_first);
     }
     regime_fractions(m);
     update_budget(m);

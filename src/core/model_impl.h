@@ -27,6 +27,8 @@
 
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
+#include <string.h>
 
 #include "core/dd.h"
 #include "core/kernel.h"
@@ -44,6 +46,26 @@
  * summed in index order, then the blocks' sums in block order, whatever
  * the thread count; with at most one block, the plain sum in index order. */
 #define SPH_SUM_BLOCK 16384
+
+/* *x = +0.0, written only where it is not already (pages of a field that
+ * stays zero, such as the parcels' strain rates, are never made resident:
+ * issue 22's memory at 1e6 particles). */
+static inline void sph_set_zero(double *x)
+{
+    if (*x != 0.0 || signbit(*x))
+        *x = 0.0;
+}
+
+/* *x = v, written only where its bits differ (a field that a free-drift
+ * step leaves as it was is read, not written back) */
+static inline void sph_set_bits(double *x, double v)
+{
+    uint64_t a, b;
+    memcpy(&a, x, sizeof a);
+    memcpy(&b, &v, sizeof b);
+    if (a != b)
+        *x = v;
+}
 #define SPH_SUM_NQ 5
 /* Smallest concentration a parcel is diluted to by divergence. */
 #define SPH_CONC_MIN 0.05
@@ -250,6 +272,9 @@ void sph_ghost_air_setup(sph_model *m, double *air);
 void sph_ghost_stress_air(sph_model *m, const double *air);
 void sph_move_and_constrain(sph_model *m);
 void sph_remove_outflow(sph_model *m);
+/* sph_move_and_constrain for particle k alone; returns 1 when its new
+ * position is one sph_remove_outflow removes (the same test) */
+int sph_move_one(sph_model *m, size_t k);
 
 /* S' = R S R with R = I - 2 n n^T; S = [[a, b], [b, c]] (a mirror). */
 static inline void sph_reflect_tensor(double nx, double ny, double *a, double *b, double *c)
@@ -375,6 +400,9 @@ void sph_divergence_pass(sph_model *m, const int *list, size_t count);
 void sph_gradient_correction_pass(sph_model *m);
 void sph_free_drift_pass(sph_model *m);
 void sph_parcels_drift_pass(sph_model *m);
+/* sph_parcels_drift_pass's solve for particles [k0, k1), on the calling
+ * thread (the same bits: each parcel's result is its own) */
+void sph_parcels_drift_range(sph_model *m, size_t k0, size_t k1);
 void sph_continuity_pass(sph_model *m);
 void sph_update_sml(sph_model *m);
 

@@ -784,7 +784,9 @@ static inline void parcel_finish(sph_model *m, size_t k, const parcel_sys *q, do
     double wr = (q->gr * re + q->gi * im) * id, wi = (q->gi * re - q->gr * im) * id;
     P->u[k] = P->uw[k] - wr;
     P->v[k] = P->vw[k] - wi;
-    P->s11[k] = P->s22[k] = P->s12[k] = 0.0;
+    sph_set_zero(&P->s11[k]); /* zero from the first step on: read, not written */
+    sph_set_zero(&P->s22[k]);
+    sph_set_zero(&P->s12[k]);
 }
 
 /* Free drift of every live particle as an independent parcel
@@ -822,6 +824,26 @@ void sph_parcels_drift_pass(sph_model *m)
             parcel_finish(m, k0 + (size_t)l, q + l, s[l]);
     }
     for (size_t k = nb * PARCEL_LANES; k < n; k++) {
+        parcel_sys q;
+        parcel_setup(m, k, &q);
+        parcel_finish(m, k, &q, parcel_newton(&q, cw, sw));
+    }
+}
+
+void sph_parcels_drift_range(sph_model *m, size_t k0, size_t k1)
+{
+    const double cw = m->cos_water, sw = m->sin_water;
+    size_t k = k0;
+    for (; k + PARCEL_LANES <= k1; k += PARCEL_LANES) {
+        parcel_sys q[PARCEL_LANES];
+        double s[PARCEL_LANES];
+        for (int l = 0; l < PARCEL_LANES; l++)
+            parcel_setup(m, k + (size_t)l, q + l);
+        parcel_newton_lanes(q, cw, sw, s);
+        for (int l = 0; l < PARCEL_LANES; l++)
+            parcel_finish(m, k + (size_t)l, q + l, s[l]);
+    }
+    for (; k < k1; k++) {
         parcel_sys q;
         parcel_setup(m, k, &q);
         parcel_finish(m, k, &q, parcel_newton(&q, cw, sw));

@@ -210,14 +210,14 @@ static int sample_source(fc_coupling *c, size_t src, double t, size_t k0, size_t
     memset(c->bad, 0, n);
     sph_error local;
     sph_error_clear(&local);
-    char when[32];
-    time_format_iso(t, when, sizeof when);
     forcing_set_point_base(c->forc[src], k0);
     int rc = forcing_sample_at(c->forc[src], t, n, c->lon + k0, c->lat + k0, &s, &local);
     if (rc == SPH_OK) {
         *got = s.provided;
         return SPH_OK;
     }
+    char when[32]; /* for the messages only */
+    time_format_iso(t, when, sizeof when);
     if (rc != SPH_ERR_COVERAGE || c->forc_kind[src] == FORCING_ATMOSPHERE || ntot < 2)
         return sph_err_set(err, rc, "forcing at %s: %s", when, local.msg);
     if (!fb->rc) {

@@ -1198,8 +1198,11 @@ blend_points3(const fgrid *g, const double *const a[3], const double *const b[3]
     bad[2] = b2;
 }
 
-static int sample_var(forcing *f, fvar *v, double t, size_t n, const double *lon,
-                      const double *lat, double *dst, double *gx, double *gy, sph_error *err)
+/* sample_var's part before the blend: the stencils at the points (an
+ * error for a point outside), the time bracket (alpha) and the slices
+ * s0, s1 that hold it (read or synthesised). */
+static int prep_var(forcing *f, fvar *v, double t, size_t n, const double *lon, const double *lat,
+                    int *s0_out, int *s1_out, double *alpha_out, sph_error *err)
 {
     fgrid *g = v->grid;
     if (fgrid_stencils(g, f->stamp, n, lon, lat)) {
@@ -1237,6 +1240,60 @@ static int sample_var(forcing *f, fvar *v, double t, size_t n, const double *lon
     } else if (ensure_slice(f, v, k0, k1, &s0, err) || ensure_slice(f, v, k1, k0, &s1, err)) {
         return err->code;
     }
+    *s0_out = s0;
+    *s1_out = s1;
+    *alpha_out = alpha;
+    return 0;
+}
+
+static int blend_fail(sph_error *err, const fvar *v, int field, const double *lon, const double *lat,
+                      size_t p)
+{
+    return forcing_fail(err, v->src, v->file0, SPH_ERR_COVERAGE,
+                        "no valid %s%s of variable '%s' within one grid cell of "
+                        "point (%.6g, %.6g)",
+                        field ? "gradient of " : "", v->standard_name, v->varname, lon[p], lat[p]);
+}
+
+/* blend_points for two variables on one grid at the same time weights
+ * (the wind's or the current's two components) in one pass over the
+ * stencils: per variable the same operations as blend_points, so the same
+ * values; bad[c]: variable c's first point without a value (n if none). */
+static inline __attribute__((always_inline)) void
+blend_points2(const fgrid *g, const double *a0, const double *b0, const double *a1, const double *b1,
+              const int want0, const int want1, double alpha, size_t n, const double *lon,
+              const double *lat, double *o0, double *o1, size_t bad[2])
+{
+    size_t c0 = n, c1 = n;
+#pragma omp parallel for schedule(static) reduction(min : c0, c1) if (n >= FORCING_OMP_MIN)
+    for (size_t p = 0; p < n; p++) {
+        double x0 = 0, x1 = 0;
+        if (fgrid_interp2(g, a0, b0, want0, want1, p, lon[p], lat[p], &x0, &x1)) {
+            if (p < c0)
+                c0 = p;
+        } else {
+            o0[p] = alpha <= 0 ? x0 : alpha >= 1 ? x1 : (1 - alpha) * x0 + alpha * x1;
+        }
+        x0 = x1 = 0;
+        if (fgrid_interp2(g, a1, b1, want0, want1, p, lon[p], lat[p], &x0, &x1)) {
+            if (p < c1)
+                c1 = p;
+        } else {
+            o1[p] = alpha <= 0 ? x0 : alpha >= 1 ? x1 : (1 - alpha) * x0 + alpha * x1;
+        }
+    }
+    bad[0] = c0;
+    bad[1] = c1;
+}
+
+static int sample_var(forcing *f, fvar *v, double t, size_t n, const double *lon,
+                      const double *lat, double *dst, double *gx, double *gy, sph_error *err)
+{
+    fgrid *g = v->grid;
+    int s0 = 0, s1 = 0;
+    double alpha;
+    if (prep_var(f, v, t, n, lon, lat, &s0, &s1, &alpha, err))
+        return err->code;
     if (dst && gx && gy) { /* the height and its gradient: one pass over the stencils */
         const double *a[3] = {v->slot[s0], v->slot_gx[s0], v->slot_gy[s0]};
         const double *b[3] = {v->slot[s1], v->slot_gx[s1], v->slot_gy[s1]};
@@ -1276,6 +1333,62 @@ static int sample_var(forcing *f, fvar *v, double t, size_t n, const double *lon
                                 field ? "gradient of " : "", v->standard_name, v->varname,
                                 lon[first_bad], lat[first_bad]);
     }
+    return 0;
+}
+
+/* sample_var for two variables without gradients (a vector's components)
+ * into du, dv: one blend pass where they share a grid and time weights,
+ * each on its own otherwise; the same values and the same first error as
+ * sample_var u then v (u's slices are read before v's; where v's read
+ * fails, u's blend runs first and its error comes first). */
+static int sample_pair(forcing *f, fvar *vu, fvar *vv, double t, size_t n, const double *lon,
+                       const double *lat, double *du, double *dv, sph_error *err)
+{
+    if (vu->grid != vv->grid)
+        return sample_var(f, vu, t, n, lon, lat, du, NULL, NULL, err) ||
+                       sample_var(f, vv, t, n, lon, lat, dv, NULL, NULL, err)
+                   ? err->code
+                   : 0;
+    int u0 = 0, u1 = 0, v0 = 0, v1 = 0;
+    double au, av;
+    if (prep_var(f, vu, t, n, lon, lat, &u0, &u1, &au, err))
+        return err->code;
+    const fgrid *g = vu->grid;
+    sph_error verr;
+    sph_error_clear(&verr);
+    const int vfail = prep_var(f, vv, t, n, lon, lat, &v0, &v1, &av, &verr) != 0;
+    if (vfail || au != av) { /* one blend each (sample_var's); u's error first */
+        for (int c = 0; c < 2; c++) {
+            if (c && vfail) {
+                *err = verr;
+                return err->code;
+            }
+            const fvar *v = c ? vv : vu;
+            const double alpha = c ? av : au;
+            const double *a = v->slot[c ? v0 : u0], *b = v->slot[c ? v1 : u1];
+            double *o = c ? dv : du;
+            const int want0 = alpha < 1, want1 = alpha > 0;
+            size_t first_bad = want0 && want1 ? blend_points(g, a, b, 1, 1, alpha, n, lon, lat, o)
+                               : want0         ? blend_points(g, a, b, 1, 0, alpha, n, lon, lat, o)
+                                               : blend_points(g, a, b, 0, 1, alpha, n, lon, lat, o);
+            if (first_bad < n)
+                return blend_fail(err, v, 0, lon, lat, first_bad);
+        }
+        return 0;
+    }
+    const double *a0 = vu->slot[u0], *b0 = vu->slot[u1], *a1 = vv->slot[v0], *b1 = vv->slot[v1];
+    const int want0 = au < 1, want1 = au > 0;
+    size_t bad[2];
+    if (want0 && want1)
+        blend_points2(g, a0, b0, a1, b1, 1, 1, au, n, lon, lat, du, dv, bad);
+    else if (want0)
+        blend_points2(g, a0, b0, a1, b1, 1, 0, au, n, lon, lat, du, dv, bad);
+    else
+        blend_points2(g, a0, b0, a1, b1, 0, 1, au, n, lon, lat, du, dv, bad);
+    if (bad[0] < n)
+        return blend_fail(err, vu, 0, lon, lat, bad[0]);
+    if (bad[1] < n)
+        return blend_fail(err, vv, 0, lon, lat, bad[1]);
     return 0;
 }
 
@@ -1320,6 +1433,7 @@ static void put(double *dst, const double *src, size_t n, int add)
 {
     if (!dst)
         return;
+#pragma omp parallel for schedule(static) if (n >= FORCING_OMP_MIN)
     for (size_t p = 0; p < n; p++)
         dst[p] = add ? dst[p] + src[p] : src[p];
 }
@@ -1352,13 +1466,17 @@ int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const d
         fsource *s = &f->src[i];
         fvar **v = s->vars;
         if (v[FV_UWIND] && !(out->provided & FQ_WIND) && (out->u_east || out->v_north)) {
-            if (sample_var(f, v[FV_UWIND], t, n, lon, lat, A, NULL, NULL, err) ||
-                sample_var(f, v[FV_VWIND], t, n, lon, lat, B, NULL, NULL, err))
+            /* straight into the sample where no rotation follows (put's copy) */
+            const int direct = !v[FV_UWIND]->grid_relative && out->u_east && out->v_north;
+            double *du = direct ? out->u_east : A, *dv = direct ? out->v_north : B;
+            if (sample_pair(f, v[FV_UWIND], v[FV_VWIND], t, n, lon, lat, du, dv, err))
                 return err->code;
             if (v[FV_UWIND]->grid_relative)
                 rotate(v[FV_UWIND]->grid, n, A, B);
-            put(out->u_east, A, n, 0);
-            put(out->v_north, B, n, 0);
+            if (!direct) {
+                put(out->u_east, A, n, 0);
+                put(out->v_north, B, n, 0);
+            }
             out->provided |= FQ_WIND;
         }
         if (v[FV_TAIR] && !(out->provided & FQ_TAIR) && out->tair) {
@@ -1414,14 +1532,17 @@ int forcing_sample_at(forcing *f, double t, size_t n, const double *lon, const d
         }
         /* Currents and sea-surface height add up over sources (ocean + tide). */
         if (v[FV_UCUR] && (out->uw_east || out->vw_north)) {
-            if (sample_var(f, v[FV_UCUR], t, n, lon, lat, A, NULL, NULL, err) ||
-                sample_var(f, v[FV_VCUR], t, n, lon, lat, B, NULL, NULL, err))
+            int add = (out->provided & FQ_CURRENT) != 0;
+            const int direct = !v[FV_UCUR]->grid_relative && !add && out->uw_east && out->vw_north;
+            double *du = direct ? out->uw_east : A, *dv = direct ? out->vw_north : B;
+            if (sample_pair(f, v[FV_UCUR], v[FV_VCUR], t, n, lon, lat, du, dv, err))
                 return err->code;
             if (v[FV_UCUR]->grid_relative)
                 rotate(v[FV_UCUR]->grid, n, A, B);
-            int add = (out->provided & FQ_CURRENT) != 0;
-            put(out->uw_east, A, n, add);
-            put(out->vw_north, B, n, add);
+            if (!direct) {
+                put(out->uw_east, A, n, add);
+                put(out->vw_north, B, n, add);
+            }
             out->provided |= FQ_CURRENT;
         }
         if (v[FV_SSH] && (out->ssh || out->ssh_dx_east || out->ssh_dy_north)) {

@@ -638,11 +638,8 @@ size_t fgrid_stencils(fgrid *g, unsigned long stamp, size_t n, const double *lon
                       const double *lat)
 {
     size_t outside = 0;
-    if (g->stamp == stamp) {
-        for (size_t p = 0; p < n; p++)
-            outside += !g->ok[p];
-        return outside;
-    }
+    if (g->stamp == stamp) /* the same points: the count of that call */
+        return g->stamp_outside;
     if (n > g->npoints) {
         size_t *idx = realloc(g->idx, 4 * n * sizeof *idx);
         if (idx)
@@ -690,6 +687,7 @@ size_t fgrid_stencils(fgrid *g, unsigned long stamp, size_t n, const double *lon
     g->last_end = base + n;
     g->last_ok = n > 0 && g->ok[n - 1];
     g->stamp = stamp;
+    g->stamp_outside = outside;
     return outside;
 }
 

@@ -73,6 +73,7 @@ typedef struct fgrid {
     size_t last_end;       /* hint_base + n of the last stencil call, and whether its last */
     int last_ok;           /* point lay in the grid (the curvilinear walk's predecessor) */
     unsigned long stamp;   /* call number the stencils belong to */
+    size_t stamp_outside;  /* the points outside at that call (fgrid_stencils' result) */
     struct fgrid *next;
 } fgrid;
 
