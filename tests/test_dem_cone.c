@@ -9,7 +9,11 @@
  * make check runs a small sheet for a short time and asserts what the
  * physics guarantees there: contact, ride-up above the waterline, tension
  * failure, the load pointing into the drift and down the cone, the ratio
- * of the load's components bounded by the face's friction factor.
+ * of the load's components bounded by the face's friction factor; then a
+ * small pre-shaped sheet with its sides confined (session 9: side bands
+ * held laterally and carried along at the drift, DEM_FIX_X | DEM_FIX_Y,
+ * free to heave): the same checks, and the held sides keep y exactly while
+ * moving vertically.
  *
  * SPHICE_LONG (session 8's rebuild, docs/dem.md "The cone case rebuilt"):
  * the seed's 0.263 m ice as four close-packed layers of r = 0.0381 m
@@ -25,7 +29,12 @@
  * [CONE_PEAK_LO, CONE_PEAK_HI] x Ralston's H, a range of this project's
  * making (no published DEM-against-Ralston numbers were found; its
  * provenance is in docs/dem.md). SPHICE_DEM_CONE="nx ny speed duration E_b
- * [nz r shaped ramp [sigma_t tau_c]]" overrides the case. */
+ * [nz r shaped ramp [sigma_t tau_c [sides rear]]]" overrides the case
+ * (sides 1: held laterally, 2: also driven along x; rear 1: driven along x
+ * only, floating); the shaped sheet's runs print the cycles' peaks and
+ * period, and the sheet's and the broken pieces' positions (every 50 ms
+ * with SPHICE_DEM_CONE_SERIES; docs/dem.md, "The cone with confined sides
+ * (session 9)"). */
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -114,7 +123,133 @@ typedef struct cone_case {
     int shaped;  /* the sheet's front pre-shaped to the cone's waterline, its sides free */
     double sigma_t, tau_c; /* bond strengths, Pa (0: the core's defaults) */
     double ramp; /* > 0: the sheet starts at rest, its rear edge reaches the speed in this time, s */
+    int sides;   /* shaped sheet's side bands: 0 free, 1 held laterally (DEM_FIX_Y: free along
+                  * the drift and vertically), 2 held laterally and driven along x at the ice
+                  * speed (DEM_FIX_X | DEM_FIX_Y: free vertically) */
+    int rear;    /* the driven rear band: 0 held in translation and rotation (a clamp), 1 driven
+                  * along x and held laterally only (DEM_FIX_X | DEM_FIX_Y: it floats, free to
+                  * heave and rotate, as the far-field ice) */
 } cone_case;
+
+/* Positions (docs/dem.md, "The cone with confined sides"): the intact
+ * sheet is the largest set of spheres joined by intact bonds (union-find
+ * over the bonds; it may have come off the driven rear, which then pushes
+ * it through contacts); the rest are broken pieces. Prints, at time
+ * t, the intact sheet's front on the cone's axis (the largest x within 2 r
+ * of y0, as a distance to the axis: D/2 + r / sin a at the waterline when
+ * it touches the face), and the pieces: how many,
+ * how many ride above the sheet's top within 4 r of the face, how many
+ * have cleared past the axis (x > x0) over the cone (|y - y0| < D/2) or
+ * around it, and their largest lateral offset |y - y0|; with sizes, the
+ * pieces' extents (the breaking length). Returns the front's distance to
+ * the axis. */
+static int uf_find(int *par, int i)
+{
+    while (par[i] != i) {
+        par[i] = par[par[i]];
+        i = par[i];
+    }
+    return i;
+}
+
+static double print_positions(const dem *d, const unsigned char *isrear, double t, double ztop, double r,
+                              int quiet, int sizes)
+{
+    int n = (int)d->n, *par = malloc((size_t)n * sizeof *par);
+    for (int i = 0; i < n; i++)
+        par[i] = i;
+    for (size_t k = 0; k < d->nbonds; k++)
+        if (!d->bonds[k].broken) {
+            int a = uf_find(par, d->bonds[k].i), b = uf_find(par, d->bonds[k].j);
+            if (a != b)
+                par[a < b ? b : a] = a < b ? a : b;
+        }
+    /* the intact sheet: the largest set of spheres joined by intact bonds */
+    int *cnt = calloc((size_t)n, sizeof *cnt), rear = 0;
+    for (int i = 0; i < n; i++)
+        cnt[uf_find(par, i)]++;
+    for (int i = 1; i < n; i++)
+        if (cnt[i] > cnt[rear])
+            rear = i;
+    long nsheet = cnt[rear], ndriven = 0;
+    for (int i = 0; i < n; i++)
+        ndriven += isrear[i] && uf_find(par, i) == rear;
+    /* the pieces' sizes: per piece of 10 spheres or more (a few spheres
+     * across in the sheet's layers), its extent, the larger of its spans in
+     * x and y (centres, plus a diameter) */
+    double *bx = malloc(4 * (size_t)n * sizeof *bx);
+    for (int i = 0; i < n; i++) {
+        int q = uf_find(par, i);
+        if (q == i) {
+            bx[4 * q] = bx[4 * q + 2] = HUGE_VAL;
+            bx[4 * q + 1] = bx[4 * q + 3] = -HUGE_VAL;
+        }
+    }
+    for (int i = 0; i < n; i++) {
+        int q = uf_find(par, i);
+        bx[4 * q] = fmin(bx[4 * q], d->x[i]);
+        bx[4 * q + 1] = fmax(bx[4 * q + 1], d->x[i]);
+        bx[4 * q + 2] = fmin(bx[4 * q + 2], d->y[i]);
+        bx[4 * q + 3] = fmax(bx[4 * q + 3], d->y[i]);
+    }
+    long nbig = 0, nsingle = 0, largest = 0;
+    double ext_sum = 0.0, ext_max = 0.0;
+    for (int q = 0; q < n; q++) {
+        if (q == rear || uf_find(par, q) != q)
+            continue;
+        nsingle += cnt[q] == 1;
+        if (cnt[q] >= 10) {
+            double ext = fmax(bx[4 * q + 1] - bx[4 * q], bx[4 * q + 3] - bx[4 * q + 2]) + 2.0 * r;
+            nbig++;
+            ext_sum += ext;
+            ext_max = fmax(ext_max, ext);
+            largest = cnt[q] > largest ? cnt[q] : largest;
+        }
+    }
+    free(bx);
+    free(cnt);
+    if (!quiet && sizes)
+        printf("positions t %.2f s: pieces of 10 spheres or more %ld (mean extent %.3f m, largest %.3f m;"
+               " the largest piece %ld spheres), single spheres %ld\n",
+               t, nbig, nbig ? ext_sum / (double)nbig : NAN, ext_max, largest, nsingle);
+    double x0 = d->s.x0, y0 = d->s.y0, rw = 0.5 * d->s.diameter, front = -HUGE_VAL, ymax = 0.0;
+    long pieces = 0, ride = 0, over = 0, around = 0;
+    double sx = 0.0, sz = 0.0, xrear = -HUGE_VAL;
+    for (int i = 0; i < n; i++)
+        if (isrear[i])
+            xrear = fmax(xrear, d->x[i]);
+    for (int i = 0; i < n; i++) {
+        double dy = fabs(d->y[i] - y0);
+        if (uf_find(par, i) == rear) {
+            if (dy < 2.0 * r)
+                front = fmax(front, d->x[i]);
+            sx += d->x[i];
+            sz += d->z[i];
+            continue;
+        }
+        pieces++;
+        ymax = fmax(ymax, dy);
+        double rho = hypot(d->x[i] - x0, d->y[i] - y0);
+        double a = d->s.cone_angle * M_PI / 180.0;
+        if (d->z[i] + r > ztop + r && rho < rw - d->z[i] / tan(a) + 4.0 * r)
+            ride++;
+        if (d->x[i] > x0) {
+            if (dy < rw)
+                over++;
+            else
+                around++;
+        }
+    }
+    free(par);
+    if (!quiet)
+        printf("positions t %.2f s: intact front on the axis %.3f m before it; pieces %ld: riding up at the"
+               " face %ld, cleared past the axis over the cone %ld, around it %ld, largest |y - y0|"
+               " %.3f m; the sheet %ld spheres (%s the driven rear), its centre %.3f m before the axis"
+               " at z %.3f m, the driven rear's front %.3f m before it\n",
+               t, x0 - front, pieces, ride, over, around, ymax, nsheet, ndriven ? "with" : "without",
+               x0 - sx / (double)nsheet, sz / (double)nsheet, x0 - xrear);
+    return x0 - front;
+}
 
 /* The sheet of dem_add_sheet_hcp with the spheres inside the cone's face
  * (and a gap) left out: the cone's axis on the sheet's front edge, so that
@@ -163,6 +298,8 @@ static void run_cone(const cone_case *c)
     double r = c->r;
     double a = c->angle * M_PI / 180.0, ta = tan(a);
     double ymax = sqrt(3.0) * r * (c->ny - 1) + r, ztop = -HUGE_VAL;
+    long nside = 0;
+    unsigned char *isrear = calloc(np, 1);
     if (c->shaped) {
         /* the axis on the front edge, mid-width */
         double xfront = 2.0 * r * (c->nx - 1) + r;
@@ -178,11 +315,30 @@ static void run_cone(const cone_case *c)
         ztop = fmax(ztop, d->z[i] + r);
         /* the rear edge (and, on the straight sheet, the two side edges) move
          * with the far-field ice */
-        if (d->x[i] < 3.0 * r || (!c->shaped && (d->y[i] < 2.0 * r || d->y[i] > ymax - 2.0 * r))) {
-            d->flags[i] = DEM_FIX_TRANSLATION | DEM_FIX_ROTATION;
+        int side = d->y[i] < 2.0 * r || d->y[i] > ymax - 2.0 * r;
+        isrear[i] = d->x[i] < 3.0 * r;
+        if (d->x[i] < 3.0 * r || (!c->shaped && side)) {
+            d->flags[i] = c->shaped && c->rear == 1 ? DEM_FIX_X | DEM_FIX_Y
+                                                    : DEM_FIX_TRANSLATION | DEM_FIX_ROTATION;
             dem_set_velocity(d, (long)i, c->ramp > 0.0 ? 0.0 : c->speed, 0.0, 0.0);
+        } else if (c->shaped && side && c->sides > 0) {
+            /* confinement: the ice beside the sheet holds its sides laterally
+             * (and, sides 2, carries them along at the drift) */
+            d->flags[i] = DEM_FIX_Y | (c->sides == 2 ? DEM_FIX_X : 0);
+            dem_set_velocity(d, (long)i, c->sides == 2 && c->ramp <= 0.0 ? c->speed : 0.0, 0.0, 0.0);
+            nside++;
         }
     }
+    CHECK(c->sides == 0 || nside > 0, "side bands held: %ld spheres", nside);
+    if (c->shaped)
+        printf("cone case: sides %s, rear %s\n",
+               c->sides == 0 ? "free" : c->sides == 1 ? "held laterally (free along x and z)"
+                                                   : "held laterally, driven along x (free in z)",
+               c->rear == 1 ? "driven along x, held laterally, free to heave and rotate" : "held in translation and rotation");
+    /* the held bands' lateral positions, to check the constraint at the end */
+    double *yside = malloc(d->n * sizeof *yside);
+    for (size_t i = 0; i < d->n; i++)
+        yside[i] = d->y[i];
     double h = 2 * r + (c->nz - 1) * 2 * r * sqrt(2.0 / 3.0);
     d->s.kind = DEM_STRUCT_CONE;
     d->s.diameter = c->diameter;
@@ -218,7 +374,7 @@ static void run_cone(const cone_case *c)
         if (c->ramp > 0.0 && (double)s * dt <= c->ramp + dt) {
             double u = c->speed * fmin(1.0, (double)(s + 1) * dt / c->ramp);
             for (size_t i = 0; i < d->n; i++)
-                if (d->flags[i] & DEM_FIX_TRANSLATION)
+                if (d->flags[i] & (DEM_FIX_TRANSLATION | DEM_FIX_X))
                     d->vx[i] = u;
         }
         if (dem_step(d, dt, &st) != SPH_STEP_OK) {
@@ -252,6 +408,8 @@ static void run_cone(const cone_case *c)
                 bh = bv = 0;
             }
         }
+        if (c->shaped && (s + 1) % (5 * every) == 0)
+            print_positions(d, isrear, (s + 1) * dt, ztop, r, !series, 0);
     }
     double wall = omp_get_wtime() - t0;
     CHECK(!bad, "steps ok (fault %d at particle %ld: %s)", st.kind, st.particle, st.what);
@@ -304,6 +462,7 @@ static void run_cone(const cone_case *c)
         }
     }
     int high = 0;
+    double cpk = 0.0, cpk_sum = 0.0, t_first = 0.0, t_last = 0.0;
     for (long k = 0; k + w10 <= nblk; k += w10) {
         double m = 0.0;
         for (long q = k; q < k + w10; q++)
@@ -311,14 +470,49 @@ static void run_cone(const cone_case *c)
         if (!high && m > 0.5 * pk) {
             high = 1;
             cycles++;
-        } else if (high && m < 0.2 * pk)
+            cpk = m;
+            t_last = (double)k * blk * dt;
+            if (cycles == 1)
+                t_first = t_last;
+        } else if (high && m < 0.2 * pk) {
             high = 0;
+            printf("cone case: cycle %ld: starts %.3f s after the first contact, peak %.2f kN\n", cycles,
+                   t_last, cpk / 1e3);
+            cpk_sum += cpk;
+        } else if (high)
+            cpk = fmax(cpk, m);
     }
+    if (high) {
+        printf("cone case: cycle %ld: starts %.3f s after the first contact, peak %.2f kN (open at the end)\n",
+               cycles, t_last, cpk / 1e3);
+        cpk_sum += cpk;
+    }
+    double period = cycles > 1 ? (t_last - t_first) / (double)(cycles - 1) : NAN;
+    printf("cone case: %ld cycles, mean of their peaks %.2f kN (%.3f of Ralston), mean period %.3f s"
+           " (ice advance per cycle %.3f m = %.2f h)\n",
+           cycles, cycles ? cpk_sum / cycles / 1e3 : NAN, cycles ? cpk_sum / cycles / L.h : NAN, period,
+           period * c->speed, period * c->speed / h);
     printf("cone case: peak H (largest 10 ms mean) %.2f kN at %.3f s after the first contact (raw max %.2f kN);"
            " Ralston H %.2f kN: peak / Ralston %.3f, raw max / Ralston %.3f, mean / Ralston %.3f;"
            " load cycles (10 ms means above 0.5 peak after below 0.2 peak) %ld\n",
            pk / 1e3, tpk * blk * dt, hmax / 1e3, L.h / 1e3, pk / L.h, hmax / L.h, mh / L.h, cycles);
     free(blocks);
+    if (c->shaped)
+        print_positions(d, isrear, c->duration, ztop, r, 0, 1);
+    if (c->sides > 0) {
+        /* the held sides: y kept exactly, free to move vertically (and, held only
+         * laterally, along the drift) */
+        long moved_y = 0, moved_z = 0;
+        for (size_t i = 0; i < d->n; i++)
+            if (d->flags[i] & DEM_FIX_Y) {
+                moved_y += d->y[i] != yside[i] || d->vy[i] != 0.0;
+                moved_z += d->vz[i] != 0.0;
+            }
+        CHECK(moved_y == 0, "held sides: y unchanged (%ld moved)", moved_y);
+        CHECK(moved_z > 0, "held sides: free vertically (%ld of %ld moving)", moved_z, nside);
+    }
+    free(yside);
+    free(isrear);
     CHECK(mh > 0.0 && mv > 0.0, "the load pushes along the drift and down the cone");
     CHECK(d->bonds_broken_tension > 0, "the sheet failed in tension (bending)");
     CHECK(zmax > ztop + r, "ride-up: ice above the sheet's top at the cone (%.3f vs %.3f)",
@@ -345,18 +539,28 @@ int main(void)
      * sheet whose front is the cone's waterline notch, free sides, the rear
      * edge driven, started from rest; E_b 0.1 GPa (a 3x longer step, as
      * before), the default bonds */
-    cone_case full = {32, 46, 4, 0.0381216, 0.5, 1.2, 1.0e8, 1.2, 0.6, 60.0, 1, 1, 0.0, 0.0, 0.2};
-    cone_case quick = {6, 16, 2, 0.1, 0.5, 0.3, 1.0e9, 1.2, 0.6, 60.0, 0, 0, 0.0, 0.0, 0.0};
+    cone_case full = {32, 46, 4, 0.0381216, 0.5, 1.2, 1.0e8, 1.2, 0.6, 60.0, 1, 1, 0.0, 0.0, 0.2, 0, 0};
+    cone_case quick = {6, 16, 2, 0.1, 0.5, 0.3, 1.0e9, 1.2, 0.6, 60.0, 0, 0, 0.0, 0.0, 0.0, 0, 0};
     cone_case *c = check_long() ? &full : &quick;
-    /* "nx ny speed duration E_b [nz r shaped ramp [sigma_t tau_c (MPa)]]" */
+    /* "nx ny speed duration E_b [nz r shaped ramp [sigma_t tau_c (MPa, 0: defaults) [sides rear]]]" */
     const char *e = getenv("SPHICE_DEM_CONE");
     if (e) {
         double st = 0.0, tc = 0.0;
-        sscanf(e, "%d %d %lf %lf %lf %d %lf %d %lf %lf %lf", &c->nx, &c->ny, &c->speed, &c->duration,
-               &c->bond_modulus, &c->nz, &c->r, &c->shaped, &c->ramp, &st, &tc);
+        sscanf(e, "%d %d %lf %lf %lf %d %lf %d %lf %lf %lf %d %d", &c->nx, &c->ny, &c->speed, &c->duration,
+               &c->bond_modulus, &c->nz, &c->r, &c->shaped, &c->ramp, &st, &tc, &c->sides, &c->rear);
         c->sigma_t = st * 1e6;
         c->tau_c = tc * 1e6;
     }
     run_cone(c);
+    if (!check_long() && !e) {
+        /* make check's confined sheet (docs/dem.md, "The cone with confined
+         * sides"): the pre-shaped front on 0.1 m spheres, two layers, the side
+         * bands held laterally and carried along at the drift (DEM_FIX_X |
+         * DEM_FIX_Y, free to heave), the rear clamped and ramped: the held
+         * sides keep y exactly and move vertically, and the scene's physics
+         * checks hold as on the straight sheet */
+        cone_case held = {10, 16, 2, 0.1, 0.5, 0.3, 1.0e8, 1.2, 0.6, 60.0, 0, 1, 0.0, 0.0, 0.1, 2, 0};
+        run_cone(&held);
+    }
     return check_summary("test_dem_cone");
 }

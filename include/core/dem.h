@@ -91,9 +91,11 @@ typedef struct dem_structure {
 
 /* Particle flags */
 /* DEM_FIX_TRANSLATION: the velocity is prescribed (kept); DEM_FIX_Z: only
- * its vertical component (a roller support); DEM_FIX_ROTATION: the angular
- * velocity is kept. */
-enum { DEM_FIX_TRANSLATION = 1, DEM_FIX_ROTATION = 2, DEM_FIX_Z = 4 };
+ * its vertical component (a roller support); DEM_FIX_X, DEM_FIX_Y: only
+ * that horizontal component (DEM_FIX_Y alone: a side held laterally, free
+ * along the drift and vertically); DEM_FIX_ROTATION: the angular velocity
+ * is kept. */
+enum { DEM_FIX_TRANSLATION = 1, DEM_FIX_ROTATION = 2, DEM_FIX_Z = 4, DEM_FIX_X = 8, DEM_FIX_Y = 16 };
 
 typedef struct dem_bond {
     int i, j;

@@ -521,8 +521,10 @@ int dem_step(dem *d, double dt, sph_status *st)
         int fl = d->flags[i];
         if (!(fl & DEM_FIX_TRANSLATION)) {
             double im = 1.0 / d->m[i];
-            d->vx[i] += local_damp(d->fx[i], d->vx[i], alpha) * im * dt;
-            d->vy[i] += local_damp(d->fy[i], d->vy[i], alpha) * im * dt;
+            if (!(fl & DEM_FIX_X))
+                d->vx[i] += local_damp(d->fx[i], d->vx[i], alpha) * im * dt;
+            if (!(fl & DEM_FIX_Y))
+                d->vy[i] += local_damp(d->fy[i], d->vy[i], alpha) * im * dt;
             if (!(fl & DEM_FIX_Z))
                 d->vz[i] += local_damp(d->fz[i], d->vz[i], alpha) * im * dt;
         }
