@@ -51,7 +51,11 @@
  * step); status fatal with the day and reason on stderr when a run stops.
  * Usage: bench_season [days] (default 90; BENCH_QUICK=1: 30).
  * BENCH_SEASON_DENSITY=continuity: the scene's continuity density instead
- * of summation; BENCH_SEASON_ONLY=merge (nomerge): that run alone.
+ * of summation; BENCH_SEASON_REINIT=N: model.density_reinit_steps N (with
+ * continuity: the density re-initialised by summation every N steps,
+ * docs/ocean.md); BENCH_SEASON_ONLY=merge (nomerge): that run alone. The
+ * report's last line per run: the largest sum of the footprints m / M over
+ * the box's sea and the largest single footprint over the season.
  * Run: BENCH_ONLY=season sh bench/run.sh (not in the default list). */
 #include "bench_common.h"
 #include "core/model.h"
