@@ -51,7 +51,11 @@
  * step); status fatal with the day and reason on stderr when a run stops.
  * Usage: bench_season [days] (default 90; BENCH_QUICK=1: 30).
  * BENCH_SEASON_DENSITY=continuity: the scene's continuity density instead
- * of summation; BENCH_SEASON_ONLY=merge (nomerge): that run alone.
+ * of summation; BENCH_SEASON_REINIT=N: model.density_reinit_steps N (with
+ * continuity: the density re-initialised by summation every N steps,
+ * docs/ocean.md); BENCH_SEASON_ONLY=merge (nomerge): that run alone. The
+ * report's last line per run: the largest sum of the footprints m / M over
+ * the box's sea and the largest single footprint over the season.
  * Run: BENCH_ONLY=season sh bench/run.sh (not in the default list). */
 #include "bench_common.h"
 #include "core/model.h"
@@ -74,6 +78,8 @@ typedef struct season_result {
     double peak, peak_day, end, created, merged, removed, steps, wall, cpu;
     double sml_peak[5], sml_end[5];
     double sal_max, sal_max_day, sml_max, sml_max_day; /* over the season: the saltiest cell, the largest h / DS */
+    double foot_max, foot_max_day; /* over the season: the sum of the footprints m / M over the box's sea */
+    double foot1_max;              /* over the season: the largest footprint / a lattice cell */
 } season_result;
 
 static season_result *shared_res; /* one per run: [0] without merging, [1] with */
@@ -133,6 +139,9 @@ static void run_season(const void *argp, bench_row *row)
     const char *dens = getenv("BENCH_SEASON_DENSITY"); /* "continuity": the scene's default instead */
     if (dens && strcmp(dens, "continuity") == 0)
         p.summation_density = 0;
+    const char *reinit = getenv("BENCH_SEASON_REINIT"); /* N: model.density_reinit_steps (continuity) */
+    if (reinit)
+        p.density_reinit_steps = atoi(reinit);
     p.ocean.mixed_layer = 1;
     p.ocean.create = 1;
     p.ocean.merge = a->merge;
@@ -193,6 +202,16 @@ static void run_season(const void *argp, bench_row *row)
                 r->sml_max = P->sml[k] / DS;
                 r->sml_max_day = s * p.dt / 86400.0;
             }
+        double foot = 0.0;
+        for (size_t k = 0; k < P->n; k++) {
+            double ak = P->mass[k] / P->dens[k];
+            foot += ak;
+            r->foot1_max = fmax(r->foot1_max, ak / (DS * DS));
+        }
+        if (foot / (NXL * NYL * DS * DS) > r->foot_max) {
+            r->foot_max = foot / (NXL * NYL * DS * DS);
+            r->foot_max_day = s * p.dt / 86400.0;
+        }
         if ((double)P->n > r->peak) {
             r->peak = (double)P->n;
             r->peak_day = s * p.dt / 86400.0;
@@ -295,12 +314,15 @@ int main(int argc, char **argv)
                 "season %s: smoothing length / lattice spacing at the peak: min %.2f p10 %.2f median %.2f "
                 "p90 %.2f max %.2f; at the end: %.2f %.2f %.2f %.2f %.2f\n"
                 "season %s: over the season: largest smoothing length %.2f lattice spacings (day %.2f), "
-                "saltiest cell %.3f psu (day %.2f)\n",
+                "saltiest cell %.3f psu (day %.2f)\n"
+                "season %s: over the season: the footprints m / M summed over the box %.3f of its sea (day %.2f), "
+                "the largest footprint %.2f lattice cells\n",
                 merge ? "merge" : "nomerge", r->peak, r->peak_day, r->end, r->created, r->merged, r->created - r->merged - r->end,
                 r->steps, r->wall, r->cpu, r->steps > 0 ? 1e3 * r->cpu / r->steps : NAN, merge ? "merge" : "nomerge",
                 r->sml_peak[0], r->sml_peak[1], r->sml_peak[2], r->sml_peak[3], r->sml_peak[4], r->sml_end[0],
                 r->sml_end[1], r->sml_end[2], r->sml_end[3], r->sml_end[4], merge ? "merge" : "nomerge",
-                r->sml_max, r->sml_max_day, r->sal_max, r->sal_max_day);
+                r->sml_max, r->sml_max_day, r->sal_max, r->sal_max_day, merge ? "merge" : "nomerge", r->foot_max,
+                r->foot_max_day, r->foot1_max);
     }
     fprintf(stderr, "season: cost with / without merging (CPU per step) %.3f; counts in %s\n", ratio, path);
     return 0;

@@ -86,6 +86,7 @@ static void test_defaults_match_core(void)
      * engine; the core's default is the seed's 60 s */
     CHECK(m->dt == 0.0 && d.dt == 60.0, "model.dt: config default auto (0), core default 60 s");
     SAME(kernel); SAME(kernel_radius); SAME(variable_sml); SAME(gradient_correction); SAME(summation_density);
+    SAME(density_reinit_steps);
     SAME(sml_factor); SAME(solver); SAME(unstable); SAME(evp_iterations); SAME(evp_adaptive);
     SAME(evp_alpha); SAME(evp_beta); SAME(evp_tol); SAME(evp_stall_window); SAME(implicit_max_picard); SAME(implicit_tol);
     SAME(max_substeps); SAME(explicit_safety); SAME(max_neighbours); SAME(physics); SAME(rheology);

@@ -6,8 +6,10 @@
  * ice plus ocean to round-off and reports them in the result; a negative
  * mixed-layer depth and a bathymetry that is land where the land mask says
  * sea are refused with one line naming the file and the variable, and
- * nothing is written; so is model.new_ice.create with continuity density
- * (one line naming model.summation_density: docs/ocean.md). */
+ * nothing is written; so is model.new_ice.create with plain continuity
+ * density (one line naming model.density_reinit_steps: docs/ocean.md),
+ * while continuity with the density re-initialised by summation every 6
+ * steps runs and closes the same budgets. */
 #include <math.h>
 #include <netcdf.h>
 #include <stdlib.h>
@@ -45,14 +47,17 @@ static void write_ocean(const char *path)
     tnc_write(path, &g, v, 4, 0, 13, NC_NETCDF4);
 }
 
+/* summation: 1 summation density, 0 plain continuity, 2 continuity re-initialised by summation every 6 steps */
 static struct sph_config *load_density(int summation)
 {
     char text[8192], src[1200];
     snprintf(src, sizeof src, ", {\"name\": \"ocean\", \"kind\": \"ocean\", \"urls\": \"%s/ocean_ml.nc\"}", dir);
     ec_config_more(text, sizeof text, dir, 300, "[\"wind\", \"tair\"]", "ice.nc", "\"log_level\": \"warn\",",
-                   summation ? ", \"summation_density\": true, \"ocean\": {\"mixed_layer\": true, \"depth\": 30}, "
-                               "\"new_ice\": {\"create\": true}"
-                             : ", \"ocean\": {\"mixed_layer\": true, \"depth\": 30}, \"new_ice\": {\"create\": true}",
+                   summation == 1 ? ", \"summation_density\": true, \"ocean\": {\"mixed_layer\": true, \"depth\": 30}, "
+                                    "\"new_ice\": {\"create\": true}"
+                   : summation == 2 ? ", \"density_reinit_steps\": 6, \"ocean\": {\"mixed_layer\": true, \"depth\": 30}, "
+                                      "\"new_ice\": {\"create\": true}"
+                                    : ", \"ocean\": {\"mixed_layer\": true, \"depth\": 30}, \"new_ice\": {\"create\": true}",
                    src);
     struct sph_config *cfg = NULL;
     sph_error err = {0};
@@ -140,7 +145,7 @@ int main(int argc, char **argv)
     refused(cfg, "bathymetry_land", "deptho");
     sph_config_free(cfg);
 
-    /* new particles with continuity density: refused, naming the key */
+    /* new particles with plain continuity density: refused, naming the key */
     ocean_case = 0;
     write_ocean(p);
     cfg = load_density(0);
@@ -148,11 +153,24 @@ int main(int argc, char **argv)
         memset(&res, 0, sizeof res);
         rc = run(cfg, "continuity", &res, &err, stage, sizeof stage);
         CHECK(rc != SPH_OK, "continuity density with model.new_ice.create: refused");
-        CHECK(strstr(err.msg, "model.summation_density") && strstr(err.msg, "model.new_ice.create"),
+        CHECK(strstr(err.msg, "model.density_reinit_steps") && strstr(err.msg, "model.new_ice.create"),
               "names the keys: %s", err.msg);
         CHECK(!strchr(err.msg, '\n'), "one line");
         CHECK(ec_count_entries(stage) <= 0, "nothing written");
         printf("continuity: %s\n", err.msg);
+        sph_config_free(cfg);
+    }
+    /* continuity re-initialised by summation every 6 steps: runs, the budgets close */
+    cfg = load_density(2);
+    if (cfg) {
+        memset(&res, 0, sizeof res);
+        rc = run(cfg, "reinit", &res, &err, stage, sizeof stage);
+        CHECK(rc == SPH_OK, "continuity with model.density_reinit_steps 6 and model.new_ice.create runs: %s",
+              err.msg);
+        CHECK(rc != SPH_OK || (res.run.ocean == 1 && res.run.energy_residual < 1e-12 &&
+                               res.run.water_residual < 1e-12 && res.run.salt_residual < 1e-12),
+              "re-initialised continuity: budgets close: energy %g water %g salt %g", res.run.energy_residual,
+              res.run.water_residual, res.run.salt_residual);
         sph_config_free(cfg);
     }
     return check_summary("test_new_ice_service");

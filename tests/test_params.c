@@ -53,7 +53,7 @@ static void test_rows(void)
      * momentum.coriolis_f, evp.rel_tol) + thermo.snow_heat_capacity (issue 20, the MU71 snow)
      * + new_ice.merge_max_size (issue 20, the merged particles' cap)
      * + evp.anderson, evp.change_tol (issue 22) */
-    CHECK(n == 81, "81 rows (the configuration's model.* keys), got %zu", n);
+    CHECK(n == 82, "82 rows (the configuration's model.* keys), got %zu", n);
     sph_params d;
     sph_params_default(&d);
     for (size_t i = 0; i < n; i++) {

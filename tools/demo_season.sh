@@ -9,6 +9,10 @@
 # Environment:
 #   SEASON_HOURS  run length in hours (default 720; at most 720)
 #   SEASON_OUT    output folder (default output/liaodong-season)
+#   SEASON_DENSITY_REINIT  N > 0: continuity density re-initialised by
+#                 summation every N steps (model.summation_density false,
+#                 model.density_reinit_steps N) instead of the scene's
+#                 summation density (docs/ocean.md); default: the scene as is
 #   OMP_NUM_THREADS, OMP_WAIT_POLICY (default here: passive)
 set -eu
 : "${OMP_WAIT_POLICY:=passive}"
@@ -31,7 +35,15 @@ command -v gnuplot >/dev/null || die "gnuplot not found (sh tools/install-deps.s
 mkdir -p "$OUT"
 CONFIG="$OUT/liaodong-season.json"
 # the products, state and cache under $OUT (the configuration names output/liaodong-season)
-sed -e "s#output/liaodong-season/#$OUT/#" -e "s#build/liaodong-season/#$BUILD/liaodong-season/#" etc/liaodong-season.json > "$CONFIG"
+REINIT="${SEASON_DENSITY_REINIT:-0}"
+case "$REINIT" in
+    ''|*[!0-9]*) die "SEASON_DENSITY_REINIT=\"$REINIT\": expected a whole number of steps" ;;
+esac
+DENSITY='"summation_density": true,'
+[ "$REINIT" -gt 0 ] && DENSITY="\"summation_density\": false, \"density_reinit_steps\": $REINIT,"
+sed -e "s#output/liaodong-season/#$OUT/#" -e "s#build/liaodong-season/#$BUILD/liaodong-season/#" \
+    -e "s#\"summation_density\": true,#$DENSITY#" etc/liaodong-season.json > "$CONFIG"
+grep -q "$DENSITY" "$CONFIG" || die "etc/liaodong-season.json: no \"summation_density\": true, to replace"
 t0=$(date +%s)
 "$BUILD/sphice" run "$CONFIG" --cycle "$CYCLE" --hours "$HOURS" --out "$OUT/run" --force ||
     die "the run failed"

@@ -35,6 +35,9 @@ typedef struct sph_params {
                                    0: M evolved by continuity dM/dt = -M div V
                                    from the seeded rho_i A h_i (default: no lattice
                                    noise, exact edges; see docs/dynamics.md) */
+    int density_reinit_steps;   /* continuity only: every N steps M is reset by the
+                                   summation (Colagrossi & Landrini 2003's periodic
+                                   re-initialisation; 0: never, docs/ocean.md) */
     double sml_factor;          /* h0 = sml_factor * initial spacing */
     sph_solver_kind solver;
     sph_unstable_policy unstable; /* explicit solver beyond its limit */

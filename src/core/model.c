@@ -280,6 +280,17 @@ static double new_ice_sml(const sph_model *m, double smax)
     return smax;
 }
 
+/* Mass per area by summation in this step: every step with
+ * summation_density; with continuity, every density_reinit_steps steps
+ * (step 0 included): the periodic re-initialisation of Colagrossi &
+ * Landrini (2003), which bounds what continuity integrates between two
+ * summations (a particle pulled off the edge of a pack: docs/ocean.md). */
+static int summation_now(const sph_model *m)
+{
+    const int n = m->prm.density_reinit_steps;
+    return m->prm.summation_density || (n > 0 && m->steps % n == 0);
+}
+
 /* Neighbour lists over the particles and their ghosts, then density and
  * diagnosis. A list that overflows max_neighbours while the coast's
  * ghosts are not yet merged (coast.c: ghosts piled up by a coast curved
@@ -307,7 +318,8 @@ static int prepare_lists(sph_model *m, sph_status *st)
     }
     /* W_kj is read by the summation density and the collision rheology's
      * v' only: otherwise the lists leave it out (8 bytes per pair) */
-    m->nb->keep_w = m->prm.summation_density || (m->rheo->fields & SPH_RHEO_FIELD_VFLUCT) != 0;
+    m->nb->keep_w = m->prm.summation_density || m->prm.density_reinit_steps > 0 ||
+                    (m->rheo->fields & SPH_RHEO_FIELD_VFLUCT) != 0;
     /* model.compact_gradients: the pair gradients as their factor F and
      * the build's positions (core/neighbours.h; the same bits) */
     m->nb->factor = m->prm.compact_gradients != 0;
@@ -326,7 +338,7 @@ static int prepare_lists(sph_model *m, sph_status *st)
                               "neighbour count", (double)m->prm.max_neighbours,
                               (double)m->prm.max_neighbours,
                               "exceeds max_neighbours (particle clumping)");
-    if (m->prm.summation_density)
+    if (summation_now(m))
         sph_density_pass(m);
     /* ghosts take their source's state */
     for (size_t g = 0; g < m->ng; g++) {
@@ -746,7 +758,7 @@ int sph_model_init(sph_model *m, sph_status *st)
             ratio[b] = t;
         }
         double med = ratio[ns / 2];
-        if (med > 0.8 && med < 1.25 && p->summation_density)
+        if (med > 0.8 && med < 1.25 && (p->summation_density || p->density_reinit_steps > 0))
             m->dens_scale = med;
     }
 calibrated:

@@ -55,15 +55,17 @@ int fc_ocean_setup(engine *e, sph_error *err)
     if (!ocean_on(e))
         return SPH_OK;
     const sph_params *p = &e->prm;
-    /* continuity density with new particles: a particle the wind pulls
-     * off a wall spreads without bound, its leads freeze more ice than
-     * the sea under it holds and a slab drains (bench_season: day 71; the
-     * freeze-up scene: day 20; docs/ocean.md) */
-    if (p->ocean.create && !p->summation_density)
+    /* plain continuity density with new particles: a particle the wind
+     * pulls off the edge of a pack spreads without bound, its leads freeze
+     * more ice than the sea under it holds and a slab drains (bench_season:
+     * day 71; the freeze-up scene: day 20). With the density re-initialised
+     * by summation every density_reinit_steps steps it runs (docs/ocean.md) */
+    if (p->ocean.create && !p->summation_density && p->density_reinit_steps <= 0)
         return sph_err_set(err, SPH_ERR_CONFIG,
-                           "config: model.new_ice.create needs model.summation_density true (with continuity "
-                           "density the footprints of particles pulled off a wall grow without bound over a "
-                           "season: docs/ocean.md)");
+                           "config: model.new_ice.create with continuity density needs "
+                           "model.density_reinit_steps > 0 (or model.summation_density true): plain "
+                           "continuity lets the footprints of particles pulled off a wall grow without "
+                           "bound over a season (docs/ocean.md)");
     double x0, x1, y0, y1, d = fc_spacing_m(e);
     plane_box(e, &x0, &x1, &y0, &y1);
     int nx, ny;

@@ -177,7 +177,12 @@ static int write_body(int nc, const sph_particles *P, const restart_header *h, c
         if ((st = (call)) != NC_NOERR)               \
             return nc_fail(st, what, path, err);     \
     } while (0)
-    NC(nc_set_fill(nc, NC_NOFILL, &st), "set fill");
+    /* no fill: every value is written, except with no particle, where the
+     * one slot below stays unwritten and so takes the fill value (without
+     * it the file held whatever the chunk's memory held: two runs of an
+     * open-water start wrote different restart bytes) */
+    if (n > 0)
+        NC(nc_set_fill(nc, NC_NOFILL, &st), "set fill");
     /* a fixed dimension of length 0 would be unlimited: keep it fixed and >= 1 */
     NC(nc_def_dim(nc, "particle", n > 0 ? n : 1, &d_p), "define dimension");
     NC(nc_def_dim(nc, "layer", (size_t)nl, &d_l), "define dimension");
