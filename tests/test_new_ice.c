@@ -353,6 +353,45 @@ static void test_conservation(void)
     sph_model_free(m);
 }
 
+/* Two cells of 10 km in a row under an OPEN land mask that covers only
+ * x < 15 km (all sea): beyond an open mask's grid particles leave as
+ * outflow, so that water is not the model's to freeze: the second cell's
+ * sea fraction is 1/2 and no particle is created beyond x = 15 km. */
+static void test_open_mask_edge(void)
+{
+    sph_params p;
+    base_params(&p);
+    static unsigned char land[3 * 2] = {0, 0, 0, 0, 0, 0};
+    sph_landmask mk = {3, 2, 0.0, 0.0, 5000.0, 5000.0, land, 0};
+    sph_model *m = grid_model(&p, 256, &mk, 2, 1);
+    if (!m)
+        return;
+    sph_ocean *o = sph_model_ocean(m);
+    CHECK_CLOSE(o->seafrac[0], 1.0, 1e-12, 0, "sea fraction inside the mask");
+    CHECK_CLOSE(o->seafrac[1], 0.5, 1e-12, 0, "sea fraction of the cell half beyond the open mask");
+    for (size_t c = 0; c < 2; c++)
+        sph_ocean_set_cell(o, c, 20.0, 32.0, -1.728);
+    atm a = {-20.0, 6e-4, 0.0, 0.0, 0.0, 180.0};
+    fill(m, &a);
+    sph_status st;
+    CHECK(sph_model_init(m, &st) == SPH_STEP_OK, "init: %s", st.what);
+    sph_particles *P = sph_model_particles(m);
+    size_t beyond = 0, in1 = 0;
+    for (int h = 0; h < 48 && P->n == 0; h++) {
+        fill(m, &a);
+        CHECK(sph_model_step(m, &st) == SPH_STEP_OK, "step: %s %s", st.quantity, st.what);
+    }
+    CHECK(P->n > 0, "new ice created");
+    for (size_t k = 0; k < P->n; k++) {
+        beyond += P->x[k] >= 15000.0;
+        in1 += P->x[k] >= 1e4 && P->x[k] < 15000.0;
+    }
+    CHECK(beyond == 0, "no new particle beyond the open mask: %zu", beyond);
+    CHECK(P->n == 24 && in1 == 8, "the lattice points inside the mask: %zu in all, %zu in cell 1 (want 24, 8)",
+          P->n, in1);
+    sph_model_free(m);
+}
+
 int main(void)
 {
     test_freezing_point();
@@ -360,6 +399,7 @@ int main(void)
     test_budget_violation();
     test_open_water_freeze();
     test_placement();
+    test_open_mask_edge();
     test_conservation();
     return check_summary("test_new_ice");
 }

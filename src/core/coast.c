@@ -32,6 +32,18 @@ int sph_is_land(const sph_model *m, double x, double y)
     return m->land[(size_t)j * m->mask.nx + i] != 0;
 }
 
+/* 1 if the point is sea inside the domain: not land and, with an open
+ * mask, not beyond its grid (where particles leave as outflow). */
+int sph_is_domain_sea(const sph_model *m, double x, double y)
+{
+    if (!m->has_mask)
+        return 1;
+    int i, j;
+    if (!mask_cell(m, x, y, &i, &j))
+        return 0;
+    return m->land[(size_t)j * m->mask.nx + i] == 0;
+}
+
 static int outside_open(const sph_model *m, double x, double y)
 {
     /* a non-finite position is a blow-up for check_health to report, not outflow */

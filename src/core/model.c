@@ -873,13 +873,15 @@ int sph_model_ocean_create(sph_model *m, const sph_ocean_grid *g)
     if (!m->ocean || sph_dd_ocean_alloc(m))
         return SPH_STEP_FATAL;
     sph_ocean *o = m->ocean;
-    /* the sea fraction of each cell from the land mask, sampled 8 x 8 */
+    /* the sea fraction of each cell from the land mask, sampled 8 x 8:
+     * sea inside the domain only (beyond an open mask's grid particles
+     * leave as outflow, so water there is not the model's to freeze) */
     for (size_t c = 0; m->has_mask && c < o->ncell; c++) {
         int i = (int)(c % (size_t)g->nx), j = (int)(c / (size_t)g->nx), sea = 0;
         for (int b = 0; b < 8; b++)
             for (int a = 0; a < 8; a++)
-                sea += !sph_is_land(m, g->x0 + (i + (a + 0.5) / 8.0) * g->dx,
-                                    g->y0 + (j + (b + 0.5) / 8.0) * g->dy);
+                sea += sph_is_domain_sea(m, g->x0 + (i + (a + 0.5) / 8.0) * g->dx,
+                                         g->y0 + (j + (b + 0.5) / 8.0) * g->dy);
         o->seafrac[c] = sea / 64.0;
         sph_ocean_set_cell(o, c, p->ocean.depth, S0, Tf);
     }

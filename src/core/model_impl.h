@@ -256,6 +256,7 @@ double sph_explicit_limit(sph_model *m);
 /* coasts (coast.c)                                                    */
 
 int sph_is_land(const sph_model *m, double x, double y);
+int sph_is_domain_sea(const sph_model *m, double x, double y);
 /* Marks sea cells within `radius` of a land cell (done once, at init). */
 void sph_mark_near_land(sph_model *m, double radius);
 /* The same marking into nl (nx * ny bytes of the mask): 1 where a land

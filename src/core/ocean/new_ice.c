@@ -365,7 +365,7 @@ static int create_in_cell(sph_model *m, size_t c, double reach, long *next_id, s
         for (long b = b0; b < b1; b++)
             for (long a = a0; a < a1; a++) {
                 double x = o->g.lx0 + a * ds, y = o->g.ly0 + b * ds;
-                if (sph_is_land(m, x, y) || inside_ice(m, x, y, reach))
+                if (!sph_is_domain_sea(m, x, y) || inside_ice(m, x, y, reach))
                     continue;
                 if (pass == 0) {
                     nfree++;
