@@ -42,7 +42,7 @@
  * self-similar pile gives h^2, docs/dem.md). Each h also prints the share
  * of the potential energy gained in the sail (spheres ending with their
  * centre above the water) and below it, and alpha = (F / b) / (h^1.5
- * L^0.5). The exponent is reported, not asserted to be 1.5: only that the
+ * L^0.5). SPHICE_SAIL_PHASE=k: another pattern of the imperfection. The exponent is reported, not asserted to be 1.5: only that the
  * force grows with h (docs/dem.md: the run does not reproduce 1.5). */
 #include <math.h>
 #include <stdio.h>
@@ -63,9 +63,13 @@
 #define IMPERFECTION 0.02
 /* Loose spheres (rubble blocks of size h) between the intact sheet and the floe at the start */
 #define RUBBLE 8
+/* SPHICE_SAIL_PHASE=k (long case) shifts the sequence by frac(k sqrt 2):
+ * another pattern of the same amplitude, to see how much of a result is
+ * the pattern's (0: the pattern of every table before session 9). */
+static double imperfection_phase = 0.0;
 static double imperfection(int i)
 {
-    double q = 0.6180339887498949 * i;
+    double q = 0.6180339887498949 * i + imperfection_phase;
     return q - floor(q) - 0.5;
 }
 
@@ -305,6 +309,11 @@ int main(void)
     CHECK(!em || (push_m >= 1.0 && push_m <= 100.0), "SPHICE_SAIL_PUSH_M %g in [1, 100] m", push_m);
     if (em && !(push_m >= 1.0 && push_m <= 100.0))
         return check_summary("test_dem_sail");
+    const char *eph = getenv("SPHICE_SAIL_PHASE");
+    if (eph) {
+        double k = atof(eph) * sqrt(2.0);
+        imperfection_phase = k - floor(k);
+    }
     const double hs[] = {0.25, 0.375, 0.5};
     double sx = 0, sy = 0, sxx = 0, sxy = 0, fw[3];
     const char *eh = getenv("SPHICE_SAIL_H"); /* one thickness of the sweep only (no fit) */
