@@ -37,7 +37,12 @@
  * sheet (geometrically similar runs), the force per width averaged over
  * the second half of the push; the exponent of F / b against h fitted by
  * least squares and printed beside the seed's 1.5 with beta = (F / b) /
- * h^1.5. The exponent is reported, not asserted to be 1.5: only that the
+ * h^1.5. SPHICE_SAIL_PUSH_M=L pushes every h the same L metres instead
+ * (the seed's alpha h^1.5 L^0.5 takes h and L apart: with L = np h a
+ * self-similar pile gives h^2, docs/dem.md). Each h also prints the share
+ * of the potential energy gained in the sail (spheres ending with their
+ * centre above the water) and below it, and alpha = (F / b) / (h^1.5
+ * L^0.5). SPHICE_SAIL_PHASE=k: another pattern of the imperfection. The exponent is reported, not asserted to be 1.5: only that the
  * force grows with h (docs/dem.md: the run does not reproduce 1.5). */
 #include <math.h>
 #include <stdio.h>
@@ -58,9 +63,13 @@
 #define IMPERFECTION 0.02
 /* Loose spheres (rubble blocks of size h) between the intact sheet and the floe at the start */
 #define RUBBLE 8
+/* SPHICE_SAIL_PHASE=k (long case) shifts the sequence by frac(k sqrt 2):
+ * another pattern of the same amplitude, to see how much of a result is
+ * the pattern's (0: the pattern of every table before session 9). */
+static double imperfection_phase = 0.0;
 static double imperfection(int i)
 {
-    double q = 0.6180339887498949 * i;
+    double q = 0.6180339887498949 * i + imperfection_phase;
     return q - floor(q) - 0.5;
 }
 
@@ -100,6 +109,7 @@ typedef struct sail_run {
     double force_mean;   /* mean horizontal force on the floe over the window, N */
     double work;         /* work of the pushing force, J */
     double dpe, ke;      /* potential energy gained, kinetic energy at the end, J */
+    double dpe_sail;     /* the part of dpe of the spheres ending with their centre above the water (the sail; the rest the keel and the sheet) */
     double sail, keel;   /* highest top / lowest bottom of the sheet's spheres, m */
     double freeboard, draft; /* the sheet's top and bottom when floating, m */
     double width;        /* b, m: one sphere */
@@ -194,9 +204,15 @@ static sail_run ridge(double h, double push, double from, int progress, int nl)
     long drv0 = nsheet - 2 * nl;
     for (long i = drv0; i < nsheet; i++)
         d->flags[i] = DEM_FIX_TRANSLATION | DEM_FIX_ROTATION;
-    double pe0 = 0.0;
-    for (long i = 0; i < drv0; i++)
-        pe0 += sphere_pe(d->z[i], r, d->m[i], rho_w, g);
+    double pe0 = 0.0, *pe_start = malloc((size_t)drv0 * sizeof *pe_start);
+    if (!pe_start) {
+        dem_free(d);
+        return out;
+    }
+    for (long i = 0; i < drv0; i++) {
+        pe_start[i] = sphere_pe(d->z[i], r, d->m[i], rho_w, g);
+        pe0 += pe_start[i];
+    }
     double dt = 0.9 * p.dt_safety * dem_dt_critical(d);
     double t_end = push / PUSH_U + 0.5 * RAMP_S, t_from = from / PUSH_U;
     long steps = (long)(t_end / dt), nwin = 0;
@@ -229,12 +245,16 @@ static sail_run ridge(double h, double push, double from, int progress, int nl)
     out.sail = -HUGE_VAL;
     out.keel = HUGE_VAL;
     for (long i = 0; i < drv0; i++) {
-        pe1 += sphere_pe(d->z[i], r, d->m[i], rho_w, g);
+        double pe = sphere_pe(d->z[i], r, d->m[i], rho_w, g);
+        pe1 += pe;
+        if (d->z[i] > 0.0)
+            out.dpe_sail += pe - pe_start[i];
         out.ke += 0.5 * d->m[i] * (d->vx[i] * d->vx[i] + d->vy[i] * d->vy[i] + d->vz[i] * d->vz[i]) +
                   0.5 * d->inertia[i] * (d->wx[i] * d->wx[i] + d->wy[i] * d->wy[i] + d->wz[i] * d->wz[i]);
         out.sail = fmax(out.sail, d->z[i] + r);
         out.keel = fmin(out.keel, d->z[i] - r);
     }
+    free(pe_start);
     out.dpe = pe1 - pe0;
     out.broken = d->bonds_broken_tension + d->bonds_broken_shear;
     out.force_mean = nwin ? fsum / nwin : NAN;
@@ -280,6 +300,20 @@ int main(void)
     CHECK(np >= 4.0 && np <= 400.0, "SPHICE_SAIL_PUSH %g in [4, 400]", np);
     if (!(np >= 4.0 && np <= 400.0))
         return check_summary("test_dem_sail");
+    /* SPHICE_SAIL_PUSH_M: every h pushed the same L metres (the seed's
+     * alpha h^1.5 L^0.5 and beta h^1.5 take h and L apart; a push of np h
+     * ties L to h: a self-similar pile then gives h^2 whichever of the two
+     * holds, docs/dem.md) */
+    const char *em = getenv("SPHICE_SAIL_PUSH_M");
+    double push_m = em ? atof(em) : 0.0;
+    CHECK(!em || (push_m >= 1.0 && push_m <= 100.0), "SPHICE_SAIL_PUSH_M %g in [1, 100] m", push_m);
+    if (em && !(push_m >= 1.0 && push_m <= 100.0))
+        return check_summary("test_dem_sail");
+    const char *eph = getenv("SPHICE_SAIL_PHASE");
+    if (eph) {
+        double k = atof(eph) * sqrt(2.0);
+        imperfection_phase = k - floor(k);
+    }
     const double hs[] = {0.25, 0.375, 0.5};
     double sx = 0, sy = 0, sxx = 0, sxy = 0, fw[3];
     const char *eh = getenv("SPHICE_SAIL_H"); /* one thickness of the sweep only (no fit) */
@@ -289,14 +323,17 @@ int main(void)
             fw[i] = NAN;
             continue;
         }
-        sail_run b = ridge(hs[i], np * hs[i], 0.5 * np * hs[i], 1, nl);
+        double L = push_m > 0.0 ? push_m : np * hs[i];
+        sail_run b = ridge(hs[i], L, 0.5 * L, 1, nl);
         fw[i] = b.force_mean / b.width;
         printf("  h %.3f m, %d layer(s) of %.4g m spheres: pushed %.1f m, bonds broken %ld (of %ld), sail top %.2f m, "
                "keel bottom %.2f m; mean force per width (second half) %.4g kN/m; beta = (F/b)/h^1.5 = %.4g N m^-2.5; "
                "work %.4g J >= potential %.4g J + kinetic %.4g J (potential / work %.3f); "
-               "mean pushing force per width (work / push / b) %.4g kN/m\n",
-               hs[i], nl, b.width, np * hs[i], b.broken, b.bonds, b.sail, b.keel, fw[i] / 1e3,
-               fw[i] / pow(hs[i], 1.5), b.work, b.dpe, b.ke, b.dpe / b.work, b.work / (np * hs[i]) / b.width / 1e3);
+               "mean pushing force per width (work / push / b) %.4g kN/m; of the potential, %.3f in the sail (centres "
+               "above the water), %.3f below; alpha = (F/b)/(h^1.5 L^0.5) %.4g N m^-3\n",
+               hs[i], nl, b.width, L, b.broken, b.bonds, b.sail, b.keel, fw[i] / 1e3,
+               fw[i] / pow(hs[i], 1.5), b.work, b.dpe, b.ke, b.dpe / b.work, b.work / L / b.width / 1e3,
+               b.dpe_sail / b.dpe, 1.0 - b.dpe_sail / b.dpe, fw[i] / pow(hs[i], 1.5) / sqrt(L));
         CHECK(b.ok && isfinite(fw[i]) && fw[i] > 0.0, "h %.3f m: a finite positive force", hs[i]);
         CHECK(b.work >= b.dpe + b.ke - 0.01 * fabs(b.work), "h %.3f m: energy balance", hs[i]);
         double x = log(hs[i]), y = log(fw[i]);
