@@ -44,6 +44,25 @@ int sph_is_domain_sea(const sph_model *m, double x, double y)
     return m->land[(size_t)j * m->mask.nx + i] == 0;
 }
 
+/* A move from (x0, y0) whose target (*x1, *y1) is land: slide along the
+ * coast (keep the sea-side component, zero the other velocity component)
+ * or stop. */
+static inline void blocked_move(const sph_model *m, sph_particles *P, size_t k, double x0, double y0,
+                                double *x1, double *y1)
+{
+    if (!sph_is_land(m, *x1, y0)) {
+        *y1 = y0;
+        P->v[k] = 0.0;
+    } else if (!sph_is_land(m, x0, *y1)) {
+        *x1 = x0;
+        P->u[k] = 0.0;
+    } else {
+        *x1 = x0;
+        *y1 = y0;
+        P->u[k] = P->v[k] = 0.0;
+    }
+}
+
 static int outside_open(const sph_model *m, double x, double y)
 {
     /* a non-finite position is a blow-up for check_health to report, not outflow */
@@ -424,19 +443,8 @@ void sph_move_and_constrain(sph_model *m)
         double x0 = P->x[k], y0 = P->y[k];
         double x1 = x0 + 0.5 * dt * (m->un[k] + P->u[k]);
         double y1 = y0 + 0.5 * dt * (m->vn[k] + P->v[k]);
-        if (sph_is_land(m, x1, y1)) {
-            if (!sph_is_land(m, x1, y0)) {
-                y1 = y0;
-                P->v[k] = 0.0;
-            } else if (!sph_is_land(m, x0, y1)) {
-                x1 = x0;
-                P->u[k] = 0.0;
-            } else {
-                x1 = x0;
-                y1 = y0;
-                P->u[k] = P->v[k] = 0.0;
-            }
-        }
+        if (sph_is_land(m, x1, y1))
+            blocked_move(m, P, k, x0, y0, &x1, &y1);
         P->x[k] = x1;
         P->y[k] = y1;
     }
@@ -461,17 +469,7 @@ int sph_move_one(sph_model *m, size_t k)
     int in = mask_cell(m, x1, y1, &i, &j);
     int land = in ? m->land[(size_t)j * m->mask.nx + i] != 0 : m->mask.closed_outside;
     if (land) {
-        if (!sph_is_land(m, x1, y0)) {
-            y1 = y0;
-            P->v[k] = 0.0;
-        } else if (!sph_is_land(m, x0, y1)) {
-            x1 = x0;
-            P->u[k] = 0.0;
-        } else {
-            x1 = x0;
-            y1 = y0;
-            P->u[k] = P->v[k] = 0.0;
-        }
+        blocked_move(m, P, k, x0, y0, &x1, &y1);
         P->x[k] = x1;
         P->y[k] = y1;
         return outside_open(m, x1, y1);

@@ -387,6 +387,16 @@ double *sph_model_idle_scratch(sph_model *m, size_t *len)
  * no neighbour but itself: zero strain rates and stress, free drift, no
  * coast ghosts; mass per area kept by continuity at zero divergence, with
  * the same floor (sph_continuity_pass). */
+static inline void parcel_diagnose_one(sph_particles *P, double rho_i, int continuity, size_t k)
+{
+    sph_set_zero(&P->e11[k]);
+    sph_set_zero(&P->e22[k]);
+    sph_set_zero(&P->e12[k]);
+    double floor_dens = SPH_CONC_MIN * rho_i * P->thick[k];
+    if (continuity && P->dens[k] < floor_dens)
+        P->dens[k] = floor_dens;
+}
+
 static void parcels_diagnose(sph_model *m)
 {
     sph_particles *P = m->P;
@@ -394,14 +404,8 @@ static void parcels_diagnose(sph_model *m)
     const int continuity = !m->prm.summation_density;
     size_t n = P->n;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
-    for (size_t k = 0; k < n; k++) {
-        sph_set_zero(&P->e11[k]);
-        sph_set_zero(&P->e22[k]);
-        sph_set_zero(&P->e12[k]);
-        double floor_dens = SPH_CONC_MIN * rho_i * P->thick[k];
-        if (continuity && P->dens[k] < floor_dens)
-            P->dens[k] = floor_dens;
-    }
+    for (size_t k = 0; k < n; k++)
+        parcel_diagnose_one(P, rho_i, continuity, k);
 }
 
 /* Neighbours' part of prepare() for parcels: cell order (locality of the
@@ -459,16 +463,10 @@ static void parcels_step_pass(sph_model *m, size_t *top_out, size_t *first_out, 
         const size_t k0 = c * SPH_PARCELS_CHUNK, k1 = k0 + SPH_PARCELS_CHUNK < n ? k0 + SPH_PARCELS_CHUNK : n;
         for (size_t k = k0; k < k1; k++) {
             /* sph_diagnose_pass */
-            double hbar = P->dens[k] / p->rho_i;
-            double A = hbar / P->thick[k];
-            if (A > 1.0) {
-                P->snow[k] *= P->thick[k] / hbar;
-                P->thick[k] = hbar;
-                A = 1.0;
-            }
+            double A, pres;
+            (void)sph_diagnose_one(P, p, k, &A, &pres);
             sph_set_bits(&P->conc[k], A);
-            double factor = exp(-p->C * (1.0 - A));
-            sph_set_bits(&P->pres[k], p->P0 * hbar * factor);
+            sph_set_bits(&P->pres[k], pres);
             if (m->loose[k] != 1) /* free drift */
                 m->loose[k] = 1;
             /* parcels_prepare */
@@ -490,19 +488,10 @@ static void parcels_step_pass(sph_model *m, size_t *top_out, size_t *first_out, 
             if (out && k + 1 > top)
                 top = k + 1;
             /* parcels_diagnose */
-            sph_set_zero(&P->e11[k]);
-            sph_set_zero(&P->e22[k]);
-            sph_set_zero(&P->e12[k]);
-            double floor_dens = SPH_CONC_MIN * rho_i * P->thick[k];
-            if (continuity && P->dens[k] < floor_dens)
-                P->dens[k] = floor_dens;
+            parcel_diagnose_one(P, rho_i, continuity, k);
             /* sph_update_sml */
-            if (vsml) {
-                double div = P->e11[k] + P->e22[k];
-                double h = P->sml0[k] * sqrt(P->dens0[k] / P->dens[k]) * (1.0 + 0.5 * p->dt * div);
-                double lo = p->sml_min_factor * P->sml0[k], hi = p->sml_max_factor * P->sml0[k];
-                sph_set_bits(&P->sml[k], fmin(fmax(h, lo), hi));
-            }
+            if (vsml)
+                sph_set_bits(&P->sml[k], sph_sml_one(P, p, k));
             /* the end of the step: check_health, regime_fractions */
             if (k < first && particle_unhealthy(P, p, k))
                 first = k;

@@ -394,6 +394,36 @@ void sph_dd_mevp_norms(sph_model *m, const int *act, size_t na, const double *re
 double sph_max_sml(const sph_particles *P, size_t n);
 void sph_reorder(sph_model *m);
 void sph_density_pass(sph_model *m);
+/* One particle of sph_diagnose_pass (ridging at A > 1 done on P): its
+ * concentration *A, ice strength *pres; returns the strength's factor
+ * exp(-C (1 - A)) (the auto regime's loose test). Shared with the parcels'
+ * one-pass step (model.c) so both make the same operations. */
+static inline double sph_diagnose_one(sph_particles *P, const sph_params *p, size_t k, double *A, double *pres)
+{
+    double hbar = P->dens[k] / p->rho_i;
+    double a = hbar / P->thick[k];
+    if (a > 1.0) { /* ridging: A = 1, the ice thickens at constant volume */
+        P->snow[k] *= P->thick[k] / hbar; /* the snow piles up with it: snow mass kept */
+        P->thick[k] = hbar;
+        a = 1.0;
+    }
+    /* sph_ice_strength's factor, computed once (same operations) */
+    double factor = exp(-p->C * (1.0 - a));
+    *A = a;
+    *pres = p->P0 * hbar * factor;
+    return factor;
+}
+
+/* One particle of sph_update_sml (model.variable_sml): the new smoothing
+ * length from its mass per area and its divergence, within the bounds. */
+static inline double sph_sml_one(const sph_particles *P, const sph_params *p, size_t k)
+{
+    double div = P->e11[k] + P->e22[k];
+    double h = P->sml0[k] * sqrt(P->dens0[k] / P->dens[k]) * (1.0 + 0.5 * p->dt * div);
+    double lo = p->sml_min_factor * P->sml0[k], hi = p->sml_max_factor * P->sml0[k];
+    return fmin(fmax(h, lo), hi);
+}
+
 void sph_diagnose_pass(sph_model *m);
 void sph_select_active(sph_model *m);
 void sph_strain_pass(sph_model *m, const int *list, size_t count);

@@ -65,17 +65,7 @@ void sph_diagnose_pass(sph_model *m)
     size_t n = P->n;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
     for (size_t k = 0; k < n; k++) {
-        double hbar = P->dens[k] / p->rho_i;
-        double A = hbar / P->thick[k];
-        if (A > 1.0) { /* ridging: A = 1, the ice thickens at constant volume */
-            P->snow[k] *= P->thick[k] / hbar; /* the snow piles up with it: snow mass kept */
-            P->thick[k] = hbar;
-            A = 1.0;
-        }
-        P->conc[k] = A;
-        /* sph_ice_strength's factor, computed once (same operations) */
-        double factor = exp(-p->C * (1.0 - A));
-        P->pres[k] = p->P0 * hbar * factor;
+        double factor = sph_diagnose_one(P, p, k, &P->conc[k], &P->pres[k]);
         m->loose[k] = p->physics == SPH_PHYSICS_FREE_DRIFT ||
                       (p->physics == SPH_PHYSICS_AUTO && factor < p->auto_tolerance);
     }
@@ -966,12 +956,8 @@ void sph_update_sml(sph_model *m)
         return;
     size_t n = P->n;
 #pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
-    for (size_t k = 0; k < n; k++) {
-        double div = P->e11[k] + P->e22[k];
-        double h = P->sml0[k] * sqrt(P->dens0[k] / P->dens[k]) * (1.0 + 0.5 * p->dt * div);
-        double lo = p->sml_min_factor * P->sml0[k], hi = p->sml_max_factor * P->sml0[k];
-        P->sml[k] = fmin(fmax(h, lo), hi);
-    }
+    for (size_t k = 0; k < n; k++)
+        P->sml[k] = sph_sml_one(P, p, k);
 }
 
 int sph_model_interpolate(sph_model *m, size_t npts, const double *px, const double *py,
