@@ -442,6 +442,23 @@ int main(int argc, char **argv)
                s1, er, wr, sr);
     }
     compare_warm(ser_bin, mpi_bin, "restart-season", "season-serial", "season.json");
+    /* the season case from open water (no particle at the start): while no
+     * particle is active anywhere the serial step skips the stress solver,
+     * and the decomposed one (every rank iterating, the exchange being
+     * collective) must count its iterations as 0 too: the run statistics
+     * (cycle.json, the fields file's attributes) compared above */
+    snprintf(p, sizeof p, "%s/ice_none.nc", dir);
+    ec_write_ice_at(p, 35, 8, 121.2, 40.1, 0.02, 0.02, 0.0, 0.0, -1);
+    write_config("open.json", "\"thermo\": {\"dt\": 0}",
+                 "\"thermo\": {\"dt\": 600}, \"summation_density\": true, \"ocean\": {\"mixed_layer\": true, "
+                 "\"depth\": 2}, \"new_ice\": {\"create\": true, \"thickness\": 0.002, \"merge\": true, "
+                 "\"merge_distance\": 1.05}", dom);
+    edit_config("open.json", "ice1.nc", "ice_none.nc");
+    edit_config("open.json", "[\"wind\"]", "[\"wind\", \"tair\"]");
+    compare_runs(ser_bin, mpi_bin, "open", "open.json", 1);
+    CHECK(cycle_number("open", "particles_start") == 0 && cycle_number("open", "particles_end") > 0,
+          "open: from no particle to new ice (%.0f -> %.0f)", cycle_number("open", "particles_start"),
+          cycle_number("open", "particles_end"));
 
     /* a failure fails every rank: forcing that ends at +9 h for a 12 h run
      * (every rank's coupling_open refuses it, after rank 0 sent the jobs) */

@@ -830,6 +830,13 @@ static int mevp_solve_iterations(sph_model *m, mevp_work *w, sph_status *st)
             pending = 1;
         else if (m->dd)
             m->dd->exchange(m->dd->ctx, m, SPH_DD_ITER_WAIT);
+        /* decomposed, every rank iterates (the exchange is collective):
+         * with no active particle on any rank the step is the serial
+         * one's, which skips the solver (iterations 0) */
+        if (m->canonical && nna == 0.0) {
+            it = 0;
+            break;
+        }
         double r = s.dmax;
         resid = r;
         /* without them, the sums where the iteration stops below (the
