@@ -18,7 +18,13 @@
  * reflection), no particle enters the land, and where the lists overflow
  * at once (h0 = 1.3 x spacing) the merged ghosts are fewer and carry
  * exactly the volume (sum m / rho) of the reflections (computed with
- * max_neighbours 400, where nothing is merged). */
+ * max_neighbours 400, where nothing is merged). And with the summation
+ * density, ice of 1 m and 10 m in a checkerboard at rest (fixed state)
+ * keeps its densities step after step, merged or not: before the fix of
+ * session 9 a merged ghost counted its absorbed reflections' volume at its
+ * source's density, that density fed on its own ghost, and the 10 m
+ * particle next to the island passed the 30 m thickness limit in the
+ * first step (docs/ocean.md, the freeze-up scene's pile-up). */
 #include <math.h>
 #include <stdlib.h>
 
@@ -102,6 +108,59 @@ static outcome start(int shape, int max_nb, int steps, double sml_factor, size_t
     return o;
 }
 
+/* The island with h0 = 1.3 x spacing (merged at the start with 96), ice of
+ * 1 m and 10 m in a checkerboard, at rest (model.fixed_state, summation
+ * density): the summation density of the 10 m particle nearest the island after each of
+ * STEPS steps in d[1..STEPS] (d[0] after the start); returns its index. */
+enum { STEPS = 8 };
+static size_t at_rest(int max_nb, double d[STEPS + 1])
+{
+    sph_params p;
+    sph_params_default(&p);
+    p.thermo_dt = 0;
+    p.max_neighbours = max_nb;
+    p.sml_factor = 1.3;
+    p.summation_density = 1;
+    p.fixed_state = 1;
+    const int nx = N * CF, ny = N * CF;
+    static unsigned char land[N * CF * N * CF];
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++)
+            land[j * nx + i] = (unsigned char)land_of(0, (i + 0.5) * D / CF, (j + 0.5) * D / CF);
+    sph_landmask mask = {nx, ny, 0, 0, D / CF, D / CF, land, 0};
+    sph_model *m = sph_model_create(&p, 2 * N * N, &mask);
+    CHECK(m != NULL, "model");
+    for (int s = 0; s <= STEPS; s++)
+        d[s] = NAN;
+    if (!m)
+        return 0;
+    sph_particles *P = sph_model_particles(m);
+    for (int j = 0; j < N; j++)
+        for (int i = 0; i < N; i++) {
+            double x = (i + 0.5) * D, y = (j + 0.5) * D;
+            if (!land[(int)(y / (D / CF)) * nx + (int)(x / (D / CF))])
+                lattice_fill(P, &p, 1, 1, x, y, D, (i + j) % 2 ? 1.0 : 10.0, 1.0, 70.0);
+        }
+    sph_status st;
+    int ok = sph_model_init(m, &st) == SPH_STEP_OK;
+    CHECK(ok, "at rest, max_neighbours %d: starts (%s)", max_nb, ok ? "" : st.what ? st.what : "");
+    size_t kb = 0; /* the 10 m particle nearest the island's centre */
+    for (size_t k = 0; k < P->n; k++)
+        if (P->thick[k] > 5.0 && hypot(P->x[k] - 20.3 * D, P->y[k] - 19.8 * D) <
+                                     hypot(P->x[kb] - 20.3 * D, P->y[kb] - 19.8 * D))
+            kb = k;
+    d[0] = P->dens[kb];
+    for (int s = 1; ok && s <= STEPS; s++) {
+        ok = sph_model_step(m, &st) == SPH_STEP_OK;
+        CHECK(ok, "at rest, max_neighbours %d: step %d (%s)", max_nb, s, ok ? "" : st.what ? st.what : "");
+        d[s] = P->dens[kb];
+    }
+    if (max_nb < 400)
+        CHECK(sph_model_ghosts_merging(m), "at rest, max_neighbours %d: ghosts merged", max_nb);
+    sph_model_free(m);
+    return kb;
+}
+
 int main(void)
 {
     const char *names[3] = {"stair-step island of a rotated native grid", "one-cell staircase", "straight coast"};
@@ -128,5 +187,16 @@ int main(void)
     CHECK(all.ok && !all.merging && def.ok && def.merging, "island, h0 1.3: merged at the start only with 96");
     CHECK(def.ghosts < all.ghosts, "island: fewer ghosts once merged (%zu of %zu)", def.ghosts, all.ghosts);
     CHECK_CLOSE(def.ghost_volume, all.ghost_volume, 1e-12, 0, "island: merged ghosts keep the reflections' volume");
+    /* summation density with ice of two thicknesses at rest (fixed state):
+     * the kernel sums of fixed masses at fixed positions are the same every
+     * step, and the merged ghosts count the reflections' mass */
+    double d_all[STEPS + 1], d_mrg[STEPS + 1];
+    size_t k_all = at_rest(400, d_all), k_mrg = at_rest(96, d_mrg);
+    printf("island, checkerboard of 1 m and 10 m ice at rest, summation density of the 10 m particle %zu nearest it: with "
+           "every reflection %.6g kg/m2 (step 1) and %.6g (step %d); merged %.6g and %.6g\n",
+           k_all, d_all[1], d_all[STEPS], STEPS, d_mrg[1], d_mrg[STEPS]);
+    CHECK(k_all == k_mrg, "at rest: the same particle (%zu, %zu)", k_all, k_mrg);
+    CHECK_CLOSE(d_all[STEPS], d_all[1], 1e-12, 0, "at rest, every reflection: the density is steady");
+    CHECK_CLOSE(d_mrg[STEPS], d_mrg[1], 1e-12, 0, "at rest, ghosts merged: the density is steady (no ratchet)");
     return check_summary("test_coast_ghosts");
 }

@@ -191,7 +191,8 @@ static int nearest_coast(const sph_model *m, double x, double y, double radius, 
  * GHOST_CONTRACTION times as far apart: the mirror has contracted them, and
  * the earlier ghost takes its volume (mass / density), so that the land's
  * share of every kernel sum stays what the reflections give, on fewer
- * particles. Ghosts of a straight or gently
+ * particles; the summation density sums their mass (ghost_mass), not
+ * that volume at the earlier ghost's density. Ghosts of a straight or gently
  * curved coast (contraction below the factor) are all kept. Merging starts
  * only when a neighbour list first overflows max_neighbours (model.c,
  * prepare_lists) and stays on for the model's life: below that the
@@ -250,10 +251,17 @@ static int add_ghost(sph_model *m, size_t k, double gx, double gy, double n1x, d
             P->mass[g] += P->mass[k] * P->dens[g] / P->dens[k];
         else
             P->mass[g] += P->mass[k];
+        /* the mass sums (the summation density) take the reflection's mass:
+         * the volume above at g's density is dens[g] / dens[k] times it, and
+         * dens[g] is its source's summation density, which sums this ghost:
+         * a dense particle's own merged ghost made it denser step after
+         * step (the freeze-up scene's pile-up, docs/ocean.md) */
+        m->ghost_mass[g - P->n] += P->mass[k];
         m->ghosts_thinned++;
         return 0;
     }
     sph_particles_copy_one(P, q, P, k);
+    m->ghost_mass[m->ng] = P->mass[k];
     P->x[q] = gx;
     P->y[q] = gy;
     m->ghost_src[m->ng] = (int)k;

@@ -89,6 +89,7 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     m->ghost_ny = calloc(c2, sizeof(double));
     m->ghost_n2x = calloc(c2, sizeof(double));
     m->ghost_n2y = calloc(c2, sizeof(double));
+    m->ghost_mass = calloc(c2, sizeof(double));
     m->gh_size = 64;
     while (with_mask && m->gh_size < c2)
         m->gh_size *= 2;
@@ -106,7 +107,7 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
     m->active = calloc(c2, sizeof(int));
     m->loose = calloc(c2, 1);
     m->tw = sph_thermo_work_create(c2, nl);
-    int ok = m->P && m->nb && m->ghost_src && m->ghost_nx && m->ghost_ny && m->ghost_n2x && m->ghost_n2y && m->gh_head && m->gh_next && m->un && m->vn &&
+    int ok = m->P && m->nb && m->ghost_src && m->ghost_nx && m->ghost_ny && m->ghost_n2x && m->ghost_n2y && m->ghost_mass && m->gh_head && m->gh_next && m->un && m->vn &&
              m->zeta && m->dvel && m->binv && m->fcor && m->sum_part && m->scratch && m->order && m->active && m->loose && m->tw;
     if (ok && with_mask) {
         size_t nc = (size_t)mask->nx * (size_t)mask->ny;
@@ -146,6 +147,7 @@ void sph_model_free(sph_model *m)
     free(m->ghost_ny);
     free(m->ghost_n2x);
     free(m->ghost_n2y);
+    free(m->ghost_mass);
     free(m->gh_head);
     free(m->gh_next);
     free(m->un);

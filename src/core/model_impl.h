@@ -85,6 +85,11 @@ struct sph_model {
     size_t ng;        /* ghosts this step, at indices [n, n + ng) */
     int *ghost_src;
     double *ghost_nx, *ghost_ny, *ghost_n2x, *ghost_n2y;
+    /* [ng] the mass of the reflections a ghost stands for (its source's,
+     * plus those of the ghosts merged into it, coast.c): the summation
+     * density's land share; P->mass of a merged ghost carries their volume
+     * at its source's density instead (the operators' sums m / rho) */
+    double *ghost_mass;
     /* the ghosts placed so far in a hash of square cells (coast.c): heads
      * [gh_size, a power of two], chains [2*cap] */
     int *gh_head, *gh_next;

@@ -55,6 +55,30 @@ void sph_density_pass(sph_model *m)
             s += P->mass[nb->idx[base + q]] * nb->w[base + q];
         P->dens[k] = scale * s;
     }
+    /* merged coast ghosts count the mass of the reflections they stand for
+     * (model_impl.h ghost_mass), not their volume-carrying P->mass */
+    if (m->ghosts_thinned == 0)
+        return;
+#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+    for (size_t k = 0; k < n; k++) {
+        const size_t base = nb->off[k];
+        double s = 0.0;
+        int any = 0;
+        for (int q = 0; q < nb->count[k]; q++) {
+            size_t j = (size_t)nb->idx[base + q];
+            if (j >= n && m->ghost_mass[j - n] != P->mass[j]) {
+                any = 1;
+                break;
+            }
+        }
+        if (!any)
+            continue;
+        for (int q = 0; q < nb->count[k]; q++) {
+            size_t j = (size_t)nb->idx[base + q];
+            s += (j < n ? P->mass[j] : m->ghost_mass[j - n]) * nb->w[base + q];
+        }
+        P->dens[k] = scale * s;
+    }
 }
 
 /* Concentration, ridging, strength, and the auto regime's loose flags. */
