@@ -38,6 +38,8 @@ int main(void)
 #include "core/thermo.h"
 #include "service/domain_mpi.h"
 
+#include "new_ice_forcing.h"
+
 #define DS 1000.0 /* lattice spacing, m */
 
 static double cpu_now(void)
@@ -47,24 +49,6 @@ static double cpu_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* -15 C, dark, wind 6 m/s east, over every particle and every cell this
- * rank holds (as bench_new_ice). */
-static void forcing(sph_model *m)
-{
-    sph_particles *P = sph_model_particles(m);
-    sph_ocean *o = sph_model_ocean(m);
-    const double val[7] = {-15.0, 8e-4, 6.0, 0.0, 0.0, 190.0, 40.0};
-    double *const dst[2][7] = {{P->tair, P->qair, P->ua, P->va, P->swdn, P->lwdn, P->lat},
-                               {o ? o->tair : NULL, o ? o->qair : NULL, o ? o->ua : NULL, o ? o->va : NULL,
-                                o ? o->swdn : NULL, o ? o->lwdn : NULL, o ? o->lat : NULL}};
-    const size_t n[2] = {P->n, o ? o->ncell : 0};
-    for (int s = 0; s < 2; s++)
-        for (int q = 0; q < 7; q++)
-            for (size_t k = 0; k < n[s]; k++)
-                dst[s][q][k] = val[q];
-    for (size_t k = 0; k < P->n; k++)
-        P->uw[k] = P->vw[k] = 0.0;
-}
 
 static unsigned char *land;
 
@@ -135,7 +119,7 @@ int main(int argc, char **argv)
                 P->id[k] = (long)k;
             }
         P->n = k;
-        forcing(root);
+        new_ice_forcing(root);
         for (size_t q = 0; q < P->n; q++)
             sph_thermo_init_particle(&p->thermo, P, q, -15.0);
         if (sph_model_init(root, &st) != SPH_STEP_OK) {
@@ -150,7 +134,7 @@ int main(int argc, char **argv)
     dd_ctx *d = m ? dd_create(MPI_COMM_WORLD, m, &o) : NULL;
     if (!d)
         MPI_Abort(MPI_COMM_WORLD, 2);
-    forcing(m);
+    new_ice_forcing(m);
     if (dd_scatter(d, all, &clk, &st) != SPH_STEP_OK)
         MPI_Abort(MPI_COMM_WORLD, 2);
     sph_model_free(root);
@@ -165,7 +149,7 @@ int main(int argc, char **argv)
             w0 = MPI_Wtime();
             c0 = cpu_now();
         }
-        forcing(m);
+        new_ice_forcing(m);
         if (dd_step(d, &st) != SPH_STEP_OK) {
             if (rank == 0)
                 fprintf(stderr, "bench_mpi_ocean: step %d: %s %s\n", s, st.quantity ? st.quantity : "",

@@ -18,28 +18,12 @@
  * Cost; the difference of step times above is within a loaded machine's
  * noise). */
 #include "bench_common.h"
+#include "new_ice_forcing.h"
 #include "core/model.h"
 #include "core/ocean.h"
 
 #define DS 1000.0 /* lattice spacing, m */
 
-/* -15 C, dark, wind 6 m/s east, over every particle and every cell. */
-static void forcing(sph_model *m)
-{
-    sph_particles *P = sph_model_particles(m);
-    sph_ocean *o = sph_model_ocean(m);
-    const double val[7] = {-15.0, 8e-4, 6.0, 0.0, 0.0, 190.0, 40.0};
-    double *const dst[2][7] = {{P->tair, P->qair, P->ua, P->va, P->swdn, P->lwdn, P->lat},
-                               {o ? o->tair : NULL, o ? o->qair : NULL, o ? o->ua : NULL, o ? o->va : NULL,
-                                o ? o->swdn : NULL, o ? o->lwdn : NULL, o ? o->lat : NULL}};
-    const size_t n[2] = {P->n, o ? o->ncell : 0};
-    for (int s = 0; s < 2; s++)
-        for (int q = 0; q < 7; q++)
-            for (size_t k = 0; k < n[s]; k++)
-                dst[s][q][k] = val[q];
-    for (size_t k = 0; k < P->n; k++)
-        P->uw[k] = P->vw[k] = 0.0;
-}
 
 /* n particles on the lattice, open water east of them. */
 static sph_model *make(size_t n, int ocean, int create, int merge, double dt)
@@ -81,7 +65,7 @@ static sph_model *make(size_t n, int ocean, int create, int merge, double dt)
             P->id[k] = (long)k;
         }
     P->n = k;
-    forcing(m);
+    new_ice_forcing(m);
     for (size_t q = 0; q < P->n; q++)
         sph_thermo_init_particle(&p.thermo, P, q, -15.0);
     sph_status st;
@@ -98,7 +82,7 @@ static double step_time(sph_model *m, int steps, int *ok)
     sph_status st;
     double t0 = bench_wall();
     for (int s = 0; s < steps && *ok; s++) {
-        forcing(m);
+        new_ice_forcing(m);
         if (sph_model_step(m, &st) != SPH_STEP_OK) {
             fprintf(stderr, "bench_new_ice: step: %s %s\n", st.quantity, st.what);
             *ok = 0;

@@ -282,6 +282,33 @@ static void refused(const char *bin, const char *what, const char *from, const c
     refused2(bin, what, from, to, NULL, NULL, extra, key);
 }
 
+/* The serial run `name`'s ocean-fluxes file has `want` records. */
+static void check_flux_records(const char *name, size_t want)
+{
+    char of[1300];
+    snprintf(of, sizeof of, "%s/%s-serial/19990208T06Z/sphice_ocean_fluxes.nc", dir, name);
+    int nc = -1, dim;
+    size_t nt = 0;
+    int ok = nc_open(of, NC_NOWRITE, &nc) == NC_NOERR && nc_inq_unlimdim(nc, &dim) == NC_NOERR && dim >= 0 &&
+             nc_inq_dimlen(nc, dim, &nt) == NC_NOERR;
+    if (nc >= 0)
+        nc_close(nc);
+    CHECK(ok && nt == want, "%s: the ocean-fluxes file has %zu hourly records (%zu), compared above", name, want, nt);
+}
+
+/* The season configuration: thermodynamics every 600 s, summation density,
+ * a 2 m slab mixed layer, new particles from 2 mm of frazil and merging,
+ * the cold air, initial ice from `ice`. */
+static void write_season_config(const char *file, const char *ice, const char *dom)
+{
+    write_config(file, "\"thermo\": {\"dt\": 0}",
+                 "\"thermo\": {\"dt\": 600}, \"summation_density\": true, \"ocean\": {\"mixed_layer\": true, "
+                 "\"depth\": 2}, \"new_ice\": {\"create\": true, \"thickness\": 0.002, \"merge\": true, "
+                 "\"merge_distance\": 1.05}", dom);
+    edit_config(file, "ice1.nc", ice);
+    edit_config(file, "[\"wind\"]", "[\"wind\", \"tair\"]");
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -386,17 +413,7 @@ int main(int argc, char **argv)
     edit_config("fluxes.json", "[\"wind\"]", "[\"wind\", \"tair\"]");
     edit_config("fluxes.json", "\"interval_hours\": 1", "\"interval_hours\": 1, \"ocean_fluxes\": true");
     compare_runs(ser_bin, mpi_bin, "fluxes", "fluxes.json", 2);
-    {
-        char of[1300];
-        snprintf(of, sizeof of, "%s/fluxes-serial/19990208T06Z/sphice_ocean_fluxes.nc", dir);
-        int nc = -1, dim;
-        size_t nt = 0;
-        int ok = nc_open(of, NC_NOWRITE, &nc) == NC_NOERR && nc_inq_unlimdim(nc, &dim) == NC_NOERR && dim >= 0 &&
-                 nc_inq_dimlen(nc, dim, &nt) == NC_NOERR;
-        if (nc >= 0)
-            nc_close(nc);
-        CHECK(ok && nt == 2, "fluxes: the ocean-fluxes file has 2 hourly records (%zu), compared above", nt);
-    }
+    check_flux_records("fluxes", 2);
     /* the next cycle warm-started from it: the restart carries the last
      * interval's accumulators, which the new file must not count */
     compare_warm(ser_bin, mpi_bin, "restart-fluxes", "fluxes-serial", "fluxes.json");
@@ -411,25 +428,10 @@ int main(int argc, char **argv)
      * ghosts whose sources lie beyond the 2-support halo (the coast zone,
      * docs/domain.md "Halo depth"): without it their stress in the fluxes
      * file differed. */
-    write_config("season.json", "\"thermo\": {\"dt\": 0}",
-                 "\"thermo\": {\"dt\": 600}, \"summation_density\": true, \"ocean\": {\"mixed_layer\": true, "
-                 "\"depth\": 2}, \"new_ice\": {\"create\": true, \"thickness\": 0.002, \"merge\": true, "
-                 "\"merge_distance\": 1.05}", dom);
-    edit_config("season.json", "ice1.nc", "ice_thin.nc");
-    edit_config("season.json", "[\"wind\"]", "[\"wind\", \"tair\"]");
+    write_season_config("season.json", "ice_thin.nc", dom);
     edit_config("season.json", "\"interval_hours\": 1", "\"interval_hours\": 1, \"ocean_fluxes\": true");
     compare_runs(ser_bin, mpi_bin, "season", "season.json", 2);
-    {
-        char of[1300];
-        snprintf(of, sizeof of, "%s/season-serial/19990208T06Z/sphice_ocean_fluxes.nc", dir);
-        int nc = -1, dim;
-        size_t nt = 0;
-        int ok = nc_open(of, NC_NOWRITE, &nc) == NC_NOERR && nc_inq_unlimdim(nc, &dim) == NC_NOERR && dim >= 0 &&
-                 nc_inq_dimlen(nc, dim, &nt) == NC_NOERR;
-        if (nc >= 0)
-            nc_close(nc);
-        CHECK(ok && nt == 2, "season: the ocean-fluxes file has 2 hourly records (%zu), compared above", nt);
-    }
+    check_flux_records("season", 2);
     {
         double s0 = cycle_number("season", "particles_start"), s1 = cycle_number("season", "particles_end");
         double er = cycle_number("season", "energy_budget_residual");
@@ -449,12 +451,7 @@ int main(int argc, char **argv)
      * (cycle.json, the fields file's attributes) compared above */
     snprintf(p, sizeof p, "%s/ice_none.nc", dir);
     ec_write_ice_at(p, 35, 8, 121.2, 40.1, 0.02, 0.02, 0.0, 0.0, -1);
-    write_config("open.json", "\"thermo\": {\"dt\": 0}",
-                 "\"thermo\": {\"dt\": 600}, \"summation_density\": true, \"ocean\": {\"mixed_layer\": true, "
-                 "\"depth\": 2}, \"new_ice\": {\"create\": true, \"thickness\": 0.002, \"merge\": true, "
-                 "\"merge_distance\": 1.05}", dom);
-    edit_config("open.json", "ice1.nc", "ice_none.nc");
-    edit_config("open.json", "[\"wind\"]", "[\"wind\", \"tair\"]");
+    write_season_config("open.json", "ice_none.nc", dom);
     compare_runs(ser_bin, mpi_bin, "open", "open.json", 1);
     CHECK(cycle_number("open", "particles_start") == 0 && cycle_number("open", "particles_end") > 0,
           "open: from no particle to new ice (%.0f -> %.0f)", cycle_number("open", "particles_start"),
