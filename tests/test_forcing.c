@@ -370,6 +370,109 @@ static void test_era5_expver(void)
     unlink(p);
 }
 
+/* ERA5 as the modernised CDS (2024 on) writes it: ECMWF's "GRIB to
+ * netCDF conversion on new CDS and ADS systems" (cfgrib-based) names the
+ * time dimension valid_time (int64 seconds since 1970-01-01,
+ * proleptic_gregorian), keeps latitude in the GRIB's decreasing order,
+ * adds a scalar ensemble "number" and an "expver" string per time (a
+ * variable, no longer a dimension), stores NetCDF-4 with compression, sets
+ * _FillValue to NaN and, where a parameter has no CF name, standard_name
+ * "unknown" (u10, v10). The reader must take it as plain ERA5 wind. */
+static void test_era5_cds2024(void)
+{
+    tgrid g = regular();
+    char p[128];
+    path(p, sizeof p, "era5_cds2024.nc");
+    int nc, dt, dy, dx, vt, vn, ve, vy, vx, vu, vv;
+    NCW(nc_create(p, NC_CLOBBER | NC_NETCDF4, &nc));
+    NCW(nc_def_dim(nc, "valid_time", 4, &dt));
+    NCW(nc_def_dim(nc, "latitude", g.ny, &dy));
+    NCW(nc_def_dim(nc, "longitude", g.nx, &dx));
+    NCW(nc_def_var(nc, "number", NC_INT64, 0, NULL, &vn));
+    NCW(nc_put_att_text(nc, vn, "long_name", 28, "ensemble member numerical id"));
+    NCW(nc_put_att_text(nc, vn, "units", 1, "1"));
+    NCW(nc_put_att_text(nc, vn, "standard_name", 11, "realization"));
+    NCW(nc_def_var(nc, "valid_time", NC_INT64, 1, &dt, &vt));
+    NCW(nc_put_att_text(nc, vt, "long_name", 4, "time"));
+    NCW(nc_put_att_text(nc, vt, "standard_name", 4, "time"));
+    NCW(nc_put_att_text(nc, vt, "units", 24, "seconds since 1970-01-01"));
+    NCW(nc_put_att_text(nc, vt, "calendar", 19, "proleptic_gregorian"));
+    NCW(nc_def_var(nc, "latitude", NC_DOUBLE, 1, &dy, &vy));
+    NCW(nc_put_att_text(nc, vy, "units", 13, "degrees_north"));
+    NCW(nc_put_att_text(nc, vy, "standard_name", 8, "latitude"));
+    NCW(nc_put_att_text(nc, vy, "stored_direction", 10, "decreasing"));
+    NCW(nc_def_var(nc, "longitude", NC_DOUBLE, 1, &dx, &vx));
+    NCW(nc_put_att_text(nc, vx, "units", 12, "degrees_east"));
+    NCW(nc_put_att_text(nc, vx, "standard_name", 9, "longitude"));
+    NCW(nc_def_var(nc, "expver", NC_STRING, 1, &dt, &ve));
+    NCW(nc_put_att_text(nc, ve, "long_name", 25, "Experiment version number"));
+    int d3[3] = {dt, dy, dx};
+    float fill = NAN;
+    const char *ln[2] = {"10 metre U wind component", "10 metre V wind component"};
+    int pid[2] = {165, 166};
+    NCW(nc_def_var(nc, "u10", NC_FLOAT, 3, d3, &vu));
+    NCW(nc_def_var(nc, "v10", NC_FLOAT, 3, d3, &vv));
+    for (int q = 0; q < 2; q++) {
+        int id = q ? vv : vu;
+        NCW(nc_def_var_deflate(nc, id, 1, 1, 1));
+        NCW(nc_def_var_fill(nc, id, 0, &fill));
+        NCW(nc_put_att_int(nc, id, "GRIB_paramId", NC_INT, 1, &pid[q]));
+        NCW(nc_put_att_text(nc, id, "GRIB_units", 7, "m s**-1"));
+        NCW(nc_put_att_text(nc, id, "long_name", strlen(ln[q]), ln[q]));
+        NCW(nc_put_att_text(nc, id, "units", 7, "m s**-1"));
+        NCW(nc_put_att_text(nc, id, "standard_name", 7, "unknown"));
+        NCW(nc_put_att_text(nc, id, "coordinates", 39, "number valid_time latitude longitude expver"));
+    }
+    NCW(nc_enddef(nc));
+    long long num = 0;
+    NCW(nc_put_var_longlong(nc, vn, &num));
+    for (size_t i = 0; i < g.nx; i++) {
+        double x = g.lon0 + (double)i * g.dlon;
+        NCW(nc_put_var1_double(nc, vx, &i, &x));
+    }
+    for (size_t j = 0; j < g.ny; j++) { /* decreasing: row j is lat0 + (ny-1-j) dlat */
+        double y = g.lat0 + (double)(g.ny - 1 - j) * g.dlat;
+        NCW(nc_put_var1_double(nc, vy, &j, &y));
+    }
+    float *buf = malloc(g.nx * g.ny * sizeof *buf);
+    for (size_t k = 0; k < 4; k++) {
+        long long tv = (long long)T0 + (long long)k * 3600;
+        NCW(nc_put_var1_longlong(nc, vt, &k, &tv));
+        const char *ev = k < 2 ? "0001" : "0005";
+        NCW(nc_put_var1_string(nc, ve, &k, &ev));
+        for (int q = 0; q < 2; q++) {
+            for (size_t j = 0; j < g.ny; j++)
+                for (size_t i = 0; i < g.nx; i++)
+                    buf[j * g.nx + i] = (float)filev(q ? VW : UW, g.lon0 + (double)i * g.dlon,
+                                                     g.lat0 + (double)(g.ny - 1 - j) * g.dlat, k);
+            size_t st[3] = {k, 0, 0}, ct[3] = {1, g.ny, g.nx};
+            NCW(nc_put_vara_float(nc, q ? vv : vu, st, ct, buf));
+        }
+    }
+    free(buf);
+    NCW(nc_close(nc));
+    const char *files[] = {p};
+    forcing_source_spec spec = {.name = "era5", .kind = FORCING_ATMOSPHERE, .files = files,
+                                .nfiles = 1, .required = FQ_WIND};
+    sph_error err;
+    forcing *f = open1(&spec, T0 + 3 * 3600, &err);
+    CHECK(f != NULL, "era5 (CDS 2024) open: %s", err.msg);
+    if (!f)
+        return;
+    for (double k = 0.25; k < 3.0; k += 0.75) {
+        double u[NP], vv2[NP];
+        forcing_sample smp = {.u_east = u, .v_north = vv2};
+        CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &smp, &err) == 0, "%s",
+              err.msg);
+        for (size_t i = 0; i < NP; i++) {
+            CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, 1e-5, "CDS 2024 u");
+            CHECK_CLOSE(vv2[i], phys(VW, plon[i], plat[i], k), 0, 1e-5, "CDS 2024 v");
+        }
+    }
+    forcing_close(f);
+    unlink(p);
+}
+
 /* ERA5-like: packed shorts, mapped names, K, accumulated J m-2, land fill. */
 static void test_era5(void)
 {
@@ -641,6 +744,7 @@ int main(void)
     test_relative_humidity();
     test_gfs();
     test_era5_expver();
+    test_era5_cds2024();
     test_curvilinear();
     test_ocean();
     test_files_and_cache();
