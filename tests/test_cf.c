@@ -39,6 +39,13 @@ static void test_time(void)
     CHECK_CLOSE(t, iso("2020-01-01T01:30:00Z"), 0, 0, "minutes UTC");
     t = cf("hours since 2020-01-01 00:00:00 +05:30", "standard", 0.0, &rc);
     CHECK_CLOSE(t, iso("2019-12-31T18:30:00Z"), 0, 0, "offset +05:30");
+    /* an unsigned offset is positive: UDUNITS-2 (ut_parse) gives 19691231T183000 UTC
+     * for "... 5:30" and 19700101T000000 for wgrib2's "... 00:00:00.0 0:00" */
+    t = cf("seconds since 1970-01-01 00:00:00.0 5:30", "standard", 0.0, &rc);
+    CHECK_CLOSE(t, iso("1969-12-31T18:30:00Z"), 0, 0, "unsigned offset 5:30");
+    t = cf("seconds since 1970-01-01 00:00:00.0 0:00", "standard", 7200.0, &rc);
+    CHECK(rc == 0, "wgrib2's time units parse");
+    CHECK_CLOSE(t, iso("1970-01-01T02:00:00Z"), 0, 0, "wgrib2 0:00");
     /* Mixed Julian/Gregorian: Julian 0001-01-01 is two days before the
      * proleptic Gregorian 0001-01-01, so 1970-01-01 is day 719164. */
     t = cf("days since 0001-01-01 00:00:00", "standard", 719164.0, &rc);

@@ -286,6 +286,59 @@ static void test_gfs(void)
     unlink(p);
 }
 
+/* GFS converted by wgrib2 -netcdf: NAME_LEVEL variable names without
+ * standard_name (UGRD_10maboveground, TMP_2maboveground, ...), units as
+ * wgrib2 writes them ("m/s", "K", "kg/kg", "W/m^2"), _FillValue
+ * 9.999e+20, time in "seconds since 1970-01-01 00:00:00.0 0:00" (its
+ * verftime()), longitudes 0..360. */
+static void test_gfs_wgrib2(void)
+{
+    tgrid g = regular();
+    g.lon0 = 0;
+    g.dlon = 1;
+    g.nx = 360;
+    g.lon360 = 1;
+    g.time_units = "seconds since 1970-01-01 00:00:00.0 0:00";
+    g.calendar = NULL;
+    g.tv0 = T0;
+    g.dtv = 3600.0;
+    tvar v[] = {
+        {"UGRD_10maboveground", NULL, "m/s", NC_FLOAT, 0, 0, 1, 9.999e20, 0, filev, W(UW, 0)},
+        {"VGRD_10maboveground", NULL, "m/s", NC_FLOAT, 0, 0, 1, 9.999e20, 0, filev, W(VW, 0)},
+        {"TMP_2maboveground", NULL, "K", NC_FLOAT, 0, 0, 1, 9.999e20, 0, filev, W(TA, C_K)},
+        {"DPT_2maboveground", NULL, "K", NC_FLOAT, 0, 0, 1, 9.999e20, 0, filev, W(TD, C_K)},
+        {"DSWRF_surface", NULL, "W/m^2", NC_FLOAT, 0, 0, 1, 9.999e20, 0, filev, W(SW, 0)},
+    };
+    char p[128];
+    path(p, sizeof p, "gfs_wgrib2.nc");
+    tnc_write(p, &g, v, 5, 0, 4, 0);
+    const char *files[] = {p};
+    forcing_source_spec spec = {.name = "gfs", .kind = FORCING_ATMOSPHERE, .files = files,
+                                .nfiles = 1,
+                                .required = FQ_WIND | FQ_TAIR | FQ_HUMIDITY | FQ_SWDN};
+    sph_error err;
+    forcing *f = open1(&spec, T0 + 3 * 3600, &err);
+    CHECK(f != NULL, "gfs (wgrib2) open: %s", err.msg);
+    if (!f)
+        return;
+    double u[NP], vv[NP], ta[NP], q[NP], sw[NP];
+    forcing_sample s = {.u_east = u, .v_north = vv, .tair = ta, .qair = q, .swdn = sw};
+    double k = 1.75;
+    CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &s, &err) == 0, "%s", err.msg);
+    for (size_t i = 0; i < NP; i++) {
+        CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, 1e-5, "wgrib2 u");
+        CHECK_CLOSE(vv[i], phys(VW, plon[i], plat[i], k), 0, 1e-5, "wgrib2 v");
+        CHECK_CLOSE(ta[i], phys(TA, plon[i], plat[i], k), 0, 1e-4, "wgrib2 TMP in K");
+        CHECK_CLOSE(sw[i], phys(SW, plon[i], plat[i], k), 0, 1e-3, "wgrib2 DSWRF in W/m^2");
+        /* float32 K: a dew point's ulp near 260 K is 3.1e-5 K, and q changes by
+         * about 7 % per K, so 2e-6 relative per ulp (interpolating adds two) */
+        CHECK_CLOSE(q[i], qsat_from_dew(phys(TD, plon[i], plat[i], k), 101325.0), 5e-6, 0,
+                    "wgrib2 q from DPT");
+    }
+    forcing_close(f);
+    unlink(p);
+}
+
 /* ERA5 as the old CDS wrote it when a request spanned final ERA5 and
  * the preliminary ERA5T: an expver dimension (1, 5), each time valid in
  * one of the two and _FillValue in the other (here: the first two hours
@@ -743,6 +796,7 @@ int main(void)
     test_era5();
     test_relative_humidity();
     test_gfs();
+    test_gfs_wgrib2();
     test_era5_expver();
     test_era5_cds2024();
     test_curvilinear();

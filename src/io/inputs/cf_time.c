@@ -179,7 +179,7 @@ int cf_time_parse(const char *units, cf_calendar cal, cf_time_units *out)
             }
         }
     }
-    /* Time zone: "Z", "UTC", "GMT", "+h", "+hh:mm", "-hhmm" (CF allows one). */
+    /* Time zone: "Z", "UTC", "GMT", "+h", "+hh:mm", "-hhmm", "h:mm" (CF allows one). */
     while (isspace((unsigned char)*p))
         p++;
     double tz = 0;
@@ -187,9 +187,12 @@ int cf_time_parse(const char *units, cf_calendar cal, cf_time_units *out)
         p++;
     else if (strncasecmp(p, "UTC", 3) == 0 || strncasecmp(p, "GMT", 3) == 0)
         p += 3;
-    else if (*p == '+' || *p == '-') {
+    else if (*p == '+' || *p == '-' || isdigit((unsigned char)*p)) {
+        /* unsigned "h:mm" is a positive offset, as UDUNITS-2 reads it
+         * (wgrib2 writes "seconds since 1970-01-01 00:00:00.0 0:00") */
         int sign = *p == '-' ? -1 : 1;
-        p++;
+        if (!isdigit((unsigned char)*p))
+            p++;
         const char *start = p;
         long th = 0, tm = 0;
         if (parse_long(&p, &th))

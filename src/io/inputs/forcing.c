@@ -121,6 +121,13 @@ static const forcing_name_map default_names[] = {
     {"surface_air_pressure", "pressfc"},
     {"surface_downwelling_shortwave_flux_in_air", "dswrfsfc"},
     {"surface_downwelling_longwave_flux_in_air", "dlwrfsfc"},
+    /* GFS as wgrib2 -netcdf writes it (NAME_LEVEL, no standard_name) */
+    {"eastward_wind", "UGRD_10maboveground"}, {"northward_wind", "VGRD_10maboveground"},
+    {"air_temperature", "TMP_2maboveground"}, {"specific_humidity", "SPFH_2maboveground"},
+    {"dew_point_temperature", "DPT_2maboveground"}, {"relative_humidity", "RH_2maboveground"},
+    {"surface_air_pressure", "PRES_surface"},
+    {"surface_downwelling_shortwave_flux_in_air", "DSWRF_surface"},
+    {"surface_downwelling_longwave_flux_in_air", "DLWRF_surface"},
     /* ERA5 (CDS): sf and tp, metres of water equivalent, accumulated */
     {"snowfall_flux", "sf"},        {"precipitation_flux", "tp"},
     /* GFS: precipitation rate (kg m-2 s-1) over NOMADS OPeNDAP and as
