@@ -37,7 +37,67 @@ typedef struct leg_case {
     double ramp;     /* > 0: the sheet starts at rest, its edges reach the speed in this time, s */
     double gap;      /* the sheet's front to the leg at the start, m */
     double sigma_t, tau_c; /* bond strengths, Pa (0: the core's defaults) */
+    int sides; /* 0: rear and side bands clamped, driven kinematically (sessions 1-9); 1: the
+                * side bands held laterally and carried along at the drift (DEM_FIX_X |
+                * DEM_FIX_Y: free to heave and rotate, the ice beside the sheet), the rear
+                * band clamped and driven (session 10) */
 } leg_case;
+
+/* Positions (docs/dem.md, "Session 10"): the intact sheet is the largest set
+ * of spheres joined by intact bonds (union-find); prints the spheres in
+ * contact with the leg, the intact sheet's front on the leg's axis (within
+ * 2 r of y0) as a distance to the leg's surface, and the broken spheres:
+ * how many, above the sheet's top, below its bottom, past the axis. */
+static int uf_find(int *par, int i)
+{
+    while (par[i] != i) {
+        par[i] = par[par[i]];
+        i = par[i];
+    }
+    return i;
+}
+
+static void print_positions(const dem *d, double t, double ztop, double zbot, double r)
+{
+    int n = (int)d->n, *par = malloc((size_t)n * sizeof *par), *cnt = calloc((size_t)n, sizeof(int));
+    for (int i = 0; i < n; i++)
+        par[i] = i;
+    for (size_t k = 0; k < d->nbonds; k++)
+        if (!d->bonds[k].broken) {
+            int a = uf_find(par, d->bonds[k].i), b = uf_find(par, d->bonds[k].j);
+            if (a != b)
+                par[a < b ? b : a] = a < b ? a : b;
+        }
+    int big = 0;
+    for (int i = 0; i < n; i++)
+        cnt[uf_find(par, i)]++;
+    for (int i = 1; i < n; i++)
+        if (cnt[i] > cnt[big])
+            big = i;
+    double x0 = d->s.x0 + d->s.ux, y0 = d->s.y0, rw = 0.5 * d->s.diameter, front = -HUGE_VAL;
+    long contact = 0, broken = 0, above = 0, below = 0, past = 0, inside = 0;
+    for (int i = 0; i < n; i++) {
+        double rho = hypot(d->x[i] - x0, d->y[i] - y0);
+        if (d->s_f[3 * i] != 0.0 || d->s_f[3 * i + 1] != 0.0)
+            contact++; /* a force on the leg in the last step */
+        if (uf_find(par, i) == big) {
+            if (fabs(d->y[i] - y0) < 2.0 * r && d->x[i] < x0)
+                front = fmax(front, d->x[i] + r);
+            continue;
+        }
+        broken++;
+        above += d->z[i] - r > ztop;
+        below += d->z[i] + r < zbot;
+        past += d->x[i] > x0;
+        inside += rho < rw + 4.0 * r;
+    }
+    printf("positions t %.2f s: spheres at the leg %ld; intact sheet %d spheres, its front on the axis"
+           " %.3f m before the leg's face; broken off %ld: within 4 r of the face %ld, above the top %ld,"
+           " below the bottom %ld, past the axis %ld\n",
+           t, contact, cnt[big], x0 - rw - front, broken, inside, above, below, past);
+    free(par);
+    free(cnt);
+}
 
 static void run_leg(const leg_case *c)
 {
@@ -56,14 +116,32 @@ static void run_leg(const leg_case *c)
     CHECK(first == 0, "sheet built");
     double width = sqrt(3.0) * r * (c->ny - 1) + 2 * r, front = 0.0;
     double ymax = sqrt(3.0) * r * (c->ny - 1) + r;
+    long nside = 0;
     for (size_t i = 0; i < d->n; i++) {
         front = fmax(front, d->x[i] + r);
-        /* the rear edge and the two side edges move with the far-field ice */
-        if (d->x[i] < 4.0 * r || d->y[i] < 2.0 * r || d->y[i] > ymax - 2.0 * r) {
+        int rear = d->x[i] < 4.0 * r, side = d->y[i] < 2.0 * r || d->y[i] > ymax - 2.0 * r;
+        /* the rear edge and the two side edges move with the far-field ice:
+         * clamped (sides 0), or the sides held laterally and carried along
+         * at the drift, free vertically and in rotation (sides 1) */
+        if (rear || (side && c->sides == 0)) {
             d->flags[i] = DEM_FIX_TRANSLATION | DEM_FIX_ROTATION;
             dem_set_velocity(d, (long)i, u0, 0.0, 0.0);
+        } else if (side) {
+            d->flags[i] = DEM_FIX_X | DEM_FIX_Y;
+            dem_set_velocity(d, (long)i, u0, 0.0, 0.0);
+            nside++;
         }
     }
+    double *y_side = malloc(d->n * sizeof(double));
+    for (size_t i = 0; i < d->n; i++)
+        y_side[i] = d->y[i];
+    double z_init_top = -HUGE_VAL, z_init_bot = HUGE_VAL;
+    for (size_t i = 0; i < d->n; i++) {
+        z_init_top = fmax(z_init_top, d->z[i] + r);
+        z_init_bot = fmin(z_init_bot, d->z[i] - r);
+    }
+    const char *ser = getenv("SPHICE_DEM_LEG_SERIES");
+    long series = ser && atoi(ser) ? 0 : -1;
     d->s.kind = DEM_STRUCT_CYLINDER;
     d->s.diameter = c->diameter;
     d->s.x0 = front + 0.5 * c->diameter + c->gap;
@@ -86,7 +164,7 @@ static void run_leg(const leg_case *c)
         if (c->ramp > 0.0) {
             double u = c->speed * fmin(1.0, (double)s * dt / c->ramp);
             for (size_t i = 0; i < d->n; i++)
-                if (d->flags[i] & DEM_FIX_TRANSLATION)
+                if (d->flags[i] & (DEM_FIX_TRANSLATION | DEM_FIX_X))
                     d->vx[i] = u;
         }
         if (dem_step(d, dt, &st) != SPH_STEP_OK) {
@@ -94,6 +172,8 @@ static void run_leg(const leg_case *c)
             break;
         }
         f[s] = d->s.fx;
+        if (series >= 0 && (s + 1) % (long)(0.05 / dt) == 0)
+            print_positions(d, (double)(s + 1) * dt, z_init_top, z_init_bot, r);
         fall = fmax(fall, f[s]);
         if (first_contact < 0 && d->s.fx != 0.0) {
             first_contact = s;
@@ -138,6 +218,8 @@ static void run_leg(const leg_case *c)
            " %ld steps of %.3g s (%.2f s simulated, %.1f s wall, %d threads)\n",
            d->n, c->nx, c->ny, c->nz, width, h, c->speed, c->diameter, steps, dt, c->duration, wall,
            omp_get_max_threads());
+    printf("leg case: sides %s\n", c->sides ? "held laterally and carried along at the drift (DEM_FIX_X | DEM_FIX_Y), rear clamped"
+                                            : "clamped and driven with the rear (DEM_FIX_TRANSLATION | DEM_FIX_ROTATION)");
     printf("leg case: bonds sigma_t %.4g MPa, tau_c %.4g MPa; gap to the leg at the start %.3g m, ramp %.3g s\n",
            p.bond_tensile / 1e6, p.bond_shear / 1e6, c->gap, c->ramp);
     printf("leg case: bonds intact %ld, broken in tension %ld, in shear %ld\n", d->bonds_intact,
@@ -203,6 +285,20 @@ static void run_leg(const leg_case *c)
      * (step-load amplification) */
     CHECK(umax < 2.0 * fall / d->s.stiffness + 1e-9, "displacement %.3g m within 2 F_max / k",
           umax);
+    if (c->sides) {
+        /* the held sides keep y exactly, move along at the drift, heave freely */
+        long moved_y = 0, moved_z = 0, slow = 0;
+        for (size_t i = 0; i < d->n; i++)
+            if ((d->flags[i] & DEM_FIX_Y) && !(d->flags[i] & DEM_FIX_TRANSLATION)) {
+                moved_y += d->y[i] != y_side[i];
+                moved_z += d->vz[i] != 0.0;
+                slow += d->vx[i] != c->speed;
+            }
+        CHECK(nside > 0 && moved_y == 0, "held sides (%ld spheres): y unchanged (%ld moved)", nside, moved_y);
+        CHECK(slow == 0, "held sides carried along at the drift (%ld not)", slow);
+        CHECK(moved_z > 0, "held sides free vertically (%ld of %ld moving)", moved_z, nside);
+    }
+    free(y_side);
     free(f);
     free(fd);
     dem_free(d);
@@ -211,20 +307,21 @@ static void run_leg(const leg_case *c)
 int main(void)
 {
     if (check_long()) {
-        leg_case full = {40, 60, 3, 0.05, 0.5, 3.0, 1.6, 0.3, 1, 0.0, 0.01, 0.0, 0.0};
-        /* "nx ny nz speed duration settle assert_mean ramp [gap [sigma_t tau_c (MPa)]]" */
+        leg_case full = {40, 60, 3, 0.05, 0.5, 3.0, 1.6, 0.3, 1, 0.0, 0.01, 0.0, 0.0, 1};
+        /* "nx ny nz speed duration settle assert_mean ramp [gap [sigma_t tau_c (MPa) [sides]]]" */
         const char *e = getenv("SPHICE_DEM_LEG");
         if (e) {
             double st = 0.0, tc = 0.0;
-            sscanf(e, "%d %d %d %lf %lf %lf %d %lf %lf %lf %lf", &full.nx, &full.ny, &full.nz, &full.speed,
-                   &full.duration, &full.settle, &full.assert_mean, &full.ramp, &full.gap, &st, &tc);
+            sscanf(e, "%d %d %d %lf %lf %lf %d %lf %lf %lf %lf %d", &full.nx, &full.ny, &full.nz, &full.speed,
+                   &full.duration, &full.settle, &full.assert_mean, &full.ramp, &full.gap, &st, &tc,
+                   &full.sides);
             full.sigma_t = st * 1e6;
             full.tau_c = tc * 1e6;
         }
         run_leg(&full);
     } else {
         /* reduced: the same ice and leg, a 2.27 m wide, 0.6 m long sheet, 0.15 s */
-        leg_case quick = {6, 26, 3, 0.05, 0.5, 0.15, 1.6, 0.05, 0, 0.0, 0.01, 0.0, 0.0};
+        leg_case quick = {6, 26, 3, 0.05, 0.5, 0.15, 1.6, 0.05, 0, 0.0, 0.01, 0.0, 0.0, 1};
         run_leg(&quick);
     }
     return check_summary("test_dem_leg");
