@@ -238,26 +238,31 @@ static void test_relative_humidity(void)
  * day 737823 there: proleptic Gregorian ordinal 737822 (Python's
  * date.toordinal, day 1 = 0001-01-01) minus 1, plus the 2 days by which
  * the Julian 0001-01-01 precedes the Gregorian one. */
-static void test_gfs(void)
+/* A GFS-shaped file (0..360 longitudes, no standard_name) with the given
+ * time axis and variables (wind, air temperature, humidity as rh or dew
+ * point, shortwave): written, read as source "gfs" and checked at hour k
+ * against the analytic fields within the tolerances of its storage type. */
+typedef struct gfs_case {
+    const char *file, *tag, *time_units;
+    double tv0, dtv, k;
+    int from_dew;            /* humidity from the dew point (else relative humidity) */
+    double ta_tol, sw_tol;   /* absolute: K, W m-2 */
+    double q_rel;            /* relative */
+} gfs_case;
+
+static void gfs_check(const gfs_case *c, const tvar *v)
 {
     tgrid g = regular();
     g.lon0 = 0;
     g.dlon = 1;
     g.nx = 360;
     g.lon360 = 1;
-    g.time_units = "days since 1-1-1 00:00:0.0";
+    g.time_units = c->time_units;
     g.calendar = NULL;
-    g.tv0 = 737823.0;
-    g.dtv = 1.0 / 24;
-    tvar v[] = {
-        {"ugrd10m", NULL, "m/s", NC_FLOAT, 0, 0, 0, 0, 0, filev, W(UW, 0)},
-        {"vgrd10m", NULL, "m/s", NC_FLOAT, 0, 0, 0, 0, 0, filev, W(VW, 0)},
-        {"tmp2m", NULL, "k", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(TA, C_K)},
-        {"rh2m", NULL, "%", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(RH, C_PCT)},
-        {"dswrfsfc", NULL, "w/m^2", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(SW, 0)},
-    };
+    g.tv0 = c->tv0;
+    g.dtv = c->dtv;
     char p[128];
-    path(p, sizeof p, "gfs.nc");
+    path(p, sizeof p, c->file);
     tnc_write(p, &g, v, 5, 0, 4, 0);
     const char *files[] = {p};
     forcing_source_spec spec = {.name = "gfs", .kind = FORCING_ATMOSPHERE, .files = files,
@@ -265,25 +270,41 @@ static void test_gfs(void)
                                 .required = FQ_WIND | FQ_TAIR | FQ_HUMIDITY | FQ_SWDN};
     sph_error err;
     forcing *f = open1(&spec, T0 + 3 * 3600, &err);
-    CHECK(f != NULL, "gfs open: %s", err.msg);
+    CHECK(f != NULL, "%s open: %s", c->tag, err.msg);
     if (!f)
         return;
     double u[NP], vv[NP], ta[NP], q[NP], sw[NP];
     forcing_sample s = {.u_east = u, .v_north = vv, .tair = ta, .qair = q, .swdn = sw};
-    double k = 2.5;
-    CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &s, &err) == 0, "%s", err.msg);
+    double k = c->k;
+    CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &s, &err) == 0, "%s: %s", c->tag,
+          err.msg);
     for (size_t i = 0; i < NP; i++) {
+        double qw = c->from_dew ? qsat_from_dew(phys(TD, plon[i], plat[i], k), 101325.0)
+                                : q_from_rh(phys(RH, plon[i], plat[i], k),
+                                            phys(TA, plon[i], plat[i], k), 101325.0);
         CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, 1e-5, "gfs u (float)");
         CHECK_CLOSE(vv[i], phys(VW, plon[i], plat[i], k), 0, 1e-5, "gfs v (float)");
-        CHECK_CLOSE(ta[i], phys(TA, plon[i], plat[i], k), 0, 1e-9, "gfs tmp2m in k");
-        CHECK_CLOSE(sw[i], phys(SW, plon[i], plat[i], k), 0, 1e-9, "gfs dswrfsfc in w/m^2");
-        CHECK_CLOSE(q[i],
-                    q_from_rh(phys(RH, plon[i], plat[i], k), phys(TA, plon[i], plat[i], k),
-                              101325.0),
-                    1e-12, 0, "gfs q from rh2m in %");
+        CHECK_CLOSE(ta[i], phys(TA, plon[i], plat[i], k), 0, c->ta_tol, "gfs air temperature");
+        CHECK_CLOSE(sw[i], phys(SW, plon[i], plat[i], k), 0, c->sw_tol, "gfs shortwave");
+        CHECK_CLOSE(q[i], qw, c->q_rel, 0, "gfs specific humidity");
     }
     forcing_close(f);
     unlink(p);
+}
+
+static void test_gfs(void)
+{
+    tvar v[] = {
+        {"ugrd10m", NULL, "m/s", NC_FLOAT, 0, 0, 0, 0, 0, filev, W(UW, 0)},
+        {"vgrd10m", NULL, "m/s", NC_FLOAT, 0, 0, 0, 0, 0, filev, W(VW, 0)},
+        {"tmp2m", NULL, "k", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(TA, C_K)},
+        {"rh2m", NULL, "%", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(RH, C_PCT)},
+        {"dswrfsfc", NULL, "w/m^2", NC_DOUBLE, 0, 0, 0, 0, 0, filev, W(SW, 0)},
+    };
+    gfs_case c = {.file = "gfs.nc", .tag = "gfs (GrADS)", .time_units = "days since 1-1-1 00:00:0.0",
+                  .tv0 = 737823.0, .dtv = 1.0 / 24, .k = 2.5, .from_dew = 0,
+                  .ta_tol = 1e-9, .sw_tol = 1e-9, .q_rel = 1e-12};
+    gfs_check(&c, v);
 }
 
 /* GFS converted by wgrib2 -netcdf: NAME_LEVEL variable names without
@@ -293,15 +314,6 @@ static void test_gfs(void)
  * verftime()), longitudes 0..360. */
 static void test_gfs_wgrib2(void)
 {
-    tgrid g = regular();
-    g.lon0 = 0;
-    g.dlon = 1;
-    g.nx = 360;
-    g.lon360 = 1;
-    g.time_units = "seconds since 1970-01-01 00:00:00.0 0:00";
-    g.calendar = NULL;
-    g.tv0 = T0;
-    g.dtv = 3600.0;
     tvar v[] = {
         {"UGRD_10maboveground", NULL, "m/s", NC_FLOAT, 0, 0, 1, 9.999e20, 0, filev, W(UW, 0)},
         {"VGRD_10maboveground", NULL, "m/s", NC_FLOAT, 0, 0, 1, 9.999e20, 0, filev, W(VW, 0)},
@@ -309,34 +321,13 @@ static void test_gfs_wgrib2(void)
         {"DPT_2maboveground", NULL, "K", NC_FLOAT, 0, 0, 1, 9.999e20, 0, filev, W(TD, C_K)},
         {"DSWRF_surface", NULL, "W/m^2", NC_FLOAT, 0, 0, 1, 9.999e20, 0, filev, W(SW, 0)},
     };
-    char p[128];
-    path(p, sizeof p, "gfs_wgrib2.nc");
-    tnc_write(p, &g, v, 5, 0, 4, 0);
-    const char *files[] = {p};
-    forcing_source_spec spec = {.name = "gfs", .kind = FORCING_ATMOSPHERE, .files = files,
-                                .nfiles = 1,
-                                .required = FQ_WIND | FQ_TAIR | FQ_HUMIDITY | FQ_SWDN};
-    sph_error err;
-    forcing *f = open1(&spec, T0 + 3 * 3600, &err);
-    CHECK(f != NULL, "gfs (wgrib2) open: %s", err.msg);
-    if (!f)
-        return;
-    double u[NP], vv[NP], ta[NP], q[NP], sw[NP];
-    forcing_sample s = {.u_east = u, .v_north = vv, .tair = ta, .qair = q, .swdn = sw};
-    double k = 1.75;
-    CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &s, &err) == 0, "%s", err.msg);
-    for (size_t i = 0; i < NP; i++) {
-        CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, 1e-5, "wgrib2 u");
-        CHECK_CLOSE(vv[i], phys(VW, plon[i], plat[i], k), 0, 1e-5, "wgrib2 v");
-        CHECK_CLOSE(ta[i], phys(TA, plon[i], plat[i], k), 0, 1e-4, "wgrib2 TMP in K");
-        CHECK_CLOSE(sw[i], phys(SW, plon[i], plat[i], k), 0, 1e-3, "wgrib2 DSWRF in W/m^2");
-        /* float32 K: a dew point's ulp near 260 K is 3.1e-5 K, and q changes by
-         * about 7 % per K, so 2e-6 relative per ulp (interpolating adds two) */
-        CHECK_CLOSE(q[i], qsat_from_dew(phys(TD, plon[i], plat[i], k), 101325.0), 5e-6, 0,
-                    "wgrib2 q from DPT");
-    }
-    forcing_close(f);
-    unlink(p);
+    /* float32 K: a dew point's ulp near 260 K is 3.1e-5 K, and q changes by
+     * about 7 % per K, so 2e-6 relative per ulp (interpolating adds two) */
+    gfs_case c = {.file = "gfs_wgrib2.nc", .tag = "gfs (wgrib2)",
+                  .time_units = "seconds since 1970-01-01 00:00:00.0 0:00", .tv0 = T0,
+                  .dtv = 3600.0, .k = 1.75, .from_dew = 1,
+                  .ta_tol = 1e-4, .sw_tol = 1e-3, .q_rel = 5e-6};
+    gfs_check(&c, v);
 }
 
 /* ERA5 as the old CDS wrote it when a request spanned final ERA5 and
