@@ -42,6 +42,7 @@
 
 #include "check.h"
 #include "core/dem.h"
+#include "dem_pieces.h"
 
 /* The range of the peak against Ralston's H that the long case asserts
  * (docs/dem.md, "The cone case rebuilt": its provenance): Croasdale et al.
@@ -143,27 +144,11 @@ typedef struct cone_case {
  * around it, and their largest lateral offset |y - y0|; with sizes, the
  * pieces' extents (the breaking length). Returns the front's distance to
  * the axis. */
-static int uf_find(int *par, int i)
-{
-    while (par[i] != i) {
-        par[i] = par[par[i]];
-        i = par[i];
-    }
-    return i;
-}
-
 static double print_positions(const dem *d, const unsigned char *isrear, double t, double ztop, double r,
                               int quiet, int sizes)
 {
     int n = (int)d->n, *par = malloc((size_t)n * sizeof *par);
-    for (int i = 0; i < n; i++)
-        par[i] = i;
-    for (size_t k = 0; k < d->nbonds; k++)
-        if (!d->bonds[k].broken) {
-            int a = uf_find(par, d->bonds[k].i), b = uf_find(par, d->bonds[k].j);
-            if (a != b)
-                par[a < b ? b : a] = a < b ? a : b;
-        }
+    dem_pieces(d, par);
     /* the intact sheet: the largest set of spheres joined by intact bonds */
     int *cnt = calloc((size_t)n, sizeof *cnt), rear = 0;
     for (int i = 0; i < n; i++)

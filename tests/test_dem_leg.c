@@ -29,6 +29,7 @@
 
 #include "check.h"
 #include "core/dem.h"
+#include "dem_pieces.h"
 
 typedef struct leg_case {
     int nx, ny, nz;
@@ -48,26 +49,10 @@ typedef struct leg_case {
  * contact with the leg, the intact sheet's front on the leg's axis (within
  * 2 r of y0) as a distance to the leg's surface, and the broken spheres:
  * how many, above the sheet's top, below its bottom, past the axis. */
-static int uf_find(int *par, int i)
-{
-    while (par[i] != i) {
-        par[i] = par[par[i]];
-        i = par[i];
-    }
-    return i;
-}
-
 static void print_positions(const dem *d, double t, double ztop, double zbot, double r)
 {
     int n = (int)d->n, *par = malloc((size_t)n * sizeof *par), *cnt = calloc((size_t)n, sizeof(int));
-    for (int i = 0; i < n; i++)
-        par[i] = i;
-    for (size_t k = 0; k < d->nbonds; k++)
-        if (!d->bonds[k].broken) {
-            int a = uf_find(par, d->bonds[k].i), b = uf_find(par, d->bonds[k].j);
-            if (a != b)
-                par[a < b ? b : a] = a < b ? a : b;
-        }
+    dem_pieces(d, par);
     int big = 0;
     for (int i = 0; i < n; i++)
         cnt[uf_find(par, i)]++;

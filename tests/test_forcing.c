@@ -330,6 +330,32 @@ static void test_gfs_wgrib2(void)
     gfs_check(&c, v);
 }
 
+/* An ERA5 wind file at p read as source "era5" (built-in names u10, v10),
+ * checked against the analytic wind at hours k0, k0 + dk, ... below 3
+ * (float storage: 1e-5 m/s), then removed. */
+static void era5_wind_check(const char *p, const char *tag, double k0, double dk)
+{
+    const char *files[] = {p};
+    forcing_source_spec spec = {.name = "era5", .kind = FORCING_ATMOSPHERE, .files = files,
+                                .nfiles = 1, .required = FQ_WIND};
+    sph_error err;
+    forcing *f = open1(&spec, T0 + 3 * 3600, &err);
+    CHECK(f != NULL, "%s open: %s", tag, err.msg);
+    if (f)
+        for (double k = k0; k < 3.0; k += dk) {
+            double u[NP], vv2[NP];
+            forcing_sample smp = {.u_east = u, .v_north = vv2};
+            CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &smp, &err) == 0, "%s: %s",
+                  tag, err.msg);
+            for (size_t i = 0; i < NP; i++) {
+                CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, 1e-5, "era5 u");
+                CHECK_CLOSE(vv2[i], phys(VW, plon[i], plat[i], k), 0, 1e-5, "era5 v");
+            }
+        }
+    forcing_close(f);
+    unlink(p);
+}
+
 /* ERA5 as the old CDS wrote it when a request spanned final ERA5 and
  * the preliminary ERA5T: an expver dimension (1, 5), each time valid in
  * one of the two and _FillValue in the other (here: the first two hours
@@ -391,27 +417,8 @@ static void test_era5_expver(void)
     }
     free(buf);
     NCW(nc_close(nc));
-    const char *files[] = {p};
-    forcing_source_spec spec = {.name = "era5", .kind = FORCING_ATMOSPHERE, .files = files,
-                                .nfiles = 1, .required = FQ_WIND};
-    sph_error err;
-    forcing *f = open1(&spec, T0 + 3 * 3600, &err);
-    CHECK(f != NULL, "era5 expver open: %s", err.msg);
-    if (!f)
-        return;
     /* 0.5: expver 1 only; 1.5: expver 1 then 5; 2.5: expver 5 only */
-    for (double k = 0.5; k < 3.0; k += 1.0) {
-        double u[NP], vv2[NP];
-        forcing_sample smp = {.u_east = u, .v_north = vv2};
-        CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &smp, &err) == 0, "%s",
-              err.msg);
-        for (size_t i = 0; i < NP; i++) {
-            CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, 1e-5, "expver-merged u");
-            CHECK_CLOSE(vv2[i], phys(VW, plon[i], plat[i], k), 0, 1e-5, "expver-merged v");
-        }
-    }
-    forcing_close(f);
-    unlink(p);
+    era5_wind_check(p, "era5 expver", 0.5, 1.0);
 }
 
 /* ERA5 as the modernised CDS (2024 on) writes it: ECMWF's "GRIB to
@@ -495,26 +502,7 @@ static void test_era5_cds2024(void)
     }
     free(buf);
     NCW(nc_close(nc));
-    const char *files[] = {p};
-    forcing_source_spec spec = {.name = "era5", .kind = FORCING_ATMOSPHERE, .files = files,
-                                .nfiles = 1, .required = FQ_WIND};
-    sph_error err;
-    forcing *f = open1(&spec, T0 + 3 * 3600, &err);
-    CHECK(f != NULL, "era5 (CDS 2024) open: %s", err.msg);
-    if (!f)
-        return;
-    for (double k = 0.25; k < 3.0; k += 0.75) {
-        double u[NP], vv2[NP];
-        forcing_sample smp = {.u_east = u, .v_north = vv2};
-        CHECK(forcing_sample_at(f, T0 + k * 3600, NP, plon, plat, &smp, &err) == 0, "%s",
-              err.msg);
-        for (size_t i = 0; i < NP; i++) {
-            CHECK_CLOSE(u[i], phys(UW, plon[i], plat[i], k), 0, 1e-5, "CDS 2024 u");
-            CHECK_CLOSE(vv2[i], phys(VW, plon[i], plat[i], k), 0, 1e-5, "CDS 2024 v");
-        }
-    }
-    forcing_close(f);
-    unlink(p);
+    era5_wind_check(p, "era5 (CDS 2024)", 0.25, 0.75);
 }
 
 /* ERA5-like: packed shorts, mapped names, K, accumulated J m-2, land fill. */
