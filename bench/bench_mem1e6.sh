@@ -14,9 +14,14 @@
 # mevp once more with 2 threads (its products against the 1-thread run's:
 # tools/same-products.sh; and this build's against BASE's).
 # Output (stdout): case,binary,threads,round,cpu_s,wall_s,peak_rss_mb
-# (peak_rss_mb: GNU time's maximum RSS in kB / 1024), then the identity lines.
+# (peak_rss_mb: GNU time's maximum RSS in kB / 1024; the KiB are in each run's
+# .time file), then the identity lines.
 # Environment: BUILD (build), BASE, BENCH_OUT (bench/out), ROUNDS, CASES ("mevp fd";
-# mevpc needs mevp in CASES before it).
+# mevpc needs mevp in CASES before it), THREADS (unset: the 1-thread rounds and
+# this build's extra 2-thread runs above; "1 2": every case with each count,
+# base and this alternating), BINARIES ("base this"; "base" or "this" alone
+# runs one side, e.g. the base while this is being built: the identity lines
+# then compare whatever outputs BENCH_OUT holds from an earlier call).
 set -eu
 BUILD=${BUILD:-build}
 BASE=${BASE:-/tmp/mem1g-base/build/sphice}
@@ -58,20 +63,36 @@ run() { # case tag binary threads round
     read -r us sy wall rss < "$log.time"
     echo "$1 $2 $4 $5 $us $sy $wall $rss" | awk '{printf "%s,%s,%s,%s,%.2f,%.2f,%.0f\n", $1, $2, $3, $4, $5 + $6, $7, $8 / 1024}'
 }
+THREADS_SET=${THREADS-}
+BINARIES=${BINARIES:-"base this"}
+has() { case " $BINARIES " in *" $1 "*) return 0 ;; esac; return 1; }
+same() { # dirA dirB label
+    if [ -d "$1" ] && [ -d "$2" ]; then
+        echo "identity $3: $(sh tools/same-products.sh "$1" "$2" | tail -n 1)"
+    fi
+}
 echo "case,binary,threads,round,cpu_s,wall_s,peak_rss_mb"
 r=1
 while [ "$r" -le "$ROUNDS" ]; do
     for c in $CASES; do
-        [ "$c" = mevpc ] || run "$c" base "$BASE" 1 "$r"
-        run "$c" this "$BUILD/sphice" 1 "$r"
+        for t in ${THREADS_SET:-1}; do
+            [ "$c" = mevpc ] || ! has base || run "$c" base "$BASE" "$t" "$r"
+            ! has this || run "$c" this "$BUILD/sphice" "$t" "$r"
+        done
     done
     r=$((r + 1))
 done
+d="19990207T22Z"
 for c in $CASES; do
-    d="19990207T22Z"
     b=$c; [ "$c" = mevpc ] && b=mevp
-    echo "identity $c this against $b base (1 thread): $(sh tools/same-products.sh "$OUT/out_${b}_base_t1/$d" "$OUT/out_${c}_this_t1/$d" | tail -n 1)"
+    for t in ${THREADS_SET:-1}; do
+        same "$OUT/out_${b}_base_t$t/$d" "$OUT/out_${c}_this_t$t/$d" "$c this against $b base ($t thread(s))"
+    done
+    for x in base this; do
+        [ -n "$THREADS_SET" ] && same "$OUT/out_${c}_${x}_t1/$d" "$OUT/out_${c}_${x}_t2/$d" "$c $x 1/2 threads"
+    done
 done
+[ -z "$THREADS_SET" ] && has this || exit 0
 case " $CASES " in *" mevp "*)
     run mevp this "$BUILD/sphice" 2 1
     echo "identity mevp this 1/2 threads: $(sh tools/same-products.sh "$OUT/out_mevp_this_t1/19990207T22Z" "$OUT/out_mevp_this_t2/19990207T22Z" | tail -n 1)" ;;

@@ -69,6 +69,15 @@ sph_particles *sph_model_particles(sph_model *m);
  * last build wrote (resident pages, no new memory). NULL with *len 0 when
  * there are none (parcels, no build yet). */
 double *sph_model_idle_scratch(sph_model *m, size_t *len);
+/* 1 when the last neighbour build kept the pair gradients in the factor
+ * form (model.compact_gradients true, or auto at SPH_MEMORY_BOUND_PARTICLES
+ * particles and more), 0 with the two components or before any build. */
+int sph_model_compact_form(const sph_model *m);
+/* Tests: the particle count from which model.compact_gradients auto keeps
+ * the factor form in this model's next builds (default
+ * SPH_MEMORY_BOUND_PARTICLES, core/params.h), so that a small scene can
+ * take the memory-bound branch. */
+void sph_model_set_memory_bound(sph_model *m, size_t n);
 const sph_params *sph_model_params(const sph_model *m);
 size_t sph_model_capacity(const sph_model *m); /* live particles it can hold */
 /* Mirror ghosts of the last step, stored after the live particles. */

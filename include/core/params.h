@@ -23,6 +23,24 @@
 /* model.momentum.drag_scaling (index = value) */
 enum { SPH_DRAG_NONE = 0, SPH_DRAG_CONCENTRATION = 1 };
 
+/* model.compact_gradients (index = value: false and true keep the 0/1 of
+ * the former bool) */
+enum { SPH_COMPACT_FALSE = 0, SPH_COMPACT_TRUE = 1, SPH_COMPACT_AUTO = 2 };
+
+/* The particle count (without ghosts) from which a run is
+ * memory-bound: model.compact_gradients "auto" chooses the factor form
+ * there, and output.writer_thread "auto" writes the products in the step
+ * loop (service/forecast_output.c) instead of holding a copy of them
+ * while the next steps run. Both choices give the same bits as the
+ * other form; they trade CPU (12-20 % of the strain and divergence
+ * passes) or the writer's overlap for memory. The default path peaks near
+ * 1.05 kB per particle at 1e6 particles (the issue's 1 GB binds from
+ * about 9e5); half of that leaves room for configurations that keep more
+ * per particle (gradient correction, summation density, more neighbours),
+ * and below it a run takes under about 0.5 GB, where memory binds nothing
+ * (docs/bench.md, Session 11: memory at 1e6). */
+#define SPH_MEMORY_BOUND_PARTICLES 500000
+
 typedef struct sph_params {
     /* numerics */
     double dt;                  /* dynamic step, s (seed: 60) */
@@ -67,7 +85,7 @@ typedef struct sph_params {
     int replacement_pressure;   /* Hibler/Kreyscher replacement pressure */
     double auto_tolerance;      /* auto: free drift where exp(-C(1-A)) < tol */
     int free_drift_parcels;     /* free_drift: independent parcels, no SPH (model.c) */
-    int compact_gradients;      /* pair gradients as F and positions (core/neighbours.h) */
+    int compact_gradients;      /* SPH_COMPACT_*: pair gradients as F and positions (core/neighbours.h) */
     /* collision rheology (Shen, Hibler & Lepparanta 1987) */
     double coll_restitution;    /* e_r */
     double coll_floe_diameter;  /* d = D, m */

@@ -69,6 +69,7 @@ sph_model *sph_model_create(const sph_params *p, size_t cap, const sph_landmask 
         return NULL;
     m->prm = *p;
     m->lanes4 = sph_lanes4_supported();
+    m->memory_bound = SPH_MEMORY_BOUND_PARTICLES;
     m->prm.thermo.rho_w = m->prm.rho_w; /* one sea-water density: drag and freeboard */
     m->cap = cap;
     sph_kernel_init(&m->kern, p->kernel, p->kernel_radius);
@@ -323,8 +324,11 @@ static int prepare_lists(sph_model *m, sph_status *st)
     m->nb->keep_w = m->prm.summation_density || m->prm.density_reinit_steps > 0 ||
                     (m->rheo->fields & SPH_RHEO_FIELD_VFLUCT) != 0;
     /* model.compact_gradients: the pair gradients as their factor F and
-     * the build's positions (core/neighbours.h; the same bits) */
-    m->nb->factor = m->prm.compact_gradients != 0;
+     * the build's positions (core/neighbours.h; the same bits); auto
+     * decides at each build, by the particle count (a run that grows
+     * past the bound keeps the full form's pages it touched) */
+    m->nb->factor = m->prm.compact_gradients == SPH_COMPACT_TRUE ||
+                    (m->prm.compact_gradients == SPH_COMPACT_AUTO && P->n >= m->memory_bound);
     double cell = m->kern.radius * sph_max_sml(P, nall);
     sph_nbr_grid(m->nb, nall, P->x, P->y, cell);
     long over = -1;
@@ -377,6 +381,17 @@ int sph_model_ghosts_merging(const sph_model *m) { return m && m->ghost_merge; }
 static int parcels_mode(const sph_model *m)
 {
     return m->prm.physics == SPH_PHYSICS_FREE_DRIFT && m->prm.free_drift_parcels;
+}
+
+int sph_model_compact_form(const sph_model *m)
+{
+    return m && m->nb ? m->nb->factor : 0;
+}
+
+void sph_model_set_memory_bound(sph_model *m, size_t n)
+{
+    if (m)
+        m->memory_bound = n;
 }
 
 double *sph_model_idle_scratch(sph_model *m, size_t *len)

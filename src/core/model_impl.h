@@ -123,6 +123,8 @@ struct sph_model {
     sph_ocean *ocean;  /* the mixed layer (sph_model_ocean_create); NULL: none */
     size_t binv_ident;  /* slots [0, binv_ident) hold the identity or the correction;
                            beyond, untouched zero pages (memory: model.c) */
+    size_t memory_bound; /* model.compact_gradients auto: the factor form from this
+                            particle count (SPH_MEMORY_BOUND_PARTICLES; tests lower it) */
     /* 1 / M_j^2 per slot for the divergence's records (pack_stress_slot):
      * M does not change within a stress solve, so a solver that owns such
      * an array points here for the solve (NULL otherwise); div_imd2_ready:

@@ -32,6 +32,7 @@ static const char *const pressure_names[] = {"seed", "hibler", NULL};
 static const char *const thermo_names[] = {"off", "zero_layer", "multi_layer", "auto", NULL};
 static const char *const freezing_names[] = {"linear", "unesco", NULL};
 static const char *const drag_names[] = {"none", "concentration", NULL};
+static const char *const compact_names[] = {"false", "true", "auto", NULL}; /* SPH_COMPACT_* */
 
 /* One row each, by type (as Redis's createBoolConfig ...): key, member,
  * default, bounds, units, description. Every row is reloadable (a reloaded
@@ -78,7 +79,7 @@ static const sph_param rows[] = {
     DBL("implicit.tol", implicit_tol, 1e-6, 1e-14, 1, "1", "Implicit solver: relative residual."),
     ENUM("physics", physics, physics_names, SPH_PHYSICS_AUTO, "auto (free drift where loose, rheology where packed), full, free_drift."),
     DBL("auto_tolerance", auto_tolerance, 1e-2, 0, 1, "1", "auto physics: free drift where exp(-C(1-A)) is below this."),
-    BOOL("compact_gradients", compact_gradients, 0, "The neighbour lists keep each pair's kernel gradient as its scalar factor F (grad W = F (x_k - x_j)) beside the build's positions instead of its two components: the same results bit for bit, 8 bytes per pair less (about 80 MB at 1e6 particles: the 1e6 packed-ice run under 1 GB with one thread), for 12-20 % more CPU per mEVP step (two products and a gathered position per pair in the strain-rate and stress-divergence passes; docs/bench.md, Session 9: memory at 1e6)."),
+    ENUM("compact_gradients", compact_gradients, compact_names, SPH_COMPACT_AUTO, "The neighbour lists keep each pair's kernel gradient as its scalar factor F (grad W = F (x_k - x_j)) beside the build's positions (true) instead of its two components (false): the same results bit for bit, 8 bytes per pair less (about 97 MB at 1e6 particles), for 12-20 % more CPU in the strain-rate and stress-divergence passes (two products and a gathered position per pair). auto: true from 500000 particles (memory-bound runs: the 1e6 packed-ice run under 1 GB), false below (the demo's CPU unchanged); docs/bench.md, Sessions 9 and 11: memory at 1e6."),
     BOOL("free_drift_parcels", free_drift_parcels, 0, "physics free_drift: particles drift as independent parcels (no neighbour search, mirror ghosts, density, strain rates or continuity; mass per area changes only by thermodynamics): several times faster, and identical to the SPH path wherever particles lie farther apart than the kernel support (docs/engine.md). Off: free drift still evolves each parcel's mass per area by the SPH divergence of the drift."),
     ENUM("rheology.kind", rheology, rheology_names, SPH_RHEOLOGY_VP, "Rheology: vp (Hibler viscous-plastic) or collision (Shen, Hibler & Lepparanta 1987)."),
     ENUM("rheology.pressure_form", pressure_form, pressure_names, SPH_PRESSURE_SEED, "seed: P = P0 exp(-C(1-A)) integrated as hbar P; hibler: P = P* hbar exp(-C(1-A))."),

@@ -244,7 +244,8 @@ static const cfg_key tail_keys[] = {
     C_("output.writer_thread", CT_ENUM, output.writer_thread, "\"auto\"", 0, 0, R, writer_names,
        "Where the products of each output time are written: on (a thread of their own, while the next steps run; "
        "the same files), off (in the step loop), auto (on when OpenMP may use two threads or more, so that a "
-       "one-thread run stays on one core). Off whatever it says with output.ocean_fluxes or "
+       "one-thread run stays on one core; and an output time of 500000 particles or more written in the step "
+       "loop, so that its copies do not add to the next steps' memory: docs/bench.md, Session 11). Off whatever it says with output.ocean_fluxes or "
        "parallel.decomposition \"domain\" (docs/engine.md)."),
     C_("output.deflate_level", CT_INT, output.deflate_level, "4", 0, 9, R, NULL,
        "zlib level of the variables of the fields and particles files (with the shuffle filter), 1 fastest, 9 "

@@ -266,17 +266,30 @@ static int ofx_record(engine *e, double t, sph_error *err);
 
 static int write_output(engine *e, double t, sph_error *err);
 
+/* output.writer_thread auto with a writer thread: a memory-bound run
+ * (core/params.h SPH_MEMORY_BOUND_PARTICLES) writes its products here,
+ * in the step loop, as a one-thread run does: the thread's job would hold
+ * the output arrays and copies of the particles' fields (64 B per
+ * particle) while the next steps make their peak (docs/bench.md, Session
+ * 11: memory at 1e6). The same files either way. */
+static int bgw_inline(const engine *e, size_t n)
+{
+    return e->bgw && e->cfg->output.writer_thread == CFG_WRITER_AUTO && n >= SPH_MEMORY_BOUND_PARTICLES;
+}
+
 /* One output time: particles -> grid through the SPH interpolation. Without
- * the writer thread the per-particle positions and east/north velocities
- * (olon olat pue pvn, read by nothing after this call) live in the model's
- * idle pair gradients when they are large enough (sph_model_idle_scratch:
- * memory the last step made resident), and the engine's own arrays stay
- * untouched; with it the job reads them while the next steps run. */
+ * the writer thread (or with it, written here: bgw_inline) the
+ * per-particle positions and east/north velocities (olon olat pue pvn,
+ * read by nothing after this call) live in the model's idle pair
+ * gradients when they are large enough (sph_model_idle_scratch: memory
+ * the last step made resident), and the engine's own arrays stay
+ * untouched; with the thread's job they are read while the next steps
+ * run. */
 int fc_write_output(engine *e, double t, sph_error *err)
 {
     double *own[4] = {e->olon, e->olat, e->pue, e->pvn};
     size_t len = 0, n = sph_model_particles(e->m)->n;
-    double *idle = e->bgw ? NULL : sph_model_idle_scratch(e->m, &len);
+    double *idle = e->bgw && !bgw_inline(e, n) ? NULL : sph_model_idle_scratch(e->m, &len);
     if (idle && n > 0 && len / 4 >= n) {
         e->olon = idle;
         e->olat = idle + n;
@@ -368,7 +381,7 @@ static int write_output(engine *e, double t, sph_error *err)
                               .mass = P->mass, .thick = P->thick, .conc = P->conc,
                               .snow = snow ? P->snow : NULL, .id = P->id};
     const prod_particles_view *pvp = e->cfg->output.products.particles ? &pv : NULL;
-    if (e->bgw) /* output.writer_thread: written while the next steps run (forecast_writer.c) */
+    if (e->bgw && !bgw_inline(e, n)) /* output.writer_thread: written while the next steps run (forecast_writer.c) */
         return fc_bgw_submit(e, t, &f, pvp, err);
     int rc = products_add_time(e->pw, t, &f, pvp, err);
     if (rc == SPH_OK && e->ofx && t > e->ofx_t0)
