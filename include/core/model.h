@@ -69,6 +69,10 @@ sph_particles *sph_model_particles(sph_model *m);
  * last build wrote (resident pages, no new memory). NULL with *len 0 when
  * there are none (parcels, no build yet). */
 double *sph_model_idle_scratch(sph_model *m, size_t *len);
+/* The model's copy of the land mask given to sph_model_create (its land
+ * pointing at the model's own cells, unchanged while the model lives), or
+ * NULL without one. */
+const sph_landmask *sph_model_landmask(const sph_model *m);
 /* 1 when the last neighbour build kept the pair gradients in the factor
  * form (model.compact_gradients true, or auto at SPH_MEMORY_BOUND_PARTICLES
  * particles and more), 0 with the two components or before any build. */

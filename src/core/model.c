@@ -383,6 +383,11 @@ static int parcels_mode(const sph_model *m)
     return m->prm.physics == SPH_PHYSICS_FREE_DRIFT && m->prm.free_drift_parcels;
 }
 
+const sph_landmask *sph_model_landmask(const sph_model *m)
+{
+    return m && m->has_mask ? &m->mask : NULL;
+}
+
 int sph_model_compact_form(const sph_model *m)
 {
     return m && m->nb ? m->nb->factor : 0;

@@ -474,6 +474,20 @@ int fc_land_gate(engine *e, sph_error *err)
     return SPH_OK;
 }
 
+/* Once the particles are placed, the engine reads the plane's land mask
+ * from the model's own copy (sph_model_create copied it) and gives its own
+ * back: one byte per cell, 6.6 B per particle at 1e6 particles
+ * (docs/bench.md, Session 11: memory at 1e6). The same cells. */
+static void plane_land_to_model(engine *e)
+{
+    const sph_landmask *ml = sph_model_landmask(e->m);
+    if (!ml || !e->plane_land || ml->nx != e->plane.nx || ml->ny != e->plane.ny)
+        return;
+    e->plane.land = ml->land;
+    free(e->plane_land);
+    e->plane_land = NULL;
+}
+
 int fc_cold_start(engine *e, sph_error *err)
 {
     const struct sph_config *cfg = e->cfg;
@@ -532,6 +546,7 @@ int fc_cold_start(engine *e, sph_error *err)
         return sph_err_set(err, SPH_ERR_BAD_DATA, "initial field %s: particle %ld: %s", e->raster_path,
                            st.particle, what);
     }
+    plane_land_to_model(e);
     snprintf(e->start_mode, sizeof e->start_mode, "cold");
     log_info("forecast %s: cold start from %s: %zu particles", e->cname, e->raster_path, P->n);
     return SPH_OK;
@@ -594,6 +609,7 @@ int fc_warm_start(engine *e, sph_error *err)
         return rc;
     if ((rc = fc_fill_forcing(e, e->t0, err)))
         return rc;
+    plane_land_to_model(e);
     snprintf(e->start_mode, sizeof e->start_mode, "warm");
     log_info("forecast %s: warm start from %s: %zu particles", e->cname, path, P->n);
     return SPH_OK;
