@@ -76,6 +76,7 @@ typedef struct engine {
     char restart_path[4200];
     int restart_written;
     char start_mode[16];
+    int inline_logged;       /* the memory-bound output line was logged (forecast_output.c) */
     forecast_result *res;    /* the cold start's conservation numbers and flag go here */
     sph_particles *ocean_pts; /* the mixed layer's cell centres, for their forcing (forecast_ocean.c) */
     int ocean_fresh;          /* 1 until the first fill sets the cold start's slab from the SST */

@@ -474,12 +474,18 @@ int fc_land_gate(engine *e, sph_error *err)
     return SPH_OK;
 }
 
-/* Once the particles are placed, the engine reads the plane's land mask
- * from the model's own copy (sph_model_create copied it) and gives its own
- * back: one byte per cell, 6.6 B per particle at 1e6 particles
- * (docs/bench.md, Session 11: memory at 1e6). The same cells. */
-static void plane_land_to_model(engine *e)
+/* The end of a cold or a warm start. The line for model.compact_gradients
+ * auto's choice (the first lists are built). Then the engine reads the
+ * plane's land mask from the model's own copy (sph_model_create copied
+ * it) and gives its own back: one byte per cell, 6.6 B per particle at
+ * 1e6 particles (docs/bench.md, Session 11: memory at 1e6). The same
+ * cells. */
+static void start_done(engine *e)
 {
+    if (e->cfg->model.compact_gradients == SPH_COMPACT_AUTO && sph_model_compact_form(e->m))
+        log_info("forecast %s: %zu particles: the pair gradients in their factor form (model.compact_gradients "
+                 "auto, from %d particles: the same results, less memory)",
+                 e->cname, sph_model_particles(e->m)->n, SPH_MEMORY_BOUND_PARTICLES);
     const sph_landmask *ml = sph_model_landmask(e->m);
     if (!ml || !e->plane_land || ml->nx != e->plane.nx || ml->ny != e->plane.ny)
         return;
@@ -546,7 +552,7 @@ int fc_cold_start(engine *e, sph_error *err)
         return sph_err_set(err, SPH_ERR_BAD_DATA, "initial field %s: particle %ld: %s", e->raster_path,
                            st.particle, what);
     }
-    plane_land_to_model(e);
+    start_done(e);
     snprintf(e->start_mode, sizeof e->start_mode, "cold");
     log_info("forecast %s: cold start from %s: %zu particles", e->cname, e->raster_path, P->n);
     return SPH_OK;
@@ -609,7 +615,7 @@ int fc_warm_start(engine *e, sph_error *err)
         return rc;
     if ((rc = fc_fill_forcing(e, e->t0, err)))
         return rc;
-    plane_land_to_model(e);
+    start_done(e);
     snprintf(e->start_mode, sizeof e->start_mode, "warm");
     log_info("forecast %s: warm start from %s: %zu particles", e->cname, path, P->n);
     return SPH_OK;

@@ -383,6 +383,12 @@ static int write_output(engine *e, double t, sph_error *err)
     const prod_particles_view *pvp = e->cfg->output.products.particles ? &pv : NULL;
     if (e->bgw && !bgw_inline(e, n)) /* output.writer_thread: written while the next steps run (forecast_writer.c) */
         return fc_bgw_submit(e, t, &f, pvp, err);
+    if (e->bgw && !e->inline_logged) {
+        e->inline_logged = 1;
+        log_info("forecast %s: %zu particles: products written in the step loop (output.writer_thread auto, "
+                 "from %d particles: the thread's copies would add to the steps' memory)",
+                 e->cname, n, SPH_MEMORY_BOUND_PARTICLES);
+    }
     int rc = products_add_time(e->pw, t, &f, pvp, err);
     if (rc == SPH_OK && e->ofx && t > e->ofx_t0)
         rc = ofx_record(e, t, err);
