@@ -202,13 +202,16 @@ int fc_bgw_submit(engine *e, double t, const prod_fields *f, const prod_particle
         size_t n = pv->n;
         if (bgw_reserve(w, n) != 0)
             return sph_err_set(err, SPH_ERR_NOMEM, "output.writer_thread: out of memory (%zu particles)", n);
-        /* the model's fields the steps change: copied */
-        memcpy(w->mass, pv->mass, n * sizeof(double));
-        memcpy(w->thick, pv->thick, n * sizeof(double));
-        memcpy(w->conc, pv->conc, n * sizeof(double));
-        if (pv->snow)
-            memcpy(w->snow, pv->snow, n * sizeof(double));
-        memcpy(w->id, pv->id, n * sizeof(long));
+        /* the model's fields the steps change: copied (none with no
+         * particle: the copies may not exist, and memcpy takes no NULL) */
+        if (n > 0) {
+            memcpy(w->mass, pv->mass, n * sizeof(double));
+            memcpy(w->thick, pv->thick, n * sizeof(double));
+            memcpy(w->conc, pv->conc, n * sizeof(double));
+            if (pv->snow)
+                memcpy(w->snow, pv->snow, n * sizeof(double));
+            memcpy(w->id, pv->id, n * sizeof(long));
+        }
         w->pv = *pv;
         w->pv.mass = w->mass;
         w->pv.thick = w->thick;
