@@ -124,6 +124,9 @@ int fc_bgw_start(engine *e, sph_error *err)
         return sph_err_set(err, SPH_ERR_INTERNAL, "output.writer_thread: cannot start the thread: %s; "
                            "set output.writer_thread \"off\"", strerror(prc));
     }
+    /* its name in /proc/PID/task/TID/comm, top -H and perf (bench/thread_cpu.sh
+     * tells its CPU from the OpenMP team's by it); a failure changes nothing */
+    (void)pthread_setname_np(w->th, "sphice-writer");
     e->bgw = w;
     return SPH_OK;
 }
