@@ -412,6 +412,7 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
         P->sshx[k] = gxe * cs + gyn * sn;
         P->sshy[k] = -gxe * sn + gyn * cs;
         P->lat[k] = c->lat[k];
+        c->ids_before[k] = P->id[k]; /* for messages about a step that fails (below) */
         if (dyn)
             continue;
         double T = c->tair[k];
@@ -435,8 +436,8 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
             sf = c->precip[k] * sph_snow_fraction(th, T);
         P->snowfall[k] = sf > 0.0 ? sf : 0.0;
     }
-    /* for messages about a step that fails */
-    memcpy(c->ids_before, P->id, n * sizeof *P->id); /* their positions: c->lon, c->lat */
+    /* for messages about a step that fails: the ids (copied in the loop
+     * above, on the threads) and their positions c->lon, c->lat */
     c->n_before = n;
     return SPH_OK;
 }
