@@ -5,7 +5,8 @@
  *    every NetCDF file of the stage, byte for byte, and the text files);
  *  - a write that fails in the thread (SPHICE_FAULT=products-mid-write)
  *    fails the run with the writer's one line, and nothing is written;
- *  - the same with the writer on and two OpenMP threads. */
+ *  - the same with the writer on and two OpenMP threads, and with the
+ *    writer at a lower priority (output.writer_nice 19). */
 #include <dirent.h>
 #include <ftw.h>
 #include <netcdf.h>
@@ -18,6 +19,7 @@
 #include "util/err.h"
 
 static char dir[] = "/tmp/sphice-writer-XXXXXX";
+static int writer_nice; /* output.writer_nice of the next run_case */
 
 static int run_case(int writer, const char *stage_name, char *stage, size_t len, sph_error *err)
 {
@@ -30,6 +32,7 @@ static int run_case(int writer, const char *stage_name, char *stage, size_t len,
     if (rc)
         return rc;
     cfg->output.writer_thread = writer;
+    cfg->output.writer_nice = writer_nice;
     snprintf(stage, len, "%s/%s", dir, stage_name);
     char atm[1024];
     snprintf(atm, sizeof atm, "%s/atm.nc", dir);
@@ -161,10 +164,17 @@ int main(int argc, char **argv)
     int nt = omp_get_max_threads();
     omp_set_num_threads(2);
     rc = run_case(CFG_WRITER_ON, "stage-on2", on2, sizeof on2, &err);
-    omp_set_num_threads(nt);
     CHECK(rc == SPH_OK, "writer thread, 2 OpenMP threads: %s", err.msg);
     bad = stage_differ(off, on2, &nf);
     CHECK(bad == 0, "the same products with 2 OpenMP threads");
+    char nice2[1024];
+    writer_nice = 19;
+    rc = run_case(CFG_WRITER_ON, "stage-nice2", nice2, sizeof nice2, &err);
+    writer_nice = 0;
+    omp_set_num_threads(nt);
+    CHECK(rc == SPH_OK, "writer thread at nice 19, 2 OpenMP threads: %s", err.msg);
+    bad = stage_differ(off, nice2, &nf);
+    CHECK(bad == 0, "the same products with the writer at nice 19");
 
     /* a write that fails in the thread: the run fails with its line */
     setenv("SPHICE_FAULT", "products-mid-write", 1);

@@ -130,6 +130,7 @@ struct sph_config {
         int ocean_fluxes;       /* <prefix>_ocean_fluxes.nc (docs/ocean-coupling.md) */
         int ocean_fluxes_grid;  /* CFG_OFX_GRID_* */
         int writer_thread;      /* CFG_WRITER_*: the products written on a thread of their own */
+        int writer_nice;        /* that thread's nice increment (0..19) */
         int deflate_level;      /* zlib level of the NetCDF products, 0: uncompressed */
     } output;
 

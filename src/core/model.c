@@ -468,6 +468,12 @@ static void parcels_prepare(sph_model *m)
  * counts regime_fractions makes (max, min and sums of integers: the same
  * whatever the thread count). */
 #define SPH_PARCELS_CHUNK 256
+/* Chunks a thread takes at a time: dynamic, so that a thread that shares
+ * its core (the products' writer, another process) takes fewer and the
+ * other does not wait for it at the end of the pass (docs/bench.md
+ * "Session 11: free drift (fd5)"). Every particle's operations and the
+ * reductions (max, min, integer sums) do not depend on who takes which. */
+#define SPH_PARCELS_GRAB 4
 static inline int particle_unhealthy(const sph_particles *P, const sph_params *p, size_t k);
 static void parcels_step_pass(sph_model *m, size_t *top_out, size_t *first_out, size_t cnt[4])
 {
@@ -479,7 +485,7 @@ static void parcels_step_pass(sph_model *m, size_t *top_out, size_t *first_out, 
     const unsigned char clear = (unsigned char)~(SPH_REGIME_FREE_DRIFT | SPH_REGIME_RHEOLOGY |
                                                  SPH_REGIME_NEAR_COAST);
     size_t top = 0, first = n, fd = 0, rh = 0, zl = 0, ml = 0;
-#pragma omp parallel for schedule(static) reduction(max : top) reduction(min : first) \
+#pragma omp parallel for schedule(dynamic, SPH_PARCELS_GRAB) reduction(max : top) reduction(min : first) \
     reduction(+ : fd, rh, zl, ml) if (SPH_OMP_WORTH(n))
     for (size_t c = 0; c < nc; c++) {
         const size_t k0 = c * SPH_PARCELS_CHUNK, k1 = k0 + SPH_PARCELS_CHUNK < n ? k0 + SPH_PARCELS_CHUNK : n;
@@ -562,7 +568,8 @@ static void update_budget(sph_model *m)
         budget_sums(m, 0, n, tot);
     } else {
         double *part = m->sum_part;
-#pragma omp parallel for schedule(static) if (SPH_OMP_WORTH(n))
+        /* dynamic: each block's sum is its own whoever takes it */
+#pragma omp parallel for schedule(dynamic, 1) if (SPH_OMP_WORTH(n))
         for (size_t b = 0; b < nb; b++) {
             size_t k1 = (b + 1) * SPH_SUM_BLOCK;
             budget_sums(m, b * SPH_SUM_BLOCK, k1 < n ? k1 : n, part + SPH_SUM_NQ * b);

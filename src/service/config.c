@@ -247,6 +247,11 @@ static const cfg_key tail_keys[] = {
        "one-thread run stays on one core; and an output time of 500000 particles or more written in the step "
        "loop, so that its copies do not add to the next steps' memory: docs/bench.md, Session 11). Off whatever it says with output.ocean_fluxes or "
        "parallel.decomposition \"domain\" (docs/engine.md)."),
+    C_("output.writer_nice", CT_INT, output.writer_nice, "0", 0, 19, R, NULL,
+       "Nice increment of the products' writer thread (output.writer_thread): above 0 the OpenMP team's "
+       "threads, woken at each parallel loop, take a core from the writer at once, and the writer runs in "
+       "their gaps (it has until the next output time; the engine waits for it there). The same files; "
+       "0 keeps the process's priority. docs/bench.md \"Session 11: free drift (fd5)\"."),
     C_("output.deflate_level", CT_INT, output.deflate_level, "4", 0, 9, R, NULL,
        "zlib level of the variables of the fields and particles files (with the shuffle filter), 1 fastest, 9 "
        "smallest; 0: uncompressed (the same values; the files about 3.5 times larger). A product-format choice: "

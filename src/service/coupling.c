@@ -16,6 +16,11 @@
  * threads: per-particle writes only, so any thread count gives the same
  * forcing bit for bit. */
 #define COUPLING_OMP_MIN 4096
+/* Particles a thread takes at a time in those loops: dynamic, so that a
+ * thread sharing its core (the products' writer, another process) takes
+ * fewer and the other does not wait for it (docs/bench.md "Session 11:
+ * free drift (fd5)"). */
+#define COUPLING_OMP_GRAB 2048
 /* Points per forcing call (fc_coupling.chunk's default): the per-point work
  * arrays of the samples and of the forcing's stencils hold one chunk. */
 #define COUPLING_CHUNK 65536
@@ -286,18 +291,35 @@ static void merge_source(fc_coupling *c, size_t k0, size_t n, unsigned got, unsi
         {CPL_Q_MLD, FQ_MLD, 0}, {CPL_Q_BATHY, FQ_BATHY, 0}};
     double *dst[CPL_NQ] = {c->ue, c->vn, c->tair, c->qair, c->swdn, c->lwdn, c->uwe, c->vwn, c->ssh,
                            c->gxe, c->gyn, c->sst, c->fw, c->snowfall, c->precip, c->mld, c->bathy};
+    /* the quantities this source adds, then one pass over the particles
+     * for all of them (one parallel loop per call, not one per quantity:
+     * each quantity's own operations, so the same values) */
+    struct { double *d; const double *q; int sum; } job[sizeof map / sizeof map[0]];
+    size_t nj = 0;
     for (size_t m = 0; m < sizeof map / sizeof map[0]; m++) {
         if (!(got & map[m].flag) || (!map[m].sum && (before & map[m].flag)) || !dst[map[m].q])
             continue; /* dst NULL: the sea-surface height, read by nothing */
-        const double *q = c->q[map[m].q]; /* the chunk k0 .. k0 + n - 1 */
-        double *d = dst[map[m].q] + k0;
-        const unsigned char *bad = c->bad;
-        const int sum = map[m].sum;
-#pragma omp parallel for schedule(static) if (n >= COUPLING_OMP_MIN)
-        for (size_t k = 0; k < n; k++) {
-            if (bad[k])
-                continue; /* keeps the default (or the other sources' sum) */
-            d[k] = sum ? d[k] + q[k] : q[k];
+        job[nj].d = dst[map[m].q] + k0;
+        job[nj].q = c->q[map[m].q]; /* the chunk k0 .. k0 + n - 1 */
+        job[nj].sum = map[m].sum;
+        nj++;
+    }
+    if (!nj)
+        return;
+    const unsigned char *bad = c->bad;
+    const size_t ngrab = (n + COUPLING_OMP_GRAB - 1) / COUPLING_OMP_GRAB;
+#pragma omp parallel for schedule(dynamic, 1) if (n >= COUPLING_OMP_MIN)
+    for (size_t g = 0; g < ngrab; g++) {
+        const size_t a = g * COUPLING_OMP_GRAB, b = a + COUPLING_OMP_GRAB < n ? a + COUPLING_OMP_GRAB : n;
+        for (size_t j = 0; j < nj; j++) {
+            double *d = job[j].d;
+            const double *q = job[j].q;
+            const int sum = job[j].sum;
+            for (size_t k = a; k < b; k++) {
+                if (bad[k])
+                    continue; /* keeps the default (or the other sources' sum) */
+                d[k] = sum ? d[k] + q[k] : q[k];
+            }
         }
     }
 }
@@ -324,7 +346,7 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
     c->ssh = NULL;
     const double tf = sph_freezing_point(th);
     const int dyn = c->dynamics_only;
-#pragma omp parallel for schedule(static) if (n >= COUPLING_OMP_MIN)
+#pragma omp parallel for schedule(dynamic, COUPLING_OMP_GRAB) if (n >= COUPLING_OMP_MIN)
     for (size_t k = 0; k < n; k++) {
         c->ue[k] = c->vn[k] = 0.0;
         c->uwe[k] = c->vwn[k] = 0.0;
@@ -377,7 +399,7 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
             c->cs[k] = cos(a);
             c->sn[k] = sin(a);
         }
-#pragma omp parallel for schedule(static) if (n >= COUPLING_OMP_MIN)
+#pragma omp parallel for schedule(dynamic, COUPLING_OMP_GRAB) if (n >= COUPLING_OMP_MIN)
     for (size_t k = 0; k < n; k++) {
         const double cs = c->cs[k], sn = c->sn[k];
         /* east/north -> plane x/y (io/geo.h), in place */
@@ -390,6 +412,7 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
         P->sshx[k] = gxe * cs + gyn * sn;
         P->sshy[k] = -gxe * sn + gyn * cs;
         P->lat[k] = c->lat[k];
+        c->ids_before[k] = P->id[k]; /* for messages about a step that fails (below) */
         if (dyn)
             continue;
         double T = c->tair[k];
@@ -413,8 +436,8 @@ int coupling_fill(fc_coupling *c, const geo_proj *proj, const sph_thermo_params 
             sf = c->precip[k] * sph_snow_fraction(th, T);
         P->snowfall[k] = sf > 0.0 ? sf : 0.0;
     }
-    /* for messages about a step that fails */
-    memcpy(c->ids_before, P->id, n * sizeof *P->id); /* their positions: c->lon, c->lat */
+    /* for messages about a step that fails: the ids (copied in the loop
+     * above, on the threads) and their positions c->lon, c->lat */
     c->n_before = n;
     return SPH_OK;
 }

@@ -24,6 +24,8 @@
 
 #include <pthread.h>
 #include <string.h>
+#include <sys/resource.h>
+#include <unistd.h>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -43,6 +45,7 @@ struct fc_bgw {
     int state;   /* BGW_*, under mu */
     int fills;   /* BGW_PREPARED: fc_bgw_kick calls before it starts the job */
     int quit;
+    int nice;    /* output.writer_nice */
     prod_writer *pw;
     /* the job */
     double t;
@@ -60,6 +63,10 @@ static void *bgw_main(void *arg)
 {
     fc_bgw *w = arg;
     ncfile_thread_quiet(); /* HDF5's error printing is per thread */
+    /* Linux: a nice value is the thread's own (this tid); raising it needs
+     * no privilege, and a failure changes only the scheduling */
+    if (w->nice > 0)
+        (void)setpriority(PRIO_PROCESS, (id_t)gettid(), w->nice);
     pthread_mutex_lock(&w->mu);
     for (;;) {
         while (w->state != BGW_RUNNING && !w->quit)
@@ -107,6 +114,7 @@ int fc_bgw_start(engine *e, sph_error *err)
     if (!w)
         return sph_err_set(err, SPH_ERR_NOMEM, "output.writer_thread: out of memory");
     w->pw = e->pw;
+    w->nice = e->cfg->output.writer_nice;
     if (pthread_mutex_init(&w->mu, NULL) != 0) {
         free(w);
         return sph_err_set(err, SPH_ERR_INTERNAL, "output.writer_thread: cannot create its lock");
@@ -124,6 +132,9 @@ int fc_bgw_start(engine *e, sph_error *err)
         return sph_err_set(err, SPH_ERR_INTERNAL, "output.writer_thread: cannot start the thread: %s; "
                            "set output.writer_thread \"off\"", strerror(prc));
     }
+    /* its name in /proc/PID/task/TID/comm, top -H and perf (bench/thread_cpu.sh
+     * tells its CPU from the OpenMP team's by it); a failure changes nothing */
+    (void)pthread_setname_np(w->th, "sphice-writer");
     e->bgw = w;
     return SPH_OK;
 }

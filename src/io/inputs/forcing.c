@@ -1164,7 +1164,7 @@ blend_points(const fgrid *g, const double *a, const double *b, const int want0, 
              double alpha, size_t n, const double *lon, const double *lat, double *o)
 {
     size_t first_bad = n;
-#pragma omp parallel for schedule(static) reduction(min : first_bad) if (n >= FORCING_OMP_MIN)
+#pragma omp parallel for schedule(dynamic, FORCING_OMP_GRAB) reduction(min : first_bad) if (n >= FORCING_OMP_MIN)
     for (size_t p = 0; p < n; p++) {
         double x0 = 0, x1 = 0;
         if (fgrid_interp2(g, a, b, want0, want1, p, lon[p], lat[p], &x0, &x1)) {
@@ -1187,7 +1187,7 @@ blend_points3(const fgrid *g, const double *const a[3], const double *const b[3]
               double *const o[3], size_t bad[3])
 {
     size_t b0 = n, b1 = n, b2 = n;
-#pragma omp parallel for schedule(static) reduction(min : b0, b1, b2) if (n >= FORCING_OMP_MIN)
+#pragma omp parallel for schedule(dynamic, FORCING_OMP_GRAB) reduction(min : b0, b1, b2) if (n >= FORCING_OMP_MIN)
     for (size_t p = 0; p < n; p++) {
         for (int f = 0; f < 3; f++) {
             double x0 = 0, x1 = 0;
@@ -1272,7 +1272,7 @@ blend_points2(const fgrid *g, const double *a0, const double *b0, const double *
               const double *lat, double *o0, double *o1, size_t bad[2])
 {
     size_t c0 = n, c1 = n;
-#pragma omp parallel for schedule(static) reduction(min : c0, c1) if (n >= FORCING_OMP_MIN)
+#pragma omp parallel for schedule(dynamic, FORCING_OMP_GRAB) reduction(min : c0, c1) if (n >= FORCING_OMP_MIN)
     for (size_t p = 0; p < n; p++) {
         double x0 = 0, x1 = 0;
         if (fgrid_interp2(g, a0, b0, want0, want1, p, lon[p], lat[p], &x0, &x1)) {
@@ -1440,7 +1440,7 @@ static void put(double *dst, const double *src, size_t n, int add)
 {
     if (!dst)
         return;
-#pragma omp parallel for schedule(static) if (n >= FORCING_OMP_MIN)
+#pragma omp parallel for schedule(dynamic, FORCING_OMP_GRAB) if (n >= FORCING_OMP_MIN)
     for (size_t p = 0; p < n; p++)
         dst[p] = add ? dst[p] + src[p] : src[p];
 }

@@ -677,7 +677,7 @@ size_t fgrid_stencils(fgrid *g, unsigned long stamp, size_t n, const double *lon
             outside += rc != 0;
         }
     } else { /* per-point writes only: the same stencils with any number of threads */
-#pragma omp parallel for schedule(static) reduction(+ : outside) if (n >= FORCING_OMP_MIN)
+#pragma omp parallel for schedule(dynamic, FORCING_OMP_GRAB) reduction(+ : outside) if (n >= FORCING_OMP_MIN)
         for (size_t p = 0; p < n; p++) {
             int rc = locate_regular(g, lon[p], lat[p], &hint[p], g->idx + 4 * p, g->w + 4 * p);
             g->ok[p] = rc == 0;

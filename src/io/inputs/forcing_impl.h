@@ -23,6 +23,11 @@
 /* Points from which the per-point sampling loops run on the OpenMP threads
  * (per-point writes only: results independent of the thread count). */
 #define FORCING_OMP_MIN 4096
+/* Points a thread takes at a time in those loops: dynamic, so that a thread
+ * sharing its core (the products' writer, another process) takes fewer and
+ * the other does not wait for it at the loop's end (docs/bench.md "Session
+ * 11: free drift (fd5)"); a point's values do not depend on who takes it. */
+#define FORCING_OMP_GRAB 2048
 
 /* One physical field a source can supply. */
 typedef enum {

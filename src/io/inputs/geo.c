@@ -413,7 +413,7 @@ int geo_plane_lookup(const geo_plane_table *t, size_t n, const double *x, const 
     /* the table on the OpenMP threads (per-point writes: the same values with
      * any thread count); points outside it go to PROJ, serially (one context) */
     size_t nmiss = 0;
-#pragma omp parallel for schedule(static) reduction(+ : nmiss) if (n >= 4096)
+#pragma omp parallel for schedule(dynamic, 2048) reduction(+ : nmiss) if (n >= 4096) /* as FORCING_OMP_GRAB */
     for (size_t k = 0; k < n; k++)
         nmiss += !plane_point(t, x[k], y[k], lon + k, lat + k, cs + k, sn + k);
     if (nmiss == 0)
