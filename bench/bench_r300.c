@@ -15,6 +15,7 @@
  * Progress (one line per run, on stderr). One thread. */
 #include "bench_common.h"
 #include "../tests/scenarios.h"
+#include "core/registry.h"
 
 #define DX 5000.0
 #define NCROSS 6
@@ -29,8 +30,9 @@ static void run(const char *spec)
     char phys[16] = "full";
     int gc = 0, iter = 250, aa = 0;
     double rel = 0.0, dt = 60.0, chg = 0.0;
-    int nf = sscanf(spec, "%d:%15[a-z]:%d:%lf:%d:%lf:%lf", &gc, phys, &iter, &rel, &aa, &dt, &chg);
-    if (nf != 6 && nf != 7) {
+    char solver[16] = "mevp";
+    int nf = sscanf(spec, "%d:%15[a-z]:%d:%lf:%d:%lf:%lf:%15[a-z]", &gc, phys, &iter, &rel, &aa, &dt, &chg, solver);
+    if (nf < 6 || nf > 8 || sph_solver_lookup(solver) < 0) {
         fprintf(stderr, "bench_r300: \"%s\": expected GC:PHYSICS:ITERATIONS:REL_TOL:ANDERSON:DT[:CHANGE_TOL]\n", spec);
         exit(2);
     }
@@ -41,6 +43,7 @@ static void run(const char *spec)
     p.evp_anderson = aa;
     p.evp_change_tol = chg;
     p.dt = dt;
+    p.solver = (sph_solver_kind)sph_solver_lookup(solver);
     double tau = p.rho_a * p.Ca * WIND * WIND;
     coast_analytic a;
     coast_solve(&a, &p, tau, H0, L0);
