@@ -631,13 +631,15 @@ static int jfnk_solve(sph_model *m, void *ws, sph_status *st)
     }
     jfnk_residual(m, w, w->x, w->f);
     double fn = jfnk_rms(w->f, nu), fprev = fn, eta = JFNK_ETA_MAX, err = HUGE_VAL;
-    int it = 0, need = 1, lin_total = 0, picard_left = picard_ok ? JFNK_PICARD : 0, newton_fails = 0;
+    int it = 0, need = 1, picard_left = picard_ok ? JFNK_PICARD : 0, newton_fails = 0;
     for (;;) {
         if (!isfinite(fn))
             return sph_status_set(st, SPH_STEP_FATAL, SPH_FAULT_NONFINITE, -1, "JFNK residual", fn, 0.0,
                                   "is not finite");
         const int picard = picard_left > 0;
+        int fresh = 0;
         if (need || picard) { /* the particles hold x's state here */
+            fresh = 1;
             jfnk_freeze(m, w);
             if (jfnk_precond(m, w) != 0)
                 return sph_status_set(st, SPH_STEP_RECOVERABLE, SPH_FAULT_SOLVER, -1, "JFNK preconditioner",
@@ -650,9 +652,19 @@ static int jfnk_solve(sph_model *m, void *ws, sph_status *st)
          * velocity error of 1e-10 m/s leaves a residual of mm/s) */
         jfnk_apply_precond(m, w, w->f, w->z);
         err = jfnk_rms(w->z, nu);
-        if (err < p->jfnk_tol)
-            break;
+        if (err < p->jfnk_tol) {
+            if (fresh) {
+                /* the particles back at x (the assembly left a perturbed state) */
+                jfnk_residual(m, w, w->x, w->f);
+                break;
+            }
+            /* a stale M can hide the error where the viscosities have
+             * changed by orders of magnitude: decided with M at x */
+            need = 1;
+            continue;
+        }
         if (it >= p->jfnk_max_newton) {
+            jfnk_residual(m, w, w->x, w->f);
             m->stats.iterations = it;
             m->stats.residual = err;
             return sph_status_set(st, SPH_STEP_RECOVERABLE, SPH_FAULT_SOLVER, -1, "JFNK residual", err,
@@ -694,7 +706,6 @@ static int jfnk_solve(sph_model *m, void *ws, sph_status *st)
                     break;
             }
         }
-        lin_total += lin;
         it++;
         if (!picard && h > JFNK_LS_HALVINGS) {
             /* no descent: Picard steps from x (the particles back at x) */
@@ -724,7 +735,6 @@ static int jfnk_solve(sph_model *m, void *ws, sph_status *st)
     /* the particles hold x's velocities and stress (the last residual) */
     m->stats.iterations = it;
     m->stats.residual = err;
-    m->stats.rel_residual = (double)lin_total;
     return SPH_STEP_OK;
 }
 
