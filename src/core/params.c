@@ -76,7 +76,7 @@ static const sph_param rows[] = {
     INT("evp.stall_window", evp_stall_window, 40, 0, 100000, "1", "auto physics: stop the mEVP iteration when its RMS velocity change has reached no new minimum in this many iterations (a limit cycle; 0: off)."),
     INT("implicit.max_picard", implicit_max_picard, 30, 1, 1000, "1", "Implicit solver: Picard iterations."),
     DBL("implicit.tol", implicit_tol, 1e-6, 1e-14, 1, "1", "Implicit solver: relative residual."),
-    DBL("jfnk.tol", jfnk_tol, 1e-6, 1e-14, 1, "m/s", "JFNK solver: stop the Newton iteration when the RMS momentum residual of the active particles (the time-discrete momentum equation in m/s, a bound on the velocity error) is below this."),
+    DBL("jfnk.tol", jfnk_tol, 1e-6, 1e-14, 1, "m/s", "JFNK solver: stop the Newton iteration when the RMS of the preconditioned momentum residual of the active particles (the Picard matrix's ILU applied to the time-discrete momentum equation's residual: an estimate of the velocity error, m/s) is below this (docs/dynamics.md)."),
     INT("jfnk.max_newton", jfnk_max_newton, 40, 1, 1000, "1", "JFNK solver: Newton iterations per step; a step that has not reached jfnk.tol by then fails as recoverable, naming its residual."),
     ENUM("physics", physics, physics_names, SPH_PHYSICS_AUTO, "auto (free drift where loose, rheology where packed), full, free_drift."),
     DBL("auto_tolerance", auto_tolerance, 1e-2, 0, 1, "1", "auto physics: free drift where exp(-C(1-A)) is below this."),
