@@ -32,6 +32,7 @@
 #define JFNK_EW_ALPHA 1.618
 #define JFNK_ETA_MAX 0.5
 #define JFNK_ETA_MIN 1e-4
+#define JFNK_PICARD 1 /* Picard steps first in a step, and after a failed line search */
 /* blocks per row of the Jacobian's pattern (particles within two
  * neighbour hops), in units of max_neighbours: a 2-D neighbourhood of
  * twice the radius holds four times the particles */
@@ -610,7 +611,6 @@ static int jfnk_gmres(sph_model *m, jfnk_work *w, double eta, double *rel)
  * Picard while the iteration is far (the first JFNK_PICARD steps, and
  * after a Newton step whose line search failed: the VP law is not
  * differentiable where Delta = 0, at rest), Newton otherwise. */
-#define JFNK_PICARD 1
 static int jfnk_solve(sph_model *m, void *ws, sph_status *st)
 {
     jfnk_work *w = ws;
