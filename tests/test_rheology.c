@@ -231,10 +231,11 @@ static void run_solver(sph_solver_kind solver, int its, int gc, int anderson, do
     coast_free(&c);
 }
 
-/* model.solver = "jfnk": the same fixed point as the implicit solver and
- * converged mEVP (10 steps of the packed channel, velocities within 1e-6
- * m/s of the implicit solve at Delta_min 1e-6 and 3e-8 m/s); 1 and 2
- * threads bit for bit. */
+/* model.solver = "jfnk": the same fixed point as converged mEVP (10 steps
+ * of the packed channel, velocities within 1e-6 m/s of mEVP run to 3000
+ * iterations at Delta_min 1e-6 and 3e-8 and 10000 at the default 2e-9);
+ * an unconverged step is a recoverable status naming the residual; 1 and
+ * 2 threads bit for bit. */
 static void test_jfnk_matches_implicit(void)
 {
     static double u1[200], v1[200], u2[200], v2[200], u3[200], v3[200];
@@ -244,16 +245,16 @@ static void test_jfnk_matches_implicit(void)
         g_delta_min = dmins[c];
         run_solver(SPH_SOLVER_MEVP, mevp_its[c], 0, 0, u1, v1, 200);
         run_solver(SPH_SOLVER_JFNK, 1, 0, 0, u2, v2, 200);
-        long itj = g_iterations;
-        run_solver(SPH_SOLVER_IMPLICIT, 1, 0, 0, u3, v3, 200);
-        double d = 0, di = 0, um = 0;
+        double d = 0, um = 0;
         for (int k = 0; k < 90; k++) {
             d = fmax(d, hypot(u1[k] - u2[k], v1[k] - v2[k]));
-            di = fmax(di, hypot(u1[k] - u3[k], v1[k] - v3[k]));
             um = fmax(um, hypot(u1[k], v1[k]));
         }
+        /* (the implicit solver, 200 Picard iterations per step: 1.1e-9,
+         * 5.2e-6, 2.2e-6 m/s from the same mEVP runs; 4.8-22.7 s of CPU,
+         * not repeated here; docs/dynamics.md, Session 11) */
         printf("jfnk at Delta_min %g: %ld Newton/Picard iterations in 10 steps, max difference %.3g m/s from "
-               "mEVP at %d iterations (implicit: %.3g m/s), speeds up to %.3g\n", dmins[c], itj, d, mevp_its[c], di, um);
+               "mEVP at %d iterations, speeds up to %.3g\n", dmins[c], g_iterations, d, mevp_its[c], um);
         CHECK(um > 0.01 && d < 1e-6, "Delta_min %g: jfnk vs converged mEVP: max difference %.3g m/s (speeds up to %.3g)",
               dmins[c], d, um);
     }
