@@ -2,10 +2,12 @@
  * section 8), solver variants against today's settings in one run
  * (issue 22 item 2: packed ice in fewer iterations).
  *
- * Each argument is one run, "GC:PHYSICS:ITERATIONS:REL_TOL:ANDERSON:DT[:CHANGE_TOL]"
+ * Each argument is one run,
+ * "GC:PHYSICS:ITERATIONS:REL_TOL:ANDERSON:DT[:CHANGE_TOL[:SOLVER[:JFNK_TOL]]]"
  * (model.gradient_correction 0/1, full or auto, model.evp.iterations,
  * model.evp.rel_tol, model.evp.anderson, model.dt in s,
- * model.evp.change_tol); without
+ * model.evp.change_tol, model.solver (default mevp), model.jfnk.tol);
+ * without
  * arguments: test_r300's three runs (gradient correction, plain, plain
  * auto) and the same with evp.rel_tol 1e-3. Prints CSV rows
  * (bench/bench_common.h): err = largest of |edge|, |ridged zone| and
@@ -15,6 +17,7 @@
  * Progress (one line per run, on stderr). One thread. */
 #include "bench_common.h"
 #include "../tests/scenarios.h"
+#include "core/registry.h"
 
 #define DX 5000.0
 #define NCROSS 6
@@ -29,9 +32,14 @@ static void run(const char *spec)
     char phys[16] = "full";
     int gc = 0, iter = 250, aa = 0;
     double rel = 0.0, dt = 60.0, chg = 0.0;
-    int nf = sscanf(spec, "%d:%15[a-z]:%d:%lf:%d:%lf:%lf", &gc, phys, &iter, &rel, &aa, &dt, &chg);
-    if (nf != 6 && nf != 7) {
-        fprintf(stderr, "bench_r300: \"%s\": expected GC:PHYSICS:ITERATIONS:REL_TOL:ANDERSON:DT[:CHANGE_TOL]\n", spec);
+    char solver[16] = "mevp";
+    double jtol = p.jfnk_tol;
+    int nf = sscanf(spec, "%d:%15[a-z]:%d:%lf:%d:%lf:%lf:%15[a-z]:%lf", &gc, phys, &iter, &rel, &aa, &dt, &chg, solver,
+                    &jtol);
+    if (nf < 6 || nf > 9 || sph_solver_lookup(solver) < 0) {
+        fprintf(stderr,
+                "bench_r300: \"%s\": expected GC:PHYSICS:ITERATIONS:REL_TOL:ANDERSON:DT[:CHANGE_TOL[:SOLVER[:JFNK_TOL]]]\n",
+                spec);
         exit(2);
     }
     p.gradient_correction = gc;
@@ -41,14 +49,17 @@ static void run(const char *spec)
     p.evp_anderson = aa;
     p.evp_change_tol = chg;
     p.dt = dt;
+    p.solver = (sph_solver_kind)sph_solver_lookup(solver);
+    p.jfnk_tol = jtol;
     double tau = p.rho_a * p.Ca * WIND * WIND;
     coast_analytic a;
     coast_solve(&a, &p, tau, H0, L0);
     bench_row r;
     bench_row_init(&r, "r300");
-    snprintf(r.method, sizeof r.method, "mevp_%s%s", phys, gc ? "_gc" : "");
-    snprintf(r.config, sizeof r.config, "gc=%d;physics=%s;iterations=%d;rel_tol=%g;anderson=%d;dt=%g;change_tol=%g",
-             gc, phys, iter, rel, aa, dt, chg);
+    snprintf(r.method, sizeof r.method, "%s_%s%s", solver, phys, gc ? "_gc" : "");
+    snprintf(r.config, sizeof r.config,
+             "gc=%d;physics=%s;iterations=%d;rel_tol=%g;anderson=%d;dt=%g;change_tol=%g;solver=%s;jfnk_tol=%g", gc, phys,
+             iter, rel, aa, dt, chg, solver, jtol);
     sph_status st;
     coast_case c;
     double c0 = bench_cpu(), w0 = bench_wall();
@@ -62,6 +73,8 @@ static void run(const char *spec)
     for (s = 1; s <= maxsteps; s++) {
         if (sph_model_step(c.model, &st) != 0) {
             snprintf(r.status, sizeof r.status, "failed");
+            fprintf(stderr, "bench_r300: %s: step %ld failed: %s %g %s\n", spec, s, st.quantity ? st.quantity : "",
+                    st.value, st.what ? st.what : "");
             break;
         }
         iters += sph_model_stats(c.model)->iterations;

@@ -34,10 +34,11 @@ int main(void)
     CHECK(sph_rheology_lookup("collision") == SPH_RHEOLOGY_COLLISION, "collision");
     CHECK(sph_rheology_lookup("nope") == -1 && sph_rheology_lookup(NULL) == -1, "unknown rheology");
     CHECK(sph_rheology_name(2) == NULL && sph_rheology_name(-1) == NULL, "out of range");
-    CHECK(sph_solver_count() == 3, "three solvers (%d)", sph_solver_count());
+    CHECK(sph_solver_count() == 4, "four solvers (%d)", sph_solver_count());
     CHECK(sph_solver_lookup("explicit") == SPH_SOLVER_EXPLICIT, "explicit");
     CHECK(sph_solver_lookup("mevp") == SPH_SOLVER_MEVP, "mevp");
     CHECK(sph_solver_lookup("implicit") == SPH_SOLVER_IMPLICIT, "implicit");
+    CHECK(sph_solver_lookup("jfnk") == SPH_SOLVER_JFNK, "jfnk");
     CHECK(!strcmp(sph_solver_name(SPH_SOLVER_MEVP), "mevp"), "solver name");
 
     sph_params p;
@@ -72,8 +73,8 @@ int main(void)
         CHECK(sph_model_init(m, &st) == SPH_STEP_OK, "init");
         sph_params q = p;
         q.physics = SPH_PHYSICS_FULL;
-        const sph_solver_kind solvers[] = {SPH_SOLVER_IMPLICIT, SPH_SOLVER_EXPLICIT, SPH_SOLVER_MEVP};
-        for (int i = 0; i < 3; i++) {
+        const sph_solver_kind solvers[] = {SPH_SOLVER_IMPLICIT, SPH_SOLVER_EXPLICIT, SPH_SOLVER_MEVP, SPH_SOLVER_JFNK};
+        for (int i = 0; i < 4; i++) {
             q.solver = solvers[i];
             q.rheology = i == 1 ? SPH_RHEOLOGY_COLLISION : SPH_RHEOLOGY_VP;
             CHECK(sph_model_set_params(m, &q) == SPH_STEP_OK, "set_params to solver %d", (int)q.solver);

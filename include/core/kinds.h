@@ -10,7 +10,8 @@ typedef enum { SPH_KERNEL_GAUSSIAN = 0, SPH_KERNEL_WENDLAND_C2, SPH_KERNEL_CUBIC
 typedef enum {
     SPH_SOLVER_EXPLICIT = 0, /* sub-stepped to its own stability limit */
     SPH_SOLVER_MEVP,         /* modified / adaptive EVP */
-    SPH_SOLVER_IMPLICIT      /* Picard with GSL sparse GMRES */
+    SPH_SOLVER_IMPLICIT,     /* Picard with GSL sparse GMRES */
+    SPH_SOLVER_JFNK          /* Jacobian-free Newton-Krylov */
 } sph_solver_kind;
 
 typedef enum {

@@ -72,6 +72,8 @@ typedef struct sph_params {
     int max_neighbours;         /* neighbour list capacity (more = clumping, an error) */
     int implicit_max_picard;    /* Picard iterations */
     double implicit_tol;        /* relative residual */
+    double jfnk_tol;            /* m/s: JFNK stops when the RMS momentum residual is below */
+    int jfnk_max_newton;        /* JFNK: Newton iterations per step before a recoverable failure */
     int max_substeps;           /* explicit solver sub-step cap per dynamic step */
     /* rheology */
     sph_physics_mode physics;

@@ -1,7 +1,7 @@
 /* The core's rheologies and stress solvers by name (src/core/registry.c):
  * sph_params.rheology and sph_params.solver index these lists, and the
  * names are the configuration's (model.rheology = "vp" | "collision",
- * model.solver = "explicit" | "mevp" | "implicit"). The configuration and
+ * model.solver = "explicit" | "mevp" | "implicit" | "jfnk"). The configuration and
  * the parameter table can take their enum names and ranges from here, so
  * a new rheology or solver is one file and one registry line. */
 #ifndef SPHICE_CORE_REGISTRY_H
@@ -18,7 +18,8 @@
 #define SPH_SOLVERS(X)                         \
     X(explicit) /* SPH_SOLVER_EXPLICIT */  \
     X(mevp)     /* SPH_SOLVER_MEVP */      \
-    X(implicit) /* SPH_SOLVER_IMPLICIT */
+    X(implicit) /* SPH_SOLVER_IMPLICIT */  \
+    X(jfnk)     /* SPH_SOLVER_JFNK */
 
 /* The names as a NULL-terminated list, for tables that want an array
  * (the parameter table's enum rows): static const char *const n[] =
