@@ -62,7 +62,7 @@ static const sph_param rows[] = {
     BOOL("variable_sml", variable_sml, 1, "Variable smoothing length (seed eq. 10)."),
     BOOL("gradient_correction", gradient_correction, 0, "Kernel gradient correction (Bonet & Lok 1999) in the strain rates and the stress divergence: linear fields exact where the smoothing length varies; R300's ridged zone +0.47 % instead of +2.7 %; off by default: in the re-run speed-accuracy matrix it costs 5.7 % more CPU on the demo and makes its three errors worse (docs/bench.md, Defaults by the Pareto front)."),
     DBL("sml_factor", sml_factor, 1, 0.5, 3, "spacing", "Initial smoothing length h0 = sml_factor x initial particle spacing."),
-    ENUM("solver", solver, solver_names, SPH_SOLVER_MEVP, "Momentum solver: explicit (sub-stepped), mevp (modified/adaptive EVP), implicit (Picard + GMRES), jfnk (Jacobian-free Newton-Krylov)."),
+    ENUM("solver", solver, solver_names, SPH_SOLVER_MEVP, "Momentum solver: explicit (sub-stepped), mevp (modified/adaptive EVP), implicit (Picard + GMRES), jfnk (Jacobian-free Newton-Krylov; its workspace holds the Picard matrix's block pattern and ILU, 4 x max_neighbours blocks a row: about 29 kB per particle at the default max_neighbours, so scenes up to about 1e5 particles; docs/dynamics.md)."),
     ENUM("unstable", unstable, unstable_names, SPH_UNSTABLE_SUBSTEP, "Explicit solver beyond its stability limit: substep, or refuse (fail)."),
     INT("max_substeps", max_substeps, 20000, 1, 10000000, "1", "Cap on explicit sub-steps per dynamic step; beyond it the step is refused."),
     DBL("explicit_safety", explicit_safety, 1, 0.001, 10, "1", "Explicit solver limit dt < safety x M h^2 / (zeta_max (1 + e^-2))."),
