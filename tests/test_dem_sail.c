@@ -42,8 +42,12 @@
  * self-similar pile gives h^2, docs/dem.md). Each h also prints the share
  * of the potential energy gained in the sail (spheres ending with their
  * centre above the water) and below it, and alpha = (F / b) / (h^1.5
- * L^0.5). SPHICE_SAIL_PHASE=k: another pattern of the imperfection. The exponent is reported, not asserted to be 1.5: only that the
- * force grows with h (docs/dem.md: the run does not reproduce 1.5). */
+ * L^0.5). SPHICE_SAIL_PHASE=k: another pattern of the imperfection;
+ * SPHICE_SAIL_PATTERNS=N runs N patterns (k, k + 1, ...) and reports the
+ * exponents' mean and spread and the exponent of the patterns' mean force;
+ * SPHICE_SAIL_HS="h1 h2 ..." sets the thicknesses (2 to 8). The exponent
+ * is reported, not asserted to be 1.5: only that the force grows with h
+ * (docs/dem.md: the run does not reproduce 1.5). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -309,45 +313,113 @@ int main(void)
     CHECK(!em || (push_m >= 1.0 && push_m <= 100.0), "SPHICE_SAIL_PUSH_M %g in [1, 100] m", push_m);
     if (em && !(push_m >= 1.0 && push_m <= 100.0))
         return check_summary("test_dem_sail");
+    /* SPHICE_SAIL_PHASE=k: the first pattern; SPHICE_SAIL_PATTERNS=N: N
+     * patterns k, k + 1, ... (each h run once per pattern), and beside each
+     * pattern's fit the mean and standard deviation of their exponents and
+     * the exponent of the patterns' mean forces (session 12: how much of a
+     * fit is the pattern's) */
     const char *eph = getenv("SPHICE_SAIL_PHASE");
-    if (eph) {
-        double k = atof(eph) * sqrt(2.0);
-        imperfection_phase = k - floor(k);
+    int phase0 = eph ? atoi(eph) : 0;
+    const char *epn = getenv("SPHICE_SAIL_PATTERNS");
+    int npat = epn ? atoi(epn) : 1;
+    CHECK(npat >= 1 && npat <= 64, "SPHICE_SAIL_PATTERNS %d in [1, 64]", npat);
+    if (npat < 1 || npat > 64)
+        return check_summary("test_dem_sail");
+    /* SPHICE_SAIL_HS="h1 h2 ...": the thicknesses (default 0.25 0.375 0.5 m;
+     * 2 to 8 of them, each in [0.1, 1] m) */
+    double hs[8] = {0.25, 0.375, 0.5};
+    int nh = 3;
+    const char *ehs = getenv("SPHICE_SAIL_HS");
+    if (ehs) {
+        nh = 0;
+        const char *q = ehs;
+        char *end;
+        for (double v = strtod(q, &end); end != q && nh < 8; v = strtod(q, &end)) {
+            hs[nh++] = v;
+            q = end;
+        }
+        int good = nh >= 2;
+        for (int i = 0; i < nh; i++)
+            good = good && hs[i] >= 0.1 && hs[i] <= 1.0 && (i == 0 || hs[i] > hs[i - 1]);
+        CHECK(good, "SPHICE_SAIL_HS \"%s\": 2 to 8 increasing thicknesses in [0.1, 1] m", ehs);
+        if (!good)
+            return check_summary("test_dem_sail");
     }
-    const double hs[] = {0.25, 0.375, 0.5};
-    double sx = 0, sy = 0, sxx = 0, sxy = 0, fw[3];
     const char *eh = getenv("SPHICE_SAIL_H"); /* one thickness of the sweep only (no fit) */
     double honly = eh ? atof(eh) : 0.0;
-    for (int i = 0; i < 3; i++) {
-        if (honly > 0.0 && fabs(hs[i] - honly) > 1e-9) {
-            fw[i] = NAN;
-            continue;
+    double fsum[8] = {0}, esum = 0.0, esq = 0.0;
+    for (int pat = phase0; pat < phase0 + npat; pat++) {
+        double kq = pat * sqrt(2.0);
+        imperfection_phase = kq - floor(kq);
+        double sx = 0, sy = 0, sxx = 0, sxy = 0, fw[8];
+        int nfit = 0;
+        for (int i = 0; i < nh; i++) {
+            if (honly > 0.0 && fabs(hs[i] - honly) > 1e-9) {
+                fw[i] = NAN;
+                continue;
+            }
+            double L = push_m > 0.0 ? push_m : np * hs[i];
+            sail_run b = ridge(hs[i], L, 0.5 * L, 1, nl);
+            fw[i] = b.force_mean / b.width;
+            printf("  pattern %d: h %.3f m, %d layer(s) of %.4g m spheres: pushed %.1f m, bonds broken %ld (of %ld), sail top %.2f m, "
+                   "keel bottom %.2f m; mean force per width (second half) %.4g kN/m; beta = (F/b)/h^1.5 = %.4g N m^-2.5; "
+                   "work %.4g J >= potential %.4g J + kinetic %.4g J (potential / work %.3f); "
+                   "mean pushing force per width (work / push / b) %.4g kN/m; of the potential, %.3f in the sail (centres "
+                   "above the water), %.3f below; alpha = (F/b)/(h^1.5 L^0.5) %.4g N m^-3\n",
+                   pat, hs[i], nl, b.width, L, b.broken, b.bonds, b.sail, b.keel, fw[i] / 1e3,
+                   fw[i] / pow(hs[i], 1.5), b.work, b.dpe, b.ke, b.dpe / b.work, b.work / L / b.width / 1e3,
+                   b.dpe_sail / b.dpe, 1.0 - b.dpe_sail / b.dpe, fw[i] / pow(hs[i], 1.5) / sqrt(L));
+            CHECK(b.ok && isfinite(fw[i]) && fw[i] > 0.0, "pattern %d, h %.3f m: a finite positive force", pat, hs[i]);
+            CHECK(b.work >= b.dpe + b.ke - 0.01 * fabs(b.work), "pattern %d, h %.3f m: energy balance", pat, hs[i]);
+            double x = log(hs[i]), y = log(fw[i]);
+            sx += x;
+            sy += y;
+            sxx += x * x;
+            sxy += x * y;
+            fsum[i] += fw[i];
+            nfit++;
         }
-        double L = push_m > 0.0 ? push_m : np * hs[i];
-        sail_run b = ridge(hs[i], L, 0.5 * L, 1, nl);
-        fw[i] = b.force_mean / b.width;
-        printf("  h %.3f m, %d layer(s) of %.4g m spheres: pushed %.1f m, bonds broken %ld (of %ld), sail top %.2f m, "
-               "keel bottom %.2f m; mean force per width (second half) %.4g kN/m; beta = (F/b)/h^1.5 = %.4g N m^-2.5; "
-               "work %.4g J >= potential %.4g J + kinetic %.4g J (potential / work %.3f); "
-               "mean pushing force per width (work / push / b) %.4g kN/m; of the potential, %.3f in the sail (centres "
-               "above the water), %.3f below; alpha = (F/b)/(h^1.5 L^0.5) %.4g N m^-3\n",
-               hs[i], nl, b.width, L, b.broken, b.bonds, b.sail, b.keel, fw[i] / 1e3,
-               fw[i] / pow(hs[i], 1.5), b.work, b.dpe, b.ke, b.dpe / b.work, b.work / L / b.width / 1e3,
-               b.dpe_sail / b.dpe, 1.0 - b.dpe_sail / b.dpe, fw[i] / pow(hs[i], 1.5) / sqrt(L));
-        CHECK(b.ok && isfinite(fw[i]) && fw[i] > 0.0, "h %.3f m: a finite positive force", hs[i]);
-        CHECK(b.work >= b.dpe + b.ke - 0.01 * fabs(b.work), "h %.3f m: energy balance", hs[i]);
-        double x = log(hs[i]), y = log(fw[i]);
+        if (honly > 0.0)
+            continue;
+        double slope = (nfit * sxy - sx * sy) / (nfit * sxx - sx * sx);
+        esum += slope;
+        esq += slope * slope;
+        printf("  sail stage, %d layer(s), pattern %d: force per width against thickness, fitted exponent %.3f (the seed's 1.5; "
+               "Muchow & Polojarvi 2024's 3-D: 1, linear); beta at h = %.3f m %.4g N m^-2.5 beside the seed's 95 400\n",
+               nl, pat, slope, hs[nh - 1], fw[nh - 1] / pow(hs[nh - 1], 1.5));
+        CHECK(fw[nh - 1] > fw[0], "pattern %d: the force grows with the thickness (%.4g > %.4g N/m)", pat, fw[nh - 1],
+              fw[0]);
+    }
+    if (honly > 0.0 || npat < 2)
+        return check_summary("test_dem_sail");
+    /* across the patterns: the exponents' mean and standard deviation, and
+     * the least-squares exponent of the mean force at each h with its
+     * standard error (from the fit's residuals, nh - 2 degrees of freedom) */
+    double mean = esum / npat, sd = sqrt(fmax(0.0, (esq - npat * mean * mean) / (npat - 1)));
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (int i = 0; i < nh; i++) {
+        double x = log(hs[i]), y = log(fsum[i] / npat);
         sx += x;
         sy += y;
         sxx += x * x;
         sxy += x * y;
     }
-    if (honly > 0.0)
-        return check_summary("test_dem_sail");
-    double slope = (3 * sxy - sx * sy) / (3 * sxx - sx * sx);
-    printf("  sail stage, %d layer(s): force per width against thickness, fitted exponent %.3f (the seed's 1.5; "
-           "Muchow & Polojarvi 2024's 3-D: 1, linear); beta at h = 0.5 m %.4g N m^-2.5 beside the seed's 95 400\n",
-           nl, slope, fw[2] / pow(0.5, 1.5));
-    CHECK(fw[2] > fw[0], "the force grows with the thickness (%.4g > %.4g N/m)", fw[2], fw[0]);
+    double sl = (nh * sxy - sx * sy) / (nh * sxx - sx * sx), ic = (sy - sl * sx) / nh, rss = 0.0;
+    for (int i = 0; i < nh; i++) {
+        double r = log(fsum[i] / npat) - ic - sl * log(hs[i]);
+        rss += r * r;
+    }
+    double se = nh > 2 ? sqrt(rss / (nh - 2) / (sxx - sx * sx / nh)) : NAN;
+    printf("  sail stage over %d patterns (%d to %d), %d thicknesses: exponents' mean %.3f, s.d. %.3f (s.e. of the mean "
+           "%.3f); the patterns' mean force per width:",
+           npat, phase0, phase0 + npat - 1, nh, mean, sd, sd / sqrt(npat));
+    for (int i = 0; i < nh; i++)
+        printf(" %.4g", fsum[i] / npat / 1e3);
+    printf(" kN/m at h =");
+    for (int i = 0; i < nh; i++)
+        printf(" %.3f", hs[i]);
+    printf(" m, its exponent %.3f +- %.3f (s.e.), beta at h = %.3f m %.4g N m^-2.5 (the seed's 1.5 and 95 400)\n", sl, se,
+           hs[nh - 1], fsum[nh - 1] / npat / pow(hs[nh - 1], 1.5));
+    CHECK(fsum[nh - 1] > fsum[0], "over the patterns: the mean force grows with the thickness");
     return check_summary("test_dem_sail");
 }
