@@ -186,8 +186,15 @@ long dem_add_sheet_hcp(dem *d, double x0, double y0, int nx, int ny, int nz, dou
 long dem_add_sheet(dem *d, double x0, double y0, int nx, int ny, int nz, double r,
                    double u, double v);
 
+/* Mean, max and standard deviation of a series of n samples (O(n): any
+ * length). */
+void dem_load_moments(const double *f, size_t n, double *mean, double *max, double *std);
+
 /* Load statistics over a series of n samples spaced dt: mean, max, std
- * and the dominant frequency (largest DFT amplitude above zero, Hz). */
+ * and the dominant frequency (largest DFT amplitude above zero, Hz). The
+ * DFT is a direct sum, O(n^2): give it block means (a few thousand
+ * samples), not a contact-step series (hundreds of thousands of steps
+ * take hours); dem_load_moments for the moments of a long series. */
 void dem_load_stats(const double *f, size_t n, double dt, double *mean, double *max,
                     double *std, double *freq);
 

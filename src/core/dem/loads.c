@@ -16,8 +16,7 @@ double dem_iso_force(double c_r, double h, double w)
     return dem_iso_pressure(c_r, h, w) * w * h;
 }
 
-void dem_load_stats(const double *f, size_t n, double dt, double *mean, double *max,
-                    double *std, double *freq)
+void dem_load_moments(const double *f, size_t n, double *mean, double *max, double *std)
 {
     double s = 0.0, mx = -HUGE_VAL;
     for (size_t i = 0; i < n; i++) {
@@ -30,8 +29,15 @@ void dem_load_stats(const double *f, size_t n, double dt, double *mean, double *
     *mean = mu;
     *max = n ? mx : 0.0;
     *std = n > 1 ? sqrt(v / (double)(n - 1)) : 0.0;
+}
+
+void dem_load_stats(const double *f, size_t n, double dt, double *mean, double *max,
+                    double *std, double *freq)
+{
+    dem_load_moments(f, n, mean, max, std);
+    const double mu = *mean;
     /* Dominant frequency: the largest amplitude of the demeaned series'
-     * DFT over k = 1 .. n/2 (a direct sum; series are short). */
+     * DFT over k = 1 .. n/2 (a direct sum: block means, include/core/dem.h) */
     double best = -1.0, fk = 0.0;
     for (size_t k = 1; k <= n / 2; k++) {
         double re = 0.0, im = 0.0, wk = 2.0 * M_PI * (double)k / (double)n;
