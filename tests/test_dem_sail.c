@@ -285,6 +285,17 @@ static void quick_case(int nl)
           "energy balance: work %.5g J >= potential %.5g J + kinetic %.5g J", a.work, a.dpe, a.ke);
 }
 
+/* An environment value that is a whole integer (strtol, nothing after it). */
+static int env_long(const char *s, long *out)
+{
+    char *end;
+    long v = strtol(s, &end, 10);
+    if (end == s || *end != '\0')
+        return 0;
+    *out = v;
+    return 1;
+}
+
 int main(void)
 {
     int longrun = getenv("SPHICE_LONG") != NULL;
@@ -318,12 +329,13 @@ int main(void)
      * pattern's fit the mean and standard deviation of their exponents and
      * the exponent of the patterns' mean forces (session 12: how much of a
      * fit is the pattern's) */
-    const char *eph = getenv("SPHICE_SAIL_PHASE");
-    int phase0 = eph ? atoi(eph) : 0;
-    const char *epn = getenv("SPHICE_SAIL_PATTERNS");
-    int npat = epn ? atoi(epn) : 1;
-    CHECK(npat >= 1 && npat <= 64, "SPHICE_SAIL_PATTERNS %d in [1, 64]", npat);
-    if (npat < 1 || npat > 64)
+    long phase0 = 0, npat = 1;
+    const char *eph = getenv("SPHICE_SAIL_PHASE"), *epn = getenv("SPHICE_SAIL_PATTERNS");
+    int good_p = (!eph || env_long(eph, &phase0)) && phase0 >= 0 && phase0 <= 1000;
+    CHECK(good_p, "SPHICE_SAIL_PHASE \"%s\": an integer in [0, 1000]", eph ? eph : "");
+    int good_n = (!epn || env_long(epn, &npat)) && npat >= 1 && npat <= 64;
+    CHECK(good_n, "SPHICE_SAIL_PATTERNS \"%s\": an integer in [1, 64]", epn ? epn : "");
+    if (!good_p || !good_n)
         return check_summary("test_dem_sail");
     /* SPHICE_SAIL_HS="h1 h2 ...": the thicknesses (default 0.25 0.375 0.5 m;
      * 2 to 8 of them, each in [0.1, 1] m) */
@@ -334,11 +346,19 @@ int main(void)
         nh = 0;
         const char *q = ehs;
         char *end;
-        for (double v = strtod(q, &end); end != q && nh < 8; v = strtod(q, &end)) {
-            hs[nh++] = v;
+        int extra = 0;
+        for (double v = strtod(q, &end); end != q; v = strtod(q, &end)) {
+            if (nh < 8)
+                hs[nh] = v;
+            nh++;
             q = end;
         }
-        int good = nh >= 2;
+        while (*q == ' ' || *q == '\t')
+            q++;
+        extra = *q != '\0' || nh > 8; /* a token that is not a number, or a ninth */
+        int good = nh >= 2 && !extra;
+        if (nh > 8)
+            nh = 8;
         for (int i = 0; i < nh; i++)
             good = good && hs[i] >= 0.1 && hs[i] <= 1.0 && (i == 0 || hs[i] > hs[i - 1]);
         CHECK(good, "SPHICE_SAIL_HS \"%s\": 2 to 8 increasing thicknesses in [0.1, 1] m", ehs);
@@ -348,8 +368,8 @@ int main(void)
     const char *eh = getenv("SPHICE_SAIL_H"); /* one thickness of the sweep only (no fit) */
     double honly = eh ? atof(eh) : 0.0;
     double fsum[8] = {0}, esum = 0.0, esq = 0.0;
-    for (int pat = phase0; pat < phase0 + npat; pat++) {
-        double kq = pat * sqrt(2.0);
+    for (long pat = phase0; pat < phase0 + npat; pat++) {
+        double kq = (double)pat * sqrt(2.0);
         imperfection_phase = kq - floor(kq);
         double sx = 0, sy = 0, sxx = 0, sxy = 0, fw[8];
         int nfit = 0;
@@ -361,7 +381,7 @@ int main(void)
             double L = push_m > 0.0 ? push_m : np * hs[i];
             sail_run b = ridge(hs[i], L, 0.5 * L, 1, nl);
             fw[i] = b.force_mean / b.width;
-            printf("  pattern %d: h %.3f m, %d layer(s) of %.4g m spheres: pushed %.1f m, bonds broken %ld (of %ld), sail top %.2f m, "
+            printf("  pattern %ld: h %.3f m, %d layer(s) of %.4g m spheres: pushed %.1f m, bonds broken %ld (of %ld), sail top %.2f m, "
                    "keel bottom %.2f m; mean force per width (second half) %.4g kN/m; beta = (F/b)/h^1.5 = %.4g N m^-2.5; "
                    "work %.4g J >= potential %.4g J + kinetic %.4g J (potential / work %.3f); "
                    "mean pushing force per width (work / push / b) %.4g kN/m; of the potential, %.3f in the sail (centres "
@@ -369,8 +389,8 @@ int main(void)
                    pat, hs[i], nl, b.width, L, b.broken, b.bonds, b.sail, b.keel, fw[i] / 1e3,
                    fw[i] / pow(hs[i], 1.5), b.work, b.dpe, b.ke, b.dpe / b.work, b.work / L / b.width / 1e3,
                    b.dpe_sail / b.dpe, 1.0 - b.dpe_sail / b.dpe, fw[i] / pow(hs[i], 1.5) / sqrt(L));
-            CHECK(b.ok && isfinite(fw[i]) && fw[i] > 0.0, "pattern %d, h %.3f m: a finite positive force", pat, hs[i]);
-            CHECK(b.work >= b.dpe + b.ke - 0.01 * fabs(b.work), "pattern %d, h %.3f m: energy balance", pat, hs[i]);
+            CHECK(b.ok && isfinite(fw[i]) && fw[i] > 0.0, "pattern %ld, h %.3f m: a finite positive force", pat, hs[i]);
+            CHECK(b.work >= b.dpe + b.ke - 0.01 * fabs(b.work), "pattern %ld, h %.3f m: energy balance", pat, hs[i]);
             double x = log(hs[i]), y = log(fw[i]);
             sx += x;
             sy += y;
@@ -384,10 +404,10 @@ int main(void)
         double slope = (nfit * sxy - sx * sy) / (nfit * sxx - sx * sx);
         esum += slope;
         esq += slope * slope;
-        printf("  sail stage, %d layer(s), pattern %d: force per width against thickness, fitted exponent %.3f (the seed's 1.5; "
+        printf("  sail stage, %d layer(s), pattern %ld: force per width against thickness, fitted exponent %.3f (the seed's 1.5; "
                "Muchow & Polojarvi 2024's 3-D: 1, linear); beta at h = %.3f m %.4g N m^-2.5 beside the seed's 95 400\n",
                nl, pat, slope, hs[nh - 1], fw[nh - 1] / pow(hs[nh - 1], 1.5));
-        CHECK(fw[nh - 1] > fw[0], "pattern %d: the force grows with the thickness (%.4g > %.4g N/m)", pat, fw[nh - 1],
+        CHECK(fw[nh - 1] > fw[0], "pattern %ld: the force grows with the thickness (%.4g > %.4g N/m)", pat, fw[nh - 1],
               fw[0]);
     }
     if (honly > 0.0 || npat < 2)
@@ -410,16 +430,20 @@ int main(void)
         rss += r * r;
     }
     double se = nh > 2 ? sqrt(rss / (nh - 2) / (sxx - sx * sx / nh)) : NAN;
-    printf("  sail stage over %d patterns (%d to %d), %d thicknesses: exponents' mean %.3f, s.d. %.3f (s.e. of the mean "
+    printf("  sail stage over %ld patterns (%ld to %ld), %d thicknesses: exponents' mean %.3f, s.d. %.3f (s.e. of the mean "
            "%.3f); the patterns' mean force per width:",
-           npat, phase0, phase0 + npat - 1, nh, mean, sd, sd / sqrt(npat));
+           npat, phase0, phase0 + npat - 1, nh, mean, sd, sd / sqrt((double)npat));
     for (int i = 0; i < nh; i++)
         printf(" %.4g", fsum[i] / npat / 1e3);
     printf(" kN/m at h =");
     for (int i = 0; i < nh; i++)
         printf(" %.3f", hs[i]);
-    printf(" m, its exponent %.3f +- %.3f (s.e.), beta at h = %.3f m %.4g N m^-2.5 (the seed's 1.5 and 95 400)\n", sl, se,
-           hs[nh - 1], fsum[nh - 1] / npat / pow(hs[nh - 1], 1.5));
+    if (nh > 2)
+        printf(" m, its exponent %.3f +- %.3f (s.e.)", sl, se);
+    else
+        printf(" m, its exponent %.3f (two thicknesses: no standard error)", sl);
+    printf(", beta at h = %.3f m %.4g N m^-2.5 (the seed's 1.5 and 95 400)\n", hs[nh - 1],
+           fsum[nh - 1] / npat / pow(hs[nh - 1], 1.5));
     CHECK(fsum[nh - 1] > fsum[0], "over the patterns: the mean force grows with the thickness");
     return check_summary("test_dem_sail");
 }
